@@ -1,0 +1,25 @@
+"""Errors a user can act on, and the CLI exit codes they map to."""
+
+from __future__ import annotations
+
+#: Exit codes of the ``ungrasp-ompl`` command.
+EXIT_OK = 0
+EXIT_BAD_INPUT = 2
+EXIT_NO_SOLUTION = 3
+
+
+class UngraspError(Exception):
+    """Base of the errors the CLI reports as one line without a traceback."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class InputError(UngraspError, ValueError):
+    """Bad input: a scene field, a planner name, an option. Names the field and the reason."""
+
+    def __init__(self, field: str, reason: str, source: str | None = None):
+        self.field = field
+        self.reason = reason
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{field}: {reason}")

@@ -1,0 +1,58 @@
+"""Planar ungrasping mechanics: pure numpy, no OMPL (MODEL.md sections 2-4).
+
+All lengths here are over the object length l; angles are radians. The plane is
+the manipulation plane with G at the origin, x along the table toward B's side
+and z up; a state is (theta, d, psi).
+"""
+
+from .contact import (
+    PRIMITIVES,
+    ContactMode,
+    contact_mode,
+    friction_directions,
+    primitive_of,
+    primitive_sliding_signs,
+    sliding_signs,
+)
+from .force_closure import (
+    SLIDING_MODELS,
+    cone_edges,
+    contact_wrenches,
+    force_closure,
+    force_closure_margin,
+)
+from .kinematics import (
+    DigitGeometry,
+    aperture,
+    digit_polygons,
+    finger_tip,
+    kinematic_checks,
+    kinematic_validity,
+    s_b,
+    thumb_clearance,
+    thumb_tip,
+)
+
+__all__ = [
+    "PRIMITIVES",
+    "SLIDING_MODELS",
+    "ContactMode",
+    "DigitGeometry",
+    "aperture",
+    "cone_edges",
+    "contact_mode",
+    "contact_wrenches",
+    "digit_polygons",
+    "finger_tip",
+    "force_closure",
+    "force_closure_margin",
+    "friction_directions",
+    "kinematic_checks",
+    "kinematic_validity",
+    "primitive_of",
+    "primitive_sliding_signs",
+    "s_b",
+    "sliding_signs",
+    "thumb_clearance",
+    "thumb_tip",
+]

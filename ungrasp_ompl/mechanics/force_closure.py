@@ -1,0 +1,177 @@
+"""Planar force closure of the three contacts G, A, B (MODEL.md section 4).
+
+A unit contact force f at point p gives the wrench (p_x f_z - p_z f_x, f_x, f_z),
+moments about G, lengths over l. A sticking contact contributes its two
+friction-cone edges; a sliding contact pushes along the one edge that opposes
+the sliding (``strict``), or anywhere between that edge and the normal
+(``relaxed``, the reference planner's model).
+
+Force closure means the wrenches positively span R^3. With at most six
+wrenches there is a closed form: the span fails exactly when some plane
+through the origin spanned by two of the wrenches has all the others on one
+closed side (such a plane carries a facet of the wrench cone). So for every
+pair (w_i, w_j) with n = w_i x w_j != 0 the other wrenches must reach both
+open sides of n. Everything is vectorised over states.
+"""
+
+from __future__ import annotations
+
+from itertools import combinations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+SLIDING_MODELS = ("relaxed", "strict")
+
+#: Force closure requires a margin above this (dimensionless, see below).
+FC_TOLERANCE = 1e-9
+
+_PAIRS = list(combinations(range(6), 2))
+_CHUNK = 8192
+
+
+def cone_edges(normal: ArrayLike, tangent: ArrayLike, mu: float) -> tuple[NDArray, NDArray]:
+    """The two edges of a planar friction cone, unit vectors (..., 2).
+
+    The normal rotated toward +tangent and toward -tangent by atan(mu).
+    """
+    n = np.asarray(normal, dtype=float)
+    t = np.asarray(tangent, dtype=float)
+    c = 1.0 / np.sqrt(1.0 + mu * mu)
+    s = mu * c
+    return n * c + t * s, n * c - t * s
+
+
+def _slots(theta, d, psi, a_sign, b_sign, mu, model):
+    """Unit wrenches of the six slots as component arrays: a list of (m, f_x, f_z) and masks."""
+    if model not in SLIDING_MODELS:
+        raise ValueError(f"sliding model must be one of {SLIDING_MODELS}, not {model!r}")
+    theta, d, psi, a_sign, b_sign = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign))
+    )
+    theta, d, psi, a_sign, b_sign = (np.ravel(x) for x in (theta, d, psi, a_sign, b_sign))
+    ones = np.ones(theta.shape)
+    ct, st = np.cos(theta), np.sin(theta)
+    cb, sb = np.cos(theta + psi), np.sin(theta + psi)
+    slots, masks = [], []
+    # G: fixed at the origin, never slides; normal (0, 1), tangent (1, 0).
+    c, s = 1.0 / np.sqrt(1.0 + mu[0] ** 2), mu[0] / np.sqrt(1.0 + mu[0] ** 2)
+    for sign in (1.0, -1.0):
+        slots.append((0.0 * ones, sign * s * ones, c * ones))
+        masks.append(ones > 0)
+    # A at (1 - d) u: normal (sin t, -cos t), tangent u; friction along -sign(dd) u.
+    # B at u: normal n_B = (-sin b, cos b), tangent e = -(cos b, sin b); friction along sign(ds_B) e.
+    contacts = (
+        ((1.0 - d) * ct, (1.0 - d) * st, st, -ct, ct, st, -a_sign, a_sign, mu[1]),
+        (ct, st, -sb, cb, -cb, -sb, b_sign, b_sign, mu[2]),
+    )
+    for px, pz, nx, nz, tx, tz, fric, sliding_sign, m in contacts:
+        c, s = 1.0 / np.sqrt(1.0 + m * m), m / np.sqrt(1.0 + m * m)
+        stick = sliding_sign == 0
+        # first slot: the + edge when sticking, else the edge along the friction direction
+        tau = np.where(stick, 1.0, fric)
+        f1 = (nx * c + tau * tx * s, nz * c + tau * tz * s)
+        # second slot: the - edge when sticking, else the normal (relaxed) or nothing (strict)
+        cn = np.where(stick, c, 1.0)
+        ctn = np.where(stick, -s, 0.0)
+        f2 = (nx * cn + ctn * tx, nz * cn + ctn * tz)
+        for fx, fz in (f1, f2):
+            slots.append((px * fz - pz * fx, fx, fz))
+        masks.append(ones > 0)
+        masks.append(stick | (model == "relaxed"))
+    return slots, masks
+
+
+def contact_wrenches(
+    theta: ArrayLike,
+    d: ArrayLike,
+    psi: ArrayLike,
+    a_sign: ArrayLike,
+    b_sign: ArrayLike,
+    mu: tuple[float, float, float],
+    model: str = "relaxed",
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Contact wrenches of G, A, B, shape (N, 6, 3), and which of the 6 slots exist.
+
+    Slots: G edge +, G edge -, A, A, B, B. A sticking contact fills its two
+    slots with its cone edges; a sliding one fills the first with the edge
+    opposing the sliding and the second with its normal (relaxed) or nothing
+    (strict). Each wrench is (moment about G, f_x, f_z) of a unit force.
+    mu = (mu_G, mu_A, mu_B); a_sign, b_sign as in
+    :func:`~ungrasp_ompl.mechanics.contact.sliding_signs`.
+    """
+    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
+    w = np.stack([np.stack(sl, axis=-1) for sl in slots], axis=1)
+    return w, np.stack(masks, axis=1)
+
+
+def force_closure_margin(
+    theta: ArrayLike,
+    d: ArrayLike,
+    psi: ArrayLike,
+    a_sign: ArrayLike = 0,
+    b_sign: ArrayLike = 0,
+    mu: tuple[float, float, float] = (np.tan(np.radians(11)), np.tan(np.radians(17)), np.tan(np.radians(17))),
+    model: str = "relaxed",
+) -> NDArray[np.float64]:
+    """Force-closure margin of each state in the given contact mode, shape (N,).
+
+    For every pair of wrenches spanning a plane, the smaller of how far the
+    other (unit) wrenches reach to either side of it (sine of an angle); the
+    margin is the smallest of these over pairs. Positive iff the wrenches
+    positively span R^3; it shrinks to zero as the state nears the loss of
+    force closure. States with fewer than two independent wrenches get -1.
+    """
+    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
+    n_state = slots[0][0].shape[0]
+    comp = np.empty((6, 3, n_state))
+    for k, ((m, fx, fz), mask) in enumerate(zip(slots, masks)):
+        inv = np.where(mask, 1.0 / np.sqrt(m * m + fx * fx + fz * fz), 0.0)
+        comp[k, 0], comp[k, 1], comp[k, 2] = m * inv, fx * inv, fz * inv
+    out = np.empty(n_state)
+    for lo in range(0, n_state, _CHUNK):  # chunks that stay in cache
+        out[lo : lo + _CHUNK] = _pair_margin(comp[:, :, lo : lo + _CHUNK])
+    return out
+
+
+def _pair_margin(comp: NDArray) -> NDArray:
+    """The margin of force_closure_margin for unit wrench components (6, 3, n)."""
+    n_state = comp.shape[-1]
+    margin = np.full(n_state, np.inf)
+    any_live = np.zeros(n_state, dtype=bool)
+    hi, lo, dot = np.empty(n_state), np.empty(n_state), np.empty(n_state)
+    for i, j in _PAIRS:
+        a, b = comp[i], comp[j]
+        n0 = a[1] * b[2] - a[2] * b[1]
+        n1 = a[2] * b[0] - a[0] * b[2]
+        n2 = a[0] * b[1] - a[1] * b[0]
+        norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        live = norm > 1e-9
+        hi.fill(0.0)
+        lo.fill(0.0)
+        for k in range(6):
+            if k != i and k != j:
+                c = comp[k]
+                np.multiply(n0, c[0], out=dot)
+                dot += n1 * c[1]
+                dot += n2 * c[2]
+                np.maximum(hi, dot, out=hi)
+                np.minimum(lo, dot, out=lo)
+        reach = np.minimum(hi, -lo) / np.where(live, norm, 1.0)
+        margin = np.where(live, np.minimum(margin, reach), margin)
+        any_live |= live
+    return np.where(any_live, margin, -1.0)
+
+
+def force_closure(
+    theta: ArrayLike,
+    d: ArrayLike,
+    psi: ArrayLike,
+    a_sign: ArrayLike = 0,
+    b_sign: ArrayLike = 0,
+    mu: tuple[float, float, float] = (np.tan(np.radians(11)), np.tan(np.radians(17)), np.tan(np.radians(17))),
+    model: str = "relaxed",
+) -> NDArray[np.bool_]:
+    """True where the contacts are in force closure in the given contact mode, shape (N,)."""
+    return force_closure_margin(theta, d, psi, a_sign, b_sign, mu, model) > FC_TOLERANCE

@@ -1,0 +1,149 @@
+"""Kinematic quantities of the pinch (MODEL.md section 2).
+
+Frame: the manipulation plane, G at the origin, x along the table, z up.
+Lengths are over the object length l, angles in radians. Every function
+broadcasts over numpy arrays of states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+@dataclass(frozen=True)
+class DigitGeometry:
+    """Finger and thumb of the gripper, lengths over l.
+
+    alpha is how much longer the finger is than the thumb along the digit
+    axis; the finger length is therefore thumb_length + alpha. Thicknesses
+    are measured from the digit's contact face into its body, at the tip and
+    at the base (the digits are trapezoids in the plane). width is the
+    digits' extent normal to the manipulation plane.
+    """
+
+    alpha: float
+    thumb_length: float = 0.75
+    thumb_tip_thickness: float = 0.05
+    thumb_base_thickness: float = 0.2
+    finger_tip_thickness: float = 0.05
+    finger_base_thickness: float = 0.2
+    width: float = 0.3
+    max_aperture: float = float("inf")
+
+    @property
+    def finger_length(self) -> float:
+        return self.thumb_length + self.alpha
+
+
+def _arrays(*xs: ArrayLike) -> list[NDArray[np.float64]]:
+    return [np.asarray(x, dtype=float) for x in xs]
+
+
+def object_axis(theta: ArrayLike) -> NDArray[np.float64]:
+    """Unit vector from G to B, shape (..., 2)."""
+    (theta,) = _arrays(theta)
+    return np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+
+
+def digit_axis(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Unit digit axis e, pointing from the palm toward the tips, shape (..., 2)."""
+    theta, psi = _arrays(theta, psi)
+    return -np.stack([np.cos(theta + psi), np.sin(theta + psi)], axis=-1)
+
+
+def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Normal n_B of the thumb face, acting on the object at B, shape (..., 2)."""
+    theta, psi = _arrays(theta, psi)
+    return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
+
+
+def aperture(d: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Distance between the digit faces, over l: w = d sin psi."""
+    d, psi = _arrays(d, psi)
+    return d * np.sin(psi)
+
+
+def s_b(d: ArrayLike, psi: ArrayLike, alpha: float) -> NDArray[np.float64]:
+    """Position of B on the thumb face from the thumb tip toward the palm, over l."""
+    d, psi = _arrays(d, psi)
+    return d * np.cos(psi) - alpha
+
+
+def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
+    """Contact A (the finger tip): (1 - d)(cos theta, sin theta), shape (..., 2)."""
+    theta, d = _arrays(theta, d)
+    return (1.0 - d)[..., None] * object_axis(theta)
+
+
+def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float) -> NDArray[np.float64]:
+    """Thumb tip on its face: B + s_B e, shape (..., 2)."""
+    theta, d, psi = _arrays(theta, d, psi)
+    return object_axis(theta) + s_b(d, psi, alpha)[..., None] * digit_axis(theta, psi)
+
+
+def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """Height of the thumb tip's lowest corner above the table, over l.
+
+    sin theta - s_B sin(theta + psi) - t_tip cos(theta + psi); it must stay >= 0.
+    """
+    theta, d, psi = _arrays(theta, d, psi)
+    sb = s_b(d, psi, digits.alpha)
+    return np.sin(theta) - sb * np.sin(theta + psi) - digits.thumb_tip_thickness * np.cos(theta + psi)
+
+
+def digit_polygons(
+    theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Thumb and finger outlines in the plane, each shape (..., 4, 2), over l.
+
+    Vertices in order: tip on the contact face, base on the contact face, base
+    back corner, tip back corner. The thumb's body lies behind its face
+    (against n_B), the finger's behind its own face (along n_B).
+    """
+    theta, d, psi = _arrays(theta, d, psi)
+    e = digit_axis(theta, psi)
+    n = thumb_normal(theta, psi)
+    t_tip = thumb_tip(theta, d, psi, digits.alpha)
+    a_tip = finger_tip(theta, d)
+
+    def outline(tip, length, t_tip_k, t_base, side):
+        base = tip - length * e
+        return np.stack(
+            [tip, base, base + side * t_base * n, tip + side * t_tip_k * n], axis=-2
+        )
+
+    thumb = outline(t_tip, digits.thumb_length, digits.thumb_tip_thickness, digits.thumb_base_thickness, -1.0)
+    finger = outline(a_tip, digits.finger_length, digits.finger_tip_thickness, digits.finger_base_thickness, 1.0)
+    return thumb, finger
+
+
+def kinematic_checks(
+    theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry
+) -> dict[str, NDArray[np.bool_]]:
+    """Each kinematic condition of a state, by name (True where it holds).
+
+    - ``d``: 0 < d <= 1 (A lies on the object);
+    - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face;
+    - ``thumb clearance``: the thumb tip stays above the table;
+    - ``aperture``: 0 <= d sin psi <= max_aperture (gripper stroke).
+    """
+    theta, d, psi = _arrays(theta, d, psi)
+    sb = s_b(d, psi, digits.alpha)
+    w = aperture(d, psi)
+    tol = 1e-12
+    return {
+        "d": (d > 0.0) & (d <= 1.0 + tol),
+        "s_B >= 0": sb >= -tol,
+        "s_B <= thumb_length": sb <= digits.thumb_length + tol,
+        "thumb clearance": thumb_clearance(theta, d, psi, digits) >= -tol,
+        "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
+    }
+
+
+def kinematic_validity(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.bool_]:
+    """True where every kinematic condition of :func:`kinematic_checks` holds."""
+    checks = kinematic_checks(theta, d, psi, digits)
+    return np.logical_and.reduce(list(checks.values()))

@@ -1,0 +1,6 @@
+"""Planning with OMPL: state space, validity, objective, goal, planner setup, lattice yardstick."""
+
+from .result import Plan, PrimitiveStep
+from .setup import PLANNERS, PlannerOptions, UngraspSetup, plan
+
+__all__ = ["PLANNERS", "Plan", "PlannerOptions", "PrimitiveStep", "UngraspSetup", "plan"]

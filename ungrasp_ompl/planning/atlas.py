@@ -1,0 +1,268 @@
+"""The secure lattice: where each primitive leg may run, precomputed for a scene.
+
+Motions are checked on a lattice aligned with the start state, at the scene's
+resolution (``planning.resolution``): a leg is secure when every lattice state
+it passes is kinematically valid, collision-free and force-closed in the
+contact mode the leg's velocity makes there. Precomputing this once per
+scene, vectorised, turns a motion check during planning into a few array
+look-ups (MODEL.md section 9: the check must cost microseconds).
+
+Legs (one primitive each, MODEL.md section 3):
+
+=====  ============  ==============================  ===================
+leg    primitive     moves                           sliding
+=====  ============  ==============================  ===================
+``T``  P_theta       theta                           none
+``P``  P_psi         psi                             B
+``D``  P_dpsi        d alone                         A, and B unless psi = 90 deg
+``X``  P_dpsi        d and psi, opposite signs       A and B (sign of ds_B per state)
+=====  ============  ==============================  ===================
+
+A straight motion between two lattice states is realised by a staircase of
+such legs, one leg per moving coordinate (or one X leg for d and psi); the
+atlas tries every order and takes the one with fewest legs.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..geometry.collision import CollisionChecker
+from ..mechanics import force_closure, kinematic_validity, primitive_sliding_signs
+from ..scene import Scene
+
+THETA, D, PSI = 0, 1, 2
+LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi"}
+LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI)}
+#: Forward (paper) direction of each coordinate: theta down, d down, psi up.
+FORWARD = np.array([-1, -1, 1])
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One primitive leg between two lattice indices (both inclusive)."""
+
+    kind: str  # T, P, D or X
+    start: tuple[int, int, int]
+    end: tuple[int, int, int]
+
+    @property
+    def primitive(self) -> str:
+        return LEG_PRIMITIVE[self.kind]
+
+
+class SecurityAtlas:
+    """Secure lattice states per leg kind and direction, for one scene and a box of states.
+
+    box: (2, 3) lower and upper corner in (theta rad, d, psi rad); the lattice
+    covers the lattice states inside it. resolution defaults to the scene's.
+    """
+
+    def __init__(self, scene: Scene, box: ArrayLike, resolution: ArrayLike | None = None):
+        self.scene = scene
+        self.res = np.asarray(resolution if resolution is not None else scene.options.resolution, dtype=float)
+        self.origin = np.asarray(scene.start, dtype=float)
+        box = np.asarray(box, dtype=float)
+        self.lo_index = np.ceil((box[0] - self.origin) / self.res - 1e-9).astype(int)
+        hi_index = np.floor((box[1] - self.origin) / self.res + 1e-9).astype(int)
+        self.shape = tuple(int(x) for x in hi_index - self.lo_index + 1)
+        if min(self.shape) < 1:
+            raise ValueError("the box holds no lattice state")
+        self.axes = [self.origin[a] + self.res[a] * np.arange(self.lo_index[a], hi_index[a] + 1) for a in range(3)]
+        grid = np.stack(np.meshgrid(*self.axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        self._grid = grid
+        th, d, ps = grid.T
+        self.kinematic = kinematic_validity(th, d, ps, scene.digits).reshape(self.shape)
+        fc = self._fc(0, 0, self.kinematic.ravel())
+        check = self.kinematic.ravel() & fc
+        self.collision = np.zeros(len(grid), dtype=bool)
+        self.collision[check] = CollisionChecker(scene).in_collision(grid[check])
+        self.collision = self.collision.reshape(self.shape)
+        #: States that can be held with all contacts sticking.
+        self.holdable = (check & ~self.collision.ravel()).reshape(self.shape)
+        self._mode_ok: dict[tuple[int, int], NDArray[np.bool_]] = {(0, 0): self.holdable}
+        self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
+        self._reverse = scene.options.reverse_primitives
+        self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
+            tuple(int(x) for x in self.lo_index), self.shape)
+
+    def prepare(self) -> None:
+        """Compute every leg table planning may need now, so none is built lazily while planning."""
+        directions = (1, -1) if self._reverse else (1,)
+        for sign in directions:
+            for kind, axis in (("T", THETA), ("P", PSI), ("D", D)):
+                self.runs(kind, int(sign * FORWARD[axis]))
+            sa = int(sign * FORWARD[D])
+            for sb in (-1, 0, 1):  # X legs pick their B mode per state
+                self.mode_ok(sa, sb)
+
+    # -- lattice coordinates -----------------------------------------------------
+    def index(self, q: ArrayLike) -> tuple[int, int, int] | None:
+        """Lattice index of the state nearest q, or None outside the lattice."""
+        o, r, lo, n = self._index_consts
+        out = []
+        for k in range(3):
+            i = round((q[k] - o[k]) / r[k]) - lo[k]
+            if i < 0 or i >= n[k]:
+                return None
+            out.append(i)
+        return tuple(out)
+
+    def state(self, idx: ArrayLike) -> NDArray[np.float64]:
+        """The state (theta, d, psi) of a lattice index."""
+        idx = np.asarray(idx)
+        return self.origin + self.res * (idx + self.lo_index)
+
+    # -- per-mode security -------------------------------------------------------
+    def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        out = np.zeros(len(self._grid), dtype=bool)
+        q = self._grid[where]
+        s = self.scene
+        out[where] = force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, s.mu, s.options.sliding_model)
+        return out
+
+    def mode_ok(self, sa: int, sb: int) -> NDArray[np.bool_]:
+        """Secure lattice states for contact mode (sa, sb), shape of the lattice.
+
+        Only states where a primitive can make that mode are computed: with A
+        sliding, B slides the other way or sticks only where psi >= 90 deg.
+        """
+        key = (sa, sb)
+        if key not in self._mode_ok:
+            where = self.holdable.ravel()
+            if sa != 0 and sb != sa:
+                where = where & (self._grid[:, PSI] >= math.pi / 2 - 1e-9)
+            self._mode_ok[key] = self._fc(sa, sb, where).reshape(self.shape)
+        return self._mode_ok[key]
+
+    def leg_ok(self, kind: str, direction: int) -> NDArray[np.bool_]:
+        """Secure lattice states for an axis leg (T, P or D) run in a direction (+1 or -1 along its coordinate)."""
+        if kind == "T":
+            return self.holdable
+        if kind == "P":
+            _, sb = primitive_sliding_signs("P_psi", 1.0, 0.0, 0.0, direction)
+            return self.mode_ok(0, int(sb))
+        # D: A slides with dd, B with cos(psi) dd (sticks at psi = 90 deg exactly)
+        d, psi = np.meshgrid(self.axes[D], self.axes[PSI], indexing="ij")
+        _, sb = primitive_sliding_signs("P_dpsi", d, psi, direction, 0.0)
+        out = np.zeros(self.shape, dtype=bool)
+        for b in np.unique(sb):
+            out |= self.mode_ok(direction, int(b)) & (sb == b)[None]
+        return out
+
+    def runs(self, kind: str, direction: int) -> NDArray[np.int32]:
+        """How many consecutive secure states a leg finds from each lattice state on, its start included."""
+        key = (kind, direction)
+        if key not in self._runs:
+            axis = LEG_AXES[kind][0]
+            ok = np.moveaxis(self.leg_ok(kind, direction), axis, -1)
+            if direction < 0:
+                ok = ok[..., ::-1]
+            # distance to the next insecure state, walking toward the end of the axis
+            n = ok.shape[-1]
+            pos = np.arange(n)
+            blocked = np.where(ok, n, pos)
+            nxt = np.minimum.accumulate(blocked[..., ::-1], axis=-1)[..., ::-1]
+            run = (nxt - pos).astype(np.int32)
+            if direction < 0:
+                run = run[..., ::-1]
+            self._runs[key] = np.ascontiguousarray(np.moveaxis(run, -1, axis))
+        return self._runs[key]
+
+    # -- legs and motions --------------------------------------------------------
+    def allowed(self, step: tuple[int, int, int]) -> bool:
+        """Whether the coordinate signs of a motion are allowed (all forward unless reverse primitives are on)."""
+        if self._reverse:
+            return True
+        return step[THETA] <= 0 and step[D] <= 0 and step[PSI] >= 0
+
+    def leg_secure(self, kind: str, start: tuple[int, int, int], end: tuple[int, int, int]) -> bool:
+        """Whether a single leg from lattice index start to end is secure."""
+        if kind == "X":
+            return self._diagonal_secure(start, end)
+        axis = LEG_AXES[kind][0]
+        n = end[axis] - start[axis]
+        if n == 0:
+            return bool(self.holdable[start])
+        return bool(self.runs(kind, 1 if n > 0 else -1)[start] > abs(n))
+
+    def _diagonal_secure(self, start: tuple[int, int, int], end: tuple[int, int, int]) -> bool:
+        dj, dk = end[D] - start[D], end[PSI] - start[PSI]
+        n = max(abs(dj), abs(dk))
+        t = np.arange(n + 1) / n
+        jj = start[D] + np.rint(t * dj).astype(int)
+        kk = start[PSI] + np.rint(t * dk).astype(int)
+        _, sb = primitive_sliding_signs("P_dpsi", self.axes[D][jj], self.axes[PSI][kk], dj * self.res[D], dk * self.res[PSI])
+        i, sa = start[THETA], 1 if dj > 0 else -1
+        for b in (-1, 0, 1):
+            sel = sb == b
+            if sel.any() and not self.mode_ok(sa, b)[i, jj[sel], kk[sel]].all():
+                return False
+        return True
+
+    def realisations(self, a: tuple[int, int, int], b: tuple[int, int, int]):
+        """Candidate leg sequences (lists of Leg) from lattice index a to b, fewest legs first."""
+        step = tuple(b[k] - a[k] for k in range(3))
+        groups: list[list[str]] = []
+        kinds = ["T"] if step[THETA] else []
+        if step[D] and step[PSI] and step[D] * step[PSI] < 0:
+            groups.append(kinds + ["X"])
+        groups.append(kinds + (["D"] if step[D] else []) + (["P"] if step[PSI] else []))
+        groups.sort(key=len)
+        for group in groups:
+            for order in itertools.permutations(group):
+                legs, cur = [], a
+                for kind in order:
+                    nxt = list(cur)
+                    for axis in LEG_AXES[kind]:
+                        nxt[axis] = b[axis]
+                    nxt = tuple(nxt)
+                    legs.append(Leg(kind, cur, nxt))
+                    cur = nxt
+                yield legs
+
+    def realise(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> list[list[Leg]]:
+        """Every secure leg sequence from a to b ([] if none). A motion that stays put gives [[]] when a is holdable."""
+        if not self.allowed(tuple(b[k] - a[k] for k in range(3))):
+            return []
+        if a == b:
+            return [[]] if self.holdable[a] else []
+        return [legs for legs in self.realisations(a, b) if all(self.leg_secure(l.kind, l.start, l.end) for l in legs)]
+
+    def motion_secure(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> bool:
+        """Whether some staircase of secure legs leads from lattice index a to b (first found wins)."""
+        if not self.allowed(tuple(b[k] - a[k] for k in range(3))):
+            return False
+        if a == b:
+            return bool(self.holdable[a])
+        for legs in self.realisations(a, b):
+            if all(self.leg_secure(l.kind, l.start, l.end) for l in legs):
+                return True
+        return False
+
+
+def planning_box(scene: Scene) -> NDArray[np.float64]:
+    """The states a plan can visit: the scene bounds, cut down to the box between start
+    and goal when only forward primitives run (each coordinate then moves one way)."""
+    box = scene.bounds.copy()
+    if scene.options.reverse_primitives:
+        return box
+    glo, ghi = scene.goal.box()
+    start = scene.start
+    for a, sign in enumerate(FORWARD):
+        if sign < 0:  # coordinate decreases from the start to the goal
+            box[:, a] = [max(box[0, a], glo[a]), min(box[1, a], start[a])]
+        else:
+            box[:, a] = [max(box[0, a], start[a]), min(box[1, a], ghi[a])]
+    return box
+
+
+def reference_cost(step: ArrayLike, d_weight: float) -> float:
+    """Weighted L1 length of a step (dtheta, dd, dpsi) in the reference units: degrees + d_weight * d."""
+    s = np.abs(np.asarray(step, dtype=float))
+    return math.degrees(s[..., THETA] + s[..., PSI]) + d_weight * s[..., D]

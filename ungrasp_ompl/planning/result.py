@@ -1,0 +1,134 @@
+"""What a plan reports: the primitive sequence and its cost, and plan.json."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..mechanics import primitive_sliding_signs
+from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
+
+JSON_SCHEMA_VERSION = 1
+
+_A_WORDS = {-1: "toward_B", 1: "toward_G"}  # friction on the object at A, by sign of dd
+_B_WORDS = {-1: "toward_palm", 1: "toward_tip"}  # friction on the object at B, by sign of ds_B
+
+
+@dataclass
+class PrimitiveStep:
+    """One primitive of a plan, from start to end (theta rad, d over l, psi rad).
+
+    sliding maps each sliding contact to the direction of friction on the
+    object there; stability is the 3D class (paper sec. 4.1): full with at
+    most one sliding contact, partial with two (no z-moments).
+    """
+
+    type: str
+    direction: str
+    start: list[float]
+    end: list[float]
+    sliding: dict[str, str]
+    stability: str
+
+
+@dataclass
+class Plan:
+    """The result of planning a scene (see README for every field)."""
+
+    solved: bool
+    scene: str
+    planner: str
+    seed: int | None
+    sliding_model: str
+    states: list[list[float]] = field(default_factory=list)
+    primitives: list[PrimitiveStep] = field(default_factory=list)
+    cost: float | None = None
+    l1_length: float | None = None
+    mode_switches: int | None = None
+    time_to_first_solution_s: float | None = None
+    planning_time_s: float = 0.0
+    setup_time_s: float = 0.0
+    iterations: int = 0
+    stopped_by: str = ""
+    resolution: list[float] = field(default_factory=list)
+    reason: str | None = None
+    lattice_optimum: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["schema_version"] = JSON_SCHEMA_VERSION
+        return d
+
+    def to_json(self) -> str:
+        """plan.json text: the fields of the plan, angles in radians, d over l."""
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
+    def summary(self) -> str:
+        """A few lines for a person: outcome, cost, the primitive sequence."""
+        lines = []
+        if self.solved:
+            lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
+                         f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
+            first = self.time_to_first_solution_s
+            lines.append(f"  first solution {first:.3f} s, planning {self.planning_time_s:.2f} s "
+                         f"({self.iterations} iterations, stopped by {self.stopped_by}), setup {self.setup_time_s:.2f} s")
+            for p in self.primitives:
+                s, e = _deg(p.start), _deg(p.end)
+                slide = ", ".join(f"{c} slides ({w.replace('_', ' ')})" for c, w in p.sliding.items()) or "all stick"
+                lines.append(f"  {p.type:<7} {s} -> {e}  {slide}; 3D stability {p.stability}")
+        else:
+            lines.append(f"no solution for {self.scene} with {self.planner}: {self.reason}")
+        return "\n".join(lines)
+
+
+def _deg(q: list[float]) -> str:
+    return f"(theta {math.degrees(q[0]):5.1f}, d {q[1]:.3f}, psi {math.degrees(q[2]):5.1f})"
+
+
+def leg_sliding(atlas: SecurityAtlas, leg: Leg) -> dict[str, str]:
+    """Sliding contacts of a leg and the friction direction on the object at each."""
+    q0, q1 = atlas.state(leg.start), atlas.state(leg.end)
+    step = q1 - q0
+    n = max(abs(leg.end[k] - leg.start[k]) for k in range(3))
+    q = q0 + np.linspace(0.0, 1.0, n + 1)[:, None] * step
+    sa, sb = primitive_sliding_signs(leg.primitive, q[:, D], q[:, PSI], step[D], step[PSI])
+    out = {}
+    for contact, signs, words in (("A", sa, _A_WORDS), ("B", sb, _B_WORDS)):
+        moving = sorted({int(x) for x in signs if x})
+        if moving:
+            out[contact] = "/".join(words[s] for s in moving)
+    return out
+
+
+def merge_legs(atlas: SecurityAtlas, legs: list[Leg]) -> list[PrimitiveStep]:
+    """Consecutive legs of the same primitive and direction become one primitive."""
+    steps: list[PrimitiveStep] = []
+    for leg in legs:
+        q0, q1 = atlas.state(leg.start), atlas.state(leg.end)
+        forward = {"P_theta": q1[THETA] < q0[THETA], "P_psi": q1[PSI] > q0[PSI], "P_dpsi": q1[D] < q0[D]}
+        direction = "forward" if forward[leg.primitive] else "reverse"
+        sliding = leg_sliding(atlas, leg)
+        if steps and steps[-1].type == leg.primitive and steps[-1].direction == direction:
+            last = steps[-1]
+            last.end = q1.tolist()
+            for c, w in sliding.items():
+                words = set(last.sliding.get(c, "").split("/")) - {""} | set(w.split("/"))
+                last.sliding[c] = "/".join(sorted(words))
+        else:
+            steps.append(PrimitiveStep(leg.primitive, direction, q0.tolist(), q1.tolist(), sliding, ""))
+    for s in steps:
+        s.sliding = dict(sorted(s.sliding.items()))
+        s.stability = "full" if len(s.sliding) <= 1 else "partial"
+    return steps
+
+
+def sequence_cost(atlas: SecurityAtlas, steps: list[PrimitiveStep]) -> tuple[float, float, int]:
+    """(cost, L1 length, primitive changes) of a merged sequence, in the reference units."""
+    opts = atlas.scene.options
+    l1 = float(sum(reference_cost(np.subtract(s.end, s.start), opts.d_weight) for s in steps))
+    switches = max(0, len(steps) - 1)
+    return l1 + opts.mode_change_penalty * switches, l1, switches

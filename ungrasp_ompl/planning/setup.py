@@ -1,0 +1,305 @@
+"""Planner setup: the OMPL problem for a scene, solved by any geometric planner by name.
+
+Mirrors og.SimpleSetup: :class:`UngraspSetup` owns the space information
+(state space, validity checker, motion validator), the problem definition
+(start, sampleable goal region, objective) and the planner; :func:`plan` is
+the one-call entry point.
+
+Reproducibility (MODEL.md section 8): OMPL's RNG is seeded once per process,
+before its first random number, and a seeded run stops after a fixed count
+of planner iterations (not on wall time), so the same seed gives the same
+plan. A process that has planned already runs a later seeded plan in a fresh
+child process.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from ..errors import InputError
+from ..geometry.collision import CollisionChecker
+from ..mechanics import force_closure, kinematic_checks
+from ..scene import Scene
+from .atlas import Leg, SecurityAtlas, planning_box
+from .goal import LatticeGoalRegion
+from .lattice import lattice_search
+from .objective import PrimitiveCostObjective
+from .result import Plan, merge_legs, sequence_cost
+from .space import make_state_space, path_states, set_state
+from .validity import LatticeValidityChecker, PrimitiveMotionValidator
+from .verify import verify_leg
+
+#: OMPL geometric planners that can be asked for by name.
+PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT", "PRM", "PRMstar",
+            "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1")
+
+#: Iterations per second of --time that a seeded run is given (measured: RRT* runs
+#: 6,000-9,000 iterations per second on the reference scenes on 2 cores).
+ITERATIONS_PER_SECOND = 5000
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    """How to run the planner.
+
+    time: seconds of planning (a seeded run: the size of its iteration
+    budget, with 5x the time as a hard cap). iterations: planner iterations
+    (termination-condition calls); None: ITERATIONS_PER_SECOND * time when
+    seeded, unbounded otherwise. range: the planner's maximum motion length
+    in state units (theta and psi in rad, d over l). goal_bias: how often a
+    tree-based planner steers to a goal sample. simplify: shorten the path
+    with OMPL's PathSimplifier (shortcuts in travel direction).
+    """
+
+    planner: str = "RRTstar"
+    time: float = 1.0
+    seed: int | None = None
+    iterations: int | None = None
+    range: float = 0.3
+    goal_bias: float = 0.1
+    simplify: bool = True
+
+    def validated(self) -> "PlannerOptions":
+        if self.planner not in PLANNERS:
+            raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)})")
+        if not (isinstance(self.time, (int, float)) and math.isfinite(self.time) and self.time > 0):
+            raise InputError("time", f"must be a positive number of seconds, got {self.time!r}")
+        if self.seed is not None and (not isinstance(self.seed, int) or self.seed < 0 or self.seed >= 2**32):
+            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        if self.iterations is not None and (not isinstance(self.iterations, int) or self.iterations < 1):
+            raise InputError("iterations", f"must be a positive integer, got {self.iterations!r}")
+        if not self.range > 0:
+            raise InputError("range", f"must be positive, got {self.range!r}")
+        if not 0 <= self.goal_bias <= 1:
+            raise InputError("goal_bias", f"must lie in [0, 1], got {self.goal_bias!r}")
+        return self
+
+
+class UngraspSetup:
+    """The OMPL problem of one scene, ready to solve (like og.SimpleSetup)."""
+
+    def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions()):
+        self.scene = scene
+        self.options = options.validated()
+        t0 = time.perf_counter()
+        self.atlas = SecurityAtlas(scene, planning_box(scene))
+        self.atlas.prepare()
+        self.space = make_state_space(planning_box(scene))
+        self.si = ob.SpaceInformation(self.space)
+        self.validity_checker = LatticeValidityChecker(self.si, self.atlas)
+        self.motion_validator = PrimitiveMotionValidator(self.si, self.atlas)
+        self.si.setStateValidityChecker(self.validity_checker)
+        self.si.setMotionValidator(self.motion_validator)
+        self.si.setup()
+        self.objective = PrimitiveCostObjective(self.si, self.atlas)
+        self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
+        self.pdef = ob.ProblemDefinition(self.si)
+        self._start = self.space.allocState()
+        set_state(self._start, scene.start)
+        self.pdef.addStartState(self._start)
+        self.pdef.setGoal(self.goal)
+        self.pdef.setOptimizationObjective(self.objective)
+        self.planner = getattr(og, self.options.planner)(self.si)
+        for setter, value in (("setRange", self.options.range), ("setGoalBias", self.options.goal_bias)):
+            if hasattr(self.planner, setter):
+                getattr(self.planner, setter)(value)
+        self.planner.setProblemDefinition(self.pdef)
+        self.planner.setup()
+        self.setup_time = time.perf_counter() - t0
+
+    # -- diagnosis -----------------------------------------------------------------
+    def start_problem(self) -> str | None:
+        """Why the start state cannot be held, or None."""
+        s = self.scene
+        idx = self.atlas.index(s.start)
+        if self.atlas.holdable[idx]:
+            return None
+        th, d, ps = s.start
+        failed = [k for k, ok in kinematic_checks(th, d, ps, s.digits).items() if not ok]
+        if failed:
+            return "start state is kinematically invalid: " + ", ".join(failed) + " fails"
+        if not force_closure(th, d, ps, 0, 0, s.mu, s.options.sliding_model)[0]:
+            return "start state is not force-closed (contacts cannot hold the object)"
+        hits = CollisionChecker(s).contacts(s.start)
+        return "start state is in collision: " + ", ".join(hits)
+
+    def goal_problem(self) -> str | None:
+        if self.goal.maxSampleCount() == 0:
+            return ("goal region is empty: no lattice state inside it is kinematically valid, "
+                    "collision-free and force-closed")
+        return None
+
+    # -- solving -------------------------------------------------------------------
+    def solve(self) -> Plan:
+        """Plan, re-validate the path leg by leg in its travel direction, and report."""
+        opts, scene = self.options, self.scene
+        plan = Plan(solved=False, scene=scene.name, planner=opts.planner, seed=opts.seed,
+                    sliding_model=scene.options.sliding_model, setup_time_s=self.setup_time,
+                    resolution=[float(x) for x in self.atlas.res])
+        problem = self.start_problem() or self.goal_problem()
+        if problem:
+            plan.reason = problem
+            plan.stopped_by = "not started"
+            return plan
+        budget = opts.iterations
+        cap = opts.time
+        if opts.seed is not None:
+            budget = budget or max(1, int(ITERATIONS_PER_SECOND * opts.time))
+            cap = 5.0 * opts.time
+        best_cost = getattr(self.planner, "bestCost", None)
+        state = {"n": 0, "first": None, "stop": ""}
+        t0 = time.perf_counter()
+
+        def done() -> bool:
+            state["n"] += 1
+            elapsed = time.perf_counter() - t0
+            if state["first"] is None:
+                found = math.isfinite(best_cost().value()) if best_cost else self.pdef.hasExactSolution()
+                if found:
+                    state["first"] = elapsed
+            if budget is not None and state["n"] >= budget:
+                state["stop"] = "iterations"
+                return True
+            if elapsed >= cap:
+                state["stop"] = "time"
+                return True
+            return False
+
+        status = self.planner.solve(ob.PlannerTerminationCondition(done))
+        plan.planning_time_s = time.perf_counter() - t0
+        plan.iterations = state["n"]
+        plan.stopped_by = state["stop"] or "planner"
+        exact = self.pdef.hasExactSolution() and str(status) in ("Exact solution",)
+        if not exact:
+            plan.reason = self._no_path_reason(plan)
+            return plan
+        path = self.pdef.getSolutionPath()
+        if opts.simplify:
+            simplifier = og.PathSimplifier(self.si, self.goal, self.objective)
+            simplifier.reduceVertices(path)
+        legs, problem = self.path_legs(path_states(path))
+        if problem:
+            plan.reason = f"the returned path fails re-validation: {problem}"
+            return plan
+        if plan.time_to_first_solution_s is None:
+            plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
+        steps = merge_legs(self.atlas, legs)
+        plan.primitives = steps
+        plan.states = [list(scene.start)] + [s.end for s in steps]
+        plan.states = [[float(x) for x in q] for q in plan.states]
+        plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(self.atlas, steps)
+        plan.solved = True
+        return plan
+
+    def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
+        """Primitive legs realising a path of states, each edge in its travel direction,
+        choosing among the realisations of every edge those with fewest primitive
+        changes overall; every leg re-validated with the exact mechanics."""
+        atlas = self.atlas
+        idx = []
+        for q in states:
+            i = atlas.index(q)
+            if i is None:
+                return [], "a state lies outside the planning box"
+            if not idx or idx[-1] != i:
+                idx.append(i)
+        options = []
+        for k, (a, b) in enumerate(zip(idx[:-1], idx[1:])):
+            found = atlas.realise(a, b)
+            if not found:
+                return [], f"edge {k} has no secure primitive legs in its travel direction"
+            options.append(found)
+        legs = _fewest_changes(options)
+        resolution = atlas.res / 2
+        checker = CollisionChecker(self.scene)
+        for k, leg in enumerate(legs):
+            why = verify_leg(self.scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), resolution, checker)
+            if why:
+                return [], f"leg {k} ({leg.primitive}) {why}"
+        return legs, None
+
+    def _no_path_reason(self, plan: Plan) -> str:
+        result = lattice_search(self.atlas, self.scene.goal.box())
+        res = self.atlas.res
+        at = f"{math.degrees(res[0]):g} deg / {res[1]:g} / {math.degrees(res[2]):g} deg"
+        if not result.reachable:
+            return (f"no secure path exists: the exact search over the primitive lattice ({at}) "
+                    f"reaches no goal state from the start")
+        plan.lattice_optimum = result.cost
+        limit = f"{plan.iterations} iterations" if plan.stopped_by == "iterations" else f"{plan.planning_time_s:.2f} s"
+        return (f"no path found within {limit}; the exact lattice search ({at}) finds one of cost "
+                f"{result.cost:.2f}: allow more time or try another planner")
+
+
+def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
+    """Pick one realisation per edge minimising the primitive changes along the path (Viterbi)."""
+
+    def changes(legs: list[Leg]) -> int:
+        return sum(a.primitive != b.primitive for a, b in zip(legs[:-1], legs[1:]))
+
+    best = [(changes(r), [i]) for i, r in enumerate(options[0])]
+    for k in range(1, len(options)):
+        nxt = []
+        for j, r in enumerate(options[k]):
+            cands = []
+            for i, (c, trail) in enumerate(best):
+                prev = options[k - 1][i]
+                joint = int(bool(prev) and bool(r) and prev[-1].primitive != r[0].primitive)
+                cands.append((c + joint + changes(r), trail + [j]))
+            nxt.append(min(cands, key=lambda x: x[0]))
+        best = nxt
+    _, trail = min(best, key=lambda x: x[0])
+    return [leg for k, i in enumerate(trail) for leg in options[k][i]]
+
+
+_SEEDED: list[int] = []  # the seed OMPL's RNG got in this process, if any
+_PLANNED: list[bool] = []  # whether this process has planned (and so drawn random numbers)
+
+
+def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
+         iterations: int | None = None, **options) -> Plan:
+    """Plan an ungrasp for scene with an OMPL planner by name; see PlannerOptions.
+
+    With a seed the result is reproducible: the same seed gives the same plan
+    (timing fields aside).
+    """
+    opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
+    if seed is not None and (_PLANNED or (_SEEDED and _SEEDED[0] != seed)):
+        return _plan_in_child(scene, opts)
+    if seed is not None and not _SEEDED:
+        ou.RNG.setSeed(seed)
+        _SEEDED.append(seed)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+    _PLANNED.append(True)
+    return UngraspSetup(scene, opts).solve()
+
+
+def _child(scene: Scene, opts: PlannerOptions, queue) -> None:
+    try:
+        queue.put(plan(scene, **{k: getattr(opts, k) for k in opts.__dataclass_fields__}))
+    except BaseException as exc:  # handed back to the parent
+        queue.put(exc)
+
+
+def _plan_in_child(scene: Scene, opts: PlannerOptions) -> Plan:
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    proc = ctx.Process(target=_child, args=(scene, opts, queue))
+    proc.start()
+    result = queue.get()
+    proc.join()
+    if isinstance(result, BaseException):
+        raise result
+    return result
+
+
+__all__ = ["PLANNERS", "PlannerOptions", "UngraspSetup", "plan"]

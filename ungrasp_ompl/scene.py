@@ -1,0 +1,368 @@
+"""Scenes: the object, the digits, friction, obstacles, start and goal (YAML files).
+
+Units: lengths in metres, except ``digits.alpha`` and the d coordinate, which
+are over the object length l (MODEL.md section 2). Angles are radians in
+code; a person types degrees in keys ending ``_deg``. Plane coordinates are
+(x, z) in the manipulation plane, G at the origin, x along the table toward
+B's side, z up. Every field is validated on load; a bad one raises
+:class:`~ungrasp_ompl.errors.InputError` naming the field and the reason.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InputError
+from .mechanics import DigitGeometry, force_closure, kinematic_validity, sliding_signs
+from .mechanics.force_closure import SLIDING_MODELS
+
+
+@dataclass(frozen=True)
+class Box:
+    """An obstacle: an axis-aligned box in the plane, extruded normal to it (metres)."""
+
+    name: str
+    lo: tuple[float, float]  # (x, z) of the lower-left corner
+    hi: tuple[float, float]  # (x, z) of the upper-right corner
+
+
+@dataclass(frozen=True)
+class GoalSpec:
+    """Goal region: theta at most theta_max, d and psi within ranges (radians, over l)."""
+
+    theta_max: float
+    d: tuple[float, float]
+    psi: tuple[float, float]
+    theta_min: float = 0.0
+
+    def box(self) -> NDArray[np.float64]:
+        """Lower and upper corners, shape (2, 3), in (theta, d, psi)."""
+        return np.array([[self.theta_min, self.d[0], self.psi[0]], [self.theta_max, self.d[1], self.psi[1]]])
+
+    def contains(self, q: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        lo, hi = self.box()
+        return np.all((q >= lo - tol) & (q <= hi + tol), axis=-1)
+
+
+@dataclass(frozen=True)
+class PlanningOptions:
+    """Options of the planar planner that a scene fixes.
+
+    resolution: lattice step in (theta rad, d over l, psi rad) on which
+    force closure, kinematics and collision are checked along motions.
+    reverse_primitives: allow the reverse directions (pivot up, thumb
+    closing, finger sliding back). cost weights are in the reference units:
+    1 per degree of theta or psi, d_weight per unit d, mode_change_penalty per
+    change of primitive.
+    """
+
+    sliding_model: str = "relaxed"
+    reverse_primitives: bool = False
+    resolution: tuple[float, float, float] = (math.radians(0.5), 0.005, math.radians(0.5))
+    d_weight: float = 100.0
+    mode_change_penalty: float = 1.0
+
+
+@dataclass
+class Scene:
+    """A planar ungrasping problem (see the module docstring for units)."""
+
+    name: str
+    object_length: float
+    object_thickness: float
+    mu: tuple[float, float, float]  # (G, A, B)
+    digits: DigitGeometry  # over l
+    obstacles: list[Box]
+    start: NDArray[np.float64]  # (theta, d, psi)
+    goal: GoalSpec
+    bounds: NDArray[np.float64]  # (2, 3): low and high of (theta, d, psi)
+    options: PlanningOptions = field(default_factory=PlanningOptions)
+    source: str | None = None
+
+    # -- loading -----------------------------------------------------------------
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
+        """Load and validate a scene file; raises InputError naming the bad field."""
+        path = Path(path)
+        src = str(path)
+        if not path.is_file():
+            raise InputError("scene", "no such file" if not path.exists() else "not a file", src)
+        try:
+            data = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" at line {mark.line + 1}" if mark else ""
+            raise InputError("scene", f"not valid YAML{where}", src) from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError("scene", f"cannot be read ({exc.__class__.__name__})", src) from None
+        return cls.from_dict(data, source=src, default_name=path.stem)
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str | None = None, default_name: str = "scene") -> "Scene":
+        """Build a scene from the parsed YAML mapping; raises InputError on a bad field."""
+        r = _Reader(source)
+        top = r.mapping(data, "scene")
+        r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
+                          "obstacles", "start", "goal", "bounds", "planning"})
+        name = str(top.get("name", default_name))
+
+        obj = r.mapping(r.require(top, "object"), "object")
+        r.known(obj, "object", {"length", "thickness"})
+        length = r.number(obj, "object.length", "length", positive=True)
+        thickness = r.number(obj, "object.thickness", "thickness", minimum=0.0, default=0.0)
+        if thickness >= length:
+            raise InputError("object.thickness", "must be smaller than object.length", source)
+
+        mu = r.friction(top)
+
+        dig = r.mapping(r.require(top, "digits"), "digits")
+        r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
+                                "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
+                                "width", "max_aperture"})
+        alpha = r.number(dig, "digits.alpha", "alpha")
+        if not -1.0 < alpha < 1.0:
+            raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha}", source)
+        lengths = {}
+        for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
+                    "finger_tip_thickness", "finger_base_thickness", "width"):
+            lengths[key] = r.number(dig, f"digits.{key}", key, positive=True) / length
+        thumb_len = lengths["thumb_length"]
+        if "finger_length" in dig:
+            finger = r.number(dig, "digits.finger_length", "finger_length", positive=True)
+            if abs(finger / length - (thumb_len + alpha)) > 1e-6:
+                raise InputError("digits.finger_length", "must equal thumb_length + alpha * object.length "
+                                 f"({(thumb_len + alpha) * length:.6g} m), got {finger:g}", source)
+        if thumb_len + alpha <= 0:
+            raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive", source)
+        max_ap = r.number(dig, "digits.max_aperture", "max_aperture", positive=True, default=math.inf) / length
+        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, **lengths)
+
+        obstacles = r.obstacles(top.get("obstacles", []))
+
+        st = r.mapping(r.require(top, "start"), "start")
+        r.known(st, "start", {"theta_deg", "d", "psi_deg"})
+        start = np.array([
+            math.radians(r.number(st, "start.theta_deg", "theta_deg")),
+            r.number(st, "start.d", "d"),
+            math.radians(r.number(st, "start.psi_deg", "psi_deg")),
+        ])
+
+        bd = r.mapping(top.get("bounds", {}), "bounds")
+        r.known(bd, "bounds", {"theta_deg", "d", "psi_deg"})
+        bounds = np.array([
+            r.interval(bd, "bounds.theta_deg", "theta_deg", default=(0.0, 90.0), degrees=True),
+            r.interval(bd, "bounds.d", "d", default=(0.0, 1.0)),
+            r.interval(bd, "bounds.psi_deg", "psi_deg", default=(0.0, 120.0), degrees=True),
+        ]).T
+        if bounds[0, 0] < 0.0 or bounds[1, 0] > math.pi / 2 + 1e-12:
+            raise InputError("bounds.theta_deg", "must lie within [0, 90]", source)
+        if bounds[0, 1] < 0.0 or bounds[1, 1] > 1.0:
+            raise InputError("bounds.d", "must lie within [0, 1] (over the object length)", source)
+        if bounds[0, 2] < 0.0 or bounds[1, 2] >= math.pi:
+            raise InputError("bounds.psi_deg", "must lie within [0, 180)", source)
+        for i, key in enumerate(("start.theta_deg", "start.d", "start.psi_deg")):
+            if not bounds[0, i] - 1e-12 <= start[i] <= bounds[1, i] + 1e-12:
+                raise InputError(key, "lies outside the bounds", source)
+
+        gl = r.mapping(r.require(top, "goal"), "goal")
+        r.known(gl, "goal", {"theta_max_deg", "d", "psi_deg"})
+        theta_max = math.radians(r.number(gl, "goal.theta_max_deg", "theta_max_deg", minimum=0.0))
+        goal = GoalSpec(
+            theta_max=min(theta_max, bounds[1, 0]),
+            d=r.interval(gl, "goal.d", "d"),
+            psi=r.interval(gl, "goal.psi_deg", "psi_deg", degrees=True),
+            theta_min=bounds[0, 0],
+        )
+        glo, ghi = goal.box()
+        if np.any(np.minimum(ghi, bounds[1]) < np.maximum(glo, bounds[0])):
+            raise InputError("goal", "lies outside the bounds", source)
+
+        pl = r.mapping(top.get("planning", {}), "planning")
+        r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
+                                 "mode_change_penalty"})
+        model = pl.get("sliding_model", "relaxed")
+        if model not in SLIDING_MODELS:
+            raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
+        reverse = pl.get("reverse_primitives", False)
+        if not isinstance(reverse, bool):
+            raise InputError("planning.reverse_primitives", "must be true or false", source)
+        res = r.mapping(pl.get("resolution", {}), "planning.resolution")
+        r.known(res, "planning.resolution", {"theta_deg", "d", "psi_deg"})
+        resolution = (
+            math.radians(r.number(res, "planning.resolution.theta_deg", "theta_deg", positive=True, default=0.5)),
+            r.number(res, "planning.resolution.d", "d", positive=True, default=0.005),
+            math.radians(r.number(res, "planning.resolution.psi_deg", "psi_deg", positive=True, default=0.5)),
+        )
+        options = PlanningOptions(
+            sliding_model=model,
+            reverse_primitives=reverse,
+            resolution=resolution,
+            d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, default=100.0),
+            mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
+                                         minimum=0.0, default=1.0),
+        )
+        return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source)
+
+    # -- queries -----------------------------------------------------------------
+    def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
+        """Force closure of states q, shape (N, 3) (theta rad, d over l, psi rad).
+
+        With dq (same shape: a velocity per state) each state is checked in the
+        contact mode that velocity makes (sliding contacts push along the edge
+        opposing their sliding); without it every contact sticks.
+        """
+        q = _states(q, "q")
+        if dq is None:
+            sa = sb = np.zeros(len(q), dtype=np.int8)
+        else:
+            dq = _states(dq, "dq")
+            if dq.shape != q.shape:
+                raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
+            sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+        return force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
+
+    def is_valid(self, q: ArrayLike) -> NDArray[np.bool_]:
+        """States that can be held: kinematically valid, collision-free and force-closed with sticking contacts."""
+        from .geometry.collision import CollisionChecker
+
+        q = _states(q, "q")
+        ok = kinematic_validity(q[:, 0], q[:, 1], q[:, 2], self.digits) & self.force_closure(q)
+        ok[ok] = ~CollisionChecker(self).in_collision(q[ok])
+        return ok
+
+    def with_options(self, **changes: Any) -> "Scene":
+        """A copy of the scene with some planning options replaced."""
+        from dataclasses import replace
+
+        return replace(self, options=replace(self.options, **changes))
+
+
+def _states(q: ArrayLike, name: str) -> NDArray[np.float64]:
+    a = np.asarray(q, dtype=float)
+    if a.ndim == 1:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InputError(name, f"must have shape (N, 3) as (theta, d, psi), got {np.shape(q)}")
+    return a
+
+
+class _Reader:
+    """Typed field access that raises InputError naming the field."""
+
+    def __init__(self, source: str | None):
+        self.source = source
+
+    def fail(self, key: str, reason: str) -> None:
+        raise InputError(key, reason, self.source)
+
+    def mapping(self, value: Any, key: str) -> dict:
+        if value is None:
+            return {}
+        if not isinstance(value, dict):
+            self.fail(key, f"must be a mapping, got {type(value).__name__}")
+        return value
+
+    def require(self, m: dict, key: str) -> Any:
+        if key not in m:
+            self.fail(key, "is missing")
+        return m[key]
+
+    def known(self, m: dict, prefix: str, keys: set[str]) -> None:
+        for k in m:
+            if k not in keys:
+                self.fail(f"{prefix}.{k}" if prefix else str(k), f"unknown field (expected one of: {', '.join(sorted(keys))})")
+
+    def number(self, m: dict, key: str, k: str, *, positive: bool = False, minimum: float | None = None,
+               default: float | None = None) -> float:
+        if k not in m:
+            if default is None:
+                self.fail(key, "is missing")
+            return default
+        v = m[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(key, f"must be a number, got {v!r}")
+        v = float(v)
+        if not math.isfinite(v):
+            self.fail(key, f"must be finite, got {v}")
+        if positive and v <= 0:
+            self.fail(key, f"must be > 0, got {v:g}")
+        if minimum is not None and v < minimum:
+            self.fail(key, f"must be >= {minimum:g}, got {v:g}")
+        return v
+
+    def interval(self, m: dict, key: str, k: str, *, default: tuple[float, float] | None = None,
+                 degrees: bool = False) -> tuple[float, float]:
+        if k not in m and default is not None:
+            lo, hi = default
+        else:
+            v = self.require(m, k) if default is None else m[k]
+            if not isinstance(v, (list, tuple)) or len(v) != 2:
+                self.fail(key, f"must be a [low, high] pair, got {v!r}")
+            lo, hi = (self.number({0: x}, key, 0) for x in v)
+            if lo > hi:
+                self.fail(key, f"low {lo:g} exceeds high {hi:g}")
+        if degrees:
+            lo, hi = math.radians(lo), math.radians(hi)
+        return lo, hi
+
+    def friction(self, top: dict) -> tuple[float, float, float]:
+        if ("friction" in top) == ("friction_angle_deg" in top):
+            self.fail("friction", "give exactly one of friction (coefficients) or friction_angle_deg")
+        key = "friction" if "friction" in top else "friction_angle_deg"
+        f = self.mapping(top[key], key)
+        self.known(f, key, {"G", "A", "B"})
+        out = []
+        for c in "GAB":
+            v = self.number(f, f"{key}.{c}", c)
+            if key == "friction":
+                if v < 0:
+                    self.fail(f"{key}.{c}", f"must be >= 0, got {v:g}")
+                out.append(v)
+            else:
+                if not 0 <= v < 90:
+                    self.fail(f"{key}.{c}", f"must lie in [0, 90) degrees, got {v:g}")
+                out.append(math.tan(math.radians(v)))
+        return tuple(out)
+
+    def obstacles(self, value: Any) -> list[Box]:
+        if not isinstance(value, list):
+            self.fail("obstacles", f"must be a list, got {type(value).__name__}")
+        boxes = []
+        for i, item in enumerate(value):
+            key = f"obstacles[{i}]"
+            o = self.mapping(item, key)
+            name = str(o.get("name", f"obstacle{i}"))
+            if "corner" in o:
+                # A corner point and the quadrant the obstacle fills, as the
+                # reference planner describes its upper obstacle.
+                self.known(o, key, {"name", "corner", "extends"})
+                x, z = self.pair(o, f"{key}.corner", "corner")
+                sx, sz = self.pair(o, f"{key}.extends", "extends")
+                if sx not in (-1, 1) or sz not in (-1, 1):
+                    self.fail(f"{key}.extends", "must be [+-1, +-1]: the quadrant the obstacle fills from its corner")
+                far = 100.0
+                xs, zs = sorted((x, x + sx * far)), sorted((z, z + sz * far))
+                boxes.append(Box(name, (xs[0], zs[0]), (xs[1], zs[1])))
+            else:
+                self.known(o, key, {"name", "center", "size"})
+                cx, cz = self.pair(o, f"{key}.center", "center")
+                sx, sz = self.pair(o, f"{key}.size", "size")
+                if sx <= 0 or sz <= 0:
+                    self.fail(f"{key}.size", "must be positive")
+                boxes.append(Box(name, (cx - sx / 2, cz - sz / 2), (cx + sx / 2, cz + sz / 2)))
+        return boxes
+
+    def pair(self, m: dict, key: str, k: str) -> tuple[float, float]:
+        v = self.require(m, k)
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            self.fail(key, f"must be an [x, z] pair, got {v!r}")
+        return tuple(self.number({0: x}, key, 0) for x in v)
