@@ -120,8 +120,9 @@ def force_closure_margin(
     For every pair of wrenches spanning a plane, the smaller of how far the
     other (unit) wrenches reach to either side of it (sine of an angle); the
     margin is the smallest of these over pairs. Positive iff the wrenches
-    positively span R^3; it shrinks to zero as the state nears the loss of
-    force closure. States with fewer than two independent wrenches get -1.
+    positively span R^3, shrinking to zero as the state nears the loss of
+    force closure; exactly zero without force closure. States with fewer than
+    two independent wrenches get -1.
     """
     slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
     n_state = slots[0][0].shape[0]

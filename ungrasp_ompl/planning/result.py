@@ -22,9 +22,11 @@ _B_WORDS = {-1: "toward_palm", 1: "toward_tip"}  # friction on the object at B, 
 class PrimitiveStep:
     """One primitive of a plan, from start to end (theta rad, d over l, psi rad).
 
-    sliding maps each sliding contact to the direction of friction on the
-    object there; stability is the 3D class (paper sec. 4.1): full with at
-    most one sliding contact, partial with two (no z-moments).
+    waypoints are the corners of its straight legs, start and end included
+    (a P_dpsi may bend in (d, psi) while theta stays put); sliding maps each
+    sliding contact to the direction of friction on the object there;
+    stability is the 3D class (paper sec. 4.1): full with at most one
+    sliding contact, partial with two (no z-moments).
     """
 
     type: str
@@ -33,6 +35,7 @@ class PrimitiveStep:
     end: list[float]
     sliding: dict[str, str]
     stability: str
+    waypoints: list[list[float]] = field(default_factory=list)
 
 
 @dataclass
@@ -115,15 +118,30 @@ def merge_legs(atlas: SecurityAtlas, legs: list[Leg]) -> list[PrimitiveStep]:
         if steps and steps[-1].type == leg.primitive and steps[-1].direction == direction:
             last = steps[-1]
             last.end = q1.tolist()
+            last.waypoints.append(q1.tolist())
             for c, w in sliding.items():
                 words = set(last.sliding.get(c, "").split("/")) - {""} | set(w.split("/"))
                 last.sliding[c] = "/".join(sorted(words))
         else:
-            steps.append(PrimitiveStep(leg.primitive, direction, q0.tolist(), q1.tolist(), sliding, ""))
+            steps.append(PrimitiveStep(leg.primitive, direction, q0.tolist(), q1.tolist(), sliding, "",
+                                       [q0.tolist(), q1.tolist()]))
     for s in steps:
+        s.waypoints = _corners(s.waypoints)
         s.sliding = dict(sorted(s.sliding.items()))
         s.stability = "full" if len(s.sliding) <= 1 else "partial"
     return steps
+
+
+def _corners(points: list[list[float]]) -> list[list[float]]:
+    """The points where a polyline turns (collinear middle points dropped)."""
+    out = [points[0]]
+    for k in range(1, len(points) - 1):
+        a, b, c = (np.asarray(x) for x in (out[-1], points[k], points[k + 1]))
+        u, v = b - a, c - b
+        if np.linalg.norm(np.cross(u, v)) > 1e-12 * max(1.0, np.linalg.norm(u) * np.linalg.norm(v)):
+            out.append(points[k])
+    out.append(points[-1])
+    return out
 
 
 def sequence_cost(atlas: SecurityAtlas, steps: list[PrimitiveStep]) -> tuple[float, float, int]:

@@ -37,8 +37,16 @@ from .validity import LatticeValidityChecker, PrimitiveMotionValidator
 from .verify import verify_leg
 
 #: OMPL geometric planners that can be asked for by name.
-PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT", "PRM", "PRMstar",
+PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT",
             "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1")
+
+#: Planners of the ompl wheel that cannot run with Python callbacks, and why.
+UNUSABLE_PLANNERS = {
+    name: "its solve() adds roadmap milestones from a second C++ thread, which waits for Python's GIL "
+          "while the first thread holds it and waits for the roadmap lock: a deadlock with Python "
+          "validity checkers (ompl 2.0.1 wheel)"
+    for name in ("PRM", "PRMstar")
+}
 
 #: Iterations per second of --time that a seeded run is given (measured: RRT* runs
 #: 6,000-9,000 iterations per second on the reference scenes on 2 cores).
@@ -67,6 +75,8 @@ class PlannerOptions:
     simplify: bool = True
 
     def validated(self) -> "PlannerOptions":
+        if self.planner in UNUSABLE_PLANNERS:
+            raise InputError("planner", f"{self.planner} is not usable here: {UNUSABLE_PLANNERS[self.planner]}")
         if self.planner not in PLANNERS:
             raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)})")
         if not (isinstance(self.time, (int, float)) and math.isfinite(self.time) and self.time > 0):
@@ -88,6 +98,7 @@ class UngraspSetup:
     def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions()):
         self.scene = scene
         self.options = options.validated()
+        _OMPL_USED.append(True)  # planners draw seeds from OMPL's RNG when built
         t0 = time.perf_counter()
         self.atlas = SecurityAtlas(scene, planning_box(scene))
         self.atlas.prepare()
@@ -192,8 +203,7 @@ class UngraspSetup:
             plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
         steps = merge_legs(self.atlas, legs)
         plan.primitives = steps
-        plan.states = [list(scene.start)] + [s.end for s in steps]
-        plan.states = [[float(x) for x in q] for q in plan.states]
+        plan.states = [[float(x) for x in scene.start]] + [q for s in steps for q in s.waypoints[1:]]
         plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(self.atlas, steps)
         plan.solved = True
         return plan
@@ -259,8 +269,7 @@ def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
     return [leg for k, i in enumerate(trail) for leg in options[k][i]]
 
 
-_SEEDED: list[int] = []  # the seed OMPL's RNG got in this process, if any
-_PLANNED: list[bool] = []  # whether this process has planned (and so drawn random numbers)
+_OMPL_USED: list[bool] = []  # whether this process has built a planner (and so drawn from OMPL's RNG)
 
 
 def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
@@ -271,13 +280,11 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     (timing fields aside).
     """
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
-    if seed is not None and (_PLANNED or (_SEEDED and _SEEDED[0] != seed)):
+    if seed is not None and _OMPL_USED:
         return _plan_in_child(scene, opts)
-    if seed is not None and not _SEEDED:
+    if seed is not None:
         ou.RNG.setSeed(seed)
-        _SEEDED.append(seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-    _PLANNED.append(True)
     return UngraspSetup(scene, opts).solve()
 
 

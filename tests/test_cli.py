@@ -1,0 +1,170 @@
+"""The command line as a user runs it: exit codes, one-line errors, outputs, reproducibility."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+import yaml
+
+from conftest import SCENES, run_cli
+
+TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
+
+
+def write_scene(tmp_path, change):
+    """A copy of the asymmetric reference scene with change(data) applied, as a file."""
+    data = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
+    change(data)
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def assert_one_line_error(proc, *words):
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+def test_plan_writes_plan_and_picture(tmp_path):
+    out = tmp_path / "p"
+    proc = run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", "1", "--time", "1", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    plan = json.loads((out / "plan.json").read_text())
+    for key in ("solved", "states", "primitives", "cost", "mode_switches", "planner", "seed", "sliding_model",
+                "time_to_first_solution_s"):
+        assert key in plan
+    assert plan["solved"] and plan["planner"] == "RRTstar" and plan["seed"] == 1
+    assert (out / "cspace.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "P_theta" in proc.stdout and "stability" in proc.stdout
+
+
+def test_same_seed_same_plan(tmp_path):
+    plans = []
+    for k in range(2):
+        out = tmp_path / str(k)
+        proc = run_cli("plan", str(SCENES / "reference_upper_obstacle.yaml"), "--seed", "7", "--time", "1", "--out", str(out))
+        assert proc.returncode == 0, proc.stderr
+        plan = json.loads((out / "plan.json").read_text())
+        for key in TIMING:
+            plan.pop(key)
+        plans.append(plan)
+    assert plans[0] == plans[1]
+
+
+def test_other_seed_other_run(tmp_path):
+    """The seed reaches OMPL: different seeds explore differently (iterations are equal, trees are not)."""
+    texts = []
+    for seed in ("1", "2", "3"):
+        proc = run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", seed, "--time", "1",
+                       "--out", str(tmp_path / seed))
+        assert proc.returncode == 0
+        plan = json.loads((tmp_path / seed / "plan.json").read_text())
+        texts.append(json.dumps(plan["states"]))
+    assert len(set(texts)) > 1
+
+
+def test_equal_digits_has_no_secure_path():
+    proc = run_cli("plan", str(SCENES / "reference_equal_digits.yaml"), "--time", "1")
+    assert proc.returncode == 3
+    assert "no solution" in proc.stdout and "goal region" in proc.stdout
+
+
+def test_unreachable_goal_reports_lattice_proof(tmp_path):
+    """A peg that the object meets while pivoting through about 17 deg cuts the start off from
+    the goal (primitives only lower theta): the planner fails and the exact search proves it."""
+    def change(d):
+        x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
+        d["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
+    path = write_scene(tmp_path, change)
+    proc = run_cli("plan", str(path), "--seed", "1", "--time", "0.2")
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert "no secure path exists" in proc.stdout
+
+
+def test_start_not_held_exits_3(tmp_path):
+    path = write_scene(tmp_path, lambda d: d.update(start={"theta_deg": 80, "d": 0.8, "psi_deg": 0}))
+    proc = run_cli("plan", str(path), "--time", "0.2")
+    assert proc.returncode == 3
+    assert "start state" in proc.stdout
+
+
+def test_regions_map(tmp_path):
+    out = tmp_path / "map.png"
+    proc = run_cli("regions", str(SCENES / "reference_upper_obstacle.yaml"), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+BAD_SCENES = {
+    "negative friction": (lambda d: d.update(friction={"G": -0.1, "A": 0.3, "B": 0.3}) or d.pop("friction_angle_deg"),
+                          "friction.G"),
+    "friction angle 90": (lambda d: d["friction_angle_deg"].update(A=90), "friction_angle_deg.A"),
+    "both friction forms": (lambda d: d.update(friction={"G": 0.1, "A": 0.3, "B": 0.3}), "friction"),
+    "missing goal": (lambda d: d.pop("goal"), "goal"),
+    "unknown field": (lambda d: d.update(obstacle=[]), "obstacle"),
+    "text for number": (lambda d: d["object"].update(length="long"), "object.length"),
+    "zero length": (lambda d: d["object"].update(length=0), "object.length"),
+    "thick object": (lambda d: d["object"].update(thickness=0.1), "object.thickness"),
+    "alpha too large": (lambda d: d["digits"].update(alpha=1.5), "digits.alpha"),
+    "finger length inconsistent": (lambda d: d["digits"].update(finger_length=0.01), "digits.finger_length"),
+    "negative thumb": (lambda d: d["digits"].update(thumb_length=-0.01), "digits.thumb_length"),
+    "start outside bounds": (lambda d: d["start"].update(d=1.5), "start.d"),
+    "reversed goal range": (lambda d: d["goal"].update(d=[0.7, 0.5]), "goal.d"),
+    "bad sliding model": (lambda d: d["planning"].update(sliding_model="sticky"), "planning.sliding_model"),
+    "bad obstacle": (lambda d: d.update(obstacles=[{"center": [0, 0], "size": [0.01, -1]}]), "obstacles[0].size"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SCENES)
+def test_bad_scene_exits_2_naming_the_field(tmp_path, case):
+    change, field = BAD_SCENES[case]
+    path = write_scene(tmp_path, change)
+    before = path.read_text()
+    proc = run_cli("plan", str(path), "--out", str(tmp_path / "out"))
+    assert_one_line_error(proc, field)
+    assert path.read_text() == before
+    assert not (tmp_path / "out").exists()
+
+
+def test_missing_scene_file():
+    assert_one_line_error(run_cli("plan", "no/such/scene.yaml"), "no such file")
+
+
+def test_malformed_yaml(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("object: {length: 0.06\nfriction: [")
+    assert_one_line_error(run_cli("plan", str(path)), "YAML")
+
+
+def test_scene_not_a_mapping(tmp_path):
+    path = tmp_path / "list.yaml"
+    path.write_text("- 1\n- 2\n")
+    assert_one_line_error(run_cli("plan", str(path)), "mapping")
+
+
+@pytest.mark.parametrize("args,word", [
+    (("--planner", "RRTfast"), "unknown planner"),
+    (("--time", "-1"), "time"),
+    (("--seed", "-3"), "seed"),
+    (("--iterations", "0"), "iterations"),
+    (("--time", "soon"), "invalid float"),
+])
+def test_bad_options_exit_2(args, word):
+    assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
+
+
+def test_out_must_be_a_directory(tmp_path):
+    existing = tmp_path / "file"
+    existing.write_text("keep me")
+    assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), "--out", str(existing)), "--out")
+    assert existing.read_text() == "keep me"
+
+
+def test_unknown_command_exits_2():
+    assert_one_line_error(run_cli("fly"), "invalid choice")

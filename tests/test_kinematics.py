@@ -1,0 +1,79 @@
+"""Identities of the pinch geometry (MODEL.md section 2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ungrasp_ompl.mechanics import DigitGeometry, aperture, digit_polygons, finger_tip, s_b, thumb_clearance, thumb_tip
+from ungrasp_ompl.mechanics.kinematics import digit_axis, kinematic_checks, thumb_normal
+
+DIGITS = DigitGeometry(alpha=0.47)
+
+
+@pytest.fixture
+def states():
+    rng = np.random.default_rng(7)
+    n = 5000
+    return rng.uniform(0, math.pi / 2, n), rng.uniform(0.01, 1, n), rng.uniform(0, math.radians(120), n)
+
+
+def test_s_b_is_position_of_b_on_thumb_face(states):
+    """B = thumb tip + s_B (palm direction): s_B measured from the tip toward the palm."""
+    th, d, ps = states
+    b = np.stack([np.cos(th), np.sin(th)], -1)
+    tip = thumb_tip(th, d, ps, DIGITS.alpha)
+    e = digit_axis(th, ps)
+    offset = b - tip
+    np.testing.assert_allclose(np.sum(offset * -e, -1), s_b(d, ps, DIGITS.alpha), atol=1e-12)
+    np.testing.assert_allclose(np.sum(offset * thumb_normal(th, ps), -1), 0.0, atol=1e-12)  # B on the face
+    np.testing.assert_allclose(s_b(d, ps, DIGITS.alpha), d * np.cos(ps) - DIGITS.alpha, atol=1e-12)
+
+
+def test_finger_is_alpha_longer_and_aperture_is_d_sin_psi(states):
+    """Along the digit axis the finger tip A lies alpha beyond the thumb tip; across it, w = d sin psi."""
+    th, d, ps = states
+    a = finger_tip(th, d)
+    tip = thumb_tip(th, d, ps, DIGITS.alpha)
+    np.testing.assert_allclose(np.sum((a - tip) * digit_axis(th, ps), -1), DIGITS.alpha, atol=1e-12)
+    np.testing.assert_allclose(np.sum((a - tip) * thumb_normal(th, ps), -1), aperture(d, ps), atol=1e-12)
+    # A on the object, (1 - d) from G
+    np.testing.assert_allclose(np.linalg.norm(a, axis=-1), 1 - d, atol=1e-12)
+
+
+def test_thumb_clearance_is_height_of_thumb_tip_back_corner(states):
+    """The analytic clearance (MODEL.md) is the height of the thumb outline's tip back corner.
+    That corner is the thumb's lowest point while the digit axis is steep enough for the
+    thicker base to stay above it and does not lean past vertical; the collision check
+    covers the other poses."""
+    th, d, ps = states
+    thumb, _ = digit_polygons(th, d, ps, DIGITS)
+    clearance = thumb_clearance(th, d, ps, DIGITS)
+    np.testing.assert_allclose(clearance, thumb[:, 3, 1], atol=1e-12)
+    beta = th + ps
+    taper = (DIGITS.thumb_base_thickness - DIGITS.thumb_tip_thickness) / DIGITS.thumb_length
+    lean = (beta <= math.pi / 2) & (np.tan(beta) >= taper)
+    np.testing.assert_allclose(clearance[lean], thumb[lean, :, 1].min(axis=1), atol=1e-12)
+
+
+def test_digit_outlines_have_their_lengths_and_thicknesses(states):
+    th, d, ps = states
+    thumb, finger = digit_polygons(th, d, ps, DIGITS)
+    for outline, length, t_tip, t_base in ((thumb, DIGITS.thumb_length, DIGITS.thumb_tip_thickness, DIGITS.thumb_base_thickness),
+                                           (finger, DIGITS.finger_length, DIGITS.finger_tip_thickness, DIGITS.finger_base_thickness)):
+        np.testing.assert_allclose(np.linalg.norm(outline[:, 1] - outline[:, 0], axis=-1), length, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(outline[:, 3] - outline[:, 0], axis=-1), t_tip, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(outline[:, 2] - outline[:, 1], axis=-1), t_base, atol=1e-12)
+    # the two digits lie on either side of the gap between their faces
+    n = thumb_normal(th, ps)
+    assert np.all(np.sum((finger[:, 3] - finger[:, 0]) * n, -1) > 0)
+    assert np.all(np.sum((thumb[:, 3] - thumb[:, 0]) * n, -1) < 0)
+
+
+def test_kinematic_checks_name_each_failure():
+    checks = kinematic_checks(math.radians(30), 0.4, 0.0, DIGITS)  # s_B = 0.4 - 0.47 < 0
+    assert not checks["s_B >= 0"] and checks["d"] and checks["s_B <= thumb_length"]
+    checks = kinematic_checks(0.0, 0.8, math.radians(20), DIGITS)  # flat object, thumb below the table
+    assert not checks["thumb clearance"]

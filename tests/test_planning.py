@@ -1,0 +1,204 @@
+"""Planning: directed motions, the lattice against brute force, golden plans, the Python API."""
+
+from __future__ import annotations
+
+import dataclasses
+import heapq
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, run_cli
+from ungrasp_ompl.planning.atlas import FORWARD, SecurityAtlas, planning_box, reference_cost
+from ungrasp_ompl.planning.lattice import lattice_search
+from ungrasp_ompl.planning.setup import PlannerOptions, UngraspSetup
+from ungrasp_ompl.planning.verify import verify_leg
+
+COARSE = (math.radians(2), 0.02, math.radians(2))
+GOLDEN = ROOT / "tests" / "golden"
+
+
+@pytest.fixture(scope="module")
+def setup(scenes):
+    return UngraspSetup(scenes["reference_asymmetric"], PlannerOptions())
+
+
+def state(space, q):
+    s = space.allocState()
+    s[0], s[1], s[2] = (float(x) for x in q)
+    return s
+
+
+def test_motion_validator_is_directed(setup):
+    """A pivot down from the start is secure; the same motion back up is not a forward primitive."""
+    a = setup.scene.start
+    b = a + np.array([-math.radians(5), 0, 0])
+    mv, sp = setup.motion_validator, setup.space
+    assert mv.checkMotion(state(sp, a), state(sp, b))
+    assert not mv.checkMotion(state(sp, b), state(sp, a))
+    obj = setup.objective
+    assert math.isfinite(obj.motionCost(state(sp, a), state(sp, b)).value())
+    assert not math.isfinite(obj.motionCost(state(sp, b), state(sp, a)).value())
+    assert not obj.isSymmetric()
+
+
+def test_reverse_primitives_allow_the_way_back(scenes):
+    scene = scenes["reference_asymmetric"].with_options(reverse_primitives=True)
+    s = UngraspSetup(scene, PlannerOptions())
+    a = scene.start
+    b = a + np.array([-math.radians(5), 0, math.radians(3)])
+    assert s.motion_validator.checkMotion(state(s.space, a), state(s.space, b))
+    assert s.motion_validator.checkMotion(state(s.space, b), state(s.space, a))
+
+
+def test_atlas_agrees_with_exact_mechanics(setup):
+    """A motion is secure on the atlas iff one of its leg sequences passes the exact check
+    (mechanics and FCL, no atlas tables) at the lattice resolution."""
+    atlas = setup.atlas
+    rng = np.random.default_rng(4)
+    secure = 0
+    for _ in range(300):
+        a = tuple(int(x) for x in rng.integers(0, atlas.shape))
+        b = tuple(int(np.clip(a[k] + FORWARD[k] * rng.integers(0, 8), 0, atlas.shape[k] - 1)) for k in range(3))
+        fast = atlas.motion_secure(a, b)
+        if a == b:
+            continue
+        exact = any(all(verify_leg(atlas.scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), atlas.res) is None
+                        for leg in legs) for legs in atlas.realisations(a, b))
+        assert fast == exact, (a, b)
+        secure += fast
+    assert 10 < secure < 290
+
+
+def brute_force_optimum(atlas, goal_box):
+    """Textbook Dijkstra over (lattice state, last primitive) with one-step legs."""
+    opts = atlas.scene.options
+    steps = {"T": (-1, 0, 0), "P": (0, 0, 1), "D": (0, -1, 0), "X": (0, -1, 1)}
+    prim = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi"}
+    start = atlas.index(atlas.scene.start)
+    heap = [(0.0, start, "")]
+    done = set()
+    while heap:
+        cost, idx, last = heapq.heappop(heap)
+        if (idx, last) in done:
+            continue
+        done.add((idx, last))
+        q = atlas.state(idx)
+        if np.all(q >= goal_box[0] - 1e-9) and np.all(q <= goal_box[1] + 1e-9) and atlas.holdable[idx]:
+            return cost
+        for kind, st in steps.items():
+            nxt = tuple(idx[k] + st[k] for k in range(3))
+            if any(not 0 <= nxt[k] < atlas.shape[k] for k in range(3)):
+                continue
+            if not atlas.leg_secure(kind, idx, nxt):
+                continue
+            c = reference_cost(np.asarray(st) * atlas.res, opts.d_weight)
+            c += opts.mode_change_penalty if last and last != prim[kind] else 0.0
+            heapq.heappush(heap, (cost + c, nxt, prim[kind]))
+    return None
+
+
+@pytest.mark.parametrize("name", ["reference_asymmetric", "reference_equal_digits", "reference_upper_obstacle"])
+def test_lattice_search_equals_brute_force(scenes, name):
+    scene = scenes[name]
+    atlas = SecurityAtlas(scene, planning_box(scene), resolution=COARSE)
+    result = lattice_search(atlas, scene.goal.box())
+    expected = brute_force_optimum(atlas, scene.goal.box())
+    assert (result.cost is None) == (expected is None)
+    if expected is not None:
+        assert result.cost == pytest.approx(expected, abs=1e-9)
+        # its legs are secure and add up to the cost
+        assert all(atlas.leg_secure(leg.kind, leg.start, leg.end) for leg in result.legs)
+
+
+def golden(name):
+    return json.loads((GOLDEN / f"{name}.json").read_text())
+
+
+@pytest.mark.parametrize("name", ["reference_asymmetric", "reference_upper_obstacle", "reference_equal_digits"])
+def test_golden_plan_reproduces(tmp_path, name):
+    """Regression: the seeded CLI run gives the stored plan (states within 1e-9, same primitives)."""
+    want = golden(name)
+    proc = run_cli("plan", str(ROOT / "scenes" / f"{name}.yaml"), "--seed", "1", "--time", "1", "--out", str(tmp_path))
+    assert proc.returncode == (0 if want["solved"] else 3), proc.stdout + proc.stderr
+    got = json.loads((tmp_path / "plan.json").read_text())
+    assert got["solved"] == want["solved"]
+    np.testing.assert_allclose(got["states"], want["states"], atol=1e-9)
+    strip = [{k: p[k] for k in ("type", "direction", "sliding", "stability")} for p in want["primitives"]]
+    assert [{k: p[k] for k in ("type", "direction", "sliding", "stability")} for p in got["primitives"]] == strip
+    if want["solved"]:
+        assert got["cost"] == pytest.approx(want["cost"], abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["reference_asymmetric", "reference_upper_obstacle"])
+def test_golden_legs_are_secure(scenes, name):
+    """Every leg of the golden plan passes the exact mechanics at a quarter of the planning resolution,
+    its primitive moves only its own coordinates, and its stability class matches its sliding contacts."""
+    scene, plan = scenes[name], golden(name)
+    res = np.array(plan["resolution"]) / 4
+    moves = {"P_theta": (0,), "P_psi": (2,), "P_dpsi": (1, 2)}
+    for p in plan["primitives"]:
+        pts = np.array(p["waypoints"])
+        assert np.allclose(pts[0], p["start"]) and np.allclose(pts[-1], p["end"])
+        for a, b in zip(pts[:-1], pts[1:]):
+            assert verify_leg(scene, p["type"], a, b, res) is None
+            still = [k for k in range(3) if k not in moves[p["type"]]]
+            assert np.allclose(a[still], b[still])
+        assert p["stability"] == ("full" if len(p["sliding"]) <= 1 else "partial")
+    # the path is continuous and ends in the goal
+    states = np.array(plan["states"])
+    assert np.allclose(states[0], scene.start)
+    assert scene.goal.contains(states[-1])[0]
+
+
+@pytest.mark.parametrize("name", ["reference_asymmetric", "reference_upper_obstacle"])
+def test_planner_cost_is_never_below_lattice_optimum(scenes, name):
+    """On the same lattice and cost, no planner can beat the exact optimum."""
+    scene, plan = scenes[name], golden(name)
+    atlas = SecurityAtlas(scene, planning_box(scene))
+    optimum = lattice_search(atlas, scene.goal.box()).cost
+    assert plan["cost"] >= optimum - 1e-9
+    assert plan["cost"] <= 1.05 * optimum  # and it is close to it
+
+
+def test_python_api_queries(scenes):
+    scene = scenes["reference_asymmetric"]
+    rng = np.random.default_rng(0)
+    q = np.column_stack([rng.uniform(0, 1.5, 500), rng.uniform(0.5, 1, 500), rng.uniform(0, 1.5, 500)])
+    dq = np.tile([0.0, 0.0, 0.1], (500, 1))  # P_psi: B slides toward the palm
+    from ungrasp_ompl.mechanics import force_closure
+    expected = force_closure(q[:, 0], q[:, 1], q[:, 2], 0, -1, scene.mu, "relaxed")
+    assert np.array_equal(scene.force_closure(q, dq), expected)
+    stick = scene.force_closure(q)
+    assert not np.any(expected & ~stick)
+    valid = scene.is_valid(q)
+    assert valid.shape == (500,) and not np.any(valid & ~stick)
+    assert scene.is_valid(scene.start)[0]
+    with pytest.raises(ValueError, match="shape"):
+        scene.force_closure(np.zeros((3, 2)))
+
+
+def test_plan_api_is_reproducible_in_process(scenes):
+    """plan() with a seed gives the same result called twice in one process (the second call
+    runs in a fresh child process, since OMPL's RNG is seeded once per process)."""
+    from ungrasp_ompl import plan
+
+    scene = scenes["reference_upper_obstacle"]
+    a = json.loads(plan(scene, seed=3, time=0.3).to_json())
+    b = json.loads(plan(scene, seed=3, time=0.3).to_json())
+    for d in (a, b):
+        for key in ("time_to_first_solution_s", "planning_time_s", "setup_time_s"):
+            d.pop(key)
+    assert a == b and a["solved"]
+
+
+def test_strict_model_changes_the_plan(scenes):
+    """Under the strict model P_psi cannot start from psi = 0 near the reference start, so the
+    exact optimum differs (or vanishes)."""
+    scene = scenes["reference_asymmetric"]
+    relaxed = lattice_search(SecurityAtlas(scene, planning_box(scene), COARSE), scene.goal.box()).cost
+    strict_scene = scene.with_options(sliding_model="strict")
+    strict = lattice_search(SecurityAtlas(strict_scene, planning_box(strict_scene), COARSE), scene.goal.box()).cost
+    assert strict is None or strict >= relaxed

@@ -1,0 +1,100 @@
+"""The ``ungrasp-ompl`` command.
+
+Exit codes: 0 solved (or done); 2 bad input (one line naming the field and
+the reason); 3 no solution (with the reason found).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from . import __version__
+from .errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2, no usage dump
+        raise InputError("arguments", message)
+
+
+def _parser() -> argparse.ArgumentParser:
+    from .planning import PLANNERS
+
+    p = _Parser(prog="ungrasp-ompl", description="Plan dexterous ungrasping with OMPL.")
+    p.add_argument("--version", action="version", version=f"ungrasp-ompl {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
+    pl.add_argument("scene", help="scene file (YAML)")
+    pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)})")
+    pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
+    pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
+    pl.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations (default with a seed: 5000 per second of --time)")
+    pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
+
+    rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
+    rg.add_argument("scene", help="scene file (YAML)")
+    rg.add_argument("--out", required=True, help="PNG file to write")
+    return p
+
+
+def _plan(args: argparse.Namespace) -> int:
+    from .io import write_text_atomic
+    from .planning import plan
+    from .scene import Scene
+
+    scene = Scene.from_file(args.scene)
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations)
+    print(result.summary())
+    if out is not None:
+        from .plotting import draw_plan
+
+        write_text_atomic(out / "plan.json", result.to_json())
+        draw_plan(scene, result, out / "cspace.png")
+        print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
+    return EXIT_OK if result.solved else EXIT_NO_SOLUTION
+
+
+def _regions(args: argparse.Namespace) -> int:
+    from .plotting import draw_regions
+    from .scene import Scene
+
+    scene = Scene.from_file(args.scene)
+    if not args.out.lower().endswith(".png"):
+        raise InputError("--out", "must name a .png file")
+    draw_regions(scene, args.out)
+    print(f"wrote {args.out}")
+    return EXIT_OK
+
+
+def run(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    try:
+        args = _parser().parse_args(argv)
+        return {"plan": _plan, "regions": _regions}[args.command](args)
+    except UngraspError as exc:
+        print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("ungrasp-ompl: interrupted", file=sys.stderr)
+        return 130
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console entry point. Leaves through os._exit so that nanobind's reports of objects
+    still alive at interpreter exit (noise to a user) are not printed."""
+    code = run(argv)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+if __name__ == "__main__":
+    main()

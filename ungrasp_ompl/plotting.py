@@ -1,0 +1,147 @@
+"""Pictures of the configuration space: the C-space map and a plan drawn in it (matplotlib)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
+
+from .geometry.collision import CollisionChecker  # noqa: E402
+from .io import write_atomic  # noqa: E402
+from .mechanics import force_closure, kinematic_validity  # noqa: E402
+from .planning.result import Plan  # noqa: E402
+from .scene import Scene  # noqa: E402
+
+#: State classes of the C-space map, in drawing order.
+REGION_CLASSES = ("free (force-closed)", "not force-closed", "in collision", "kinematically invalid")
+_REGION_COLOURS = ("#7fc97f", "#fdc086", "#e7298a", "#bdbdbd")
+_PRIMITIVE_COLOURS = {"P_theta": "#1b9e77", "P_psi": "#d95f02", "P_dpsi": "#7570b3"}
+
+
+def classify(scene: Scene, q: np.ndarray) -> np.ndarray:
+    """Index into REGION_CLASSES of each state (rows of q), sticking contacts."""
+    th, d, ps = q.T
+    kin = kinematic_validity(th, d, ps, scene.digits)
+    cls = np.full(len(q), 3)
+    hit = np.zeros(len(q), dtype=bool)
+    hit[kin] = CollisionChecker(scene).in_collision(q[kin])
+    fc = force_closure(th, d, ps, 0, 0, scene.mu, scene.options.sliding_model)
+    cls[kin & hit] = 2
+    cls[kin & ~hit & ~fc] = 1
+    cls[kin & ~hit & fc] = 0
+    return cls
+
+
+def _save(fig, path: str | os.PathLike[str]) -> None:
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+    plt.close(fig)
+
+
+def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, step_deg: float = 1.0) -> None:
+    """The C-space map as theta-psi slices at several d: free, not force-closed, in collision,
+    kinematically invalid (all contacts sticking), like the reference planner's map."""
+    lo, hi = scene.bounds
+    th = np.arange(lo[0], hi[0] + 1e-9, math.radians(step_deg))
+    ps = np.arange(lo[2], hi[2] + 1e-9, math.radians(step_deg))
+    # B stays on the thumb (s_B = d cos psi - alpha >= 0) only for d >= alpha
+    ds = np.linspace(max(lo[1], scene.digits.alpha, 0.05), hi[1], d_values)
+    cols = 3
+    rows = int(math.ceil(d_values / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False, constrained_layout=True)
+    cmap = ListedColormap(_REGION_COLOURS)
+    for ax, d in zip(axes.flat, ds):
+        T, P = np.meshgrid(th, ps, indexing="ij")
+        q = np.column_stack([T.ravel(), np.full(T.size, d), P.ravel()])
+        cls = classify(scene, q).reshape(T.shape)
+        ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5,
+                  extent=[math.degrees(th[0]), math.degrees(th[-1]), math.degrees(ps[0]), math.degrees(ps[-1])])
+        ax.set_title(f"d = {d:.2f}")
+        ax.set_xlabel("theta (deg)")
+        ax.set_ylabel("psi (deg)")
+    for ax in list(axes.flat)[len(ds):]:
+        ax.axis("off")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in _REGION_COLOURS]
+    fig.legend(handles, REGION_CLASSES, loc="outside lower center", ncol=4)
+    fig.suptitle(f"{scene.name}: C-space map ({scene.options.sliding_model} sliding, contacts sticking)")
+    _save(fig, path)
+
+
+def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 12000) -> None:
+    """The force-closed free region around the path with the path's primitives drawn in it.
+
+    Three projections (theta-psi, theta-d, psi-d), each shading how much of the
+    hidden coordinate's range is free and force-closed with sticking
+    contacts, and a 3D view; the goal box in red.
+    """
+    from .planning.atlas import SecurityAtlas, planning_box
+
+    box = planning_box(scene)
+    res = np.array([math.radians(1.0), 0.01, math.radians(1.0)])
+    atlas = SecurityAtlas(scene, box, resolution=res)
+    conv = np.array([180 / math.pi, 1.0, 180 / math.pi])  # plotted units: deg, d, deg
+    names = ("theta (deg)", "d (over l)", "psi (deg)")
+    fig = plt.figure(figsize=(12, 10), constrained_layout=True)
+    glo, ghi = scene.goal.box()
+    segments = [(p.type, np.array(p.start) * conv, np.array(p.end) * conv) for p in plan.primitives]
+    start = scene.start * conv
+    for n, (x, y) in enumerate(((0, 2), (0, 1), (2, 1))):
+        ax = fig.add_subplot(2, 2, n + 1)
+        hidden = 3 - x - y
+        share = atlas.holdable.mean(axis=hidden)
+        if x > y:
+            share = share.T
+        ext = [atlas.axes[x][0] * conv[x], atlas.axes[x][-1] * conv[x],
+               atlas.axes[y][0] * conv[y], atlas.axes[y][-1] * conv[y]]
+        im = ax.imshow(share.T if x < y else share.T, origin="lower", aspect="auto", cmap="Greens",
+                       vmin=0, vmax=1, extent=ext)
+        ax.add_patch(plt.Rectangle((glo[x] * conv[x], glo[y] * conv[y]), (ghi[x] - glo[x]) * conv[x],
+                                   (ghi[y] - glo[y]) * conv[y], fill=False, color="r", lw=1.2))
+        for kind, a, b in segments:
+            ax.plot([a[x], b[x]], [a[y], b[y]], lw=3, color=_PRIMITIVE_COLOURS[kind], label=kind)
+        ax.plot(start[x], start[y], "ko", label="start")
+        if plan.states:
+            ax.plot(plan.states[-1][x] * conv[x], plan.states[-1][y] * conv[y], "o", color="r", label="end")
+        ax.set_xlabel(names[x])
+        ax.set_ylabel(names[y])
+        if n == 0:
+            handles, labels = ax.get_legend_handles_labels()
+            unique = dict(zip(labels, handles))
+            ax.legend(unique.values(), unique.keys(), loc="best", fontsize=8)
+    fig.colorbar(im, ax=fig.axes, shrink=0.5, label="share of the hidden coordinate free and force-closed")
+    ax = fig.add_subplot(2, 2, 4, projection="3d")
+    free = atlas.state(np.argwhere(atlas.holdable))
+    if len(free) > max_points:
+        free = free[np.random.default_rng(0).choice(len(free), max_points, replace=False)]
+    ax.scatter(np.degrees(free[:, 0]), np.degrees(free[:, 2]), free[:, 1], s=2, alpha=0.12, color="#41ab5d")
+    _wire_box(ax, glo, ghi)
+    for kind, a, b in segments:
+        ax.plot([a[0], b[0]], [a[2], b[2]], [a[1], b[1]], lw=3, color=_PRIMITIVE_COLOURS[kind])
+    ax.scatter([start[0]], [start[2]], [start[1]], color="k", s=40)
+    ax.set_xlabel(names[0])
+    ax.set_ylabel(names[2])
+    ax.set_zlabel(names[1])
+    title = f"{scene.name}: {plan.planner}"
+    title += f", cost {plan.cost:.1f} ({plan.mode_switches} changes)" if plan.solved else f": {plan.reason}"
+    fig.suptitle(title)
+    _save(fig, path)
+
+
+def _wire_box(ax, lo: np.ndarray, hi: np.ndarray) -> None:
+    lo_p = (math.degrees(lo[0]), math.degrees(lo[2]), lo[1])
+    hi_p = (math.degrees(hi[0]), math.degrees(hi[2]), hi[1])
+    for i in range(3):
+        for a in (lo_p, hi_p):
+            for b in (lo_p, hi_p):
+                j, k = [x for x in range(3) if x != i]
+                p0 = [0.0] * 3
+                p1 = [0.0] * 3
+                p0[i], p1[i] = lo_p[i], hi_p[i]
+                p0[j] = p1[j] = a[j]
+                p0[k] = p1[k] = b[k]
+                ax.plot(*zip(p0, p1), color="r", lw=0.8, alpha=0.6)
