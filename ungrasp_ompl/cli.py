@@ -33,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,
-                    help="planner iterations (default with a seed: 5000 per second of --time)")
+                    help="planner iterations (default with a seed: 10000 per second of --time)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
 
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")

@@ -55,13 +55,23 @@ def _separated(outline: NDArray, lo: NDArray, hi: NDArray) -> NDArray[np.bool_]:
 
     A vectorised pre-filter of the broad phase: it only clears pairs, FCL decides the rest.
     """
-    edges = np.roll(outline, -1, axis=1) - outline
-    axes = np.stack([-edges[..., 1], edges[..., 0]], axis=-1)  # (N, 4, 2)
-    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-    poly = np.einsum("nak,nvk->nav", axes, outline)
-    box = np.einsum("nak,vk->nav", axes, corners)
-    gap = (poly.min(-1) > box.max(-1)) | (box.min(-1) > poly.max(-1))
-    return gap.any(axis=-1)
+    corners = ((lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1]))
+    gap = np.zeros(len(outline), dtype=bool)
+    for k in range(4):
+        edge = outline[:, (k + 1) % 4] - outline[:, k]
+        ax, az = -edge[:, 1], edge[:, 0]
+        poly = [ax * outline[:, v, 0] + az * outline[:, v, 1] for v in range(4)]
+        box = [ax * cx + az * cz for cx, cz in corners]
+        gap |= (_min(poly) > _max(box)) | (_min(box) > _max(poly))
+    return gap
+
+
+def _min(xs: list[NDArray]) -> NDArray:
+    return np.minimum(np.minimum(xs[0], xs[1]), np.minimum(xs[2], xs[3]))
+
+
+def _max(xs: list[NDArray]) -> NDArray:
+    return np.maximum(np.maximum(xs[0], xs[1]), np.maximum(xs[2], xs[3]))
 
 
 class CollisionChecker:
@@ -115,7 +125,8 @@ class CollisionChecker:
     def _pairs(self, q: NDArray):
         """Broad phase: yields (state index, body name, target name, angle, origin, target object)."""
         for body, (angle, origin, outline) in self._poses(q).items():
-            lo, hi = outline.min(axis=1), outline.max(axis=1)
+            corners = [outline[:, v] for v in range(4)]
+            lo, hi = _min(corners), _max(corners)
             for name, (tlo, thi), target in self._targets:
                 if body == "object" and name == "table":
                     continue
