@@ -33,8 +33,11 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,
-                    help="planner iterations (default with a seed: 10000 per second of --time)")
+                    help="planner iterations (default with a seed: 6000 per second of --time)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
+
+    st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
+    st.add_argument("scene", help="scene file (YAML) with object.outline")
 
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML)")
@@ -62,6 +65,33 @@ def _plan(args: argparse.Namespace) -> int:
     return EXIT_OK if result.solved else EXIT_NO_SOLUTION
 
 
+def _stability(args: argparse.Namespace) -> int:
+    import math
+
+    from .scene import Scene
+    from .stability import analyse
+
+    scene = Scene.from_file(args.scene)
+    if scene.plane is None:
+        raise InputError("object.outline", "is missing: the stability analysis needs the object's outline", scene.source)
+    plane = scene.plane
+    g, b = plane.g.point * 1000, plane.b.point * 1000
+    print(f"{scene.name}: object {scene.object3d.thickness * 1000:.2f} mm thick, l = |GB| = {plane.length * 1000:.2f} mm")
+    print(f"  G ({g[0]:.2f}, {g[1]:.2f}) mm, B ({b[0]:.2f}, {b[1]:.2f}) mm, friction margin "
+          f"{math.degrees(plane.margin):.2f} deg{' (fixed by the scene)' if plane.fixed else ''}")
+    print(f"  effective friction: mu'_G {plane.mu_g:.4f} (from {scene.mu_contacts[0]:.4f}), "
+          f"mu'_B {plane.mu_b:.4f} (from {scene.mu_contacts[2]:.4f})")
+    goal_lo, goal_hi = scene.goal.box()
+    states = [("start", scene.start), ("goal centre", (goal_lo + goal_hi) / 2)]
+    report = analyse(scene, states)
+    print("\n".join(report.lines()))
+    print("  legs: P_theta and P_psi keep full stability (at most one sliding contact); P_dpsi partial "
+          f"(two sliding, no z-moments){'; forbidden by the scene' if scene.options.forbid_partial else ''}")
+    verdict = "self-restoring" if report.self_restoring else "NOT self-restoring"
+    print(f"verdict: the grasp is {verdict} in roll; x-moments {'held' if report.x_stable else 'NOT held'}")
+    return EXIT_OK
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
@@ -78,13 +108,15 @@ def run(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     try:
         args = _parser().parse_args(argv)
-        return {"plan": _plan, "regions": _regions}[args.command](args)
+        return {"plan": _plan, "regions": _regions, "stability": _stability}[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print("ungrasp-ompl: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (e.g. piped into head)
+        return EXIT_OK
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -21,6 +21,8 @@ import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
+from .geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
+from .geometry.plane import ManipulationPlane, choose_plane
 from .mechanics import DigitGeometry, force_closure, kinematic_validity, sliding_signs
 from .mechanics.force_closure import SLIDING_MODELS
 
@@ -60,7 +62,8 @@ class PlanningOptions:
     resolution: lattice step in (theta rad, d over l, psi rad) on which
     force closure, kinematics and collision are checked along motions.
     reverse_primitives: allow the reverse directions (pivot up, thumb
-    closing, finger sliding back). cost weights are in the reference units:
+    closing, finger sliding back). forbid_partial: no leg with two sliding
+    contacts (P_dpsi), so every leg keeps full 3D stability. cost weights are in the reference units:
     1 per degree of theta or psi, d_weight per unit d, mode_change_penalty per
     change of primitive.
     """
@@ -70,6 +73,21 @@ class PlanningOptions:
     resolution: tuple[float, float, float] = (math.radians(0.5), 0.005, math.radians(0.5))
     d_weight: float = 100.0
     mode_change_penalty: float = 1.0
+    forbid_partial: bool = False
+
+
+@dataclass(frozen=True)
+class Object3D:
+    """A thin object: outline in its own plane (metres), thickness, and target pose on the table."""
+
+    outline: Outline
+    thickness: float
+    position: tuple[float, float] = (0.0, 0.0)
+    yaw: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"outline": self.outline.vertices.tolist(), "thickness_m": self.thickness,
+                "target": {"position": list(self.position), "yaw_rad": self.yaw}}
 
 
 @dataclass
@@ -87,6 +105,10 @@ class Scene:
     bounds: NDArray[np.float64]  # (2, 3): low and high of (theta, d, psi)
     options: PlanningOptions = field(default_factory=PlanningOptions)
     source: str | None = None
+    object3d: "Object3D | None" = None  # the object's outline, when the scene has one
+    plane: ManipulationPlane | None = None  # the manipulation plane chosen on that outline
+    mu_contacts: tuple[float, float, float] | None = None  # friction at G, A, B before the plane reduces it
+    max_tilt: float = math.radians(30.0)  # roll range of the prism simulation, rad
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -112,39 +134,64 @@ class Scene:
         r = _Reader(source)
         top = r.mapping(data, "scene")
         r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
-                          "obstacles", "start", "goal", "bounds", "planning"})
+                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability"})
         name = str(top.get("name", default_name))
 
         obj = r.mapping(r.require(top, "object"), "object")
-        r.known(obj, "object", {"length", "thickness"})
-        length = r.number(obj, "object.length", "length", positive=True)
+        r.known(obj, "object", {"length", "thickness", "outline", "target"})
         thickness = r.number(obj, "object.thickness", "thickness", minimum=0.0, default=0.0)
+        mu_contacts = r.friction(top)
+        object3d, plane = None, None
+        if "outline" in obj:
+            if "length" in obj:
+                raise InputError("object.length", "is set by the outline (the distance from G to B); remove it", source)
+            object3d = r.object3d(obj, thickness)
+            fixed = None
+            if "contacts" in top:
+                ct = r.mapping(top["contacts"], "contacts")
+                r.known(ct, "contacts", {"G", "B"})
+                fixed = (r.pair(ct, "contacts.G", "G"), r.pair(ct, "contacts.B", "B"))
+            plane = choose_plane(object3d.outline, mu_contacts[0], mu_contacts[2], object3d.position,
+                                 object3d.yaw, fixed, source)
+            length = plane.length
+            mu = (plane.mu_g, mu_contacts[1], plane.mu_b)
+        else:
+            if "contacts" in top:
+                raise InputError("contacts", "needs object.outline", source)
+            length = r.number(obj, "object.length", "length", positive=True)
+            mu = mu_contacts
         if thickness >= length:
-            raise InputError("object.thickness", "must be smaller than object.length", source)
-
-        mu = r.friction(top)
+            raise InputError("object.thickness", f"must be smaller than the object length ({length:.4g} m)", source)
 
         dig = r.mapping(r.require(top, "digits"), "digits")
         r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
                                 "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
-                                "width", "max_aperture"})
-        alpha = r.number(dig, "digits.alpha", "alpha")
-        if not -1.0 < alpha < 1.0:
-            raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha}", source)
+                                "width", "max_aperture", "finger_tip"})
         lengths = {}
         for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
                     "finger_tip_thickness", "finger_base_thickness", "width"):
             lengths[key] = r.number(dig, f"digits.{key}", key, positive=True) / length
         thumb_len = lengths["thumb_length"]
-        if "finger_length" in dig:
+        if "alpha" in dig:
+            alpha = r.number(dig, "digits.alpha", "alpha")
+        elif "finger_length" in dig:  # alpha follows from the lengths and l
+            alpha = r.number(dig, "digits.finger_length", "finger_length", positive=True) / length - thumb_len
+        else:
+            raise InputError("digits.alpha", "is missing (give alpha, over the object length, or finger_length)", source)
+        if not -1.0 < alpha < 1.0:
+            raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha:.4g}", source)
+        if "finger_length" in dig and "alpha" in dig:
             finger = r.number(dig, "digits.finger_length", "finger_length", positive=True)
             if abs(finger / length - (thumb_len + alpha)) > 1e-6:
-                raise InputError("digits.finger_length", "must equal thumb_length + alpha * object.length "
+                raise InputError("digits.finger_length", "must equal thumb_length + alpha * object length "
                                  f"({(thumb_len + alpha) * length:.6g} m), got {finger:g}", source)
         if thumb_len + alpha <= 0:
             raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive", source)
         max_ap = r.number(dig, "digits.max_aperture", "max_aperture", positive=True, default=math.inf) / length
-        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, **lengths)
+        finger_tip = dig.get("finger_tip", "rounded")
+        if finger_tip not in ("rounded", "flat"):
+            raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
+        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat", **lengths)
 
         obstacles = r.obstacles(top.get("obstacles", []))
 
@@ -188,13 +235,15 @@ class Scene:
 
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
-                                 "mode_change_penalty"})
+                                 "mode_change_penalty", "forbid_partial"})
         model = pl.get("sliding_model", "relaxed")
         if model not in SLIDING_MODELS:
             raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
-        reverse = pl.get("reverse_primitives", False)
-        if not isinstance(reverse, bool):
-            raise InputError("planning.reverse_primitives", "must be true or false", source)
+        reverse = r.flag(pl, "planning.reverse_primitives", "reverse_primitives")
+        forbid_partial = r.flag(pl, "planning.forbid_partial", "forbid_partial")
+        stab = r.mapping(top.get("stability", {}), "stability")
+        r.known(stab, "stability", {"max_tilt_deg"})
+        max_tilt = math.radians(r.number(stab, "stability.max_tilt_deg", "max_tilt_deg", positive=True, default=30.0))
         res = r.mapping(pl.get("resolution", {}), "planning.resolution")
         r.known(res, "planning.resolution", {"theta_deg", "d", "psi_deg"})
         resolution = (
@@ -205,12 +254,14 @@ class Scene:
         options = PlanningOptions(
             sliding_model=model,
             reverse_primitives=reverse,
+            forbid_partial=forbid_partial,
             resolution=resolution,
             d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, default=100.0),
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
                                          minimum=0.0, default=1.0),
         )
-        return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source)
+        return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
+                   object3d, plane, mu_contacts, max_tilt)
 
     # -- queries -----------------------------------------------------------------
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
@@ -360,6 +411,55 @@ class _Reader:
                     self.fail(f"{key}.size", "must be positive")
                 boxes.append(Box(name, (cx - sx / 2, cz - sz / 2), (cx + sx / 2, cz + sz / 2)))
         return boxes
+
+    def flag(self, m: dict, key: str, k: str) -> bool:
+        v = m.get(k, False)
+        if not isinstance(v, bool):
+            self.fail(key, f"must be true or false, got {v!r}")
+        return v
+
+    def points(self, value: Any, key: str) -> list:
+        if not isinstance(value, list) or not value:
+            self.fail(key, "must be a list of [x, y] points")
+        return [self.pair({0: p}, f"{key}[{i}]", 0) for i, p in enumerate(value)]
+
+    def object3d(self, obj: dict, thickness: float) -> Object3D:
+        spec = self.mapping(obj["outline"], "object.outline")
+        shapes = {"polygon", "rounded_polygon", "ellipse", "circle", "curve"}
+        self.known(spec, "object.outline", shapes)
+        if len(spec) != 1:
+            self.fail("object.outline", f"give exactly one of: {', '.join(sorted(shapes))}")
+        (kind, value), = spec.items()
+        key = f"object.outline.{kind}"
+        try:
+            if kind == "polygon":
+                outline = polygon(self.points(value, key))
+            elif kind == "curve":  # a smooth closed curve given by its samples
+                outline = Outline.make(self.points(value, key), smooth=True)
+            elif kind == "rounded_polygon":
+                m = self.mapping(value, key)
+                self.known(m, key, {"vertices", "radius"})
+                radius = m.get("radius")
+                radii = [self.number({0: x}, f"{key}.radius", 0, minimum=0.0) for x in
+                         (radius if isinstance(radius, list) else [self.require(m, "radius")])]
+                outline = rounded_polygon(self.points(self.require(m, "vertices"), f"{key}.vertices"),
+                                          radii if len(radii) > 1 else radii[0])
+            elif kind == "ellipse":
+                m = self.mapping(value, key)
+                self.known(m, key, {"a", "b"})
+                outline = ellipse(self.number(m, f"{key}.a", "a", positive=True), self.number(m, f"{key}.b", "b", positive=True))
+            else:
+                m = self.mapping(value, key)
+                self.known(m, key, {"radius"})
+                rad = self.number(m, f"{key}.radius", "radius", positive=True)
+                outline = ellipse(rad, rad)
+        except OutlineError as exc:
+            self.fail(key, str(exc))
+        tg = self.mapping(obj.get("target", {}), "object.target")
+        self.known(tg, "object.target", {"position", "yaw_deg"})
+        position = self.pair(tg, "object.target.position", "position") if "position" in tg else (0.0, 0.0)
+        yaw = math.radians(self.number(tg, "object.target.yaw_deg", "yaw_deg", default=0.0))
+        return Object3D(outline, thickness, position, yaw)
 
     def pair(self, m: dict, key: str, k: str) -> tuple[float, float]:
         v = self.require(m, k)

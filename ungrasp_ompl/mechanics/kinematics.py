@@ -21,7 +21,9 @@ class DigitGeometry:
     axis; the finger length is therefore thumb_length + alpha. Thicknesses
     are measured from the digit's contact face into its body, at the tip and
     at the base (the digits are trapezoids in the plane). width is the
-    digits' extent normal to the manipulation plane.
+    digits' extent normal to the manipulation plane. flat_finger_tip: the
+    finger ends in a flat face across its width (an edge contact at A)
+    rather than a rounded tip (a point contact).
     """
 
     alpha: float
@@ -32,6 +34,7 @@ class DigitGeometry:
     finger_base_thickness: float = 0.2
     width: float = 0.3
     max_aperture: float = float("inf")
+    flat_finger_tip: bool = False  # a flat tip across the width touches the object along an edge at A
 
     @property
     def finger_length(self) -> float:

@@ -88,6 +88,7 @@ class SecurityAtlas:
         self._mode_ok: dict[tuple[int, int], NDArray[np.bool_]] = {(0, 0): self.holdable}
         self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
         self._reverse = scene.options.reverse_primitives
+        self._no_dpsi = scene.options.forbid_partial  # P_dpsi slides A and B: partial 3D stability
         self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
             tuple(int(x) for x in self.lo_index), self.shape)
 
@@ -183,6 +184,8 @@ class SecurityAtlas:
 
     def leg_secure(self, kind: str, start: tuple[int, int, int], end: tuple[int, int, int]) -> bool:
         """Whether a single leg from lattice index start to end is secure."""
+        if self._no_dpsi and kind in "DX":
+            return False
         if kind == "X":
             return self._diagonal_secure(start, end)
         axis = LEG_AXES[kind][0]

@@ -73,7 +73,7 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64]) -> Latti
     opts = scene.options
     shape = atlas.shape
     n_cells = int(np.prod(shape))
-    moves = _moves(opts.reverse_primitives)
+    moves = [m for m in _moves(opts.reverse_primitives) if not (opts.forbid_partial and m[0] in "DX")]
     n_prim = 6 if opts.reverse_primitives else 3
     start_node = n_cells * n_prim
     cell = np.arange(n_cells).reshape(shape)

@@ -36,6 +36,7 @@ class PrimitiveStep:
     sliding: dict[str, str]
     stability: str
     waypoints: list[list[float]] = field(default_factory=list)
+    x_moments: str | None = None  # how x-moments are held (scenes with an outline)
 
 
 @dataclass
@@ -60,6 +61,10 @@ class Plan:
     resolution: list[float] = field(default_factory=list)
     reason: str | None = None
     lattice_optimum: float | None = None
+    object: dict | None = None  # outline, thickness, target pose (scenes with an outline)
+    manipulation_plane: dict | None = None  # G, B, margin, effective friction, frame in the world
+    mu_eff: dict | None = None  # friction used in the plane at G, A, B
+    stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -73,6 +78,14 @@ class Plan:
     def summary(self) -> str:
         """A few lines for a person: outcome, cost, the primitive sequence."""
         lines = []
+        mp = self.manipulation_plane
+        if mp is not None:
+            g, b = mp["G"], mp["B"]
+            lines.append(f"manipulation plane: G ({g[0] * 1000:.2f}, {g[1] * 1000:.2f}) mm {mp['contacts']['G']['kind']}, "
+                         f"B ({b[0] * 1000:.2f}, {b[1] * 1000:.2f}) mm {mp['contacts']['B']['kind']}, "
+                         f"l = {mp['length_m'] * 1000:.2f} mm, friction margin {math.degrees(mp['margin_rad']):.2f} deg")
+            lines.append(f"effective friction: mu'_G {self.mu_eff['G']:.4f}, mu_A {self.mu_eff['A']:.4f}, "
+                         f"mu'_B {self.mu_eff['B']:.4f}")
         if self.solved:
             lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
                          f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
@@ -83,6 +96,15 @@ class Plan:
                 s, e = _deg(p.start), _deg(p.end)
                 slide = ", ".join(f"{c} slides ({w.replace('_', ' ')})" for c, w in p.sliding.items()) or "all stick"
                 lines.append(f"  {p.type:<7} {s} -> {e}  {slide}; 3D stability {p.stability}")
+            if self.stability_report is not None:
+                rep = self.stability_report
+                lines.append(f"  x-moments (every leg): {rep['x_moments']['mechanism']}"
+                             f" -> {'held' if rep['x_moments']['ok'] else 'NOT held'}")
+                for r in rep["roll_simulation"]:
+                    rng = ", ".join("none" if x is None else f"{x[0]:.2f}..{x[1]:.2f} deg"
+                                    for x in r["restoring_tilt_deg"].values())
+                    lines.append(f"  prism roll at {r['label']}: {'self-restoring' if r['self_restoring'] else 'NOT self-restoring'}"
+                                 f" over tilts {rng}")
         else:
             lines.append(f"no solution for {self.scene} with {self.planner}: {self.reason}")
         return "\n".join(lines)

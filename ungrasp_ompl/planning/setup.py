@@ -49,9 +49,9 @@ UNUSABLE_PLANNERS = {
 }
 
 #: Iterations per second of --time that a seeded run is given (measured: RRT* runs
-#: 8,000-11,000 iterations per second on the reference scenes on 2 cores, so a seeded
-#: run takes about --time seconds there).
-ITERATIONS_PER_SECOND = 10000
+#: 8,000-11,000 iterations per second on the reference scenes and 4,000-5,000 on the
+#: shipped 3D scenes on 2 cores, so a seeded run takes about --time seconds).
+ITERATIONS_PER_SECOND = 6000
 
 
 @dataclass(frozen=True)
@@ -286,7 +286,26 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     if seed is not None:
         ou.RNG.setSeed(seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-    return UngraspSetup(scene, opts).solve()
+    result = UngraspSetup(scene, opts).solve()
+    if scene.plane is not None:
+        add_3d_report(scene, result)
+    return result
+
+
+def add_3d_report(scene: Scene, result: Plan) -> None:
+    """Attach the object, manipulation plane, effective friction and 3D stability to a plan."""
+    from ..stability import analyse
+
+    result.object = scene.object3d.to_dict()
+    result.manipulation_plane = scene.plane.to_dict()
+    result.mu_eff = dict(zip("GAB", scene.mu))
+    states = [("start", scene.start)]
+    if result.solved:
+        states.append(("end", np.array(result.states[-1])))
+    report = analyse(scene, states)
+    result.stability_report = report.to_dict()
+    for p in result.primitives:
+        p.x_moments = report.x_mechanism
 
 
 def _child(scene: Scene, opts: PlannerOptions, queue) -> None:

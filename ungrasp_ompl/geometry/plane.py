@@ -1,0 +1,139 @@
+"""The manipulation plane of a thin object: its contacts G and B, effective friction, world frame.
+
+Data flow: object outline and friction -> planar antipodal pair (G, B) ->
+the vertical plane through G and B, in which the planar planner runs with the
+effective friction mu'_G, mu'_B and length l = |GB| (paper sec. 5.1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import InputError
+from ..mechanics.antipodal import antipodal_pairs, effective_friction, pair_angles
+from .outline import Outline
+
+
+@dataclass(frozen=True)
+class ContactPoint:
+    """G or B on the outline (object frame, metres): where, the nearest inward normal, the contact kind."""
+
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    kind: str  # corner, edge or smooth
+    radius: float  # of curvature, metres: 0 at a corner (cusp), inf on a straight side
+    beta: float  # angle between GB and the inward normal, rad
+
+    @property
+    def edge_contact(self) -> bool:
+        """On a straight side, which is the support line: the table (or the thumb face) touches
+        the whole side, a segment contact that can hold x-moments."""
+        return self.kind == "edge"
+
+
+@dataclass(frozen=True)
+class ManipulationPlane:
+    """The chosen plane: contacts, friction margin (rad), effective friction, and its frame in the world.
+
+    frame: 4x4 homogeneous transform from the plane frame (origin at G on the table,
+    x toward B, z up) to the world, with the object at its target pose.
+    """
+
+    g: ContactPoint
+    b: ContactPoint
+    margin: float
+    mu_g: float
+    mu_b: float
+    frame: NDArray[np.float64]
+    fixed: bool
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.b.point - self.g.point))
+
+    def to_dict(self) -> dict:
+        return {
+            "G": self.g.point.tolist(), "B": self.b.point.tolist(),
+            "length_m": self.length, "margin_rad": self.margin,
+            "mu_eff": {"G": self.mu_g, "B": self.mu_b},
+            "beta_rad": {"G": self.g.beta, "B": self.b.beta},
+            "contacts": {k: {"kind": c.kind, "radius_m": (None if math.isinf(c.radius) else c.radius),
+                             "edge_contact": c.edge_contact} for k, c in (("G", self.g), ("B", self.b))},
+            "frame": self.frame.tolist(), "fixed_by_user": self.fixed,
+        }
+
+
+def plane_frame(g: NDArray, b: NDArray, position: ArrayLike, yaw: float) -> NDArray[np.float64]:
+    """World frame of the manipulation plane for the object lying at (position, yaw) on the table."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    gw = np.asarray(position, dtype=float) + rot @ g
+    bw = np.asarray(position, dtype=float) + rot @ b
+    x = np.append((bw - gw) / np.linalg.norm(bw - gw), 0.0)
+    z = np.array([0.0, 0.0, 1.0])
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2] = x, np.cross(z, x), z
+    frame[:3, 3] = [gw[0], gw[1], 0.0]
+    return frame
+
+
+def choose_plane(
+    outline: Outline,
+    mu_g: float,
+    mu_b: float,
+    position: ArrayLike = (0.0, 0.0),
+    yaw: float = 0.0,
+    fixed: tuple[ArrayLike, ArrayLike] | None = None,
+    source: str | None = None,
+) -> ManipulationPlane:
+    """The antipodal pair with the largest friction margin that fits the task, or the user's fixed pair.
+
+    Among the pairs that fit, those whose contacts can hold x-moments (an edge
+    contact at G or B, or no cusp at either) come first, then the largest
+    margin, then an edge contact at G (resting on the table), then the longest.
+
+    Raises InputError when no pair is antipodal (friction too low) or a fixed
+    pair breaks Assumption 2 or does not lie on the outline.
+    """
+    cand = outline.candidates()
+    phi_g, phi_b = math.atan(mu_g), math.atan(mu_b)
+    if fixed is not None:
+        idx = []
+        for name, p in zip("GB", fixed):
+            dist = np.linalg.norm(cand.points - np.asarray(p, dtype=float), axis=1)
+            k = int(np.argmin(dist))
+            if dist[k] > 1e-4:
+                raise InputError(f"contacts.{name}", f"is {dist[k] * 1000:.2f} mm from the outline's nearest contact "
+                                 "candidate (a vertex or a point on a straight side)", source)
+            idx.append(k)
+        i, j = idx
+        beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
+        for name, beta, phi in (("G", beta_g, phi_g), ("B", beta_b, phi_b)):
+            if beta >= phi:
+                raise InputError(f"contacts.{name}", f"Assumption 2 fails: GB makes {math.degrees(beta):.1f} deg with "
+                                 f"the boundary normal at {name}, not less than its friction angle "
+                                 f"{math.degrees(phi):.1f} deg, so the manipulation plane misses the friction cone", source)
+        margin = float(min(phi_g - beta_g, phi_b - beta_b))
+    else:
+        gi, bi, margins = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, outline.vertices, phi_g, phi_b)
+        if not len(gi):
+            raise InputError("friction", f"no antipodal pair (G, B) on the outline with friction angles "
+                             f"{math.degrees(phi_g):.1f} deg at G and {math.degrees(phi_b):.1f} deg at B: "
+                             "friction too low to hold the object between table and thumb", source)
+        lengths = np.linalg.norm(cand.points[bi] - cand.points[gi], axis=1)
+        edge_g = cand.kind[gi] == "edge"
+        edge_b = cand.kind[bi] == "edge"
+        no_cusp = (cand.radius[gi] > 0) & (cand.radius[bi] > 0)
+        x_stable = edge_g | edge_b | no_cusp  # x-moments from an edge contact or from A's restoring effect
+        # rank: x-moment support first, then the friction margin, an edge resting on the table, length
+        best = np.lexsort((-lengths, ~edge_g, -np.round(margins, 9), ~x_stable))[0]
+        i, j, margin = int(gi[best]), int(bi[best]), float(margins[best])
+        beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
+    g = ContactPoint(cand.points[i], n_g, str(cand.kind[i]), float(cand.radius[i]), float(beta_g))
+    b = ContactPoint(cand.points[j], n_b, str(cand.kind[j]), float(cand.radius[j]), float(beta_b))
+    return ManipulationPlane(g, b, margin, float(effective_friction(mu_g, beta_g)), float(effective_friction(mu_b, beta_b)),
+                             plane_frame(g.point, b.point, position, yaw), fixed is not None)

@@ -1,0 +1,113 @@
+"""Three-dimensional stability of a grasp in its manipulation plane (paper sec. 4, MODEL.md section 5).
+
+Off the plane, y-forces and z-moments are balanced while at most one contact
+slides (full stability); a leg with two sliding contacts (P_dpsi) keeps only
+y-forces (partial). x-moments come directly from an edge contact at G, A or
+B, or else from the restoring effect of A, which needs finite, non-zero radii
+of curvature at G and B (no cusp) and, for an object with thickness, a
+prism that restores itself when rolled about GB (the roll simulation).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .mechanics.roll import RollResult, roll_simulation
+from .scene import Scene
+
+
+@dataclass
+class RollReport:
+    """The prism roll simulation at one state of the plan."""
+
+    label: str
+    state: list[float]
+    result: RollResult
+
+    def ranges_deg(self) -> list[tuple[float, float] | None]:
+        return [None if r is None else (math.degrees(r[0]), math.degrees(r[1]))
+                for r in (d.restoring_range() for d in self.result.directions)]
+
+    def to_dict(self) -> dict:
+        return {"label": self.label, "state": self.state, "self_restoring": self.result.self_restoring,
+                "restoring_tilt_deg": {"positive": self.ranges_deg()[0], "negative": self.ranges_deg()[1]},
+                "max_tilt_deg": math.degrees(self.result.max_tilt)}
+
+
+@dataclass
+class StabilityReport:
+    """Contacts, x-moment mechanism and roll simulation of a scene's grasp."""
+
+    contacts: dict[str, dict]
+    edge_contacts: list[str]
+    x_mechanism: str
+    x_stable: bool
+    rolls: list[RollReport] = field(default_factory=list)
+
+    @property
+    def self_restoring(self) -> bool:
+        return all(r.result.self_restoring for r in self.rolls)
+
+    def to_dict(self) -> dict:
+        return {"contacts": self.contacts, "edge_contacts": self.edge_contacts,
+                "x_moments": {"mechanism": self.x_mechanism, "ok": self.x_stable},
+                "roll_simulation": [r.to_dict() for r in self.rolls],
+                "self_restoring": self.self_restoring}
+
+    def lines(self) -> list[str]:
+        out = []
+        for name in "GAB":
+            c = self.contacts[name]
+            radius = c["radius_m"]
+            line = f"  contact {name}: {c['kind']} ({'edge' if c['edge_contact'] else 'point'} contact)"
+            if name != "A":
+                line += ", radius of curvature " + ("inf" if radius is None else f"{radius * 1000:.2f} mm")
+            out.append(line)
+        out.append(f"  x-moments: {self.x_mechanism} -> {'held' if self.x_stable else 'NOT held'}")
+        for r in self.rolls:
+            q = r.state
+            ranges = ", ".join("none" if x is None else f"{x[0]:.2f}..{x[1]:.2f} deg" for x in r.ranges_deg())
+            verdict = "self-restoring" if r.result.self_restoring else "NOT self-restoring"
+            out.append(f"  prism roll at {r.label} (theta {math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi "
+                       f"{math.degrees(q[2]):.1f} deg): {verdict}; restores over tilts {ranges} "
+                       f"(rolled +/- up to {math.degrees(r.result.max_tilt):.0f} deg)")
+        return out
+
+
+def analyse(scene: Scene, states: list[tuple[str, np.ndarray]]) -> StabilityReport:
+    """Stability of the scene's grasp, with the prism roll simulated at each (label, state)."""
+    if scene.plane is None or scene.object3d is None:
+        raise ValueError("the scene has no object outline")
+    plane, obj = scene.plane, scene.object3d
+    contacts = {}
+    for name, c in (("G", plane.g), ("B", plane.b)):
+        contacts[name] = {"kind": c.kind, "radius_m": None if math.isinf(c.radius) else c.radius,
+                          "edge_contact": c.edge_contact, "point": c.point.tolist()}
+    flat = scene.digits.flat_finger_tip
+    contacts["A"] = {"kind": "flat finger tip" if flat else "rounded finger tip", "radius_m": None,
+                     "edge_contact": flat, "point": None}
+    edges = [n for n in "GAB" if contacts[n]["edge_contact"]]
+    cusps = [n for n, c in (("G", plane.g), ("B", plane.b)) if c.radius == 0.0]
+    phi_a = math.atan(scene.mu[1])
+    rolls = [RollReport(label, [float(x) for x in q],
+                        roll_simulation(obj.outline.vertices, obj.thickness, plane.g.point, plane.b.point,
+                                        plane.g.normal, plane.b.normal, (1.0 - q[1]) * plane.length,
+                                        q[0], q[2], phi_a, max_tilt=scene.max_tilt))
+             for label, q in states]
+    restoring = all(r.result.self_restoring for r in rolls)
+    if edges:
+        mechanism = f"edge contact at {', '.join(edges)} (direct x-couples)"
+        ok = True
+    elif cusps:
+        mechanism = f"restoring effect of A fails: cusp (zero radius of curvature) at {', '.join(cusps)}"
+        ok = False
+    else:
+        mechanism = (f"restoring effect of A (radii of curvature {plane.g.radius * 1000:.2f} mm at G, "
+                     f"{plane.b.radius * 1000:.2f} mm at B)")
+        ok = restoring
+        if not restoring:
+            mechanism += ", but the prism does not restore itself"
+    return StabilityReport(contacts, edges, mechanism, ok, rolls)
