@@ -1,0 +1,217 @@
+"""3D ungrasping: antipodal pairs, effective friction, prism roll, stability classes, bad outlines."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import ROOT, SCENES, run_cli
+from ungrasp_ompl.geometry.outline import OutlineError, ellipse, polygon, rounded_polygon
+from ungrasp_ompl.mechanics.antipodal import antipodal_pairs, effective_friction
+from ungrasp_ompl.mechanics.roll import roll_simulation
+
+SHIPPED_3D = ("guitar_pick", "guitar_pick_1_5mm", "puzzle_piece", "fabric_chalk")
+
+
+def brute_force_pairs(cand, vertices, phi_g, phi_b):
+    """Ordered pairs that are antipodal and supported, by an explicit double loop."""
+    def angle_to_cone(c, lo, hi):
+        a_lo = math.atan2(lo[1], lo[0])
+        width = (math.atan2(hi[1], hi[0]) - a_lo) % (2 * math.pi)
+        rel = (math.atan2(c[1], c[0]) - a_lo) % (2 * math.pi)
+        if rel <= width + 1e-12:
+            return 0.0, c
+        to_lo = 2 * math.pi - rel
+        to_hi = rel - width
+        return (to_lo, lo) if to_lo <= to_hi else (to_hi, hi)
+
+    found = {}
+    pts = cand.points
+    for i in range(len(pts)):
+        for j in range(len(pts)):
+            chord = pts[j] - pts[i]
+            if i == j or np.linalg.norm(chord) < 1e-9:
+                continue
+            chord = chord / np.linalg.norm(chord)
+            bg, ng = angle_to_cone(chord, cand.normal_lo[i], cand.normal_hi[i])
+            bb, nb = angle_to_cone(-chord, cand.normal_lo[j], cand.normal_hi[j])
+            if not (bg < phi_g and bb < phi_b):
+                continue
+            scale = np.max(np.ptp(vertices, axis=0))
+            if all(np.dot(v - pts[i], ng) >= -1e-9 * scale and np.dot(v - pts[j], nb) >= -1e-9 * scale for v in vertices):
+                found[i, j] = min(phi_g - bg, phi_b - bb)
+    return found
+
+
+@pytest.mark.parametrize("outline", [
+    polygon([[0, 0], [0.05, 0], [0, 0.05]]),
+    rounded_polygon([[-0.018, 0], [0.018, 0], [0, 0.036]], [0.008, 0.008, 0.003], arc_samples=8),
+    ellipse(0.02, 0.012, samples=48),
+    polygon([[0, 0], [0.04, 0], [0.04, 0.01], [0.02, 0.004], [0, 0.01]]),  # not convex
+], ids=["triangle", "pick", "ellipse", "notched"])
+def test_antipodal_search_equals_brute_force(outline):
+    cand = outline.candidates(edge_samples=5)
+    phi_g, phi_b = math.atan(0.3), math.atan(0.4)
+    gi, bi, margin = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, outline.vertices, phi_g, phi_b)
+    got = {(int(i), int(j)): float(m) for i, j, m in zip(gi, bi, margin)}
+    want = brute_force_pairs(cand, outline.vertices, phi_g, phi_b)
+    assert got.keys() == want.keys() and len(got) > 0
+    for k in got:
+        assert got[k] == pytest.approx(want[k], abs=1e-9)
+
+
+@pytest.mark.parametrize("phi_deg,gamma_deg", [(17, 0), (17, 5), (17, 12), (30, 20), (11, 10.9)])
+def test_effective_friction_equals_numerical_cone_plane_cut(phi_deg, gamma_deg):
+    """Intersect a friction cone whose axis makes gamma with a plane by sampling directions
+    in the plane; the widest angle inside the cone is atan(mu')."""
+    phi, gamma = math.radians(phi_deg), math.radians(gamma_deg)
+    axis = np.array([0.0, math.sin(gamma), math.cos(gamma)])  # the plane is y = 0
+    t = np.linspace(-math.pi / 2, math.pi / 2, 200001)
+    dirs = np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], axis=1)
+    inside = dirs @ axis >= math.cos(phi)
+    half = np.max(np.abs(t[inside]))
+    assert float(effective_friction(math.tan(phi), gamma)) == pytest.approx(math.tan(half), rel=2e-4)
+
+
+def test_assumption_2_fails_when_the_plane_misses_the_cone():
+    assert np.isnan(effective_friction(math.tan(math.radians(17)), math.radians(17)))
+    assert np.isnan(effective_friction(0.3, math.radians(40)))
+
+
+def rhombus(a=0.04, h=0.008):
+    return polygon([[0, 0], [a / 2, -h], [a, 0], [a / 2, h]])
+
+
+def test_prism_roll_thin_rhombus_matches_hand_solution():
+    """A thin rhombus held at its sharp ends rolls about GB with A on the axis (no moment)
+    until its side vertex (a/2, -h) meets the table or the thumb face, which happens at
+    sin w = (a/2) tan(min(theta, psi)) / h; from then on the force at A restores."""
+    a, h, theta, psi = 0.04, 0.008, math.radians(10), math.radians(20)
+    o = rhombus(a, h)
+    step = math.radians(0.25)
+    res = roll_simulation(o.vertices, 0.0, np.array([0, 0.0]), np.array([a, 0.0]), np.array([1.0, 0]),
+                          np.array([-1.0, 0]), 0.4 * a, theta, psi, math.radians(17), step=step)
+    w1 = math.asin(a / 2 * math.tan(min(theta, psi)) / h)
+    for d in res.directions:
+        lo, hi = d.restoring_range()
+        assert w1 <= lo <= w1 + step + 1e-9
+        assert hi == pytest.approx(res.max_tilt)
+        assert d.events[0] == pytest.approx(w1, abs=1e-6)
+    assert not res.self_restoring  # a cusp gives nothing before w1
+
+
+def test_prism_roll_thick_rhombus_restores_until_friction_angle():
+    """With thickness t, A sits t above the axis; a ray tilted alpha from the normal has
+    moment t sin(w - alpha) about the axis, so some ray restores exactly while w < phi_A
+    (the axis stays GB until the side vertex lands, later here)."""
+    a, h, phi_a = 0.04, 0.008, math.radians(17)
+    step = math.radians(0.25)
+    res = roll_simulation(rhombus(a, h).vertices, 0.003, np.array([0, 0.0]), np.array([a, 0.0]), np.array([1.0, 0]),
+                          np.array([-1.0, 0]), 0.4 * a, math.radians(10), math.radians(20), phi_a, step=step)
+    for d in res.directions:
+        lo, hi = d.restoring_range()
+        assert lo == pytest.approx(step)
+        assert phi_a - step <= hi < phi_a
+    r0, r1 = (d.restoring_range() for d in res.directions)
+    assert r0 == pytest.approx(r1)  # symmetric prism, symmetric answer
+    assert not res.self_restoring
+
+
+def test_prism_roll_thin_smooth_object_restores():
+    o = ellipse(0.02, 0.015)
+    res = roll_simulation(o.vertices, 0.0005, np.array([-0.02, 0.0]), np.array([0.02, 0.0]), np.array([1.0, 0]),
+                          np.array([-1.0, 0]), 0.016, math.radians(10), math.radians(20), math.radians(17))
+    assert res.self_restoring
+
+
+def test_stability_command_tall_prism_and_puzzle_piece():
+    tall = run_cli("stability", str(ROOT / "tests" / "scenes" / "tall_prism.yaml"))
+    assert tall.returncode == 0, tall.stderr
+    assert "NOT self-restoring" in tall.stdout and "restores over tilts" in tall.stdout
+    piece = run_cli("stability", str(SCENES / "puzzle_piece.yaml"))
+    assert piece.returncode == 0, piece.stderr
+    assert "verdict: the grasp is self-restoring" in piece.stdout and "restores over tilts" in piece.stdout
+    assert "edge contact at G" in piece.stdout
+
+
+@pytest.mark.parametrize("name", SHIPPED_3D)
+def test_shipped_objects_plan_with_their_plane(tmp_path, name):
+    proc = run_cli("plan", str(SCENES / f"{name}.yaml"), "--seed", "1", "--time", "1", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "mu'_G" in proc.stdout and "mu'_B" in proc.stdout and "manipulation plane: G" in proc.stdout
+    plan = json.loads((tmp_path / "plan.json").read_text())
+    mp = plan["manipulation_plane"]
+    g, b = np.array(mp["G"]), np.array(mp["B"])
+    assert mp["length_m"] == pytest.approx(np.linalg.norm(b - g))
+    frame = np.array(mp["frame"])
+    np.testing.assert_allclose(frame[:3, :3].T @ frame[:3, :3], np.eye(3), atol=1e-12)  # a rotation
+    np.testing.assert_allclose(frame[:3, 2], [0, 0, 1])  # z up, plane vertical
+    assert plan["mu_eff"]["G"] <= yaml.safe_load((SCENES / f"{name}.yaml").read_text())["friction"]["G"] + 1e-12
+    for p in plan["primitives"]:  # every leg classified
+        expected = "partial" if p["type"] == "P_dpsi" and len(p["sliding"]) == 2 else "full"
+        assert p["stability"] == expected
+        assert p["type"] != "P_theta" or p["sliding"] == {}
+        assert p["type"] != "P_psi" or list(p["sliding"]) == ["B"]
+        assert p["x_moments"] == plan["stability_report"]["x_moments"]["mechanism"]
+    assert "full" in proc.stdout or "partial" in proc.stdout
+
+
+def test_forbidding_partial_legs_removes_p_dpsi(tmp_path):
+    data = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    data["planning"] = {"forbid_partial": True}
+    # the finger may not slide, so d stays; without P_dpsi the pick reaches theta 10 deg, not 3
+    data["goal"] = {"theta_max_deg": 10, "d": [0.77, 0.83], "psi_deg": [35, 41]}
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    proc = run_cli("plan", str(path), "--seed", "1", "--time", "0.5", "--out", str(tmp_path / "o"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    plan = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert all(p["type"] != "P_dpsi" and p["stability"] == "full" for p in plan["primitives"])
+
+
+def scene_with(tmp_path, change, base="guitar_pick"):
+    data = yaml.safe_load((SCENES / f"{base}.yaml").read_text())
+    change(data)
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("outline,word", [
+    ({"polygon": [[0, 0], [0.01, 0]]}, "at least 3 points"),
+    ({"polygon": [[0, 0], [0.02, 0.02], [0.02, 0], [0, 0.02]]}, "self-intersecting"),
+    ({"polygon": [[0, 0], [0.01, 0], [0.02, 0]]}, "zero area"),
+    ({"rounded_polygon": {"vertices": [[0, 0], [0.02, 0], [0.01, 0.02]], "radius": 0.02}}, "do not fit"),
+    ({"ellipse": {"a": 0.02, "b": -1}}, "object.outline.ellipse.b"),
+    ({"polygon": [[0, 0], [0.02, 0]], "ellipse": {"a": 1, "b": 1}}, "exactly one"),
+])
+def test_degenerate_outline_exits_2(tmp_path, outline, word):
+    path = scene_with(tmp_path, lambda d: d["object"].update(outline=outline))
+    proc = run_cli("plan", str(path))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and word in proc.stderr and "object.outline" in proc.stderr
+
+
+def test_no_antipodal_pair_exits_2(tmp_path):
+    path = scene_with(tmp_path, lambda d: d.update(friction={"G": 0.0, "A": 0.3, "B": 0.3}))
+    proc = run_cli("plan", str(path))
+    assert proc.returncode == 2 and "no antipodal pair" in proc.stderr and "friction" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_fixed_pair_breaking_assumption_2_exits_2(tmp_path):
+    """G and B on two sides of the triangle at right angles: the chord is far outside the cones."""
+    path = scene_with(tmp_path, lambda d: d.update(contacts={"G": [0.025, 0.0], "B": [0.0, 0.02]}), "puzzle_piece")
+    proc = run_cli("stability", str(path))
+    assert proc.returncode == 2 and "Assumption 2 fails" in proc.stderr and "contacts." in proc.stderr
+
+
+def test_fixed_pair_is_used(tmp_path):
+    path = scene_with(tmp_path, lambda d: d.update(contacts={"G": [0.025, 0.025], "B": [0.0, 0.0]}), "puzzle_piece")
+    proc = run_cli("stability", str(path))
+    assert proc.returncode == 0, proc.stderr
+    assert "fixed by the scene" in proc.stdout and "G (25.00, 25.00) mm" in proc.stdout
