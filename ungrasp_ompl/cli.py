@@ -1,7 +1,8 @@
 """The ``ungrasp-ompl`` command.
 
 Exit codes: 0 solved (or done); 2 bad input (one line naming the field and
-the reason); 3 no solution (with the reason found).
+the reason); 3 no solution (with the reason found), including a plan the
+robot cannot execute (out of reach, or beyond its limits).
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--iterations", type=int, default=None,
                     help="planner iterations (default with a seed: 6000 per second of --time)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
+    pl.add_argument("--export", default=None, metavar="DIR",
+                    help="also time the plan on the UR5e and its gripper and write the joint trajectory "
+                         "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
 
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline")
@@ -52,8 +56,10 @@ def _plan(args: argparse.Namespace) -> int:
 
     scene = Scene.from_file(args.scene)
     out = Path(args.out) if args.out else None
-    if out is not None and out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} exists and is not a directory")
+    export = Path(args.export) if args.export else None
+    for flag, path in (("--out", out), ("--export", export)):
+        if path is not None and path.exists() and not path.is_dir():
+            raise InputError(flag, f"{path} exists and is not a directory")
     result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations)
     print(result.summary())
     if out is not None:
@@ -62,7 +68,17 @@ def _plan(args: argparse.Namespace) -> int:
         write_text_atomic(out / "plan.json", result.to_json())
         draw_plan(scene, result, out / "cspace.png")
         print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
-    return EXIT_OK if result.solved else EXIT_NO_SOLUTION
+    if not result.solved:
+        return EXIT_NO_SOLUTION
+    if export is not None:
+        from .robot.export import export_all
+        from .robot.pipeline import execute
+
+        execution = execute(scene, result)
+        print(execution.summary())
+        paths = export_all(execution.trajectory, export)
+        print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return EXIT_OK
 
 
 def _stability(args: argparse.Namespace) -> int:

@@ -90,6 +90,31 @@ class Object3D:
                 "target": {"position": list(self.position), "yaw_rad": self.yaw}}
 
 
+@dataclass(frozen=True)
+class RobotOptions:
+    """How the plan is executed by the UR5e and its gripper (the scene's `robot` section).
+
+    base: 4x4 pose of the arm's base in the world (metres). palm_depth: from the UR
+    flange to the gripper's palm (m). home: arm joint angles the approach starts
+    from (rad). contact_speed: cap on the digit tips' speed along the primitives (m/s).
+    termination: 'open' (open the gripper by termination_opening, m) or 'rotate'
+    (turn the gripper about the thumb tip by termination_angle, rad). retreat_height:
+    lift of the palm after termination (m). object_position: where G lies on the
+    table (world x, y, m) for scenes without an outline (those with one use its target pose).
+    """
+
+    base: tuple = ((1.0, 0, 0, 0), (0, 1.0, 0, 0), (0, 0, 1.0, 0), (0, 0, 0, 1.0))
+    palm_depth: float = 0.11
+    home: tuple[float, ...] = (0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0)
+    contact_speed: float = 0.01
+    termination: str = "open"
+    termination_opening: float = 0.01
+    termination_angle: float = math.radians(10.0)
+    retreat_height: float = 0.05
+    object_position: tuple[float, float] = (0.45, 0.10)
+    object_yaw: float = 0.0
+
+
 @dataclass
 class Scene:
     """A planar ungrasping problem (see the module docstring for units)."""
@@ -109,6 +134,7 @@ class Scene:
     plane: ManipulationPlane | None = None  # the manipulation plane chosen on that outline
     mu_contacts: tuple[float, float, float] | None = None  # friction at G, A, B before the plane reduces it
     max_tilt: float = math.radians(30.0)  # roll range of the prism simulation, rad
+    robot: RobotOptions = field(default_factory=RobotOptions)
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -134,7 +160,7 @@ class Scene:
         r = _Reader(source)
         top = r.mapping(data, "scene")
         r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
-                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability"})
+                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot"})
         name = str(top.get("name", default_name))
 
         obj = r.mapping(r.require(top, "object"), "object")
@@ -166,7 +192,7 @@ class Scene:
         dig = r.mapping(r.require(top, "digits"), "digits")
         r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
                                 "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
-                                "width", "max_aperture", "finger_tip"})
+                                "width", "max_aperture", "finger_tip", "palm_width", "palm_length"})
         lengths = {}
         for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
                     "finger_tip_thickness", "finger_base_thickness", "width"):
@@ -191,7 +217,8 @@ class Scene:
         finger_tip = dig.get("finger_tip", "rounded")
         if finger_tip not in ("rounded", "flat"):
             raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
-        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat", **lengths)
+        palm = {k: r.number(dig, f"digits.{k}", k, minimum=0.0, default=0.0) / length for k in ("palm_width", "palm_length")}
+        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat", **lengths, **palm)
 
         obstacles = r.obstacles(top.get("obstacles", []))
 
@@ -260,8 +287,9 @@ class Scene:
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
                                          minimum=0.0, default=1.0),
         )
+        robot = r.robot(top.get("robot", {}))
         return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
-                   object3d, plane, mu_contacts, max_tilt)
+                   object3d, plane, mu_contacts, max_tilt, robot)
 
     # -- queries -----------------------------------------------------------------
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
@@ -411,6 +439,52 @@ class _Reader:
                     self.fail(f"{key}.size", "must be positive")
                 boxes.append(Box(name, (cx - sx / 2, cz - sz / 2), (cx + sx / 2, cz + sz / 2)))
         return boxes
+
+    def robot(self, value: Any) -> RobotOptions:
+        m = self.mapping(value, "robot")
+        self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
+                                "termination_opening", "termination_angle_deg", "retreat_height", "object"})
+        d = RobotOptions()
+        base = d.base
+        if "base" in m:
+            b = self.mapping(m["base"], "robot.base")
+            self.known(b, "robot.base", {"position", "yaw_deg"})
+            pos = b.get("position", [0.0, 0.0, 0.0])
+            if not isinstance(pos, list) or len(pos) != 3:
+                self.fail("robot.base.position", f"must be [x, y, z] in metres, got {pos!r}")
+            x, y, z = (self.number({0: v}, "robot.base.position", 0) for v in pos)
+            yaw = math.radians(self.number(b, "robot.base.yaw_deg", "yaw_deg", default=0.0))
+            c, s_ = math.cos(yaw), math.sin(yaw)
+            base = ((c, -s_, 0.0, x), (s_, c, 0.0, y), (0.0, 0.0, 1.0, z), (0.0, 0.0, 0.0, 1.0))
+        home = d.home
+        if "home_deg" in m:
+            h = m["home_deg"]
+            if not isinstance(h, list) or len(h) != 6:
+                self.fail("robot.home_deg", f"must list 6 joint angles in degrees, got {h!r}")
+            home = tuple(math.radians(self.number({0: v}, "robot.home_deg", 0)) for v in h)
+        term = m.get("termination", d.termination)
+        if term not in ("open", "rotate"):
+            self.fail("robot.termination", f"must be open or rotate, got {term!r}")
+        obj_pos, obj_yaw = d.object_position, d.object_yaw
+        if "object" in m:
+            o = self.mapping(m["object"], "robot.object")
+            self.known(o, "robot.object", {"position", "yaw_deg"})
+            obj_pos = self.pair(o, "robot.object.position", "position") if "position" in o else obj_pos
+            obj_yaw = math.radians(self.number(o, "robot.object.yaw_deg", "yaw_deg", default=0.0))
+        return RobotOptions(
+            base=base,
+            palm_depth=self.number(m, "robot.palm_depth", "palm_depth", positive=True, default=d.palm_depth),
+            home=home,
+            contact_speed=self.number(m, "robot.contact_speed", "contact_speed", positive=True, default=d.contact_speed),
+            termination=term,
+            termination_opening=self.number(m, "robot.termination_opening", "termination_opening", positive=True,
+                                            default=d.termination_opening),
+            termination_angle=math.radians(self.number(m, "robot.termination_angle_deg", "termination_angle_deg",
+                                                       positive=True, default=math.degrees(d.termination_angle))),
+            retreat_height=self.number(m, "robot.retreat_height", "retreat_height", minimum=0.0, default=d.retreat_height),
+            object_position=obj_pos,
+            object_yaw=obj_yaw,
+        )
 
     def flag(self, m: dict, key: str, k: str) -> bool:
         v = m.get(k, False)

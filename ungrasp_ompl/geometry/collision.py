@@ -2,7 +2,8 @@
 
 World frame: the manipulation plane is the xz-plane (G at the origin, x along
 the table, z up), y is normal to it; metres. The finger and the thumb are
-trapezoidal prisms of the digits' width; obstacles are boxes of the plane,
+trapezoidal prisms of the digits' width, and the gripper's housing (when the
+scene gives its size) a box behind their bases; obstacles are boxes of the plane,
 extruded through it; the table fills z < 0. The object is checked against the
 obstacles only (it touches the table at G and the digits at A and B).
 
@@ -20,7 +21,7 @@ import fcl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import digit_polygons
+from ..mechanics.kinematics import aperture, digit_axis, digit_polygons, thumb_normal
 
 if TYPE_CHECKING:
     from ..scene import Scene
@@ -95,6 +96,8 @@ class CollisionChecker:
             "finger": fcl.CollisionObject(_prism(finger, width)),
             "object": fcl.CollisionObject(_prism(body, width)),
         }
+        if dg.palm_width > 0 and dg.palm_length > 0:  # the housing, centred on its own frame
+            self._bodies["palm"] = fcl.CollisionObject(fcl.Box(dg.palm_length * l, width, dg.palm_width * l))
         self._targets: list[tuple[str, NDArray, fcl.CollisionObject]] = []
         big = 1000.0
         table = fcl.CollisionObject(fcl.Box(2 * big, _DEPTH, big), fcl.Transform(np.array([0.0, 0.0, -big / 2 - _TABLE_GAP])))
@@ -116,11 +119,20 @@ class CollisionChecker:
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
         obj = np.stack([-nrm * t / 2, u - nrm * t / 2, u + nrm * t / 2, nrm * t / 2], axis=1)
         beta = th + ps
-        return {
+        poses = {
             "thumb": (beta, thumb[:, 0] * l, thumb * l),
             "finger": (beta, finger[:, 0] * l, finger * l),
             "object": (th, np.zeros((len(q), 2)), obj * l),
         }
+        if "palm" in self._bodies:
+            dg = self.scene.digits
+            back = -digit_axis(th, ps)  # from the tips toward the palm
+            across = thumb_normal(th, ps)
+            centre = thumb[:, 0] + (dg.thumb_length + dg.palm_length / 2) * back + (aperture(d, ps) / 2)[:, None] * across
+            a, c = dg.palm_length / 2 * back, dg.palm_width / 2 * across
+            outline = np.stack([centre - a - c, centre + a - c, centre + a + c, centre - a + c], axis=1)
+            poses["palm"] = (beta, centre * l, outline * l)
+        return poses
 
     def _pairs(self, q: NDArray):
         """Broad phase: yields (state index, body name, target name, angle, origin, target object)."""

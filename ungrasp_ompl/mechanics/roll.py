@@ -174,7 +174,7 @@ def _touch_fraction(pts, origin, axis, angle, k, plane) -> float:
     """Fraction of the rotation step at which vertex k reaches the plane (bisection)."""
     point, up = plane
     lo, hi = 0.0, 1.0
-    for _ in range(40):
+    for _ in range(24):
         mid = (lo + hi) / 2
         p = _rotate(pts[k : k + 1], origin, axis, np.array([angle * mid]))[0, 0]
         if (p - point) @ up < 0:

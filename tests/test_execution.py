@@ -1,0 +1,113 @@
+"""Robot execution of shipped plans: IK accuracy, contacts on the plan, limits, termination, export."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import SCENES, run_cli
+from ungrasp_ompl import Scene, plan
+from ungrasp_ompl.robot.export import read_csv
+from ungrasp_ompl.robot.model import load_ur5e, thumb_tip
+from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, plane_frame
+from ungrasp_ompl.robot.placement import contact_points_world, densify
+from ungrasp_ompl.robot.trajectory import JOINT_NAMES
+
+
+@pytest.fixture(scope="module")
+def pick():
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    result = plan(scene, seed=2, time=0.3)
+    assert result.solved
+    return scene, result
+
+
+@pytest.fixture(scope="module", params=["open", "rotate"])
+def executed(request, pick):
+    scene, result = pick
+    scene = dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, termination=request.param))
+    return scene, result, execute(scene, result)
+
+
+def test_ik_and_contacts_follow_the_plan(executed):
+    scene, result, ex = executed
+    assert ex.ik_residual_m < 1e-4 and ex.ik_residual_rad < 1e-4  # 0.1 mm, 0.1 mrad
+    assert ex.contact_error_m < 1e-4  # at the IK samples and halfway between them
+
+
+def test_timed_thumb_tip_stays_on_its_planned_path(executed):
+    """Along each primitive the timed trajectory's thumb tip (forward kinematics) stays within
+    0.1 mm of the planned contact path."""
+    scene, result, ex = executed
+    states, _ = densify(result, angle_step=math.radians(0.05), d_step=0.0005)
+    planned = contact_points_world(scene, states, plane_frame(scene))["thumb"]
+    traj = ex.trajectory
+    for name, a, b in traj.segments:
+        if not name.startswith("P_"):
+            continue
+        for q in traj.positions[a:b + 1:5]:
+            tip = thumb_tip(ex.robot, q)
+            assert np.min(np.linalg.norm(planned - tip, axis=1)) < 1e-4, name
+
+
+def test_every_sample_within_limits_and_continuous(executed):
+    scene, result, ex = executed
+    traj = ex.trajectory
+    assert check_limits(traj, ex.robot) == []
+    assert np.all(np.diff(traj.times) > 0)
+    assert np.allclose(traj.velocities[[0, -1]], 0.0, atol=1e-9)
+    names = [s[0] for s in traj.segments]
+    assert names[0] == "approach" and names[-2:] == ["termination", "retreat"]
+    assert [n for n in names if n.startswith("P_")] == [p.type for p in result.primitives]
+    # positions follow from velocities (no jumps between phases)
+    dt = np.diff(traj.times)[:, None]
+    predicted = traj.positions[:-1] + traj.velocities[:-1] * dt + 0.5 * traj.accelerations[:-1] * dt ** 2
+    assert np.max(np.abs(predicted - traj.positions[1:])) < 2e-3
+
+
+def test_termination_maneuver(executed):
+    scene, result, ex = executed
+    traj = ex.trajectory
+    name, a, b = next(s for s in traj.segments if s[0] == "termination")
+    tips = np.array([thumb_tip(ex.robot, q) for q in traj.positions[a:b + 1]])
+    assert np.max(np.linalg.norm(tips - tips[0], axis=1)) < 1e-4  # the thumb stays on B
+    opening = traj.positions[a:b + 1, 6]
+    if scene.robot.termination == "open":
+        assert opening[-1] - opening[0] == pytest.approx(scene.robot.termination_opening, abs=1e-6)
+    else:
+        assert np.ptp(opening) < 1e-9
+
+
+def test_export_command_writes_four_files_within_limits(tmp_path):
+    out = tmp_path / "t"
+    proc = run_cli("plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--export", str(out))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "trajectory:" in proc.stdout and "% of their limits" in proc.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["trajectory.csv", "trajectory.json", "trajectory.urscript",
+                                                     "trajectory_ros2.yaml"]
+    with open(out / "trajectory.csv") as f:
+        header = next(csv.reader(f))
+    assert header == ["time_s"] + [f"{j}_{k}" for j in JOINT_NAMES for k in ("pos", "vel", "acc")]
+    traj = read_csv(out / "trajectory.csv")
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base))
+    assert check_limits(traj, robot) == []
+    goal = yaml.safe_load((out / "trajectory_ros2.yaml").read_text())
+    assert goal["trajectory"]["joint_names"] == list(JOINT_NAMES)
+
+
+def test_unreachable_scene_exits_3(tmp_path):
+    data = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    data["robot"] = {"base": {"position": [2.0, 0.0, 0.0]}}
+    path = tmp_path / "far.yaml"
+    path.write_text(yaml.safe_dump(data))
+    proc = run_cli("plan", str(path), "--seed", "1", "--time", "0.2", "--export", str(tmp_path / "x"))
+    assert proc.returncode == 3
+    assert "unreachable" in proc.stderr and "out of reach" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+    assert not (tmp_path / "x").exists()

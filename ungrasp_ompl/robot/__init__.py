@@ -1,0 +1,2 @@
+"""Robot execution: the UR5e and its gripper, placement of the plan in the world, IK,
+time parameterisation and export for a controller."""

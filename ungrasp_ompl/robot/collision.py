@@ -1,0 +1,75 @@
+"""Collision of the arm and gripper with the table and the scene's obstacles (python-fcl).
+
+The robot's collision shapes come from its Pinocchio geometry model (boxes and
+cylinders), placed by forward kinematics. The table fills z < -TABLE_GAP in
+the world: the digits may touch the table's surface (the thumb tip closes in
+on it at the end) but not enter it. The scene's obstacles are boxes of the
+manipulation plane, extruded through it. The held object is excluded. The
+arm's base and shoulder are mounted on the table and are not checked against it.
+"""
+
+from __future__ import annotations
+
+import fcl
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from ..scene import Scene
+from .model import RobotModel, configuration
+
+TABLE_GAP = 5e-4  # m: how far below z = 0 the table's solid starts for the robot checks
+_MOUNTED = ("shoulder_link",)  # links resting on the table with the base
+
+
+def _fcl_shape(geometry) -> fcl.CollisionGeometry:
+    kind = type(geometry).__name__
+    if kind == "Box":
+        return fcl.Box(*(2 * np.asarray(geometry.halfSide)))
+    if kind == "Cylinder":
+        return fcl.Cylinder(geometry.radius, 2 * geometry.halfLength)
+    raise ValueError(f"unsupported collision shape {kind}")
+
+
+class RobotCollisionChecker:
+    """Checks robot configurations against the table and the scene's obstacles."""
+
+    def __init__(self, robot: RobotModel, scene: Scene, plane_frame: NDArray):
+        self.robot = robot
+        self.geom = robot.collision_model
+        self.gdata = pin.GeometryData(self.geom)
+        self.links = [(g.name, fcl.CollisionObject(_fcl_shape(g.geometry))) for g in self.geom.geometryObjects]
+        big = 10.0
+        table = fcl.CollisionObject(fcl.Box(2 * big, 2 * big, big), fcl.Transform(np.array([0.0, 0.0, -big / 2 - TABLE_GAP])))
+        self.targets = [("table", table)]
+        rot = plane_frame[:3, :3]
+        for box in scene.obstacles:
+            lo, hi = np.array(box.lo), np.array(box.hi)
+            size, centre = hi - lo, (hi + lo) / 2
+            world_centre = rot @ np.array([centre[0], 0.0, centre[1]]) + plane_frame[:3, 3]
+            shape = fcl.Box(size[0], 1.0, size[1])  # 1 m through the plane
+            self.targets.append((box.name, fcl.CollisionObject(shape, fcl.Transform(rot, world_centre))))
+        self.request = fcl.CollisionRequest()
+
+    def collisions(self, q: NDArray) -> list[str]:
+        """The colliding (link, obstacle) pairs of one configuration (6 or 7 values) as 'link/obstacle'."""
+        model, data = self.robot.model, self.robot.data
+        pin.forwardKinematics(model, data, configuration(self.robot, q))
+        pin.updateGeometryPlacements(model, data, self.geom, self.gdata)
+        hits = []
+        for (name, obj), placement in zip(self.links, self.gdata.oMg):
+            obj.setTransform(fcl.Transform(placement.rotation, placement.translation))
+            for target_name, target in self.targets:
+                if target_name == "table" and any(name.startswith(m) for m in _MOUNTED):
+                    continue
+                if fcl.collide(obj, target, self.request, fcl.CollisionResult()):
+                    hits.append(f"{name}/{target_name}")
+        return hits
+
+    def first_collision(self, path: NDArray) -> tuple[int, list[str]] | None:
+        """The first configuration of a path (N, 6 or 7) in collision and its pairs, or None."""
+        for i, q in enumerate(path):
+            hits = self.collisions(q)
+            if hits:
+                return i, hits
+        return None

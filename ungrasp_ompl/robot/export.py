@@ -1,0 +1,359 @@
+"""Export a JointTrajectory for a controller: CSV, JSON, a ROS 2 FollowJointTrajectory goal
+(YAML) and a URScript servoj program for a UR e-series arm.
+
+Units everywhere: time in seconds; arm joints in rad, rad/s, rad/s^2; the gripper opening
+in m, m/s, m/s^2. Every file is written atomically (ungrasp_ompl.io): after a failed write
+the file at the path is still its previous self.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from ..io import write_atomic, write_text_atomic
+from .trajectory import ARM_JOINTS, GRIPPER_JOINT, JointTrajectory
+
+#: Version of the CSV/JSON/YAML/URScript layouts written here.
+SCHEMA_VERSION = 1
+
+# libyaml's C emitter and parser when PyYAML has them (the pure-Python ones are ~10x slower)
+_YAML_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+#: UR e-series control period (500 Hz), s: the servoj step of the URScript export.
+CONTROL_PERIOD_S = 0.002
+
+JSON_FORMAT = "ungrasp-ompl joint trajectory"
+UNITS = {
+    "time": "s",
+    "arm_positions": "rad", "arm_velocities": "rad/s", "arm_accelerations": "rad/s^2",
+    "gripper_positions": "m", "gripper_velocities": "m/s", "gripper_accelerations": "m/s^2",
+}
+_CSV_SUFFIXES = ("pos", "vel", "acc")
+#: servoj limits from the URScript manual.
+_LOOKAHEAD_RANGE_S = (0.03, 0.2)
+_GAIN_RANGE = (100.0, 2000.0)
+#: movej to the first pose: modest joint acceleration (rad/s^2) and speed (rad/s).
+_MOVEJ_ACC, _MOVEJ_VEL = 1.0, 0.5
+#: The URScript export commands the gripper again once its opening moved this far, m.
+GRIPPER_RESEND_M = 1e-4
+_FILES = {"csv": "trajectory.csv", "json": "trajectory.json", "ros2_yaml": "trajectory_ros2.yaml",
+          "urscript": "trajectory.urscript"}
+
+PathLike = str | os.PathLike[str]
+Point = tuple[float, list[float], list[float], list[float]]
+
+
+# --- shared helpers ----------------------------------------------------------------------
+
+def _num(x: float) -> str:
+    """A float in full precision (round-trips exactly)."""
+    return format(float(x), ".17g")
+
+
+def _checked(traj: JointTrajectory, source: str | None = None) -> JointTrajectory:
+    """traj itself after checking shapes, finiteness and strictly increasing times."""
+    times = np.asarray(traj.times, dtype=float)
+    n, m = len(times), len(traj.joint_names)
+    if times.ndim != 1 or n == 0:
+        raise InputError("times", "need a non-empty 1-D array", source)
+    for name in ("positions", "velocities", "accelerations"):
+        arr = np.asarray(getattr(traj, name), dtype=float)
+        if arr.shape != (n, m):
+            raise InputError(name, f"shape {arr.shape}, expected ({n}, {m}) (samples x joints)", source)
+        if not np.all(np.isfinite(arr)):
+            raise InputError(name, "contains NaN or infinity", source)
+    if not np.all(np.isfinite(times)):
+        raise InputError("times", "contains NaN or infinity", source)
+    if np.any(np.diff(times) <= 0.0):
+        raise InputError("times", "must be strictly increasing", source)
+    return traj
+
+
+def _make(times: Any, positions: Any, velocities: Any, accelerations: Any, joint_names: Sequence[str],
+          segments: Iterable[tuple[str, int, int]] = (), source: str | None = None) -> JointTrajectory:
+    """Build and check a JointTrajectory from what a reader parsed."""
+    try:
+        traj = JointTrajectory(times=np.asarray(times, dtype=float),
+                               positions=np.asarray(positions, dtype=float).reshape(len(times), -1),
+                               velocities=np.asarray(velocities, dtype=float).reshape(len(times), -1),
+                               accelerations=np.asarray(accelerations, dtype=float).reshape(len(times), -1),
+                               joint_names=tuple(str(j) for j in joint_names),
+                               segments=[(str(s), int(a), int(b)) for s, a, b in segments])
+    except (TypeError, ValueError) as e:
+        raise InputError("points", f"not a numeric samples x joints table ({e})", source) from None
+    return _checked(traj, source)
+
+
+def _points(traj: JointTrajectory) -> list[Point]:
+    """(time, positions, velocities, accelerations) per sample, as plain Python floats."""
+    _checked(traj)
+    return list(zip(np.asarray(traj.times, dtype=float).tolist(),
+                    np.asarray(traj.positions, dtype=float).tolist(),
+                    np.asarray(traj.velocities, dtype=float).tolist(),
+                    np.asarray(traj.accelerations, dtype=float).tolist()))
+
+
+def _field(doc: Any, key: str, kind: type | tuple[type, ...], source: str, where: str = "") -> Any:
+    """doc[key], checked to be a kind (bool is not a number); InputError naming the field otherwise."""
+    name = f"{where}{key}"
+    if not isinstance(doc, dict) or key not in doc:
+        raise InputError(name, "missing", source)
+    value = doc[key]
+    if not isinstance(value, kind) or isinstance(value, bool):
+        kinds = kind if isinstance(kind, tuple) else (kind,)
+        raise InputError(name, f"expected {' or '.join(k.__name__ for k in kinds)}, got {type(value).__name__}",
+                         source)
+    return value
+
+
+# --- CSV -----------------------------------------------------------------------------------
+
+def csv_header(joint_names: Sequence[str]) -> list[str]:
+    """`time_s`, then `<joint>_pos`, `<joint>_vel`, `<joint>_acc` for each joint in order."""
+    return ["time_s"] + [f"{j}_{s}" for j in joint_names for s in _CSV_SUFFIXES]
+
+
+def write_csv(traj: JointTrajectory, path: PathLike) -> None:
+    """One row per sample: time (s), then position, velocity, acceleration of each joint
+    (rad, rad/s, rad/s^2; the gripper in m, m/s, m/s^2), full float precision."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(csv_header(traj.joint_names))
+    for t, q, dq, ddq in _points(traj):
+        w.writerow([_num(t)] + [_num(v) for triple in zip(q, dq, ddq) for v in triple])
+    write_text_atomic(path, buf.getvalue())
+
+
+def read_csv(path: PathLike) -> JointTrajectory:
+    """Read a file written by write_csv (segments are not stored in CSV: empty)."""
+    source = str(path)
+    with open(path, newline="") as f:
+        rows = [r for r in csv.reader(f) if r]
+    if not rows:
+        raise InputError("header", "empty file", source)
+    header = rows[0]
+    if header[0] != "time_s" or (len(header) - 1) % 3 or len(header) < 4:
+        raise InputError("header", "expected time_s then <joint>_pos,_vel,_acc columns", source)
+    joints = [c[: -len("_pos")] for c in header[1::3]]
+    if header != csv_header(joints):
+        raise InputError("header", "expected time_s then <joint>_pos,_vel,_acc columns", source)
+    try:
+        table = np.array([[float(v) for v in r] for r in rows[1:]], dtype=float)
+    except ValueError as e:
+        raise InputError("rows", str(e), source) from None
+    if table.ndim != 2 or table.shape[1] != len(header):
+        raise InputError("rows", f"each row needs {len(header)} values", source)
+    return _make(table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3], joints, (), source)
+
+
+# --- JSON ----------------------------------------------------------------------------------
+
+def write_json(traj: JointTrajectory, path: PathLike) -> None:
+    """A self-describing JSON document (schema_version, units, joint names, segments, points);
+    times in s, arm joints in rad, rad/s, rad/s^2, the gripper in m, m/s, m/s^2."""
+    doc = {
+        "schema_version": SCHEMA_VERSION,
+        "format": JSON_FORMAT,
+        "units": UNITS,
+        "joint_names": list(traj.joint_names),
+        "segments": [{"name": s, "start": int(a), "end": int(b)} for s, a, b in traj.segments],
+        "points": [{"time_s": t, "positions": q, "velocities": dq, "accelerations": ddq}
+                   for t, q, dq, ddq in _points(traj)],
+    }
+    write_text_atomic(path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+
+
+def read_json(path: PathLike) -> JointTrajectory:
+    """Read a file written by write_json; InputError("schema_version", ...) unless it is
+    SCHEMA_VERSION, InputError naming the field for other malformed content."""
+    source = str(path)
+    try:
+        doc = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as e:
+        raise InputError("json", str(e), source) from None
+    if not isinstance(doc, dict) or "schema_version" not in doc:
+        raise InputError("schema_version", f"missing; expected {SCHEMA_VERSION}", source)
+    version = doc["schema_version"]
+    if type(version) is not int or version != SCHEMA_VERSION:
+        raise InputError("schema_version", f"is {version!r}; this reader understands {SCHEMA_VERSION}", source)
+    joints = _field(doc, "joint_names", list, source)
+    segments = [(_field(s, "name", str, source, "segments."), _field(s, "start", int, source, "segments."),
+                 _field(s, "end", int, source, "segments."))
+                for s in _field(doc, "segments", list, source)]
+    points = _field(doc, "points", list, source)
+    cols = {k: [_field(p, k, list, source, "points.") for p in points]
+            for k in ("positions", "velocities", "accelerations")}
+    times = [_field(p, "time_s", (int, float), source, "points.") for p in points]
+    return _make(times, cols["positions"], cols["velocities"], cols["accelerations"], joints, segments, source)
+
+
+# --- ROS 2 ---------------------------------------------------------------------------------
+
+def _duration_msg(t: float) -> dict[str, int]:
+    """builtin_interfaces/Duration of t seconds: sec (int, floor) and nanosec in [0, 1e9)."""
+    sec = math.floor(t)
+    nanosec = round((t - sec) * 1e9)
+    if nanosec >= 1_000_000_000:
+        sec, nanosec = sec + 1, nanosec - 1_000_000_000
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
+def write_ros2_yaml(traj: JointTrajectory, path: PathLike) -> None:
+    """The goal of a ROS 2 control_msgs/action/FollowJointTrajectory as YAML (a
+    trajectory_msgs/JointTrajectory inside); time_from_start is the sample time (s),
+    values in rad, rad/s, rad/s^2 (arm) and m, m/s, m/s^2 (gripper)."""
+    doc = {"trajectory": {
+        "header": {"frame_id": ""},
+        "joint_names": list(traj.joint_names),
+        "points": [{"positions": q, "velocities": dq, "accelerations": ddq, "effort": [],
+                    "time_from_start": _duration_msg(t)} for t, q, dq, ddq in _points(traj)],
+    }}
+    comment = (
+        f"# control_msgs/action/FollowJointTrajectory goal, generated by ungrasp-ompl"
+        f" (export schema version {SCHEMA_VERSION}).\n"
+        "# trajectory is a trajectory_msgs/JointTrajectory: arm joints in rad, rad/s, rad/s^2;\n"
+        f"# '{GRIPPER_JOINT}' is the gripper opening in m, m/s, m/s^2. If the arm's controller\n"
+        f"# (e.g. scaled_joint_trajectory_controller) does not own '{GRIPPER_JOINT}', split that\n"
+        "# column off into a separate goal for the gripper's controller before sending.\n"
+        "# Segments (name: start..end sample index): "
+        + (", ".join(f"{s}: {a}..{b}" for s, a, b in traj.segments) or "none") + "\n")
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w") as f:
+            f.write(comment)
+            yaml.dump(doc, f, Dumper=_YAML_DUMPER, sort_keys=False, default_flow_style=None, width=2**16)
+
+    write_atomic(path, write)
+
+
+def read_ros2_yaml(path: PathLike) -> JointTrajectory:
+    """Read a file written by write_ros2_yaml: times (s) from time_from_start sec + nanosec*1e-9."""
+    source = str(path)
+    try:
+        doc = yaml.load(Path(path).read_text(), Loader=_YAML_LOADER)
+    except yaml.YAMLError as e:
+        raise InputError("yaml", str(e), source) from None
+    msg = _field(doc, "trajectory", dict, source)
+    joints = _field(msg, "joint_names", list, source, "trajectory.")
+    points = _field(msg, "points", list, source, "trajectory.")
+    where = "trajectory.points."
+    cols = {k: [_field(p, k, list, source, where) for p in points]
+            for k in ("positions", "velocities", "accelerations")}
+    stamps = [_field(p, "time_from_start", dict, source, where) for p in points]
+    times = [_field(d, "sec", int, source, where + "time_from_start.")
+             + _field(d, "nanosec", int, source, where + "time_from_start.") * 1e-9 for d in stamps]
+    return _make(times, cols["positions"], cols["velocities"], cols["accelerations"], joints, (), source)
+
+
+# --- URScript ------------------------------------------------------------------------------
+
+def servo_times(traj: JointTrajectory, period: float = CONTROL_PERIOD_S) -> NDArray[np.float64]:
+    """Times (s) of the servo steps: t0 + k*period for k = 0 .. floor(duration/period),
+    the last clipped to the trajectory's end (a 1e-9 tolerance absorbs float rounding
+    of durations that are a whole number of periods)."""
+    n = math.floor(traj.duration / period + 1e-9) + 1
+    t0 = float(traj.times[0])
+    return np.minimum(t0 + period * np.arange(n), float(traj.times[-1]))
+
+
+def _resample(traj: JointTrajectory, times: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Positions of all joints at the given times by linear interpolation, (len(times), joints)."""
+    return np.column_stack([np.interp(times, traj.times, traj.positions[:, j])
+                            for j in range(traj.positions.shape[1])])
+
+
+def _joint_list(q: Iterable[float]) -> str:
+    return "[" + ", ".join(f"{v:.6f}" for v in q) + "]"
+
+
+_GRIPPER_FUNCTION = """\
+  # Gripper hook: command the distance between the digit faces, opening_m in metres.
+  # PLACEHOLDER: integrators replace the body with their gripper's call, e.g. the
+  # RH-P12-RN URCap's command or a message over a socket to its Dynamixel controller
+  # (convert metres to the gripper's own units there). It is called between servoj
+  # steps, so it must not block: return within the 2 ms control period (send the
+  # command, or hand it to a thread), never wait for the motion to finish.
+  def ungrasp_gripper_set_opening(opening_m):
+    textmsg("gripper opening ", opening_m)
+  end
+"""
+
+
+def write_urscript(traj: JointTrajectory, path: PathLike, lookahead_time: float = 0.1,
+                   gain: float = 300) -> None:
+    """A URScript program that streams the arm's positions (rad), linearly resampled every
+    CONTROL_PERIOD_S (s), with servoj, and calls ungrasp_gripper_set_opening(m) whenever the
+    commanded opening has moved more than GRIPPER_RESEND_M (and once at the start).
+    lookahead_time in s (0.03..0.2), gain 100..2000 (servoj's ranges). The trajectory's
+    joints must be ARM_JOINTS then GRIPPER_JOINT."""
+    _checked(traj)
+    if tuple(traj.joint_names) != ARM_JOINTS + (GRIPPER_JOINT,):
+        raise InputError("joint_names", f"URScript export needs {ARM_JOINTS + (GRIPPER_JOINT,)}")
+    if not _LOOKAHEAD_RANGE_S[0] <= lookahead_time <= _LOOKAHEAD_RANGE_S[1]:
+        raise InputError("lookahead_time", f"{lookahead_time} s is outside servoj's {_LOOKAHEAD_RANGE_S}")
+    if not _GAIN_RANGE[0] <= gain <= _GAIN_RANGE[1]:
+        raise InputError("gain", f"{gain} is outside servoj's {_GAIN_RANGE}")
+    times = servo_times(traj)
+    samples = _resample(traj, times)
+    arm, opening = samples[:, : len(ARM_JOINTS)], samples[:, len(ARM_JOINTS)]
+    servo = f"0, 0, {CONTROL_PERIOD_S:g}, {lookahead_time:g}, {gain:g})"
+
+    lines = [
+        f"# Generated by ungrasp-ompl (export schema version {SCHEMA_VERSION}).",
+        f"# Duration {traj.duration:.6f} s: {len(times)} servoj steps of {CONTROL_PERIOD_S:g} s"
+        f" ({1 / CONTROL_PERIOD_S:g} Hz), lookahead {lookahead_time:g} s, gain {gain:g}.",
+        f"# Arm joints (rad): {', '.join(ARM_JOINTS)}; gripper: {GRIPPER_JOINT} (m).",
+        "def ungrasp_program():",
+        _GRIPPER_FUNCTION.rstrip("\n"),
+        "",
+        "  # Set the gripper to the plan's first opening, then move (joint space) to the first pose.",
+        f"  ungrasp_gripper_set_opening({opening[0]:.6f})",
+        f"  movej({_joint_list(arm[0])}, a={_MOVEJ_ACC:g}, v={_MOVEJ_VEL:g})",
+        "  # Stream the trajectory, one servoj per control period.",
+    ]
+    sent = opening[0]
+    for q, x in zip(arm, opening):
+        if abs(x - sent) > GRIPPER_RESEND_M:
+            lines.append(f"  ungrasp_gripper_set_opening({x:.6f})")
+            sent = x
+        lines.append(f"  servoj({_joint_list(q)}, {servo}")
+    lines += ["  stopj(2.0)", "end", "", "ungrasp_program()", ""]
+    write_text_atomic(path, "\n".join(lines))
+
+
+_SERVOJ = re.compile(r"^\s*servoj\(\[([^\]]*)\]")
+
+
+def read_urscript_servo_targets(path: PathLike) -> NDArray[np.float64]:
+    """The arm targets (rad) of the servoj lines of a write_urscript program, (M, 6)."""
+    rows = [[float(v) for v in m.group(1).split(",")]
+            for m in map(_SERVOJ.match, Path(path).read_text().splitlines()) if m]
+    return np.array(rows, dtype=float).reshape(-1, len(ARM_JOINTS))
+
+
+# --- all -----------------------------------------------------------------------------------
+
+def export_all(traj: JointTrajectory, directory: PathLike) -> dict[str, Path]:
+    """Write trajectory.csv, trajectory.json, trajectory_ros2.yaml and trajectory.urscript
+    into directory (created if needed); returns their paths by kind
+    ("csv", "json", "ros2_yaml", "urscript"). Each file is replaced atomically."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    writers = {"csv": write_csv, "json": write_json, "ros2_yaml": write_ros2_yaml, "urscript": write_urscript}
+    paths = {kind: directory / name for kind, name in _FILES.items()}
+    for kind, write in writers.items():
+        write(traj, paths[kind])
+    return paths

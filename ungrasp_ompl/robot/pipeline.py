@@ -1,0 +1,211 @@
+"""The execution pipeline: plan -> palm poses -> IK -> timed joint trajectory (-> export).
+
+Phases: approach (Ruckig, from the home configuration to the start pinch, the
+object held), each primitive (dense Cartesian IK, then TOPPRA along the fixed
+path), the termination maneuver (paper fig. 10d: open the gripper, or turn it
+about the thumb tip; TOPPRA), the retreat (Ruckig, the palm lifted). Every
+sample is checked against the joint limits and for collision of the arm and
+gripper with the table and the obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..planning.result import Plan
+from ..scene import Scene
+from ..errors import UngraspError
+from .collision import RobotCollisionChecker
+from .ik import ik_seed_for, solve_ik, solve_path
+from .model import GripperSpec, RobotModel, load_ur5e
+from .placement import contact_points_world, default_plane_frame, densify, palm_poses
+from .timing import Samples, TimingError, ruckig_move, toppra_path
+from .trajectory import JOINT_NAMES, JointTrajectory
+
+#: Sampling period of the exported trajectory (s); the URScript export resamples at 500 Hz.
+SAMPLE_PERIOD = 0.008
+#: Jerk limits of the free moves: arm (rad/s^3) and gripper (m/s^3).
+ARM_JERK, GRIPPER_JERK = 15.0, 2.0
+
+
+class CollisionError(UngraspError):
+    """The arm or gripper would hit the table or an obstacle."""
+
+    exit_code = 3
+
+
+@dataclass
+class Execution:
+    """The timed trajectory and what was checked on it."""
+
+    trajectory: JointTrajectory
+    robot: RobotModel
+    ik_residual_m: float
+    ik_residual_rad: float
+    contact_error_m: float  # largest distance of a digit tip from its planned place, at and between samples
+    velocity_fraction: float  # largest |qd| / limit over samples and joints
+    acceleration_fraction: float
+    violations: list[str] = field(default_factory=list)
+
+    def summary(self) -> str:
+        tr = self.trajectory
+        return (f"trajectory: {tr.duration:.2f} s, {len(tr.times)} samples; largest joint velocity "
+                f"{100 * self.velocity_fraction:.0f}% and acceleration {100 * self.acceleration_fraction:.0f}% of their "
+                f"limits; IK residual {self.ik_residual_m * 1000:.4f} mm / {self.ik_residual_rad * 1000:.4f} mrad; "
+                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan")
+
+
+def gripper_spec(scene: Scene) -> GripperSpec:
+    """The gripper whose digits the planner assumed (scene digits, metres)."""
+    l, dg = scene.object_length, scene.digits
+    max_opening = 0.106 if math.isinf(dg.max_aperture) else dg.max_aperture * l
+    return GripperSpec(finger_length=dg.finger_length * l, thumb_length=dg.thumb_length * l,
+                       finger_width=dg.width * l, digit_thickness=dg.thumb_tip_thickness * l,
+                       palm_depth=dg.palm_length * l if dg.palm_length else scene.robot.palm_depth,
+                       max_opening=max_opening,
+                       palm_width=dg.palm_width * l if dg.palm_width else GripperSpec.palm_width)
+
+
+def plane_frame(scene: Scene) -> NDArray[np.float64]:
+    if scene.plane is not None:
+        return scene.plane.frame
+    return default_plane_frame(scene.robot.object_position, scene.robot.object_yaw)
+
+
+def _tips(robot: RobotModel, poses: NDArray, openings: NDArray) -> tuple[NDArray, NDArray]:
+    """Thumb and finger tips (N, 3) of palm poses and openings (the gripper's own geometry)."""
+    g = robot.gripper
+    z, x, o = poses[:, :3, 2], poses[:, :3, 0], poses[:, :3, 3]
+    half = openings[:, None] / 2 * x
+    return o - half + g.thumb_length * z, o + half + g.finger_length * z
+
+
+def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel) -> tuple[NDArray, NDArray]:
+    """Palm poses and openings of the termination maneuver, from the last pinch state."""
+    opts = scene.robot
+    n = 40
+    if opts.termination == "open":  # the thumb stays on B: the palm follows half the opening
+        openings = np.minimum(opening + np.linspace(0.0, opts.termination_opening, n + 1)[1:],
+                              robot.gripper.max_opening)
+        poses = np.repeat(pose[None], n, axis=0)
+        poses[:, :3, 3] += (openings - opening)[:, None] / 2 * pose[:3, 0]
+        return poses, openings
+    # turn the palm about the thumb tip, about the plane's normal (palm y), the way that lifts the finger
+    g = robot.gripper
+    tip = pose[:3, 3] - opening / 2 * pose[:3, 0] + g.thumb_length * pose[:3, 2]
+    finger = pose[:3, 3] + opening / 2 * pose[:3, 0] + g.finger_length * pose[:3, 2]
+
+    def turned(angle: float) -> NDArray:
+        k = np.cross(np.eye(3), pose[:3, 1])  # cross-product matrix of the axis
+        rot = np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+        p = np.eye(4)
+        p[:3, :3] = rot @ pose[:3, :3]
+        p[:3, 3] = tip + rot @ (pose[:3, 3] - tip)
+        return p
+
+    def finger_height(angle: float) -> float:
+        p = turned(angle)
+        return float((p[:3, :3] @ (pose[:3, :3].T @ (finger - pose[:3, 3])) + p[:3, 3])[2])
+
+    sign = 1.0 if finger_height(1e-3) > finger_height(-1e-3) else -1.0
+    angles = np.linspace(0.0, sign * opts.termination_angle, n + 1)[1:]
+    return np.array([turned(a) for a in angles]), np.full(n, opening)
+
+
+def execute(scene: Scene, plan: Plan) -> Execution:
+    """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper."""
+    opts = scene.robot
+    robot = load_ur5e(gripper_spec(scene), np.array(opts.base))
+    frame = plane_frame(scene)
+    states, segments = densify(plan)
+    poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)
+    term_poses, term_openings = _termination(scene, poses[-1], openings[-1], robot)
+    all_poses = np.concatenate([poses, term_poses])
+    all_open = np.concatenate([openings, term_openings])
+    q_arm, res_m, res_rad = solve_path(robot, list(all_poses), ik_seed_for(robot, all_poses[0]))
+    retreat = all_poses[-1].copy()
+    retreat[2, 3] += opts.retreat_height
+    q_retreat = solve_ik(robot, retreat, q_arm[-1])
+
+    path = np.column_stack([q_arm, all_open])
+    thumb, finger = _tips(robot, all_poses, all_open)
+    travel = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(np.diff(thumb, axis=0), axis=1),
+                                                         np.linalg.norm(np.diff(finger, axis=0), axis=1)))])
+    v_max, a_max = robot.v_max, robot.a_max
+    j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
+    pieces: list[tuple[str, Samples]] = []
+    home = np.append(np.asarray(opts.home, dtype=float), all_open[0])
+    pieces.append(("approach", ruckig_move(home, path[0], v_max, a_max, j_max, SAMPLE_PERIOD)))
+    for name, first, last in segments + [("termination", len(states) - 1, len(path) - 1)]:
+        pieces.append((name, toppra_path(path[first:last + 1], travel[first:last + 1] - travel[first], v_max, a_max,
+                                         opts.contact_speed, SAMPLE_PERIOD)))
+    end = np.append(q_retreat, all_open[-1])
+    pieces.append(("retreat", ruckig_move(path[-1], end, v_max, a_max, j_max, SAMPLE_PERIOD)))
+    trajectory = _concatenate(pieces)
+    hit = RobotCollisionChecker(robot, scene, frame).first_collision(trajectory.positions)
+    if hit is not None:
+        k, pairs = hit
+        phase = next(name for name, a, b in trajectory.segments if a <= k <= b)
+        raise CollisionError(f"the robot collides during the {phase} at t = {trajectory.times[k]:.2f} s: "
+                             + ", ".join(pairs))
+
+    contact_error = _contact_error(scene, robot, states, frame, q_arm[: len(states)], openings)
+    ex = Execution(trajectory, robot, float(np.max(res_m)), float(np.max(res_rad)), contact_error,
+                   float(np.max(np.abs(trajectory.velocities) / v_max)),
+                   float(np.max(np.abs(trajectory.accelerations) / a_max)))
+    ex.violations = check_limits(trajectory, robot)
+    if ex.violations:
+        raise TimingError("the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]))
+    return ex
+
+
+def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
+    t, q, qd, qdd, segs = [], [], [], [], []
+    offset, count = 0.0, 0
+    for k, (name, s) in enumerate(pieces):
+        skip = 1 if k else 0  # a piece starts where the previous one stopped, at rest
+        t.append(s.t[skip:] + offset)
+        q.append(s.q[skip:]), qd.append(s.qd[skip:]), qdd.append(s.qdd[skip:])
+        start = max(count - 1, 0)
+        count += len(s.t) - skip
+        segs.append((name, start, count - 1))
+        offset += float(s.t[-1])
+    return JointTrajectory(np.concatenate(t), np.concatenate(q), np.concatenate(qd), np.concatenate(qdd),
+                           JOINT_NAMES, segs)
+
+
+def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDArray, q_arm: NDArray,
+                   openings: NDArray) -> float:
+    """Largest distance of the digit tips (forward kinematics) from their planned places, at each
+    sample and halfway between samples (joints interpolated linearly, plan interpolated in state)."""
+    from .model import finger_tip, thumb_tip
+
+    mids = (states[:-1] + states[1:]) / 2
+    q_all = np.concatenate([q_arm, (q_arm[:-1] + q_arm[1:]) / 2])
+    o_all = np.concatenate([openings, (openings[:-1] + openings[1:]) / 2])
+    planned = contact_points_world(scene, np.concatenate([states, mids]), frame)
+    worst = 0.0
+    for i in range(len(q_all)):
+        q7 = np.append(q_all[i], o_all[i])
+        worst = max(worst, float(np.linalg.norm(thumb_tip(robot, q7) - planned["thumb"][i])),
+                    float(np.linalg.norm(finger_tip(robot, q7) - planned["finger"][i])))
+    return worst
+
+
+def check_limits(traj: JointTrajectory, robot: RobotModel, tol: float = 1e-6) -> list[str]:
+    """Every sample within the joint position, velocity and acceleration limits (relative tolerance tol)."""
+    out = []
+    lo, hi = robot.q_lower, robot.q_upper
+    for name, values, bound in (("velocity", traj.velocities, robot.v_max), ("acceleration", traj.accelerations, robot.a_max)):
+        over = np.abs(values) > bound * (1 + tol) + 1e-12
+        for j in np.flatnonzero(over.any(axis=0)):
+            k = int(np.argmax(np.abs(values[:, j])))
+            out.append(f"{JOINT_NAMES[j]} {name} {values[k, j]:.4g} beyond {bound[j]:.4g} at t = {traj.times[k]:.3f} s")
+    bad = (traj.positions < lo - 1e-9) | (traj.positions > hi + 1e-9)
+    for j in np.flatnonzero(bad.any(axis=0)):
+        out.append(f"{JOINT_NAMES[j]} position outside [{lo[j]:.4g}, {hi[j]:.4g}]")
+    return out

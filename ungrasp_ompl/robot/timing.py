@@ -1,0 +1,97 @@
+"""Time parameterisation: TOPPRA along the fixed contact path, Ruckig for the free moves.
+
+Along a primitive the joint path is fixed (the contacts must follow their
+planned kinematics), so only its timing is free: TOPPRA finds the fastest
+timing under joint velocity and acceleration limits and a cap on the contact
+speed (the primitives are quasi-static). The cap enters as one more path
+coordinate, the distance the contacts have travelled, with the cap as its
+velocity limit. Free moves (approach, retreat) are joint-space moves from rest
+to rest with Ruckig under velocity, acceleration and jerk limits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import toppra as ta
+import toppra.algorithm as algo
+import toppra.constraint as constraint
+from numpy.typing import NDArray
+from ruckig import InputParameter, Result, Ruckig, Trajectory
+
+from ..errors import UngraspError
+
+
+#: Share of the joint limits TOPPRA plans against (the rest absorbs its between-grid-point error).
+TOPPRA_MARGIN = 0.9
+
+
+class TimingError(UngraspError):
+    """A path that cannot be timed within the limits."""
+
+    exit_code = 3
+
+
+@dataclass
+class Samples:
+    """A timed piece: times (N,) from 0, positions, velocities, accelerations (N, dof)."""
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qd: NDArray[np.float64]
+    qdd: NDArray[np.float64]
+
+
+def _sample_times(duration: float, period: float) -> NDArray[np.float64]:
+    n = max(1, int(math.ceil(duration / period - 1e-9)))
+    return np.linspace(0.0, duration, n + 1)
+
+
+def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, contact_speed: float,
+                period: float) -> Samples:
+    """Time the joint path q (N, dof) from rest to rest under |qd| <= v_max, |qdd| <= a_max
+    and contact speed <= contact_speed (m/s), travel (N,) being the contacts' cumulative distance (m)."""
+    if len(q) < 2 or np.allclose(q[0], q[-1]) and travel[-1] <= 0:
+        return Samples(np.zeros(1), q[:1].copy(), np.zeros((1, q.shape[1])), np.zeros((1, q.shape[1])))
+    # path parameter: cumulative joint-space length, with the contact travel as an extra coordinate
+    aug = np.column_stack([q, travel])
+    seg = np.linalg.norm(np.diff(aug, axis=0), axis=1)
+    keep = np.concatenate([[True], seg > 1e-12])
+    aug = aug[keep]
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(aug, axis=0), axis=1))])
+    s /= s[-1]
+    path = ta.SplineInterpolator(s, aug)
+    # TOPPRA holds the limits at its grid points; between them the spline may go a little
+    # beyond, so it plans against a margin and every sample is checked after
+    v = np.append(v_max * TOPPRA_MARGIN, contact_speed)
+    a = np.append(a_max * TOPPRA_MARGIN, 1e3)
+    vlim, alim = np.column_stack([-v, v]), np.column_stack([-a, a])
+    instance = algo.TOPPRA([constraint.JointVelocityConstraint(vlim), constraint.JointAccelerationConstraint(alim)],
+                           path, gridpoints=np.linspace(0, 1, min(4000, max(200, 4 * len(aug)))),
+                           parametrizer="ParametrizeConstAccel")
+    traj = instance.compute_trajectory(0, 0)
+    if traj is None:
+        raise TimingError("the contact path cannot be timed within the joint limits (TOPPRA found no parameterisation)")
+    t = _sample_times(traj.duration, period)
+    return Samples(t, traj(t)[:, :-1], traj(t, 1)[:, :-1], traj(t, 2)[:, :-1])
+
+
+def ruckig_move(q_from: NDArray, q_to: NDArray, v_max: NDArray, a_max: NDArray, j_max: NDArray,
+                period: float) -> Samples:
+    """A joint-space move from rest at q_from to rest at q_to with Ruckig (jerk-limited)."""
+    dof = len(q_from)
+    otg = Ruckig(dof)
+    inp = InputParameter(dof)
+    inp.current_position, inp.target_position = list(map(float, q_from)), list(map(float, q_to))
+    inp.current_velocity = inp.current_acceleration = [0.0] * dof
+    inp.target_velocity = inp.target_acceleration = [0.0] * dof
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = (list(map(float, x)) for x in (v_max, a_max, j_max))
+    traj = Trajectory(dof)
+    result = otg.calculate(inp, traj)
+    if result not in (Result.Working, Result.Finished):
+        raise TimingError(f"Ruckig could not plan the free move ({result})")
+    t = _sample_times(traj.duration, period)
+    q, qd, qdd = (np.array(x) for x in zip(*(traj.at_time(float(ti)) for ti in t)))
+    return Samples(t, q, qd, qdd)
