@@ -30,7 +30,7 @@ def _parser() -> argparse.ArgumentParser:
 
     pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
     pl.add_argument("scene", help="scene file (YAML)")
-    pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)})")
+    pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,

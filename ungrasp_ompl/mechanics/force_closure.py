@@ -24,6 +24,9 @@ from numpy.typing import ArrayLike, NDArray
 
 SLIDING_MODELS = ("relaxed", "strict")
 
+#: The reference planner's friction (angles 11, 17, 17 deg at G, A, B), the default mu.
+REFERENCE_MU = (float(np.tan(np.radians(11))), float(np.tan(np.radians(17))), float(np.tan(np.radians(17))))
+
 #: Force closure requires a margin above this (dimensionless, see below).
 FC_TOLERANCE = 1e-9
 
@@ -112,7 +115,7 @@ def force_closure_margin(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = (np.tan(np.radians(11)), np.tan(np.radians(17)), np.tan(np.radians(17))),
+    mu: tuple[float, float, float] = REFERENCE_MU,
     model: str = "relaxed",
 ) -> NDArray[np.float64]:
     """Force-closure margin of each state in the given contact mode, shape (N,).
@@ -171,7 +174,7 @@ def force_closure(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = (np.tan(np.radians(11)), np.tan(np.radians(17)), np.tan(np.radians(17))),
+    mu: tuple[float, float, float] = REFERENCE_MU,
     model: str = "relaxed",
 ) -> NDArray[np.bool_]:
     """True where the contacts are in force closure in the given contact mode, shape (N,)."""

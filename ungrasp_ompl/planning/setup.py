@@ -40,6 +40,9 @@ from .verify import verify_leg
 PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT",
             "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1")
 
+#: The exact lattice search, usable as a planner by this name.
+LATTICE = "lattice"
+
 #: Planners of the ompl wheel that cannot run with Python callbacks, and why.
 UNUSABLE_PLANNERS = {
     name: "its solve() adds roadmap milestones from a second C++ thread, which waits for Python's GIL "
@@ -79,7 +82,7 @@ class PlannerOptions:
         if self.planner in UNUSABLE_PLANNERS:
             raise InputError("planner", f"{self.planner} is not usable here: {UNUSABLE_PLANNERS[self.planner]}")
         if self.planner not in PLANNERS:
-            raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)})")
+            raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS + (LATTICE,))})")
         if not (isinstance(self.time, (int, float)) and math.isfinite(self.time) and self.time > 0):
             raise InputError("time", f"must be a positive number of seconds, got {self.time!r}")
         if self.seed is not None and (not isinstance(self.seed, int) or self.seed < 0 or self.seed >= 2**32):
@@ -202,11 +205,7 @@ class UngraspSetup:
             return plan
         if plan.time_to_first_solution_s is None:
             plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
-        steps = merge_legs(self.atlas, legs)
-        plan.primitives = steps
-        plan.states = [[float(x) for x in scene.start]] + [q for s in steps for q in s.waypoints[1:]]
-        plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(self.atlas, steps)
-        plan.solved = True
+        fill_solution(plan, self.atlas, legs)
         return plan
 
     def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
@@ -228,13 +227,7 @@ class UngraspSetup:
                 return [], f"edge {k} has no secure primitive legs in its travel direction"
             options.append(found)
         legs = _fewest_changes(options)
-        resolution = atlas.res / 2
-        checker = CollisionChecker(self.scene)
-        for k, leg in enumerate(legs):
-            why = verify_leg(self.scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), resolution, checker)
-            if why:
-                return [], f"leg {k} ({leg.primitive}) {why}"
-        return legs, None
+        return legs, verify_legs(self.scene, atlas, legs)
 
     def _no_path_reason(self, plan: Plan) -> str:
         result = lattice_search(self.atlas, self.scene.goal.box())
@@ -247,6 +240,49 @@ class UngraspSetup:
         limit = f"{plan.iterations} iterations" if plan.stopped_by == "iterations" else f"{plan.planning_time_s:.2f} s"
         return (f"no path found within {limit}; the exact lattice search ({at}) finds one of cost "
                 f"{result.cost:.2f}: allow more time or try another planner")
+
+
+def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | None:
+    """Re-check every leg in its travel direction with the exact mechanics and FCL at half the
+    lattice step; the first failure, or None."""
+    checker = CollisionChecker(scene)
+    for k, leg in enumerate(legs):
+        why = verify_leg(scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), atlas.res / 2, checker)
+        if why:
+            return f"leg {k} ({leg.primitive}) {why}"
+    return None
+
+
+def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg]) -> None:
+    """Record verified legs in a plan: merged primitives, corner states, cost; marks it solved."""
+    steps = merge_legs(atlas, legs)
+    plan.primitives = steps
+    plan.states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
+    plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
+    plan.solved = True
+
+
+def lattice_plan(scene: Scene, seed: int | None = None) -> Plan:
+    """The exact optimum on the scene's lattice as a plan (the 'lattice' planner): a Dijkstra search
+    with the planners' cost, its legs re-validated like any planner's path."""
+    t0 = time.perf_counter()
+    atlas = SecurityAtlas(scene, planning_box(scene))
+    t1 = time.perf_counter()
+    result = lattice_search(atlas, scene.goal.box())
+    t2 = time.perf_counter()
+    plan = Plan(solved=False, scene=scene.name, planner=LATTICE, seed=seed, sliding_model=scene.options.sliding_model,
+                setup_time_s=t1 - t0, planning_time_s=t2 - t1, resolution=[float(x) for x in atlas.res],
+                stopped_by="planner", lattice_optimum=result.cost)
+    if not result.reachable:
+        plan.reason = "no secure path exists: the exact search over the primitive lattice reaches no goal state"
+        return plan
+    problem = verify_legs(scene, atlas, result.legs)
+    if problem:
+        plan.reason = f"the lattice path fails re-validation: {problem}"
+        return plan
+    plan.time_to_first_solution_s = t2 - t1
+    fill_solution(plan, atlas, result.legs)
+    return plan
 
 
 def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
@@ -280,6 +316,11 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     With a seed the result is reproducible: the same seed gives the same plan
     (timing fields aside).
     """
+    if planner == LATTICE:
+        result = lattice_plan(scene, seed)
+        if scene.plane is not None:
+            add_3d_report(scene, result)
+        return result
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
     if seed is not None and _OMPL_USED:
         return _plan_in_child(scene, opts)
