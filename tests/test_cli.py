@@ -168,3 +168,19 @@ def test_out_must_be_a_directory(tmp_path):
 
 def test_unknown_command_exits_2():
     assert_one_line_error(run_cli("fly"), "invalid choice")
+
+
+def test_bench_and_sweep_commands(tmp_path):
+    """The commands a user runs: a tiny benchmark and sweep, each writing its files."""
+    out = tmp_path / "b"
+    proc = run_cli("bench", str(SCENES / "reference_asymmetric.yaml"), "--planners", "RRTConnect,lattice",
+                   "--runs", "1", "--time", "0.3", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "gap %" in proc.stdout and (out / "benchmark.db").is_file() and (out / "summary.csv").is_file()
+    proc = run_cli("sweep", str(SCENES / "reference_asymmetric.yaml"), "--alpha", "0:0.47:0.47", "--runs", "1",
+                   "--time", "0.3", "--out", str(tmp_path / "s"))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "s" / "sweep.csv").is_file() and (tmp_path / "s" / "sweep.png").is_file()
+    assert_one_line_error(run_cli("bench", str(SCENES / "reference_asymmetric.yaml"), "--planners", "RRTfast"),
+                          "--planners")
+    assert_one_line_error(run_cli("sweep", str(SCENES / "reference_asymmetric.yaml"), "--alpha", "x"), "--alpha")

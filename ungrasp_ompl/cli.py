@@ -21,6 +21,11 @@ class _Parser(argparse.ArgumentParser):
         raise InputError("arguments", message)
 
 
+#: Planners `bench` runs by default: OMPL's asymptotically optimal and feasibility planners
+#: that work with Python callbacks, and the exact lattice search as the yardstick.
+BENCH_PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "FMT", "AORRTC", "RRTConnect", "lattice")
+
+
 def _parser() -> argparse.ArgumentParser:
     from .planning import PLANNERS
 
@@ -39,6 +44,26 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
                          "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
+
+    bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
+    bn.add_argument("scenes", nargs="+", help="scene files (YAML)")
+    bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
+                    help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
+    bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
+    bn.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
+    bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
+    bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
+
+    sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
+    sw.add_argument("scene", help="scene file (YAML)")
+    sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
+    sw.add_argument("--planner", default="RRTstar")
+    sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
+    sw.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    sw.add_argument("--jobs", type=int, default=2)
+    sw.add_argument("--seed", type=int, default=1)
+    sw.add_argument("--out", default="sweep", help="output directory (default ./sweep)")
 
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline")
@@ -108,6 +133,22 @@ def _stability(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _bench(args: argparse.Namespace) -> int:
+    from .benchmark import run_benchmark
+
+    planners = [p.strip() for p in args.planners.split(",") if p.strip()]
+    run_benchmark(args.scenes, planners, args.runs, args.time, args.jobs, args.out, seed=args.seed)
+    return EXIT_OK
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from .benchmark import parse_alpha_range, run_sweep
+
+    run_sweep(args.scene, parse_alpha_range(args.alpha), args.runs, args.time, args.jobs, args.out,
+              planner=args.planner, seed=args.seed)
+    return EXIT_OK
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
@@ -124,7 +165,8 @@ def run(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     try:
         args = _parser().parse_args(argv)
-        return {"plan": _plan, "regions": _regions, "stability": _stability}[args.command](args)
+        commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep}
+        return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)
         return exc.exit_code
