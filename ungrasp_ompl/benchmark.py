@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .planning.setup import HANG_GRACE_S
 from .io import write_atomic, write_text_atomic
 from .planning.setup import PLANNERS, UNUSABLE_PLANNERS, PlannerOptions
 from .scene import Scene
@@ -58,10 +59,9 @@ LATTICE = "lattice"
 #: (lattice only) the exhaustive search reaches no goal state.
 STATUSES = ("exact", "timeout", "invalid", "unsolvable_start_or_goal", "infeasible", "hung")
 
-#: Seconds beyond its time limit a run may take (setup, re-validation) before its worker is
-#: killed and the run counted as hung: a planner that stops checking its termination
-#: condition (seen with AORRTC on directed motions) must not stall the benchmark.
-HANG_GRACE_S = 60.0
+# A run may take HANG_GRACE_S seconds beyond its time limit (setup, re-validation) before its
+# worker is killed and the run counted as hung: a planner that stops checking its termination
+# condition (AORRTC, see planning.setup.UNRULY_PLANNERS) must not stall the benchmark.
 #: Prefix of Plan.reason when the returned path fails re-validation.
 _INVALID_PREFIX = "the returned path fails re-validation"
 #: OMPL version written into the logs when the package does not say.
@@ -248,6 +248,9 @@ def _run_in_worker(task: Task, sender) -> None:
         sender.send(exc)
     finally:
         sender.close()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)  # skip interpreter finalisation, where nanobind lists OMPL objects still alive
 
 
 def _failed(task: Task, status: str, wall: float) -> RunResult:

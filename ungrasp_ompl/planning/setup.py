@@ -15,6 +15,7 @@ child process.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass
 
@@ -39,6 +40,14 @@ from .verify import verify_leg
 #: OMPL geometric planners that can be asked for by name.
 PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT",
             "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1")
+
+#: Planners that may spin in C++ without checking their termination condition, and what was seen.
+UNRULY_PLANNERS = {
+    "AORRTC": "in the ompl 2.0.1 wheel its tree growth can loop in nearest-neighbour search without "
+              "checking the time limit (seen in 5 of 10 runs on reference_asymmetric)",
+}
+#: Seconds a run may take beyond its time cap before it counts as hung.
+HANG_GRACE_S = 60.0
 
 #: The exact lattice search, usable as a planner by this name.
 LATTICE = "lattice"
@@ -311,10 +320,11 @@ _OMPL_USED: list[bool] = []  # whether this process has built a planner (and so 
 
 def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
          iterations: int | None = None, **options) -> Plan:
-    """Plan an ungrasp for scene with an OMPL planner by name; see PlannerOptions.
+    """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions.
 
     With a seed the result is reproducible: the same seed gives the same plan
-    (timing fields aside).
+    (timing fields aside). A planner known to ignore its time limit runs in a
+    child process that is stopped HANG_GRACE_S seconds after its cap.
     """
     if planner == LATTICE:
         result = lattice_plan(scene, seed)
@@ -322,10 +332,16 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
             add_3d_report(scene, result)
         return result
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
+    if planner in UNRULY_PLANNERS:
+        return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
     if seed is not None and _OMPL_USED:
         return _plan_in_child(scene, opts)
-    if seed is not None:
-        ou.RNG.setSeed(seed)
+    return _plan_here(scene, opts)
+
+
+def _plan_here(scene: Scene, opts: PlannerOptions) -> Plan:
+    if opts.seed is not None:
+        ou.RNG.setSeed(opts.seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     result = UngraspSetup(scene, opts).solve()
     if scene.plane is not None:
@@ -351,19 +367,32 @@ def add_3d_report(scene: Scene, result: Plan) -> None:
 
 def _child(scene: Scene, opts: PlannerOptions, queue) -> None:
     try:
-        queue.put(plan(scene, **{k: getattr(opts, k) for k in opts.__dataclass_fields__}))
+        queue.put(_plan_here(scene, opts))
     except BaseException as exc:  # handed back to the parent
         queue.put(exc)
+    queue.close()
+    queue.join_thread()  # the result is in the pipe
+    os._exit(0)  # skip interpreter finalisation, where nanobind lists OMPL objects still alive
 
 
-def _plan_in_child(scene: Scene, opts: PlannerOptions) -> Plan:
+def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = None) -> Plan:
+    """Plan in a fresh process (its own OMPL RNG); stop it after deadline seconds if given."""
     import multiprocessing as mp
+    import queue as queues
 
     ctx = mp.get_context("spawn")
     queue = ctx.Queue()
-    proc = ctx.Process(target=_child, args=(scene, opts, queue))
+    proc = ctx.Process(target=_child, args=(scene, opts, queue), daemon=True)
     proc.start()
-    result = queue.get()
+    try:
+        result = queue.get(timeout=deadline)
+    except queues.Empty:
+        proc.kill()
+        proc.join()
+        return Plan(solved=False, scene=scene.name, planner=opts.planner, seed=opts.seed,
+                    sliding_model=scene.options.sliding_model, stopped_by="killed",
+                    planning_time_s=deadline, reason=f"{opts.planner} did not stop within {deadline:.0f} s and was "
+                    f"killed: {UNRULY_PLANNERS[opts.planner]}")
     proc.join()
     if isinstance(result, BaseException):
         raise result
