@@ -171,8 +171,7 @@ def _lattice_ends_hold(atlas, start: np.ndarray, goal_box: np.ndarray) -> bool:
     i = atlas.index(start)
     if i is None or not atlas.holdable[i]:
         return False
-    q = atlas.state(np.argwhere(atlas.holdable))
-    return bool(np.any(np.all((q >= goal_box[0] - 1e-9) & (q <= goal_box[1] + 1e-9), axis=1)))
+    return bool(atlas.holdable_in(goal_box).any())
 
 
 def run_task(task: Task) -> RunResult:

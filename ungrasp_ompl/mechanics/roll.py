@@ -36,7 +36,6 @@ class RollDirection:
     tilts: NDArray[np.float64]
     restoring: NDArray[np.bool_]
     events: list[float] = field(default_factory=list)
-    blocked_at: float | None = None  # tilt where the supports stop the roll, if they do
 
     def restoring_range(self) -> tuple[float, float] | None:
         """The tilt interval (rad) over which the grasp restores itself, from the first restoring
@@ -166,7 +165,7 @@ def roll_simulation(
             axis /= np.linalg.norm(axis)
             moments = np.cross(a_pt - contacts[0], forces) @ (sign * axis)
             restoring.append(bool(np.min(moments) < -1e-12 * length))
-        directions.append(RollDirection(sign, tilts.copy(), np.array(restoring), events, done if wedged else None))
+        directions.append(RollDirection(sign, tilts.copy(), np.array(restoring), events))
     return RollResult(directions, float(tilts[-1]), onset)
 
 

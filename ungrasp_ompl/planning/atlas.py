@@ -119,6 +119,12 @@ class SecurityAtlas:
         idx = np.asarray(idx)
         return self.origin + self.res * (idx + self.lo_index)
 
+    def holdable_in(self, box: ArrayLike) -> NDArray[np.bool_]:
+        """Holdable lattice states inside box ((2, 3) corners), shape of the lattice."""
+        box = np.asarray(box, dtype=float)
+        inside = [(ax >= box[0, a] - 1e-9) & (ax <= box[1, a] + 1e-9) for a, ax in enumerate(self.axes)]
+        return self.holdable & inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
+
     # -- per-mode security -------------------------------------------------------
     def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:
         out = np.zeros(len(self._grid), dtype=bool)

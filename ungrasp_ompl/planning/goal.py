@@ -20,10 +20,7 @@ class LatticeGoalRegion(ob.GoalSampleableRegion):
         super().__init__(si)
         self.setThreshold(1e-9)
         self.lo, self.hi = goal.box()
-        idx = np.argwhere(atlas.holdable)
-        states = atlas.state(idx)
-        inside = np.all((states >= self.lo - 1e-9) & (states <= self.hi + 1e-9), axis=1)
-        self.states = states[inside]
+        self.states = atlas.state(np.argwhere(atlas.holdable_in(goal.box())))
         self.rng = rng
 
     def distanceGoal(self, state) -> float:

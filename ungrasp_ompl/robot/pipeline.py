@@ -16,12 +16,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import UngraspError
 from ..planning.result import Plan
 from ..scene import Scene
-from ..errors import UngraspError
 from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_ik, solve_path
-from .model import GripperSpec, RobotModel, load_ur5e
+from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
 from .placement import contact_points_world, default_plane_frame, densify, palm_poses
 from .timing import Samples, TimingError, ruckig_move, toppra_path
 from .trajectory import JOINT_NAMES, JointTrajectory
@@ -95,9 +95,7 @@ def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel)
         poses[:, :3, 3] += (openings - opening)[:, None] / 2 * pose[:3, 0]
         return poses, openings
     # turn the palm about the thumb tip, about the plane's normal (palm y), the way that lifts the finger
-    g = robot.gripper
-    tip = pose[:3, 3] - opening / 2 * pose[:3, 0] + g.thumb_length * pose[:3, 2]
-    finger = pose[:3, 3] + opening / 2 * pose[:3, 0] + g.finger_length * pose[:3, 2]
+    tip = _tips(robot, pose[None], np.array([opening]))[0][0]
 
     def turned(angle: float) -> NDArray:
         k = np.cross(np.eye(3), pose[:3, 1])  # cross-product matrix of the axis
@@ -108,8 +106,7 @@ def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel)
         return p
 
     def finger_height(angle: float) -> float:
-        p = turned(angle)
-        return float((p[:3, :3] @ (pose[:3, :3].T @ (finger - pose[:3, 3])) + p[:3, 3])[2])
+        return float(_tips(robot, turned(angle)[None], np.array([opening]))[1][0, 2])
 
     sign = 1.0 if finger_height(1e-3) > finger_height(-1e-3) else -1.0
     angles = np.linspace(0.0, sign * opts.termination_angle, n + 1)[1:]
@@ -182,8 +179,6 @@ def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDAr
                    openings: NDArray) -> float:
     """Largest distance of the digit tips (forward kinematics) from their planned places, at each
     sample and halfway between samples (joints interpolated linearly, plan interpolated in state)."""
-    from .model import finger_tip, thumb_tip
-
     mids = (states[:-1] + states[1:]) / 2
     q_all = np.concatenate([q_arm, (q_arm[:-1] + q_arm[1:]) / 2])
     o_all = np.concatenate([openings, (openings[:-1] + openings[1:]) / 2])
