@@ -135,6 +135,7 @@ class Scene:
     mu_contacts: tuple[float, float, float] | None = None  # friction at G, A, B before the plane reduces it
     max_tilt: float = math.radians(30.0)  # roll range of the prism simulation, rad
     robot: RobotOptions = field(default_factory=RobotOptions)
+    solids: tuple = ()  # convex Solids fixed in the world (a layout's frame walls, pieces placed already)
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -171,7 +172,7 @@ class Scene:
         if "outline" in obj:
             if "length" in obj:
                 raise InputError("object.length", "is set by the outline (the distance from G to B); remove it", source)
-            object3d = r.object3d(obj, thickness)
+            object3d = r.object3d(obj["outline"], obj.get("target", {}), thickness)
             fixed = None
             if "contacts" in top:
                 ct = r.mapping(top["contacts"], "contacts")
@@ -497,14 +498,15 @@ class _Reader:
             self.fail(key, "must be a list of [x, y] points")
         return [self.pair({0: p}, f"{key}[{i}]", 0) for i, p in enumerate(value)]
 
-    def object3d(self, obj: dict, thickness: float) -> Object3D:
-        spec = self.mapping(obj["outline"], "object.outline")
+    def object3d(self, outline: Any, target: Any, thickness: float, prefix: str = "object") -> Object3D:
+        """An outline and its target pose, the fields named under prefix (object, or pieces[i] of a layout)."""
+        spec = self.mapping(outline, f"{prefix}.outline")
         shapes = {"polygon", "rounded_polygon", "ellipse", "circle", "curve"}
-        self.known(spec, "object.outline", shapes)
+        self.known(spec, f"{prefix}.outline", shapes)
         if len(spec) != 1:
-            self.fail("object.outline", f"give exactly one of: {', '.join(sorted(shapes))}")
+            self.fail(f"{prefix}.outline", f"give exactly one of: {', '.join(sorted(shapes))}")
         (kind, value), = spec.items()
-        key = f"object.outline.{kind}"
+        key = f"{prefix}.outline.{kind}"
         try:
             if kind == "polygon":
                 outline = polygon(self.points(value, key))
@@ -529,10 +531,10 @@ class _Reader:
                 outline = ellipse(rad, rad)
         except OutlineError as exc:
             self.fail(key, str(exc))
-        tg = self.mapping(obj.get("target", {}), "object.target")
-        self.known(tg, "object.target", {"position", "yaw_deg"})
-        position = self.pair(tg, "object.target.position", "position") if "position" in tg else (0.0, 0.0)
-        yaw = math.radians(self.number(tg, "object.target.yaw_deg", "yaw_deg", default=0.0))
+        tg = self.mapping(target, f"{prefix}.target")
+        self.known(tg, f"{prefix}.target", {"position", "yaw_deg"})
+        position = self.pair(tg, f"{prefix}.target.position", "position") if "position" in tg else (0.0, 0.0)
+        yaw = math.radians(self.number(tg, f"{prefix}.target.yaw_deg", "yaw_deg", default=0.0))
         return Object3D(outline, thickness, position, yaw)
 
     def pair(self, m: dict, key: str, k: str) -> tuple[float, float]:

@@ -4,8 +4,12 @@ World frame: the manipulation plane is the xz-plane (G at the origin, x along
 the table, z up), y is normal to it; metres. The finger and the thumb are
 trapezoidal prisms of the digits' width, and the gripper's housing (when the
 scene gives its size) a box behind their bases; obstacles are boxes of the plane,
-extruded through it; the table fills z < 0. The object is checked against the
-obstacles only (it touches the table at G and the digits at A and B).
+extruded through it; the table fills z < 0. The scene's solids (convex bodies
+fixed in the world: a frame's walls, pieces placed already) are checked in 3D.
+The object is checked against the obstacles and solids only (it touches the
+table at G and the digits at A and B): as a slab of the digits' width along GB,
+or, when the scene has its outline, as the whole outline's convex prism, tilted
+by theta about the plane's normal through G.
 
 A numpy broad phase (bounding boxes in the plane, vectorised over states)
 sends only the state/body pairs that may touch to FCL's narrow phase.
@@ -22,11 +26,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics.kinematics import aperture, digit_axis, digit_polygons, thumb_normal
+from .solids import convex_shape
 
 if TYPE_CHECKING:
     from ..scene import Scene
 
-_DEPTH = 10.0  # extent of table and obstacles normal to the plane, m
+_DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
 
 
@@ -75,6 +80,16 @@ def _max(xs: list[NDArray]) -> NDArray:
     return np.maximum(np.maximum(xs[0], xs[1]), np.maximum(xs[2], xs[3]))
 
 
+def _outline_in_plane(scene: "Scene") -> NDArray[np.float64]:
+    """The object's outline at its target pose in plane coordinates (x along GB from G, y the
+    plane's normal), metres, (N, 2)."""
+    obj = scene.object3d
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    world = obj.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(obj.position)
+    frame = scene.plane.frame
+    return (world - frame[:2, 3]) @ frame[:2, :2]
+
+
 class CollisionChecker:
     """Collision checks of states (theta, d, psi) of one scene, vectorised over states."""
 
@@ -89,24 +104,41 @@ class CollisionChecker:
         finger = np.array([[0, 0], [dg.finger_length, 0], [dg.finger_length, dg.finger_base_thickness],
                            [0, dg.finger_tip_thickness]]) * l
         t = max(scene.object_thickness, 1e-6)
-        body = np.array([[0, -t / 2], [l, -t / 2], [l, t / 2], [0, t / 2]])
         width = dg.width * l
         self._bodies = {
             "thumb": fcl.CollisionObject(_prism(thumb, width)),
             "finger": fcl.CollisionObject(_prism(finger, width)),
-            "object": fcl.CollisionObject(_prism(body, width)),
         }
+        self._object_extent = None  # (x_min, x_max) of the outline's prism along GB, m
+        # extent of each body normal to the plane (y, m): the digits and housing are as wide as the digits
+        self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "palm", "object")}
+        if scene.object3d is not None and scene.plane is not None:
+            pts = _outline_in_plane(scene)
+            lo, hi = np.column_stack([pts, np.zeros(len(pts))]), np.column_stack([pts, np.full(len(pts), t)])
+            self._bodies["object"] = fcl.CollisionObject(convex_shape(np.vstack([lo, hi])))
+            self._object_extent = (float(pts[:, 0].min()), float(pts[:, 0].max()))
+            self._y_range["object"] = (float(pts[:, 1].min()), float(pts[:, 1].max()))
+        else:
+            body = np.array([[0, -t / 2], [l, -t / 2], [l, t / 2], [0, t / 2]])
+            self._bodies["object"] = fcl.CollisionObject(_prism(body, width))
         if dg.palm_width > 0 and dg.palm_length > 0:  # the housing, centred on its own frame
             self._bodies["palm"] = fcl.CollisionObject(fcl.Box(dg.palm_length * l, width, dg.palm_width * l))
         self._targets: list[tuple[str, NDArray, fcl.CollisionObject]] = []
-        big = 1000.0
-        table = fcl.CollisionObject(fcl.Box(2 * big, _DEPTH, big), fcl.Transform(np.array([0.0, 0.0, -big / 2 - _TABLE_GAP])))
-        self._targets.append(("table", np.array([[-big, -big], [big, -_TABLE_GAP]]), table))
+        self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
         for box in scene.obstacles:
             lo, hi = np.array(box.lo), np.array(box.hi)
             size, centre = hi - lo, (hi + lo) / 2
             obj = fcl.CollisionObject(fcl.Box(size[0], _DEPTH, size[1]), fcl.Transform(np.array([centre[0], 0.0, centre[1]])))
             self._targets.append((box.name, np.array([lo, hi]), obj))
+        if scene.solids:
+            if scene.plane is None:
+                raise ValueError("solids need the scene's manipulation plane (an object outline)")
+            for solid in scene.solids:
+                local = solid.transformed(scene.plane.frame)  # plane frame: x along GB, y its normal, z up
+                xz = local[:, [0, 2]]
+                self._target_y[solid.name] = (float(local[:, 1].min()), float(local[:, 1].max()))
+                self._targets.append((solid.name, np.array([xz.min(axis=0), xz.max(axis=0)]),
+                                      fcl.CollisionObject(convex_shape(local))))
         self._request = fcl.CollisionRequest()
 
     def _poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
@@ -117,7 +149,11 @@ class CollisionChecker:
         u = np.stack([np.cos(th), np.sin(th)], axis=-1)
         t = max(self.scene.object_thickness, 1e-6) / l
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
-        obj = np.stack([-nrm * t / 2, u - nrm * t / 2, u + nrm * t / 2, nrm * t / 2], axis=1)
+        if self._object_extent is None:  # the slab along GB, centred on it
+            obj = np.stack([-nrm * t / 2, u - nrm * t / 2, u + nrm * t / 2, nrm * t / 2], axis=1)
+        else:  # the outline's prism on the table, tilted about G: its section in the plane
+            x0, x1 = (x / l for x in self._object_extent)
+            obj = np.stack([x0 * u, x1 * u, x1 * u + t * nrm, x0 * u + t * nrm], axis=1)
         beta = th + ps
         poses = {
             "thumb": (beta, thumb[:, 0] * l, thumb * l),
@@ -134,13 +170,15 @@ class CollisionChecker:
             poses["palm"] = (beta, centre * l, outline * l)
         return poses
 
-    def _pairs(self, q: NDArray):
-        """Broad phase: yields (state index, body name, target name, angle, origin, target object)."""
-        for body, (angle, origin, outline) in self._poses(q).items():
+    def _pairs(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]]):
+        """Broad phase over the bodies of poses: yields (state index, body, target name, angle, x, z, target)."""
+        for body, (angle, origin, outline) in poses.items():
             corners = [outline[:, v] for v in range(4)]
             lo, hi = _min(corners), _max(corners)
+            blo, bhi = self._y_range[body]
             for name, (tlo, thi), target in self._targets:
-                if body == "object" and name == "table":
+                tyl, tyh = self._target_y.get(name, (-np.inf, np.inf))
+                if tyl > bhi or tyh < blo:  # apart normal to the plane
                     continue
                 near = (lo[:, 0] <= thi[0]) & (hi[:, 0] >= tlo[0]) & (lo[:, 1] <= thi[1]) & (hi[:, 1] >= tlo[1])
                 idx = np.flatnonzero(near)
@@ -148,22 +186,51 @@ class CollisionChecker:
                 for i, a, x, z in zip(idx.tolist(), angle[idx].tolist(), origin[idx, 0].tolist(), origin[idx, 1].tolist()):
                     yield i, body, name, a, x, z, target
 
+    @staticmethod
+    def _below_table(outline: NDArray) -> NDArray[np.bool_]:
+        """Bodies (N, 4, 2) reaching into the table (z < 0 less the gap): exact for prisms normal to the plane."""
+        return outline[:, :, 1].min(axis=1) < -_TABLE_GAP
+
     def _collide(self, body: str, angle: float, x: float, z: float, target: fcl.CollisionObject) -> bool:
         obj = self._bodies[body]
         obj.setTransform(_planar_transform(angle, x, z))
         return fcl.collide(obj, target, self._request, fcl.CollisionResult()) > 0
 
     def in_collision(self, q: ArrayLike) -> NDArray[np.bool_]:
-        """True for each state (row of q, shape (N, 3)) where a digit or the object collides."""
+        """True for each state (row of q, shape (N, 3)) where a digit or the object collides.
+
+        The table is checked in closed form (the digits and housing are prisms normal to
+        the plane); the object, whose pose depends on theta alone, once per distinct theta.
+        """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         hit = np.zeros(len(q), dtype=bool)
-        for i, body, _, angle, x, z, target in self._pairs(q):
-            if not hit[i] and self._collide(body, angle, x, z, target):
-                hit[i] = True
+        if not len(q):
+            return hit
+        poses = self._poses(q)
+        for body, (_, _, outline) in poses.items():
+            if body != "object":
+                hit |= self._below_table(outline)
+        if self._targets:
+            thetas, which = np.unique(q[:, 0], return_inverse=True)
+            per_theta = np.column_stack([thetas, np.full(len(thetas), q[0, 1]), np.full(len(thetas), q[0, 2])])
+            obj_hit = np.zeros(len(thetas), dtype=bool)
+            for i, body, _, angle, x, z, target in self._pairs({"object": self._poses(per_theta)["object"]}):
+                if not obj_hit[i] and self._collide(body, angle, x, z, target):
+                    obj_hit[i] = True
+            hit |= obj_hit[which]
+            rest = np.flatnonzero(~hit)
+            others = {b: v for b, v in self._poses(q[rest]).items() if b != "object"}
+            for k, body, _, angle, x, z, target in self._pairs(others):
+                i = rest[k]
+                if not hit[i] and self._collide(body, angle, x, z, target):
+                    hit[i] = True
         return hit
 
     def contacts(self, q: ArrayLike) -> list[str]:
         """The colliding (body, target) pairs of one state, as 'body/target' names."""
         q = np.atleast_2d(np.asarray(q, dtype=float))[:1]
-        return [f"{body}/{name}" for _, body, name, angle, x, z, target in self._pairs(q)
-                if self._collide(body, angle, x, z, target)]
+        poses = self._poses(q)
+        out = [f"{body}/table" for body, (_, _, outline) in poses.items()
+               if body != "object" and self._below_table(outline)[0]]
+        return out + [f"{body}/{name}" for _, body, name, angle, x, z, target in self._pairs(poses)
+                      if self._collide(body, angle, x, z, target)]

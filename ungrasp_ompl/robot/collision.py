@@ -4,7 +4,8 @@ The robot's collision shapes come from its Pinocchio geometry model (boxes and
 cylinders), placed by forward kinematics. The table fills z < -TABLE_GAP in
 the world: the digits may touch the table's surface (the thumb tip closes in
 on it at the end) but not enter it. The scene's obstacles are boxes of the
-manipulation plane, extruded through it. The held object is excluded. The
+manipulation plane, extruded through it, and its solids (a frame's walls, pieces
+placed already) are convex bodies in the world. The held object is excluded. The
 arm's base and shoulder are mounted on the table and are not checked against it.
 """
 
@@ -15,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
+from ..geometry.solids import convex_shape
 from ..scene import Scene
 from .model import RobotModel, configuration
 
@@ -49,6 +51,8 @@ class RobotCollisionChecker:
             world_centre = rot @ np.array([centre[0], 0.0, centre[1]]) + plane_frame[:3, 3]
             shape = fcl.Box(size[0], 1.0, size[1])  # 1 m through the plane
             self.targets.append((box.name, fcl.CollisionObject(shape, fcl.Transform(rot, world_centre))))
+        for solid in scene.solids:  # already in the world frame
+            self.targets.append((solid.name, fcl.CollisionObject(convex_shape(solid.vertices))))
         self.request = fcl.CollisionRequest()
 
     def collisions(self, q: NDArray) -> list[str]:

@@ -1,0 +1,76 @@
+"""Convex solids fixed in the world: the walls of a frame and the pieces already placed (python-fcl).
+
+World frame: x, y on the table, z up, metres; the table's top is z = 0. A
+solid is kept as its vertices; collision checkers build the FCL shape from
+their convex hull in whatever frame they work in. Non-convex outlines are
+represented by their convex hull (conservative).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import fcl
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import ConvexHull
+
+
+@dataclass(frozen=True)
+class Solid:
+    """A named convex body: its vertices (N, 3) in the world (m)."""
+
+    name: str
+    vertices: NDArray[np.float64]
+
+    def transformed(self, pose: NDArray) -> NDArray[np.float64]:
+        """The vertices expressed in another frame: pose (4x4) maps that frame to the world."""
+        return (self.vertices - pose[:3, 3]) @ pose[:3, :3]
+
+
+def prism(name: str, polygon: ArrayLike, bottom: float, top: float) -> Solid:
+    """A vertical prism over a planar polygon (N, 2) of world (x, y) points, from z = bottom to top (m)."""
+    p = np.asarray(polygon, dtype=float)
+    lo = np.column_stack([p, np.full(len(p), bottom)])
+    hi = np.column_stack([p, np.full(len(p), top)])
+    return Solid(name, np.vstack([lo, hi]))
+
+
+def box(name: str, centre: ArrayLike, size: ArrayLike, yaw: float = 0.0) -> Solid:
+    """A box standing on its base: centre (x, y, z) and size (sx, sy, sz) in metres, turned by yaw (rad) about z."""
+    c = np.asarray(centre, dtype=float)
+    sx, sy, sz = (float(v) / 2 for v in size)
+    corners = np.array([[-sx, -sy], [sx, -sy], [sx, sy], [-sx, sy]])
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    return prism(name, corners @ rot.T + c[:2], c[2] - sz, c[2] + sz)
+
+
+def convex_shape(vertices: ArrayLike) -> fcl.Convex:
+    """An FCL convex shape on the convex hull of points (N, 3), faces wound outward."""
+    v = np.asarray(vertices, dtype=float)
+    hull = ConvexHull(v)
+    pts = v[hull.vertices]
+    remap = {int(old): new for new, old in enumerate(hull.vertices)}
+    faces = []
+    for simplex, eq in zip(hull.simplices, hull.equations):
+        a, b, c = (remap[int(i)] for i in simplex)
+        if np.dot(np.cross(pts[b] - pts[a], pts[c] - pts[a]), eq[:3]) < 0:
+            b, c = c, b
+        faces.extend([3, a, b, c])
+    return fcl.Convex(pts, len(hull.simplices), np.array(faces, dtype=np.int64))
+
+
+def polygons_overlap(a: ArrayLike, b: ArrayLike, tol: float = 1e-6) -> bool:
+    """Whether the convex hulls of two planar polygons (N, 2) overlap by more than tol (m) along
+    every separating-axis candidate (touching along an edge is not an overlap)."""
+    polys = [np.asarray(p, dtype=float) for p in (a, b)]
+    for p in polys:
+        hull = p[ConvexHull(p).vertices]
+        edges = np.roll(hull, -1, axis=0) - hull
+        axes = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
+        for ax in axes:
+            pa, pb = polys[0] @ ax, polys[1] @ ax
+            if min(pa.max(), pb.max()) - max(pa.min(), pb.min()) <= tol:
+                return False
+    return True
