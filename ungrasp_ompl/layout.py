@@ -1,0 +1,216 @@
+"""Layouts: thin pieces put down one after another into a frame on the table (YAML files).
+
+A layout file holds:
+
+* ``frame``: ``center`` (world x, y of the frame's inner centre, m), ``yaw_deg``,
+  ``inner_size`` ([width, depth] or one number for a square, m), ``wall_height`` and
+  ``wall_thickness`` (m). The frame's own coordinates have their origin at the inner
+  corner, x along the inner width and y along the inner depth.
+* ``pieces``: a list of ``name``, ``thickness`` (m), ``outline`` (as a scene's
+  ``object.outline``, in the piece's own coordinates) and ``target``
+  (``position`` [x, y] of the outline's origin in frame coordinates, m; ``yaw_deg``).
+* the sections every piece's scene shares: ``friction`` (or ``friction_angle_deg``),
+  ``digits``, ``start``, ``goal``, ``bounds``, ``planning``, ``stability``, ``robot``
+  (see ungrasp_ompl.scene). Without a ``goal`` a piece's goal is theta at most 3 deg
+  with d and psi free; without ``planning.resolution`` the lattice step is
+  1 deg / 0.01 / 1 deg.
+
+Pieces must lie inside the frame and not overlap (touching is fine); each is
+treated by its convex hull in collision checks. Every bad field raises
+:class:`~ungrasp_ompl.errors.InputError` naming it (``pieces[2].target.position``).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import yaml
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InputError
+from .geometry.solids import Solid, box, polygons_overlap, prism
+from .scene import Object3D, Scene, _Reader
+
+#: Scene sections a layout shares among its pieces.
+SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",
+                   "stability", "robot")
+#: A piece's goal when the layout gives none: put down (theta <= 3 deg), the grasp free.
+DEFAULT_GOAL = {"theta_max_deg": 3.0, "d": [0.0, 1.0], "psi_deg": [0.0, 120.0]}
+DEFAULT_RESOLUTION = {"theta_deg": 1.0, "d": 0.01, "psi_deg": 1.0}
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The frame on the table: inner centre (world, m), yaw (rad), inner size (m), walls (m)."""
+
+    center: tuple[float, float]
+    yaw: float
+    inner: tuple[float, float]
+    wall_height: float
+    wall_thickness: float
+
+    def to_world(self, xy: ArrayLike) -> NDArray[np.float64]:
+        """Frame coordinates (origin at the inner corner) (N, 2) -> world (x, y) (N, 2), metres."""
+        p = np.atleast_2d(np.asarray(xy, dtype=float)) - np.asarray(self.inner) / 2
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return p @ np.array([[c, s], [-s, c]]) + np.asarray(self.center)
+
+    def walls(self) -> list[Solid]:
+        """The four walls as boxes standing on the table (world frame)."""
+        w, d = self.inner
+        t, h = self.wall_thickness, self.wall_height
+        # centre (frame coordinates) and size along the frame's x and y of each wall
+        specs = {"wall_south": ((w / 2, -t / 2), (w + 2 * t, t)), "wall_north": ((w / 2, d + t / 2), (w + 2 * t, t)),
+                 "wall_west": ((-t / 2, d / 2), (t, d)), "wall_east": ((w + t / 2, d / 2), (t, d))}
+        out = []
+        for name, (c, size) in specs.items():
+            cw = self.to_world(c)[0]
+            out.append(box(name, (cw[0], cw[1], h / 2), (size[0], size[1], h), self.yaw))
+        return out
+
+    def inner_corners(self) -> NDArray[np.float64]:
+        w, d = self.inner
+        return self.to_world([[0, 0], [w, 0], [w, d], [0, d]])
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One piece: its outline (own coordinates, m), thickness (m) and target pose in frame coordinates."""
+
+    name: str
+    object3d: Object3D  # position and yaw here are in the frame's coordinates
+    outline_spec: dict  # the outline as the file gives it, for the piece's scene
+
+
+@dataclass
+class Layout:
+    """A frame and the pieces to put into it, with the scene sections they share."""
+
+    name: str
+    frame: Frame
+    pieces: list[Piece]
+    shared: dict[str, Any]
+    source: str | None = None
+
+    # -- loading -------------------------------------------------------------------
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str]) -> "Layout":
+        """Load and validate a layout file; raises InputError naming the bad field."""
+        path = Path(path)
+        src = str(path)
+        if not path.is_file():
+            raise InputError("layout", "no such file" if not path.exists() else "not a file", src)
+        try:
+            data = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            raise InputError("layout", f"not valid YAML{f' at line {mark.line + 1}' if mark else ''}", src) from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError("layout", f"cannot be read ({exc.__class__.__name__})", src) from None
+        return cls.from_dict(data, source=src, default_name=path.stem)
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":
+        r = _Reader(source)
+        top = r.mapping(data, "layout")
+        r.known(top, "", {"name", "description", "frame", "pieces", *SHARED_SECTIONS})
+        fr = r.mapping(r.require(top, "frame"), "frame")
+        r.known(fr, "frame", {"center", "yaw_deg", "inner_size", "wall_height", "wall_thickness"})
+        size = r.require(fr, "inner_size")
+        inner = r.pair(fr, "frame.inner_size", "inner_size") if isinstance(size, list) else \
+            (r.number(fr, "frame.inner_size", "inner_size", positive=True),) * 2
+        if min(inner) <= 0:
+            raise InputError("frame.inner_size", f"must be positive, got {list(inner)}", source)
+        frame = Frame(center=r.pair(fr, "frame.center", "center"),
+                      yaw=math.radians(r.number(fr, "frame.yaw_deg", "yaw_deg", default=0.0)), inner=inner,
+                      wall_height=r.number(fr, "frame.wall_height", "wall_height", positive=True),
+                      wall_thickness=r.number(fr, "frame.wall_thickness", "wall_thickness", positive=True))
+
+        items = r.require(top, "pieces")
+        if not isinstance(items, list) or not items:
+            raise InputError("pieces", "must be a non-empty list of pieces", source)
+        pieces, names = [], set()
+        for i, item in enumerate(items):
+            key = f"pieces[{i}]"
+            p = r.mapping(item, key)
+            r.known(p, key, {"name", "thickness", "outline", "target"})
+            name = str(p.get("name", f"piece{i + 1}"))
+            if name in names:
+                raise InputError(f"{key}.name", f"{name!r} is used twice", source)
+            names.add(name)
+            thickness = r.number(p, f"{key}.thickness", "thickness", positive=True)
+            obj = r.object3d(r.require(p, "outline"), p.get("target", {}), thickness, prefix=key)
+            pieces.append(Piece(name, obj, copy.deepcopy(p["outline"])))
+
+        shared = {k: copy.deepcopy(top[k]) for k in SHARED_SECTIONS if k in top}
+        shared.setdefault("goal", dict(DEFAULT_GOAL))
+        planning = shared.setdefault("planning", {})
+        if isinstance(planning, dict):
+            planning.setdefault("resolution", dict(DEFAULT_RESOLUTION))
+        layout = cls(str(top.get("name", default_name)), frame, pieces, shared, source)
+        layout._check_placement()
+        for i in range(len(pieces)):  # each piece's scene: shared sections and the piece itself
+            layout.scene(i)
+        return layout
+
+    def _check_placement(self) -> None:
+        inner = self.frame.inner
+        tol = 1e-6
+        local = [self.footprint(i, world=False) for i in range(len(self.pieces))]
+        for i, pts in enumerate(local):
+            out = (pts < -tol) | (pts > np.asarray(inner) + tol)
+            if out.any():
+                k = int(np.flatnonzero(out.any(axis=1))[0])
+                raise InputError(f"pieces[{i}].target", f"puts {self.pieces[i].name!r} outside the frame: vertex at "
+                                 f"({pts[k, 0] * 1000:.1f}, {pts[k, 1] * 1000:.1f}) mm of the inner "
+                                 f"{inner[0] * 1000:.1f} x {inner[1] * 1000:.1f} mm", self.source)
+            for j in range(i):
+                if polygons_overlap(pts, local[j]):
+                    raise InputError(f"pieces[{i}].target", f"{self.pieces[i].name!r} overlaps "
+                                     f"{self.pieces[j].name!r} (pieces[{j}])", self.source)
+
+    # -- geometry ------------------------------------------------------------------
+    def footprint(self, i: int, world: bool = True) -> NDArray[np.float64]:
+        """Outline of piece i at its target (N, 2): world (x, y) or frame coordinates, metres."""
+        obj = self.pieces[i].object3d
+        c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+        local = obj.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(obj.position)
+        return self.frame.to_world(local) if world else local
+
+    def solid(self, i: int) -> Solid:
+        """Piece i lying at its target, as a solid (world frame)."""
+        return prism(self.pieces[i].name, self.footprint(i), 0.0, self.pieces[i].object3d.thickness)
+
+    def world_pose(self, i: int) -> tuple[tuple[float, float], float]:
+        """World position (x, y) of piece i's outline origin and its world yaw (rad)."""
+        obj = self.pieces[i].object3d
+        p = self.frame.to_world(obj.position)[0]
+        return (float(p[0]), float(p[1])), self.frame.yaw + obj.yaw
+
+    def scene(self, i: int, contacts: tuple[ArrayLike, ArrayLike] | None = None,
+              placed: Sequence[int] = ()) -> Scene:
+        """The planning scene of piece i: the shared sections, the piece at its world target, G and B
+        (own coordinates; None chooses them as for a single object), and as solids the frame's
+        walls and the pieces placed already."""
+        piece = self.pieces[i]
+        position, yaw = self.world_pose(i)
+        data = copy.deepcopy(self.shared)
+        data["name"] = piece.name
+        data["object"] = {"thickness": piece.object3d.thickness, "outline": copy.deepcopy(piece.outline_spec),
+                          "target": {"position": list(position), "yaw_deg": math.degrees(yaw)}}
+        if contacts is not None:
+            data["contacts"] = {"G": [float(x) for x in contacts[0]], "B": [float(x) for x in contacts[1]]}
+        try:
+            scene = Scene.from_dict(data, source=self.source)
+        except InputError as exc:
+            if exc.field.startswith("object") or exc.field in ("friction", "contacts"):
+                raise InputError(f"pieces[{i}]", f"{piece.name!r}: {exc.field}: {exc.reason}", self.source) from None
+            raise
+        solids = tuple(self.frame.walls()) + tuple(self.solid(j) for j in placed)
+        return replace(scene, solids=solids)
