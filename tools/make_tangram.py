@@ -70,6 +70,9 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
                    "thumb_base_thickness": 0.008, "finger_tip_thickness": 0.002, "finger_base_thickness": 0.008,
                    "width": 0.02, "palm_width": 0.08, "palm_length": 0.11},
         "start": {"theta_deg": 30, "d": 0.8, "psi_deg": 0},
+        # opening the gripper would swing the finger back over the piece's neighbours and walls:
+        # turn it about the thumb tip instead, lifting the finger off
+        "robot": {"termination": "rotate"},
         "pieces": pieces,
     }
 

@@ -171,7 +171,7 @@ def _lattice_ends_hold(atlas, start: np.ndarray, goal_box: np.ndarray) -> bool:
     i = atlas.index(start)
     if i is None or not atlas.holdable[i]:
         return False
-    return bool(atlas.holdable_in(goal_box).any())
+    return bool(atlas.releasable_in(goal_box).any())
 
 
 def run_task(task: Task) -> RunResult:

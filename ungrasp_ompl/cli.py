@@ -68,6 +68,15 @@ def _parser() -> argparse.ArgumentParser:
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline")
 
+    tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
+    tl.add_argument("layout", help="layout file (YAML): a frame and its pieces")
+    tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
+    tl.add_argument("--time", type=float, default=1.0, help="planning time per piece in seconds (default 1)")
+    tl.add_argument("--seed", type=int, default=None, help="seed: piece k is planned with seed + k")
+    tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
+    tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
+                    "layout.png, a C-space picture per piece and the exported trajectory")
+
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML)")
     rg.add_argument("--out", required=True, help="PNG file to write")
@@ -149,6 +158,42 @@ def _sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _tile(args: argparse.Namespace) -> int:
+    import json
+
+    from .io import write_text_atomic
+    from .layout import Layout
+    from .plotting import draw_layout, draw_plan
+    from .planning.setup import PlannerOptions
+    from .tiling import TilingOptions, tile
+
+    layout = Layout.from_file(args.layout)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    if args.planner != "lattice":
+        PlannerOptions(planner=args.planner, time=args.time, seed=args.seed).validated()
+    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
+                                        approaches=args.approaches))
+    print(result.summary())
+    write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
+    draw_layout(layout, result, out / "layout.png")
+    for p in result.placements:
+        draw_plan(p.scene, p.plan, out / f"cspace_{p.order}_{p.name}.png")
+    print(f"wrote {out / 'tiling.json'}, {out / 'layout.png'} and {len(result.placements)} C-space pictures")
+    if not result.solved:
+        return EXIT_NO_SOLUTION
+    from .robot.export import export_all
+    from .robot.pipeline import execute_sequence
+
+    execution = execute_sequence([(p.scene, p.plan) for p in result.placements],
+                                 labels=[p.name for p in result.placements])
+    print(execution.summary())
+    paths = export_all(execution.trajectory, out)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return EXIT_OK
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
@@ -165,7 +210,8 @@ def run(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     try:
         args = _parser().parse_args(argv)
-        commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep}
+        commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep,
+                    "tile": _tile}
         return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)

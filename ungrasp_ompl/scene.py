@@ -27,6 +27,10 @@ from .mechanics import DigitGeometry, force_closure, kinematic_validity, sliding
 from .mechanics.force_closure import SLIDING_MODELS
 
 
+#: The gripper housing's extent normal to the manipulation plane when a scene does not give it, m.
+DEFAULT_PALM_THICKNESS = 0.06
+
+
 @dataclass(frozen=True)
 class Box:
     """An obstacle: an axis-aligned box in the plane, extruded normal to it (metres)."""
@@ -193,7 +197,8 @@ class Scene:
         dig = r.mapping(r.require(top, "digits"), "digits")
         r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
                                 "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
-                                "width", "max_aperture", "finger_tip", "palm_width", "palm_length"})
+                                "width", "max_aperture", "finger_tip", "palm_width", "palm_length",
+                                "palm_thickness"})
         lengths = {}
         for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
                     "finger_tip_thickness", "finger_base_thickness", "width"):
@@ -219,6 +224,9 @@ class Scene:
         if finger_tip not in ("rounded", "flat"):
             raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
         palm = {k: r.number(dig, f"digits.{k}", k, minimum=0.0, default=0.0) / length for k in ("palm_width", "palm_length")}
+        # the housing's extent normal to the plane: the RH-P12-RN class's 60 mm unless given
+        palm["palm_thickness"] = r.number(dig, "digits.palm_thickness", "palm_thickness", positive=True,
+                                          default=DEFAULT_PALM_THICKNESS) / length
         digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat", **lengths, **palm)
 
         obstacles = r.obstacles(top.get("obstacles", []))

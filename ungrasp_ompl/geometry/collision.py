@@ -33,6 +33,8 @@ if TYPE_CHECKING:
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
+#: How far the digits may press into the table while the gripper lets go (m): robot.collision.TABLE_GAP.
+RELEASE_TABLE_GAP = 5e-4
 
 
 def _prism(outline: NDArray, width: float) -> fcl.Convex:
@@ -110,8 +112,8 @@ class CollisionChecker:
             "finger": fcl.CollisionObject(_prism(finger, width)),
         }
         self._object_extent = None  # (x_min, x_max) of the outline's prism along GB, m
-        # extent of each body normal to the plane (y, m): the digits and housing are as wide as the digits
-        self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "palm", "object")}
+        # extent of each body normal to the plane (y, m)
+        self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "object")}
         if scene.object3d is not None and scene.plane is not None:
             pts = _outline_in_plane(scene)
             lo, hi = np.column_stack([pts, np.zeros(len(pts))]), np.column_stack([pts, np.full(len(pts), t)])
@@ -122,7 +124,9 @@ class CollisionChecker:
             body = np.array([[0, -t / 2], [l, -t / 2], [l, t / 2], [0, t / 2]])
             self._bodies["object"] = fcl.CollisionObject(_prism(body, width))
         if dg.palm_width > 0 and dg.palm_length > 0:  # the housing, centred on its own frame
-            self._bodies["palm"] = fcl.CollisionObject(fcl.Box(dg.palm_length * l, width, dg.palm_width * l))
+            depth = dg.palm_thickness * l if dg.palm_thickness > 0 else width
+            self._bodies["palm"] = fcl.CollisionObject(fcl.Box(dg.palm_length * l, depth, dg.palm_width * l))
+            self._y_range["palm"] = (-depth / 2, depth / 2)
         self._targets: list[tuple[str, NDArray, fcl.CollisionObject]] = []
         self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
         for box in scene.obstacles:
@@ -187,9 +191,9 @@ class CollisionChecker:
                     yield i, body, name, a, x, z, target
 
     @staticmethod
-    def _below_table(outline: NDArray) -> NDArray[np.bool_]:
-        """Bodies (N, 4, 2) reaching into the table (z < 0 less the gap): exact for prisms normal to the plane."""
-        return outline[:, :, 1].min(axis=1) < -_TABLE_GAP
+    def _below_table(outline: NDArray, gap: float = _TABLE_GAP) -> NDArray[np.bool_]:
+        """Bodies (N, 4, 2) reaching into the table (z < -gap): exact for prisms normal to the plane."""
+        return outline[:, :, 1].min(axis=1) < -gap
 
     def _collide(self, body: str, angle: float, x: float, z: float, target: fcl.CollisionObject) -> bool:
         obj = self._bodies[body]
@@ -206,24 +210,61 @@ class CollisionChecker:
         hit = np.zeros(len(q), dtype=bool)
         if not len(q):
             return hit
-        poses = self._poses(q)
-        for body, (_, _, outline) in poses.items():
-            if body != "object":
-                hit |= self._below_table(outline)
         if self._targets:
             thetas, which = np.unique(q[:, 0], return_inverse=True)
             per_theta = np.column_stack([thetas, np.full(len(thetas), q[0, 1]), np.full(len(thetas), q[0, 2])])
-            obj_hit = np.zeros(len(thetas), dtype=bool)
-            for i, body, _, angle, x, z, target in self._pairs({"object": self._poses(per_theta)["object"]}):
-                if not obj_hit[i] and self._collide(body, angle, x, z, target):
-                    obj_hit[i] = True
-            hit |= obj_hit[which]
-            rest = np.flatnonzero(~hit)
-            others = {b: v for b, v in self._poses(q[rest]).items() if b != "object"}
-            for k, body, _, angle, x, z, target in self._pairs(others):
-                i = rest[k]
-                if not hit[i] and self._collide(body, angle, x, z, target):
-                    hit[i] = True
+            hit |= self._hits({"object": self._poses(per_theta)["object"]})[which]
+        rest = np.flatnonzero(~hit)
+        hit[rest] = self._hits({b: v for b, v in self._poses(q[rest]).items() if b != "object"})
+        return hit
+
+    def _hits(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]], table_gap: float = _TABLE_GAP
+              ) -> NDArray[np.bool_]:
+        """Per state of poses (bodies in the plane, as _poses gives them): any body in collision;
+        a body reaching more than table_gap (m) below the table's top collides with the table."""
+        n = len(next(iter(poses.values()))[0])
+        hit = np.zeros(n, dtype=bool)
+        for body, (_, _, outline) in poses.items():
+            if body != "object":
+                hit |= self._below_table(outline, table_gap)
+        for i, body, _, angle, x, z, target in self._pairs(poses):
+            if not hit[i] and self._collide(body, angle, x, z, target):
+                hit[i] = True
+        return hit
+
+    def termination_collides(self, q: ArrayLike, kind: str, amount: float, steps: int = 6) -> NDArray[np.bool_]:
+        """Whether the gripper hits something while it lets go from states q (N, 3) (paper fig. 10d).
+
+        kind 'open': the finger moves away from the thumb by amount (m) along n_B, the housing by
+        half of it, the thumb stays on B. kind 'rotate': the gripper turns by amount (rad) about
+        the thumb tip, the way that lifts the finger. Checked at steps poses along the way; the
+        digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        poses = {b: v for b, v in self._poses(q).items() if b != "object"}
+        pivot = poses["thumb"][1]  # the thumb tip
+        lift = np.where(poses["finger"][1][:, 0] < pivot[:, 0], -1.0, 1.0)  # turning sign that raises the finger
+        n_b = thumb_normal(q[:, 0], q[:, 2])
+        share = {"thumb": 0.0, "finger": 1.0, "palm": 0.5}
+        hit = np.zeros(len(q), dtype=bool)
+        for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
+            moved = {}
+            for body, (angle, origin, outline) in poses.items():
+                if kind == "rotate":
+                    turn = lift * amount * f
+                    c, s = np.cos(turn), np.sin(turn)
+
+                    def rotate(p: NDArray, c=c, s=s) -> NDArray:
+                        rel = p - (pivot if p.ndim == 2 else pivot[:, None, :])
+                        cc, ss = (c, s) if p.ndim == 2 else (c[:, None], s[:, None])
+                        out = np.stack([cc * rel[..., 0] - ss * rel[..., 1], ss * rel[..., 0] + cc * rel[..., 1]], -1)
+                        return out + (pivot if p.ndim == 2 else pivot[:, None, :])
+
+                    moved[body] = (angle + turn, rotate(origin), rotate(outline))
+                else:
+                    shift = n_b * (amount * f * share[body])
+                    moved[body] = (angle, origin + shift, outline + shift[:, None, :])
+            hit |= self._hits(moved, RELEASE_TABLE_GAP)
         return hit
 
     def contacts(self, q: ArrayLike) -> list[str]:

@@ -23,9 +23,11 @@ class DigitGeometry:
     at the base (the digits are trapezoids in the plane). width is the
     digits' extent normal to the manipulation plane. flat_finger_tip: the
     finger ends in a flat face across its width (an edge contact at A)
-    rather than a rounded tip (a point contact). palm_width, palm_length: the
-    gripper's housing behind the digit bases, centred between the digit faces
-    (a symmetric parallel gripper); zero leaves it out of collision checks.
+    rather than a rounded tip (a point contact). palm_width, palm_length,
+    palm_thickness: the gripper's housing behind the digit bases, centred
+    between the digit faces (a symmetric parallel gripper), across the gap,
+    along the digits and normal to the plane; zero width or length leaves it
+    out of collision checks.
     """
 
     alpha: float
@@ -39,6 +41,7 @@ class DigitGeometry:
     flat_finger_tip: bool = False  # a flat tip across the width touches the object along an edge at A
     palm_width: float = 0.0  # the gripper housing across the gap, centred between the digits (0: none)
     palm_length: float = 0.0  # the housing from the palm line back toward the wrist
+    palm_thickness: float = 0.0  # the housing normal to the plane (0: as wide as the digits)
 
     @property
     def finger_length(self) -> float:

@@ -81,7 +81,9 @@ class SecurityAtlas:
         fc = self._fc(0, 0, self.kinematic.ravel())
         check = self.kinematic.ravel() & fc
         self.collision = np.zeros(len(grid), dtype=bool)
-        self.collision[check] = CollisionChecker(scene).in_collision(grid[check])
+        self._checker = CollisionChecker(scene)
+        self._releasable: dict[tuple, NDArray[np.bool_]] = {}
+        self.collision[check] = self._checker.in_collision(grid[check])
         self.collision = self.collision.reshape(self.shape)
         #: States that can be held with all contacts sticking.
         self.holdable = (check & ~self.collision.ravel()).reshape(self.shape)
@@ -124,6 +126,22 @@ class SecurityAtlas:
         box = np.asarray(box, dtype=float)
         inside = [(ax >= box[0, a] - 1e-9) & (ax <= box[1, a] + 1e-9) for a, ax in enumerate(self.axes)]
         return self.holdable & inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
+
+    def releasable_in(self, box: ArrayLike) -> NDArray[np.bool_]:
+        """Holdable lattice states inside box from which the gripper lets go (the scene's termination,
+        robot.termination) without hitting the table, an obstacle or a solid; shape of the lattice.
+        These are the goal states: a plan that ends where the gripper cannot let go is no plan."""
+        key = tuple(np.asarray(box, dtype=float).ravel().round(12))
+        if key not in self._releasable:
+            mask = self.holdable_in(box)
+            idx = np.flatnonzero(mask)
+            if len(idx):
+                r = self.scene.robot
+                amount = r.termination_opening if r.termination == "open" else r.termination_angle
+                bad = self._checker.termination_collides(self._grid[idx], r.termination, amount)
+                mask.flat[idx[bad]] = False
+            self._releasable[key] = mask
+        return self._releasable[key]
 
     # -- per-mode security -------------------------------------------------------
     def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:

@@ -20,7 +20,7 @@ class LatticeGoalRegion(ob.GoalSampleableRegion):
         super().__init__(si)
         self.setThreshold(1e-9)
         self.lo, self.hi = goal.box()
-        self.states = atlas.state(np.argwhere(atlas.holdable_in(goal.box())))
+        self.states = atlas.state(np.argwhere(atlas.releasable_in(goal.box())))
         self.rng = rng
 
     def distanceGoal(self, state) -> float:

@@ -105,7 +105,7 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64]) -> Latti
     graph = coo_matrix((costs_a, (rows_a, cols_a)), shape=(n_nodes, n_nodes)).tocsr()
     dist, pred = dijkstra(graph, indices=start_node, return_predecessors=True)
 
-    in_goal = atlas.holdable_in(goal_box).ravel()
+    in_goal = atlas.releasable_in(goal_box).ravel()
     goal_nodes = (np.flatnonzero(in_goal)[:, None] * n_prim + np.arange(n_prim)).ravel()
     best_cost = None
     legs: list[Leg] = []

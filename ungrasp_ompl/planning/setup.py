@@ -157,7 +157,7 @@ class UngraspSetup:
     def goal_problem(self) -> str | None:
         if self.goal.maxSampleCount() == 0:
             return ("goal region is empty: no lattice state inside it is kinematically valid, "
-                    "collision-free and force-closed")
+                    "collision-free and force-closed with room for the gripper to let go")
         return None
 
     # -- solving -------------------------------------------------------------------

@@ -79,10 +79,11 @@ class GripperSpec:
     palm_depth: float = 0.11  #: UR flange (tool0) to palm along flange z (m); RH-P12-RN class
     max_opening: float = 0.106  #: largest distance between the digit faces (m); RH-P12-RN stroke
     palm_width: float = PALM_WIDTH_X  #: the housing across the gap, palm x, centred (m)
+    palm_thickness: float = PALM_WIDTH_Y  #: the housing normal to the gap, palm y, centred (m)
 
     def __post_init__(self) -> None:
         for name in ("finger_length", "thumb_length", "finger_width", "digit_thickness", "palm_depth",
-                     "max_opening", "palm_width"):
+                     "max_opening", "palm_width", "palm_thickness"):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise InputError(f"gripper.{name}", f"must be a positive length in metres, got {value!r}")
@@ -205,7 +206,7 @@ def _add_gripper(model: pin.Model, geometry: pin.GeometryModel, spec: GripperSpe
     palm = model.addFrame(pin.Frame(PALM_FRAME, wrist, tool0, palm_in_wrist, pin.FrameType.OP_FRAME))
 
     # The housing (flange to palm) moves with wrist 3, centred on the palm axis.
-    palm_size = (spec.palm_width, PALM_WIDTH_Y, spec.palm_depth)
+    palm_size = (spec.palm_width, spec.palm_thickness, spec.palm_depth)
     palm_center = pin.SE3(np.eye(3), np.array([0.0, 0.0, -spec.palm_depth / 2]))
     model.appendBodyToJoint(wrist, pin.Inertia.FromBox(GRIPPER_BODY_MASS, *palm_size),
                             palm_in_wrist * palm_center)

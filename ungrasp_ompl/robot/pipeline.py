@@ -3,7 +3,7 @@
 Phases: approach (Ruckig, from the home configuration to the start pinch, the
 object held), each primitive (dense Cartesian IK, then TOPPRA along the fixed
 path), the termination maneuver (paper fig. 10d: open the gripper, or turn it
-about the thumb tip; TOPPRA), the retreat (Ruckig, the palm lifted). Every
+about the thumb tip; TOPPRA), the retreat (the palm lifted straight up; TOPPRA). Every
 sample is checked against the joint limits and for collision of the arm and
 gripper with the table and the obstacles.
 """
@@ -20,7 +20,7 @@ from ..errors import UngraspError
 from ..planning.result import Plan
 from ..scene import Scene
 from .collision import RobotCollisionChecker
-from .ik import ik_seed_for, solve_ik, solve_path
+from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
 from .placement import contact_points_world, default_plane_frame, densify, palm_poses
 from .timing import Samples, TimingError, ruckig_move, toppra_path
@@ -28,6 +28,8 @@ from .trajectory import JOINT_NAMES, JointTrajectory
 
 #: Sampling period of the exported trajectory (s); the URScript export resamples at 500 Hz.
 SAMPLE_PERIOD = 0.008
+#: The retreat: the palm lifted straight up in this many IK steps, at most this fast (m/s).
+RETREAT_STEPS, RETREAT_SPEED = 20, 0.05
 #: Jerk limits of the free moves: arm (rad/s^3) and gripper (m/s^3).
 ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 
@@ -67,7 +69,8 @@ def gripper_spec(scene: Scene) -> GripperSpec:
                        finger_width=dg.width * l, digit_thickness=dg.thumb_tip_thickness * l,
                        palm_depth=dg.palm_length * l if dg.palm_length else scene.robot.palm_depth,
                        max_opening=max_opening,
-                       palm_width=dg.palm_width * l if dg.palm_width else GripperSpec.palm_width)
+                       palm_width=dg.palm_width * l if dg.palm_width else GripperSpec.palm_width,
+                       palm_thickness=dg.palm_thickness * l if dg.palm_thickness else GripperSpec.palm_thickness)
 
 
 def plane_frame(scene: Scene) -> NDArray[np.float64]:
@@ -115,8 +118,67 @@ def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel)
 
 def execute(scene: Scene, plan: Plan) -> Execution:
     """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper."""
+    return execute_sequence([(scene, plan)])
+
+
+def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = None) -> Execution:
+    """One trajectory for several solved plans in turn (a layout's pieces), from the first scene's
+    home configuration: per plan the approach, its primitives, the termination and the retreat;
+    between plans a move back home, where the next piece is handed over (not planned here).
+    Segment names carry the label of their plan ('square/P_psi') when labels are given. Each plan's
+    part is checked for collision against its own scene (whose solids hold the pieces put down
+    before it). The robot and gripper are those of the first scene."""
+    first = jobs[0][0]
+    robot = load_ur5e(gripper_spec(first), np.array(first.robot.base))
+    v_max, a_max = robot.v_max, robot.a_max
+    j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
+    home_arm = np.asarray(first.robot.home, dtype=float)
+    pieces: list[tuple[str, Samples]] = []
+    owners: list[int] = []  # the job of each piece
+    res_m, res_rad, contact_error = 0.0, 0.0, 0.0
+    current = None
+    for k, (scene, plan) in enumerate(jobs):
+        prefix = f"{labels[k]}/" if labels else ""
+        parts, path, checks = _job(scene, plan, robot)
+        res_m, res_rad = max(res_m, checks[0]), max(res_rad, checks[1])
+        contact_error = max(contact_error, checks[2])
+        if current is None:
+            current = np.append(home_arm, path[0][-1])
+        else:  # back home with the gripper as it was left
+            home = np.append(home_arm, current[-1])
+            pieces.append((prefix + "return", ruckig_move(current, home, v_max, a_max, j_max, SAMPLE_PERIOD)))
+            owners.append(k)
+            current = home
+        pieces.append((prefix + "approach", ruckig_move(current, path[0], v_max, a_max, j_max, SAMPLE_PERIOD)))
+        owners.append(k)
+        for name, samples in parts:
+            pieces.append((prefix + name, samples))
+            owners.append(k)
+        current = parts[-1][1].q[-1]
+    trajectory = _concatenate(pieces)
+    for k, (scene, _) in enumerate(jobs):
+        spans = [seg for seg, owner in zip(trajectory.segments, owners) if owner == k]
+        lo, hi = spans[0][1], spans[-1][2]
+        hit = RobotCollisionChecker(robot, scene, plane_frame(scene)).first_collision(trajectory.positions[lo:hi + 1])
+        if hit is not None:
+            i, pairs = hit
+            i += lo
+            phase = next(name for name, a, b in spans if a <= i <= b)
+            raise CollisionError(f"the robot collides during the {phase} at t = {trajectory.times[i]:.2f} s: "
+                                 + ", ".join(pairs))
+    ex = Execution(trajectory, robot, res_m, res_rad, contact_error,
+                   float(np.max(np.abs(trajectory.velocities) / v_max)),
+                   float(np.max(np.abs(trajectory.accelerations) / a_max)))
+    ex.violations = check_limits(trajectory, robot)
+    if ex.violations:
+        raise TimingError("the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]))
+    return ex
+
+
+def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
+    """One plan on the robot: the timed primitives, termination and retreat; the joint path of the
+    primitives and termination (N, 7); and (IK residual m, rad, contact error m)."""
     opts = scene.robot
-    robot = load_ur5e(gripper_spec(scene), np.array(opts.base))
     frame = plane_frame(scene)
     states, segments = densify(plan)
     poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)
@@ -124,40 +186,26 @@ def execute(scene: Scene, plan: Plan) -> Execution:
     all_poses = np.concatenate([poses, term_poses])
     all_open = np.concatenate([openings, term_openings])
     q_arm, res_m, res_rad = solve_path(robot, list(all_poses), ik_seed_for(robot, all_poses[0]))
-    retreat = all_poses[-1].copy()
-    retreat[2, 3] += opts.retreat_height
-    q_retreat = solve_ik(robot, retreat, q_arm[-1])
 
     path = np.column_stack([q_arm, all_open])
     thumb, finger = _tips(robot, all_poses, all_open)
     travel = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(np.diff(thumb, axis=0), axis=1),
                                                          np.linalg.norm(np.diff(finger, axis=0), axis=1)))])
     v_max, a_max = robot.v_max, robot.a_max
-    j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
-    pieces: list[tuple[str, Samples]] = []
-    home = np.append(np.asarray(opts.home, dtype=float), all_open[0])
-    pieces.append(("approach", ruckig_move(home, path[0], v_max, a_max, j_max, SAMPLE_PERIOD)))
+    parts: list[tuple[str, Samples]] = []
     for name, first, last in segments + [("termination", len(states) - 1, len(path) - 1)]:
-        pieces.append((name, toppra_path(path[first:last + 1], travel[first:last + 1] - travel[first], v_max, a_max,
-                                         opts.contact_speed, SAMPLE_PERIOD)))
-    end = np.append(q_retreat, all_open[-1])
-    pieces.append(("retreat", ruckig_move(path[-1], end, v_max, a_max, j_max, SAMPLE_PERIOD)))
-    trajectory = _concatenate(pieces)
-    hit = RobotCollisionChecker(robot, scene, frame).first_collision(trajectory.positions)
-    if hit is not None:
-        k, pairs = hit
-        phase = next(name for name, a, b in trajectory.segments if a <= k <= b)
-        raise CollisionError(f"the robot collides during the {phase} at t = {trajectory.times[k]:.2f} s: "
-                             + ", ".join(pairs))
-
+        parts.append((name, toppra_path(path[first:last + 1], travel[first:last + 1] - travel[first], v_max, a_max,
+                                        opts.contact_speed, SAMPLE_PERIOD)))
+    if opts.retreat_height > 0:  # the palm straight up, so the digits leave the pieces around without a sideways slip
+        lift = np.linspace(0.0, opts.retreat_height, RETREAT_STEPS + 1)
+        up = np.repeat(all_poses[-1][None], len(lift), axis=0)
+        up[:, 2, 3] += lift
+        q_up, up_m, up_rad = solve_path(robot, list(up[1:]), q_arm[-1])
+        res_m, res_rad = np.append(res_m, up_m), np.append(res_rad, up_rad)
+        q_up = np.column_stack([np.vstack([q_arm[-1], q_up]), np.full(len(lift), all_open[-1])])
+        parts.append(("retreat", toppra_path(q_up, lift, v_max, a_max, RETREAT_SPEED, SAMPLE_PERIOD)))
     contact_error = _contact_error(scene, robot, states, frame, q_arm[: len(states)], openings)
-    ex = Execution(trajectory, robot, float(np.max(res_m)), float(np.max(res_rad)), contact_error,
-                   float(np.max(np.abs(trajectory.velocities) / v_max)),
-                   float(np.max(np.abs(trajectory.accelerations) / a_max)))
-    ex.violations = check_limits(trajectory, robot)
-    if ex.violations:
-        raise TimingError("the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]))
-    return ex
+    return parts, path, (float(np.max(res_m)), float(np.max(res_rad)), contact_error)
 
 
 def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
