@@ -122,8 +122,9 @@ class Layout:
         r.known(top, "", {"name", "description", "frame", "pieces", *SHARED_SECTIONS})
         fr = r.mapping(r.require(top, "frame"), "frame")
         r.known(fr, "frame", {"center", "yaw_deg", "inner_size", "wall_height", "wall_thickness"})
-        size = r.require(fr, "inner_size")
-        inner = r.pair(fr, "frame.inner_size", "inner_size") if isinstance(size, list) else \
+        if "inner_size" not in fr:
+            raise InputError("frame.inner_size", "is missing", source)
+        inner = r.pair(fr, "frame.inner_size", "inner_size") if isinstance(fr["inner_size"], list) else \
             (r.number(fr, "frame.inner_size", "inner_size", positive=True),) * 2
         if min(inner) <= 0:
             raise InputError("frame.inner_size", f"must be positive, got {list(inner)}", source)
@@ -145,7 +146,9 @@ class Layout:
                 raise InputError(f"{key}.name", f"{name!r} is used twice", source)
             names.add(name)
             thickness = r.number(p, f"{key}.thickness", "thickness", positive=True)
-            obj = r.object3d(r.require(p, "outline"), p.get("target", {}), thickness, prefix=key)
+            if "outline" not in p:
+                raise InputError(f"{key}.outline", "is missing", source)
+            obj = r.object3d(p["outline"], p.get("target", {}), thickness, prefix=key)
             pieces.append(Piece(name, obj, copy.deepcopy(p["outline"])))
 
         shared = {k: copy.deepcopy(top[k]) for k in SHARED_SECTIONS if k in top}

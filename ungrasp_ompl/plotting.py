@@ -185,7 +185,7 @@ def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
     handles = [plt.Line2D([], [], marker="o", ls="", color="#08519c", label="G (on the table)"),
                plt.Line2D([], [], marker="s", ls="", color="#d7301f", label="B (thumb), its width as a bar"),
                plt.Line2D([], [], color="#d7301f", label="ungrasp direction G -> B")]
-    ax.legend(handles=handles, loc="upper right", fontsize=8)
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8)
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xlabel("world x (mm)")

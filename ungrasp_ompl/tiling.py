@@ -14,13 +14,16 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
    contact at G or B, or no cusp at either), both ways round, ranked by the
    free room beyond B and behind G (a ray cast against walls and placed
    pieces), then by the friction margin; near-duplicates are dropped;
-3. an approach is screened (the start grasp holdable, some goal state holdable),
-   then proved by the exact lattice search, then planned with the chosen
-   planner; the first approach that plans places the piece;
+3. an approach is screened (the start grasp holdable, some goal state holdable
+   with room for the gripper to let go), then proved by the exact lattice
+   search; the first approach proved places the piece;
 4. a piece that no approach can place now cannot be placed later either (more
    pieces only add obstacles), so the search goes back one step at once.
 
-Results are memoised by (pieces down, piece), so no check is repeated.
+Results are memoised by (pieces down, piece), so no check is repeated. Once an
+order is found, each piece is planned with the chosen planner; should a
+sampling planner find no path in its time, the lattice path (proved to exist)
+is taken and the summary says so.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from .mechanics.antipodal import antipodal_pairs
 from .planning import plan as plan_scene
 from .planning.atlas import SecurityAtlas, planning_box
 from .planning.lattice import lattice_search
+from .planning.setup import LATTICE
 from .planning.result import Plan
 from .scene import Scene
 
@@ -91,6 +95,7 @@ class Placement:
     approach: Approach
     scene: Scene
     plan: Plan
+    note: str | None = None  # how the plan was made, when not by the planner asked for
 
     def summary(self) -> str:
         p, sc = self.plan, self.scene
@@ -105,13 +110,13 @@ class Placement:
                 f"GB toward {math.degrees(self.approach.yaw):.0f} deg\n"
                 f"   {prims}; cost {p.cost:.2f}; 3D stability full"
                 f"{' except on ' + ', '.join(partial) + ' (partial)' if partial else ' on every leg'}; "
-                f"x-moments by {xm}; {restoring}")
+                f"x-moments by {xm}; {restoring}" + (f"\n   note: {self.note}" if self.note else ""))
 
     def to_dict(self) -> dict:
         return {"order": self.order, "piece": self.name, "approach": {
             "G": self.approach.g.tolist(), "B": self.approach.b.tolist(), "yaw_rad": self.approach.yaw,
             "margin_rad": self.approach.margin, "room_beyond_B_m": self.approach.room_b,
-            "room_behind_G_m": self.approach.room_g}, "plan": self.plan.to_dict()}
+            "room_behind_G_m": self.approach.room_g}, "note": self.note, "plan": self.plan.to_dict()}
 
 
 @dataclass
@@ -339,11 +344,15 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
     for k, (i, a, scene) in enumerate(found):
         seed = None if opts.seed is None else opts.seed + k
         p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed)
+        note = None
+        if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
+            note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
+            p = plan_scene(scene, planner=LATTICE)
         if not p.solved:
             result.failed_piece = layout.pieces[i].name
-            result.reasons = [f"{a.describe()}: {opts.planner} found no plan ({p.reason})"]
+            result.reasons = [f"{a.describe()}: {p.planner} found no plan ({p.reason})"]
             break
-        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p))
+        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note))
     result.time_s = time.perf_counter() - t0
     return result
 

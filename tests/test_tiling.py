@@ -1,0 +1,299 @@
+"""Tiling a layout: the shipped tangram put into its frame piece by piece, checked in 3D with
+python-fcl against the frame and the pieces already down; a frame too tight for the thumb; bad
+layouts."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import fcl
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+
+from conftest import SCENES, run_cli
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.planning.result import Plan, PrimitiveStep
+from ungrasp_ompl.robot.export import read_json
+from ungrasp_ompl.robot.model import configuration, load_ur5e
+from ungrasp_ompl.robot.pipeline import gripper_spec
+from ungrasp_ompl.robot.placement import densify
+from ungrasp_ompl.tiling import approaches
+
+TANGRAM = SCENES / "tangram.yaml"
+
+
+# -- an independent 3D model of the table top: triangle meshes built here, not by the library ---
+
+def _mesh(vertices: np.ndarray, triangles: list[tuple[int, int, int]]) -> fcl.BVHModel:
+    model = fcl.BVHModel()
+    model.beginModel(len(vertices), len(triangles))
+    model.addSubModel(np.asarray(vertices, dtype=float), np.asarray(triangles, dtype=np.int64))
+    model.endModel()
+    return model
+
+
+def _prism_mesh(polygon: np.ndarray, bottom: float, top: float) -> fcl.BVHModel:
+    """A closed triangle mesh of a vertical prism over a convex polygon (N, 2)."""
+    n = len(polygon)
+    verts = np.vstack([np.column_stack([polygon, np.full(n, bottom)]), np.column_stack([polygon, np.full(n, top)])])
+    tris = [(0, k + 1, k) for k in range(1, n - 1)] + [(n, n + k, n + k + 1) for k in range(1, n - 1)]
+    for k in range(n):
+        j = (k + 1) % n
+        tris += [(k, j, n + j), (k, n + j, n + k)]
+    return _mesh(verts, tris)
+
+
+def _walls(doc: dict) -> dict[str, fcl.CollisionObject]:
+    """The frame's four walls from the layout file's numbers (frame yaw 0 in the shipped layout)."""
+    fr = doc["frame"]
+    assert fr.get("yaw_deg", 0) == 0
+    cx, cy = fr["center"]
+    w = fr["inner_size"]
+    t, h = fr["wall_thickness"], fr["wall_height"]
+    out = {}
+    for name, (x, y, sx, sy) in {"south": (cx, cy - w / 2 - t / 2, w + 2 * t, t),
+                                 "north": (cx, cy + w / 2 + t / 2, w + 2 * t, t),
+                                 "west": (cx - w / 2 - t / 2, cy, t, w), "east": (cx + w / 2 + t / 2, cy, t, w)}.items():
+        out[name] = fcl.CollisionObject(fcl.Box(sx, sy, h), fcl.Transform(np.array([x, y, h / 2])))
+    return out
+
+
+def _footprint(doc: dict, name: str) -> np.ndarray:
+    """A piece's target outline in the world (m), from the layout file's numbers."""
+    piece = next(p for p in doc["pieces"] if p["name"] == name)
+    fr = doc["frame"]
+    corner = np.asarray(fr["center"]) - fr["inner_size"] / 2
+    yaw = math.radians(piece["target"].get("yaw_deg", 0))
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    return np.asarray(piece["outline"]["polygon"]) @ rot.T + np.asarray(piece["target"]["position"]) + corner
+
+
+def _collides(a: fcl.CollisionObject, b: fcl.CollisionObject) -> bool:
+    return fcl.collide(a, b, fcl.CollisionRequest(), fcl.CollisionResult()) > 0
+
+
+@pytest.fixture(scope="module")
+def tiled(tmp_path_factory):
+    """`ungrasp-ompl tile scenes/tangram.yaml` as a user runs it (with a seed), and what it wrote."""
+    out = tmp_path_factory.mktemp("tiles")
+    proc = run_cli("tile", str(TANGRAM), "--seed", "1", "--out", str(out))
+    return proc, out, yaml.safe_load(TANGRAM.read_text())
+
+
+def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
+    proc, out, doc = tiled
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads((out / "tiling.json").read_text())
+    assert result["solved"] and result["failed_piece"] is None
+    assert sorted(result["order"]) == sorted(p["name"] for p in doc["pieces"])
+    assert "order " + ", ".join(result["order"]) in proc.stdout
+    for k, name in enumerate(result["order"], start=1):
+        assert f"{k}. {name}: G (" in proc.stdout  # the per-piece summary
+        assert (out / f"cspace_{k}_{name}.png").stat().st_size > 10_000
+    assert (out / "layout.png").stat().st_size > 10_000
+    for f in ("trajectory.csv", "trajectory.json", "trajectory_ros2.yaml", "trajectory.urscript"):
+        assert (out / f).stat().st_size > 0
+    for p in result["placements"]:
+        plan = p["plan"]
+        assert plan["solved"] and plan["states"][-1][0] <= math.radians(3) + 1e-9  # put down
+        assert plan["manipulation_plane"]["G"] == pytest.approx(p["approach"]["G"])
+
+
+def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
+    """Along every planned path, the piece (its outline's prism, tilted about the plane's normal
+    through G) stays clear of the walls and of the pieces put down before it (fcl meshes)."""
+    proc, out, doc = tiled
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads((out / "tiling.json").read_text())
+    layout = Layout.from_file(TANGRAM)
+    walls = _walls(doc)
+    thickness = {p["name"]: p["thickness"] for p in doc["pieces"]}
+    down: dict[str, fcl.CollisionObject] = {}
+    checked = 0
+    for p in result["placements"]:
+        name, plan = p["piece"], p["plan"]
+        frame = np.asarray(plan["manipulation_plane"]["frame"])
+        g = frame[:3, 3]
+        outline = _footprint(doc, name)
+        local = np.column_stack([(outline - g[:2]) @ frame[:2, :2], np.zeros(len(outline))])  # plane coordinates
+        body = _prism_mesh(local[:, :2], 0.0, thickness[name])
+        obj = fcl.CollisionObject(body)
+        scene = layout.scene([q.name for q in layout.pieces].index(name), (p["approach"]["G"], p["approach"]["B"]))
+        steps = [PrimitiveStep(**s) for s in plan["primitives"]]
+        states, _ = densify(Plan(solved=True, scene=name, planner="", seed=None, sliding_model="",
+                                 states=plan["states"], primitives=steps), angle_step=math.radians(0.5))
+        for theta in np.unique(states[:, 0]):
+            # tilt by theta about the plane's y axis through G (x toward z), then into the world
+            c, s = math.cos(theta), math.sin(theta)
+            tilt = np.array([[c, 0, -s], [0, 1, 0], [s, 0, c]])
+            obj.setTransform(fcl.Transform(frame[:3, :3] @ tilt, g))
+            for other, target in list(walls.items()) + list(down.items()):
+                assert not _collides(obj, target), f"{name} hits {other} at theta {math.degrees(theta):.1f} deg"
+                checked += 1
+        assert scene.object_length == pytest.approx(np.linalg.norm(np.subtract(p["approach"]["B"], p["approach"]["G"])))
+        down[name] = fcl.CollisionObject(_prism_mesh(outline, 0.0, thickness[name]))
+    assert checked > 100
+
+
+def test_robot_misses_the_frame_and_earlier_pieces_in_3d(tiled):
+    """Every sample of the exported trajectory: the gripper and wrist (forward kinematics of the
+    URDF's collision geometry) clear the walls and the pieces down at that time (fcl meshes)."""
+    proc, out, doc = tiled
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads((out / "tiling.json").read_text())
+    traj = read_json(out / "trajectory.json")
+    layout = Layout.from_file(TANGRAM)
+    robot = load_ur5e(gripper_spec(layout.scene(0)), np.array(layout.scene(0).robot.base))
+    gdata = pin.GeometryData(robot.collision_model)
+    shapes = {}
+    for k, g in enumerate(robot.collision_model.geometryObjects):
+        geo = g.geometry
+        kind = type(geo).__name__
+        if kind == "Box":
+            shapes[k] = fcl.CollisionObject(fcl.Box(*(2 * np.asarray(geo.halfSide))))
+        elif kind == "Cylinder":
+            shapes[k] = fcl.CollisionObject(fcl.Cylinder(geo.radius, 2 * geo.halfLength))
+    names = {k: robot.collision_model.geometryObjects[k].name for k in shapes}
+    near = [k for k in shapes if names[k].startswith(("gripper", "wrist"))]
+    assert len(near) >= 3
+    walls = _walls(doc)
+    order = result["order"]
+    checked = 0
+    for seg, a, b in traj.segments:
+        piece = seg.split("/")[0]
+        targets = dict(walls)
+        for earlier in order[:order.index(piece)]:
+            thick = next(p["thickness"] for p in doc["pieces"] if p["name"] == earlier)
+            targets[earlier] = fcl.CollisionObject(_prism_mesh(_footprint(doc, earlier), 0.0, thick))
+        for i in range(a, b + 1, 2):
+            pin.forwardKinematics(robot.model, robot.data, configuration(robot, traj.positions[i]))
+            pin.updateGeometryPlacements(robot.model, robot.data, robot.collision_model, gdata)
+            for k in near:
+                m = gdata.oMg[k]
+                shapes[k].setTransform(fcl.Transform(m.rotation, m.translation))
+                for tname, target in targets.items():
+                    assert not _collides(shapes[k], target), f"{names[k]} hits {tname} in {seg} at sample {i}"
+                    checked += 1
+    assert checked > 10_000
+
+
+# -- a frame too tight for the thumb ---------------------------------------------------------
+
+def _square_in_frame(tmp_path, clearance: float) -> str:
+    """One tangram square alone in a square frame that leaves clearance (m) on every side."""
+    doc = yaml.safe_load(TANGRAM.read_text())
+    square = next(p for p in doc["pieces"] if p["name"] == "square")
+    poly = np.asarray(square["outline"]["polygon"])
+    half = float(np.max(np.abs(poly))) + clearance
+    square["target"] = {"position": [half, half], "yaw_deg": 0}
+    doc["pieces"] = [square]
+    doc["frame"]["inner_size"] = 2 * half
+    path = tmp_path / f"square_{clearance}.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return str(path)
+
+
+def test_frame_too_tight_for_the_thumb_names_the_piece_and_exits_3(tmp_path):
+    proc = run_cli("tile", _square_in_frame(tmp_path, 0.0005), "--out", str(tmp_path / "out"))
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert "piece 'square' cannot be placed" in proc.stdout
+    assert "wall_" in proc.stdout  # the reasons name the walls the digits would hit
+    assert (tmp_path / "out" / "layout.png").exists() and not (tmp_path / "out" / "trajectory.csv").exists()
+
+
+def test_the_same_square_with_room_is_placed(tmp_path):
+    """The control: with 15 mm around it the square goes in."""
+    proc = run_cli("tile", _square_in_frame(tmp_path, 0.015), "--planner", "lattice", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "1. square: G (" in proc.stdout
+
+
+# -- the approaches -------------------------------------------------------------------------
+
+def test_room_beyond_b_is_the_gap_to_the_wall(tmp_path):
+    """A square 4 mm from every wall: an approach whose GB points straight at a wall measures
+    4 mm of room beyond B (and behind G), the digits' width included."""
+    doc = yaml.safe_load(TANGRAM.read_text())
+    side = 0.03
+    doc["pieces"] = [{"name": "block", "thickness": 0.003,
+                      "outline": {"polygon": [[0, 0], [side, 0], [side, side], [0, side]]},
+                      "target": {"position": [0.004, 0.004]}}]
+    doc["frame"]["inner_size"] = side + 0.008
+    path = tmp_path / "block.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    layout = Layout.from_file(path)
+    found = approaches(layout, 0, [], 50)
+    straight = [a for a in found if abs(math.sin(2 * a.yaw)) < 1e-9]  # along a wall normal
+    assert straight
+    for a in straight:
+        assert a.room_b == pytest.approx(0.004) and a.room_g == pytest.approx(0.004)
+    # at a contact inside a side, GB lies inside that side's friction cone (G: 0.35, B: 0.45)
+    for a in found:
+        chord = (a.b - a.g) / np.linalg.norm(a.b - a.g)
+        for point, direction, mu in ((a.g, chord, 0.35), (a.b, -chord, 0.45)):
+            on = [k for k in range(2) for v in (0.0, side) if abs(point[k] - v) < 1e-9]
+            if len(on) == 1:  # inside a side (not a corner): its inward normal
+                k = on[0]
+                normal = np.zeros(2)
+                normal[k] = 1.0 if point[k] < side / 2 else -1.0
+                assert math.acos(np.clip(direction @ normal, -1, 1)) < math.atan(mu) + 1e-9
+
+
+# -- bad layouts ----------------------------------------------------------------------------
+
+def _bad(tmp_path, change) -> tuple[int, str]:
+    doc = yaml.safe_load(TANGRAM.read_text())
+    change(doc)
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    proc = run_cli("tile", str(path), "--out", str(tmp_path / "out"))
+    return proc.returncode, proc.stderr
+
+
+def _overlap(doc):
+    doc["pieces"][1]["target"]["position"] = doc["pieces"][0]["target"]["position"]
+
+
+def _outside(doc):
+    doc["pieces"][2]["target"]["position"] = [0.2, 0.02]
+
+
+def _twice(doc):
+    doc["pieces"][3]["name"] = doc["pieces"][0]["name"]
+
+
+def _no_size(doc):
+    del doc["frame"]["inner_size"]
+
+
+def _unknown(doc):
+    doc["pieces"][4]["colour"] = "red"
+
+
+def _thin(doc):
+    doc["pieces"][5]["thickness"] = -0.003
+
+
+def _degenerate(doc):
+    doc["pieces"][6]["outline"] = {"polygon": [[0, 0], [0.01, 0], [0.02, 0]]}
+
+
+@pytest.mark.parametrize("change, field", [
+    (_overlap, "pieces[1].target"), (_outside, "pieces[2].target"), (_twice, "pieces[3].name"),
+    (_no_size, "frame.inner_size"), (_unknown, "pieces[4].colour"), (_thin, "pieces[5].thickness"),
+    (_degenerate, "pieces[6].outline.polygon"),
+])
+def test_bad_layout_exits_2_naming_the_field(tmp_path, change, field):
+    code, err = _bad(tmp_path, change)
+    assert code == 2
+    assert field in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "out").exists()  # nothing written
+
+
+def test_layout_api_rejects_a_scene_file():
+    with pytest.raises(InputError, match="frame"):
+        Layout.from_file(SCENES / "puzzle_piece.yaml")
