@@ -194,8 +194,12 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
     v_max, a_max = robot.v_max, robot.a_max
     parts: list[tuple[str, Samples]] = []
     for name, first, last in segments + [("termination", len(states) - 1, len(path) - 1)]:
-        parts.append((name, toppra_path(path[first:last + 1], travel[first:last + 1] - travel[first], v_max, a_max,
-                                        opts.contact_speed, SAMPLE_PERIOD)))
+        # a primitive that bends (a P_dpsi's corners) is timed leg by leg, at rest at each corner:
+        # a time-optimal pass through a corner would need a jump in the joint velocities
+        cuts = _corners(states, first, min(last, len(states) - 1)) + [last]
+        legs = [toppra_path(path[a:b + 1], travel[a:b + 1] - travel[a], v_max, a_max, opts.contact_speed, SAMPLE_PERIOD)
+                for a, b in zip([first] + cuts[:-1], cuts)]
+        parts.append((name, _joined(legs)))
     if opts.retreat_height > 0:  # the palm straight up, so the digits leave the pieces around without a sideways slip
         lift = np.linspace(0.0, opts.retreat_height, RETREAT_STEPS + 1)
         up = np.repeat(all_poses[-1][None], len(lift), axis=0)
@@ -206,6 +210,28 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
         parts.append(("retreat", toppra_path(q_up, lift, v_max, a_max, RETREAT_SPEED, SAMPLE_PERIOD)))
     contact_error = _contact_error(scene, robot, states, frame, q_arm[: len(states)], openings)
     return parts, path, (float(np.max(res_m)), float(np.max(res_rad)), contact_error)
+
+
+def _corners(states: NDArray, first: int, last: int) -> list[int]:
+    """Indices strictly between first and last where the planar path turns."""
+    steps = np.diff(states[first:last + 1], axis=0)
+    if len(steps) < 2:
+        return []
+    unit = steps / np.maximum(np.linalg.norm(steps, axis=1, keepdims=True), 1e-15)
+    turn = np.linalg.norm(np.diff(unit, axis=0), axis=1) > 1e-6
+    return [first + 1 + int(k) for k in np.flatnonzero(turn)]
+
+
+def _joined(pieces: list[Samples]) -> Samples:
+    """Timed pieces one after another (each starts where the previous stopped, at rest)."""
+    if len(pieces) == 1:
+        return pieces[0]
+    t, q, qd, qdd = [pieces[0].t], [pieces[0].q], [pieces[0].qd], [pieces[0].qdd]
+    offset = float(pieces[0].t[-1])
+    for s in pieces[1:]:
+        t.append(s.t[1:] + offset), q.append(s.q[1:]), qd.append(s.qd[1:]), qdd.append(s.qdd[1:])
+        offset += float(s.t[-1])
+    return Samples(np.concatenate(t), np.concatenate(q), np.concatenate(qd), np.concatenate(qdd))
 
 
 def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
