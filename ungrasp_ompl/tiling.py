@@ -177,7 +177,8 @@ def _room(origins: NDArray, direction: NDArray, segments: NDArray) -> float:
 def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Approach]:
     """Up to count distinct manipulation planes of piece i, best first (see the module docstring)."""
     piece = layout.pieces[i].object3d
-    mu = layout.scene(i).mu_contacts
+    own = layout.scene(i)
+    mu = own.mu_contacts
     cand = piece.outline.candidates()
     gi, bi, margins = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, piece.outline.vertices,
                                       math.atan(mu[0]), math.atan(mu[2]))
@@ -185,7 +186,7 @@ def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Ap
     c, s = math.cos(yaw), math.sin(yaw)
     rot = np.array([[c, -s], [s, c]])
     segs = _segments(layout, placed)
-    half_width = layout.scene(i).digits.width * layout.scene(i).object_length / 2
+    half_width = own.digits.width * own.object_length / 2  # metres
     out = []
     # only planes whose contacts hold x-moments: an edge contact at G or B, or no cusp at either
     x_stable = (cand.kind[gi] == "edge") | (cand.kind[bi] == "edge") | ((cand.radius[gi] > 0) & (cand.radius[bi] > 0))
