@@ -246,7 +246,7 @@ def screen(scene: Scene) -> str | None:
         kin = atlas.kinematic.any()
         return ("no goal state can be held" + (": every kinematically valid one collides or is not force-closed"
                                                 if kin else " (kinematics)"))
-    if not atlas.releasable_in(goal_box).any():
+    if not atlas.can_let_go_in(goal_box):
         return f"the gripper cannot let go ({scene.robot.termination}) at any goal state without a collision"
     return None
 

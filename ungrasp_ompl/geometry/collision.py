@@ -48,14 +48,29 @@ def _prism(outline: NDArray, width: float) -> fcl.Convex:
     return fcl.Convex(verts, len(faces), flat)
 
 
-def _planar_transform(angle: float, x: float, z: float) -> fcl.Transform:
-    """Rotation by angle in the xz-plane (turning x toward z) and a shift to the plane point (x, z).
+class _PlanarPose:
+    """Places an FCL object by a rotation by angle in the xz-plane (turning x toward z) and a shift
+    to the plane point (x, z); skips the update when the pose is the one it has.
 
     Turning x toward z is a rotation by -angle about y: quaternion (w, x, y, z) =
-    (cos(angle/2), 0, -sin(angle/2), 0).
+    (cos(angle/2), 0, -sin(angle/2), 0). The arrays are reused (python-fcl copies them).
     """
-    half = 0.5 * angle
-    return fcl.Transform([math.cos(half), 0.0, -math.sin(half), 0.0], [x, 0.0, z])
+
+    def __init__(self, obj: fcl.CollisionObject):
+        self.obj = obj
+        self.last: tuple[float, float, float] | None = None
+        self._quat = np.array([1.0, 0.0, 0.0, 0.0])
+        self._shift = np.zeros(3)
+
+    def set(self, angle: float, x: float, z: float) -> fcl.CollisionObject:
+        if self.last != (angle, x, z):
+            half = 0.5 * angle
+            self._quat[0], self._quat[2] = math.cos(half), -math.sin(half)
+            self._shift[0], self._shift[2] = x, z
+            self.obj.setQuatRotation(self._quat)
+            self.obj.setTranslation(self._shift)
+            self.last = (angle, x, z)
+        return self.obj
 
 
 def _separated(outline: NDArray, lo: NDArray, hi: NDArray) -> NDArray[np.bool_]:
@@ -142,8 +157,9 @@ class CollisionChecker:
                 xz = local[:, [0, 2]]
                 self._target_y[solid.name] = (float(local[:, 1].min()), float(local[:, 1].max()))
                 self._targets.append((solid.name, np.array([xz.min(axis=0), xz.max(axis=0)]),
-                                      fcl.CollisionObject(convex_shape(local))))
+                                      solid.in_frame(scene.plane.frame)))
         self._request = fcl.CollisionRequest()
+        self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
     def _poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
         """Per body: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
@@ -196,8 +212,7 @@ class CollisionChecker:
         return outline[:, :, 1].min(axis=1) < -gap
 
     def _collide(self, body: str, angle: float, x: float, z: float, target: fcl.CollisionObject) -> bool:
-        obj = self._bodies[body]
-        obj.setTransform(_planar_transform(angle, x, z))
+        obj = self._placers[body].set(angle, x, z)
         return fcl.collide(obj, target, self._request, fcl.CollisionResult()) > 0
 
     def in_collision(self, q: ArrayLike) -> NDArray[np.bool_]:

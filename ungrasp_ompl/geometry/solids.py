@@ -28,6 +28,23 @@ class Solid:
         """The vertices expressed in another frame: pose (4x4) maps that frame to the world."""
         return (self.vertices - pose[:3, 3]) @ pose[:3, :3]
 
+    def shape(self) -> fcl.Convex:
+        """The FCL shape of its convex hull in world coordinates (built once per solid)."""
+        key = (self.name, self.vertices.tobytes())
+        if key not in _SHAPES:
+            if len(_SHAPES) > 4096:
+                _SHAPES.clear()
+            _SHAPES[key] = convex_shape(self.vertices)
+        return _SHAPES[key]
+
+    def in_frame(self, pose: NDArray) -> fcl.CollisionObject:
+        """A collision object of the solid in another frame, pose (4x4) mapping that frame to the world."""
+        rot = pose[:3, :3].T
+        return fcl.CollisionObject(self.shape(), fcl.Transform(rot, -rot @ pose[:3, 3]))
+
+
+_SHAPES: dict[tuple, fcl.Convex] = {}
+
 
 def prism(name: str, polygon: ArrayLike, bottom: float, top: float) -> Solid:
     """A vertical prism over a planar polygon (N, 2) of world (x, y) points, from z = bottom to top (m)."""

@@ -136,12 +136,24 @@ class SecurityAtlas:
             mask = self.holdable_in(box)
             idx = np.flatnonzero(mask)
             if len(idx):
-                r = self.scene.robot
-                amount = r.termination_opening if r.termination == "open" else r.termination_angle
-                bad = self._checker.termination_collides(self._grid[idx], r.termination, amount)
-                mask.flat[idx[bad]] = False
+                mask.flat[idx[self._no_let_go(idx)]] = False
             self._releasable[key] = mask
         return self._releasable[key]
+
+    def can_let_go_in(self, box: ArrayLike, chunk: int = 64) -> bool:
+        """Whether some holdable state in box lets the gripper go: releasable_in(box).any(), but
+        checked a chunk of states at a time and stopping at the first that does."""
+        key = tuple(np.asarray(box, dtype=float).ravel().round(12))
+        if key in self._releasable:
+            return bool(self._releasable[key].any())
+        idx = np.flatnonzero(self.holdable_in(box))
+        return any(not self._no_let_go(idx[k:k + chunk]).all() for k in range(0, len(idx), chunk))
+
+    def _no_let_go(self, idx: NDArray) -> NDArray[np.bool_]:
+        """For flat lattice indices: the scene's termination maneuver would collide."""
+        r = self.scene.robot
+        amount = r.termination_opening if r.termination == "open" else r.termination_angle
+        return self._checker.termination_collides(self._grid[idx], r.termination, amount)
 
     # -- per-mode security -------------------------------------------------------
     def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:

@@ -16,7 +16,6 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..geometry.solids import convex_shape
 from ..scene import Scene
 from .model import RobotModel, configuration
 
@@ -52,7 +51,7 @@ class RobotCollisionChecker:
             shape = fcl.Box(size[0], 1.0, size[1])  # 1 m through the plane
             self.targets.append((box.name, fcl.CollisionObject(shape, fcl.Transform(rot, world_centre))))
         for solid in scene.solids:  # already in the world frame
-            self.targets.append((solid.name, fcl.CollisionObject(convex_shape(solid.vertices))))
+            self.targets.append((solid.name, fcl.CollisionObject(solid.shape())))
         self.request = fcl.CollisionRequest()
 
     def collisions(self, q: NDArray) -> list[str]:
