@@ -1,4 +1,4 @@
-"""python-fcl collision against an independent 2D oracle (shapely polygons).
+"""python-fcl collision against independent oracles: 2D polygons (shapely), 3D meshes in the world.
 
 Everything is extruded through the manipulation plane with overlapping
 widths, so 3D collision equals overlap of the outlines in the plane.
@@ -60,3 +60,96 @@ def test_contacts_name_the_bodies(scenes):
     names = CollisionChecker(scene).contacts(q)
     assert "finger/upper_corner" in names
     assert CollisionChecker(scene).contacts(scene.start) == []
+
+
+# -- solids: 3D convex bodies fixed in the world (a layout's walls and pieces) ------------------
+
+def _mesh_object(vertices, triangles, rotation=np.eye(3), translation=np.zeros(3)):
+    import fcl
+
+    model = fcl.BVHModel()
+    model.beginModel(len(vertices), len(triangles))
+    model.addSubModel(np.asarray(vertices, dtype=float), np.asarray(triangles, dtype=np.int64))
+    model.endModel()
+    return fcl.CollisionObject(model, fcl.Transform(rotation, translation))
+
+
+def _box_triangles():
+    faces = [(0, 1, 2, 3), (4, 7, 6, 5), (0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 4, 0)]
+    return [t for a, b, c, d in faces for t in ((a, b, c), (a, c, d))]
+
+
+def _world_oracle(scene, q):
+    """Per state: the thumb, finger or housing (boxes and prisms placed in the world through the
+    plane frame, meshes built here) hits a solid (meshes of their own vertices' hulls, which are
+    boxes and prisms here), or reaches below the table."""
+    import fcl
+    from scipy.spatial import ConvexHull
+
+    from ungrasp_ompl.mechanics.kinematics import aperture, digit_axis, thumb_normal
+
+    l, dg = scene.object_length, scene.digits
+    frame = scene.plane.frame
+    rot, origin = frame[:3, :3], frame[:3, 3]
+    solids = []
+    for s in scene.solids:
+        hull = ConvexHull(s.vertices)
+        solids.append(_mesh_object(s.vertices, hull.simplices))
+    thumb, finger = digit_polygons(q[:, 0], q[:, 1], q[:, 2], dg)
+    e, n = digit_axis(q[:, 0], q[:, 2]), thumb_normal(q[:, 0], q[:, 2])
+    half = dg.width * l / 2
+    out = []
+    for i in range(len(q)):
+        bodies = [(thumb[i] * l, half), (finger[i] * l, half)]
+        centre = thumb[i, 0] + (dg.thumb_length + dg.palm_length / 2) * -e[i] + aperture(q[i, 1], q[i, 2]) / 2 * n[i]
+        a, c = dg.palm_length / 2 * -e[i], dg.palm_width / 2 * n[i]
+        palm = np.array([centre - a - c, centre + a - c, centre + a + c, centre - a + c]) * l
+        bodies.append((palm, dg.palm_thickness * l / 2))
+        hit = False
+        for outline, w in bodies:
+            hit |= bool(outline[:, 1].min() < -1e-9)  # the table
+            plane_pts = np.vstack([np.column_stack([outline[:, 0], np.full(4, -w), outline[:, 1]]),
+                                   np.column_stack([outline[:, 0], np.full(4, w), outline[:, 1]])])
+            body = _mesh_object(plane_pts @ rot.T + origin, _box_triangles())
+            hit |= any(fcl.collide(body, s, fcl.CollisionRequest(), fcl.CollisionResult()) > 0 for s in solids)
+        out.append(hit)
+    return np.array(out)
+
+
+def test_solids_agree_with_a_world_frame_oracle():
+    """The planar checker, which moves the solids into the plane frame, against meshes of the
+    digits and housing placed in the world: same verdict on states near a layout's walls."""
+    from pathlib import Path
+
+    from ungrasp_ompl.layout import Layout
+
+    layout = Layout.from_file(Path(__file__).resolve().parents[1] / "scenes" / "tangram.yaml")
+    names = [p.name for p in layout.pieces]
+    scene = layout.scene(names.index("medium_triangle"), placed=[names.index("square"), names.index("parallelogram")])
+    rng = np.random.default_rng(5)
+    n = 400
+    q = np.column_stack([rng.uniform(0, math.radians(30), n), rng.uniform(0.3, 0.9, n),
+                         rng.uniform(0, math.radians(110), n)])
+    got = CollisionChecker(scene).in_collision(q)  # the object's prism too, clear of the solids here
+    expected = _world_oracle(scene, q)
+    assert 0.1 < expected.mean() < 0.9
+    disagree = np.flatnonzero(got != expected)
+    assert len(disagree) <= 2, q[disagree]
+
+
+def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
+    """A small block 3 mm beyond the finger tip's back corner, along n_B: clear at rest, hit when
+    the gripper opens by 5 mm (the finger moves along n_B), clear when it opens by 2 mm."""
+    from ungrasp_ompl.mechanics.kinematics import finger_tip, thumb_normal
+
+    scene = scenes["reference_asymmetric"]
+    l = scene.object_length
+    q = np.array([math.radians(20), 0.7, math.radians(40)])
+    a = finger_tip(q[0], q[1]) * l
+    spot = a + (scene.digits.finger_tip_thickness * l + 0.003) * thumb_normal(q[0], q[2])
+    block = Box("block", tuple(spot - 0.0005), tuple(spot + 0.0005))
+    scene = dataclasses.replace(scene, obstacles=[block])
+    checker = CollisionChecker(scene)
+    assert not checker.in_collision(q)[0]
+    assert checker.termination_collides(q, "open", 0.005)[0]
+    assert not checker.termination_collides(q, "open", 0.002)[0]
