@@ -1,7 +1,7 @@
 """python-fcl collision against independent oracles: 2D polygons (shapely), 3D meshes in the world.
 
-Everything is extruded through the manipulation plane with overlapping
-widths, so 3D collision equals overlap of the outlines in the plane.
+For the 2D oracle everything is extruded through the manipulation plane with
+overlapping widths, so 3D collision equals overlap of the outlines in the plane.
 """
 
 from __future__ import annotations

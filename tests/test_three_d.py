@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from conftest import ROOT, SCENES, run_cli
-from ungrasp_ompl.geometry.outline import OutlineError, ellipse, polygon, rounded_polygon
+from ungrasp_ompl.geometry.outline import ellipse, polygon, rounded_polygon
 from ungrasp_ompl.mechanics.antipodal import antipodal_pairs, effective_friction
 from ungrasp_ompl.mechanics.roll import roll_simulation
 

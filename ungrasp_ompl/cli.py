@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
+from .errors import EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
 
 
 class _Parser(argparse.ArgumentParser):

@@ -30,12 +30,11 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import yaml
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
 from .geometry.solids import Solid, box, polygons_overlap, prism
-from .scene import Object3D, Scene, _Reader
+from .scene import Object3D, Scene, _Reader, read_yaml
 
 #: Scene sections a layout shares among its pieces.
 SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",
@@ -102,18 +101,8 @@ class Layout:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Layout":
         """Load and validate a layout file; raises InputError naming the bad field."""
-        path = Path(path)
-        src = str(path)
-        if not path.is_file():
-            raise InputError("layout", "no such file" if not path.exists() else "not a file", src)
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            raise InputError("layout", f"not valid YAML{f' at line {mark.line + 1}' if mark else ''}", src) from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError("layout", f"cannot be read ({exc.__class__.__name__})", src) from None
-        return cls.from_dict(data, source=src, default_name=path.stem)
+        data = read_yaml(path, "layout")
+        return cls.from_dict(data, source=str(path), default_name=Path(path).stem)
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":

@@ -145,19 +145,8 @@ class Scene:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
         """Load and validate a scene file; raises InputError naming the bad field."""
-        path = Path(path)
-        src = str(path)
-        if not path.is_file():
-            raise InputError("scene", "no such file" if not path.exists() else "not a file", src)
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" at line {mark.line + 1}" if mark else ""
-            raise InputError("scene", f"not valid YAML{where}", src) from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError("scene", f"cannot be read ({exc.__class__.__name__})", src) from None
-        return cls.from_dict(data, source=src, default_name=path.stem)
+        data = read_yaml(path, "scene")
+        return cls.from_dict(data, source=str(path), default_name=Path(path).stem)
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "scene") -> "Scene":
@@ -332,6 +321,22 @@ class Scene:
         from dataclasses import replace
 
         return replace(self, options=replace(self.options, **changes))
+
+
+def read_yaml(path: str | os.PathLike[str], what: str) -> Any:
+    """The parsed YAML of a file; InputError naming what (scene, layout) when it is missing or malformed."""
+    path = Path(path)
+    src = str(path)
+    if not path.is_file():
+        raise InputError(what, "no such file" if not path.exists() else "not a file", src)
+    try:
+        return yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark else ""
+        raise InputError(what, f"not valid YAML{where}", src) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(what, f"cannot be read ({exc.__class__.__name__})", src) from None
 
 
 def _states(q: ArrayLike, name: str) -> NDArray[np.float64]:
