@@ -135,8 +135,12 @@ class Tiling:
         return self.failed_piece is None
 
     def summary(self) -> str:
-        lines = [f"{self.layout}: order " + ", ".join(p.name for p in self.placements)
-                 + f" ({len(self.placements)} pieces, {self.checks} approaches checked, {self.time_s:.1f} s)"]
+        stats = f"{self.checks} approaches checked, {self.time_s:.1f} s"
+        if self.placements or self.solved:
+            lines = [f"{self.layout}: order " + ", ".join(p.name for p in self.placements)
+                     + f" ({len(self.placements)} pieces, {stats})"]
+        else:
+            lines = [f"{self.layout}: no order puts every piece down ({stats})"]
         lines += [p.summary() for p in self.placements]
         if not self.solved:
             lines.append(f"piece {self.failed_piece!r} cannot be placed:")
@@ -339,7 +343,10 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
         result.reasons = deepest["reasons"] + [f"(pieces down before it in the deepest order tried: {down})"]
         if result.failed_piece is None:
             result.failed_piece = "?"
-            result.reasons = [f"the search stopped after {opts.max_checks} approach checks"]
+            result.reasons = []
+        if out_of_checks():
+            result.reasons.append(f"(the search stopped at its cap of {opts.max_checks} approach checks, "
+                                  "TilingOptions.max_checks, before trying every order)")
         result.time_s = time.perf_counter() - t0
         return result
     for k, (i, a, scene) in enumerate(found):
