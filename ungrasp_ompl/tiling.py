@@ -17,8 +17,10 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
 3. an approach is screened (the start grasp holdable, some goal state holdable
    with room for the gripper to let go), then proved by the exact lattice
    search; the first approach proved places the piece;
-4. a piece that no approach can place now cannot be placed later either (more
-   pieces only add obstacles), so the search goes back one step at once.
+4. a piece that none of its approaches can place now cannot be placed by them
+   later either (more pieces only add obstacles), so the search goes back one
+   step at once. Only the best `approaches` planes of a piece are tried: the
+   search is complete over orders, not over every antipodal pair.
 
 Results are memoised by (pieces down, piece), so no check is repeated. Once an
 order is found, each piece is planned with the chosen planner; should a
