@@ -297,3 +297,12 @@ def test_bad_layout_exits_2_naming_the_field(tmp_path, change, field):
 def test_layout_api_rejects_a_scene_file():
     with pytest.raises(InputError, match="frame"):
         Layout.from_file(SCENES / "puzzle_piece.yaml")
+
+
+@pytest.mark.parametrize("args, word", [(["--planner", "PRM"], "planner"), (["--planner", "Nope"], "planner"),
+                                        (["--time", "0"], "time"), (["--approaches", "0"], "approaches"),
+                                        (["--range", "-1"], "range")])
+def test_bad_tile_options_exit_2(tmp_path, args, word):
+    proc = run_cli("tile", str(TANGRAM), *args, "--out", str(tmp_path / "out"))
+    assert proc.returncode == 2 and word in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()

@@ -73,6 +73,8 @@ def _parser() -> argparse.ArgumentParser:
     tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
     tl.add_argument("--time", type=float, default=1.0, help="planning time per piece in seconds (default 1)")
     tl.add_argument("--seed", type=int, default=None, help="seed: piece k is planned with seed + k")
+    tl.add_argument("--range", type=float, default=1.0,
+                    help="the planner's longest motion per piece, state units (default 1.0)")
     tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
     tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
                     "layout.png, a C-space picture per piece and the exported trajectory")
@@ -172,8 +174,8 @@ def _tile(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     if args.planner != "lattice":
-        PlannerOptions(planner=args.planner, time=args.time, seed=args.seed).validated()
-    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
+        PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
+    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
                                         approaches=args.approaches))
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")

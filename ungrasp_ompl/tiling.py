@@ -53,18 +53,25 @@ ROOM_CAP = 0.02
 
 @dataclass(frozen=True)
 class TilingOptions:
-    """How to tile: the planner per piece (an OMPL planner by name, or lattice), its time (s) and
-    seed (piece k gets seed + k), the approaches tried per piece, and a cap on approach checks."""
+    """How to tile: the planner per piece (an OMPL planner by name, or lattice), its time (s), seed
+    (piece k gets seed + k) and range (state units; longer than plan's default 0.3: a piece's
+    secure states are a thin share of its wide planning box, and long motions reach the goal in
+    one staircase of primitives; measured on the tangram's last piece, RRT* found a path in 0.5 s
+    in 7 of 8 runs at range 1.0 against 4 of 8 at 0.3), the approaches tried per piece, and a cap
+    on approach checks."""
 
     planner: str = "RRTstar"
     time: float = 1.0
     seed: int | None = None
+    range: float = 1.0
     approaches: int = 6
     max_checks: int = 400
 
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
             raise InputError("approaches", f"must be a positive integer, got {self.approaches!r}")
+        if not (isinstance(self.range, (int, float)) and self.range > 0):
+            raise InputError("range", f"must be positive, got {self.range!r}")
         if not isinstance(self.max_checks, int) or self.max_checks < 1:
             raise InputError("max_checks", f"must be a positive integer, got {self.max_checks!r}")
         return self
@@ -353,7 +360,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
         return result
     for k, (i, a, scene) in enumerate(found):
         seed = None if opts.seed is None else opts.seed + k
-        p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed)
+        p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range)
         note = None
         if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
             note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
