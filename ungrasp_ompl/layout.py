@@ -25,7 +25,7 @@ from __future__ import annotations
 import copy
 import math
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -96,6 +96,7 @@ class Layout:
     pieces: list[Piece]
     shared: dict[str, Any]
     source: str | None = None
+    _own: dict[int, Scene] = field(default_factory=dict, repr=False)  # scene(i) without contacts or solids placed
 
     # -- loading -------------------------------------------------------------------
     @classmethod
@@ -170,9 +171,7 @@ class Layout:
     # -- geometry ------------------------------------------------------------------
     def footprint(self, i: int, world: bool = True) -> NDArray[np.float64]:
         """Outline of piece i at its target (N, 2): world (x, y) or frame coordinates, metres."""
-        obj = self.pieces[i].object3d
-        c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-        local = obj.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(obj.position)
+        local = self.pieces[i].object3d.placed_outline()  # object3d's pose is in frame coordinates
         return self.frame.to_world(local) if world else local
 
     def solid(self, i: int) -> Solid:
@@ -190,6 +189,8 @@ class Layout:
         """The planning scene of piece i: the shared sections, the piece at its world target, G and B
         (own coordinates; None chooses them as for a single object), and as solids the frame's
         walls and the pieces placed already."""
+        if contacts is None and not placed and i in self._own:
+            return self._own[i]
         piece = self.pieces[i]
         position, yaw = self.world_pose(i)
         data = copy.deepcopy(self.shared)
@@ -205,4 +206,7 @@ class Layout:
                 raise InputError(f"pieces[{i}]", f"{piece.name!r}: {exc.field}: {exc.reason}", self.source) from None
             raise
         solids = tuple(self.frame.walls()) + tuple(self.solid(j) for j in placed)
-        return replace(scene, solids=solids)
+        scene = replace(scene, solids=solids)
+        if contacts is None and not placed:
+            self._own[i] = scene
+        return scene

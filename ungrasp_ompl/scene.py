@@ -89,6 +89,11 @@ class Object3D:
     position: tuple[float, float] = (0.0, 0.0)
     yaw: float = 0.0
 
+    def placed_outline(self) -> NDArray[np.float64]:
+        """The outline's vertices (N, 2) turned by yaw and moved to position (the frame of position)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return self.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(self.position)
+
     def to_dict(self) -> dict:
         return {"outline": self.outline.vertices.tolist(), "thickness_m": self.thickness,
                 "target": {"position": list(self.position), "yaw_rad": self.yaw}}

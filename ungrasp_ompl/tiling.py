@@ -190,7 +190,7 @@ def _room(origins: NDArray, direction: NDArray, segments: NDArray) -> float:
 def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Approach]:
     """Up to count distinct manipulation planes of piece i, best first (see the module docstring)."""
     piece = layout.pieces[i].object3d
-    own = layout.scene(i)
+    own = layout.scene(i)  # built once, at load
     mu = own.mu_contacts
     cand = piece.outline.candidates()
     gi, bi, margins = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, piece.outline.vertices,

@@ -97,14 +97,20 @@ def _max(xs: list[NDArray]) -> NDArray:
     return np.maximum(np.maximum(xs[0], xs[1]), np.maximum(xs[2], xs[3]))
 
 
+def _turned(points: NDArray, pivot: NDArray, angle: NDArray) -> NDArray:
+    """Plane points (N, 2) or outlines (N, K, 2) turned by angle (N,) about pivot (N, 2), x toward z."""
+    if points.ndim == 3:
+        pivot, angle = pivot[:, None, :], angle[:, None]
+    c, s = np.cos(angle), np.sin(angle)
+    rel = points - pivot
+    return pivot + np.stack([c * rel[..., 0] - s * rel[..., 1], s * rel[..., 0] + c * rel[..., 1]], axis=-1)
+
+
 def _outline_in_plane(scene: "Scene") -> NDArray[np.float64]:
     """The object's outline at its target pose in plane coordinates (x along GB from G, y the
     plane's normal), metres, (N, 2)."""
-    obj = scene.object3d
-    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
-    world = obj.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(obj.position)
     frame = scene.plane.frame
-    return (world - frame[:2, 3]) @ frame[:2, :2]
+    return (scene.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
 
 
 class CollisionChecker:
@@ -264,18 +270,10 @@ class CollisionChecker:
         hit = np.zeros(len(q), dtype=bool)
         for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
             moved = {}
+            turn = lift * amount * f
             for body, (angle, origin, outline) in poses.items():
                 if kind == "rotate":
-                    turn = lift * amount * f
-                    c, s = np.cos(turn), np.sin(turn)
-
-                    def rotate(p: NDArray, c=c, s=s) -> NDArray:
-                        rel = p - (pivot if p.ndim == 2 else pivot[:, None, :])
-                        cc, ss = (c, s) if p.ndim == 2 else (c[:, None], s[:, None])
-                        out = np.stack([cc * rel[..., 0] - ss * rel[..., 1], ss * rel[..., 0] + cc * rel[..., 1]], -1)
-                        return out + (pivot if p.ndim == 2 else pivot[:, None, :])
-
-                    moved[body] = (angle + turn, rotate(origin), rotate(outline))
+                    moved[body] = (angle + turn, _turned(origin, pivot, turn), _turned(outline, pivot, turn))
                 else:
                     shift = n_b * (amount * f * share[body])
                     moved[body] = (angle, origin + shift, outline + shift[:, None, :])
