@@ -79,6 +79,30 @@ def _parser() -> argparse.ArgumentParser:
     tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
                     "layout.png, a C-space picture per piece and the exported trajectory")
 
+    sm = sub.add_parser("simulate", help="execute a plan in MuJoCo: success rate and placement errors over "
+                        "perturbed trials")
+    sm.add_argument("scene", help="scene file (YAML) with an object thickness")
+    sm.add_argument("--plan", default=None, help="plan.json to execute instead of planning (may be one the "
+                    "model rejects for this scene: a warning says why)")
+    sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
+    sm.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
+    sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
+    sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
+    sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
+                    "friction, mass, thickness")
+    sm.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
+    sm.add_argument("--out", default="simulation", help="output directory (default ./simulation)")
+    sm.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
+                    help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
+    sm.add_argument("--start-psi-offset-deg", type=float, default=None,
+                    help="start the plan with psi this much larger, outside force closure (caging experiment)")
+    sm.add_argument("--friction-scale", type=float, default=1.0,
+                    help="simulate with every friction coefficient times this, in (0, 1] (a control)")
+    sm.add_argument("--thickness", type=float, default=None,
+                    help="simulate an object of this thickness (m) with the motion planned for the scene's")
+    sm.add_argument("--equal-digits", action="store_true",
+                    help="simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)")
+
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML)")
     rg.add_argument("--out", required=True, help="PNG file to write")
@@ -196,6 +220,99 @@ def _tile(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _simulate(args: argparse.Namespace) -> int:
+    import csv
+    import io
+    import json
+    import math
+    from dataclasses import replace
+
+    from .io import write_text_atomic
+    from .planning import plan
+    from .planning.result import read_plan
+    from .plotting import draw_trials
+    from .robot.export import export_all
+    from .robot.pipeline import execute
+    from .scene import Scene
+    from .sim.campaign import default_jobs, deviated_plan, plan_problems, simulate
+    from .sim.perturb import preset
+    from .sim.setup import Variant, object_outline, trial_setup
+
+    scene = Scene.from_file(args.scene)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    perturbation = preset(args.perturb)
+    if not 0.0 < args.friction_scale <= 1.0:
+        raise InputError("--friction-scale", f"must lie in (0, 1]: the simulator never grants more friction than "
+                         f"the scene's, got {args.friction_scale:g}")
+    if args.thickness is not None and not 0.0 < args.thickness < 0.05:
+        raise InputError("--thickness", f"must be a thickness in metres in (0, 0.05), got {args.thickness:g}")
+    if args.thickness is None and scene.object_thickness <= 0.0:
+        raise InputError("object.thickness", "the simulator needs an object with a thickness (m)", scene.source)
+    jobs = default_jobs() if args.jobs is None else args.jobs
+    if args.trials < 1 or jobs < 1:
+        raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
+    if args.finger_tip is not None:
+        dg = scene.digits
+        scene = replace(scene, digits=replace(dg, flat_finger_tip=args.finger_tip == "flat",
+                                              finger_tip_radius=0.0 if args.finger_tip == "flat"
+                                              else dg.finger_tip_thickness / 2))
+    variant = Variant(friction_scale=args.friction_scale, thickness=args.thickness, equal_digits=args.equal_digits)
+
+    if args.plan is not None:
+        result = read_plan(args.plan)
+    else:
+        result = plan(scene, planner=args.planner, time=args.time, seed=args.seed)
+        if not result.solved:
+            print(result.summary())
+            return EXIT_NO_SOLUTION
+    if args.start_psi_offset_deg is not None:
+        result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
+    problems = plan_problems(scene, result) if args.plan is not None or args.start_psi_offset_deg else []
+    for p in problems:
+        print(f"warning: the model rejects this plan for {scene.name}: {p}")
+    execution = execute(scene, result)
+    write_text_atomic(out / "plan.json", result.to_json())
+    export_all(execution.trajectory, out)
+    setup = trial_setup(scene, result, execution.trajectory, execution.robot, variant)
+    print(f"simulating {args.trials} trials of {scene.name} ({len(result.primitives)} primitives, "
+          f"{setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat), perturbation "
+          f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
+    done = []
+
+    def progress(_) -> None:
+        done.append(1)
+        filled = round(30 * len(done) / args.trials)
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {len(done)}/{args.trials}")
+        if len(done) == args.trials:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    report = simulate(setup, perturbation, args.trials, args.seed, jobs, progress, scene.name, variant)
+    report.plan_problems = problems
+    summary = report.to_dict()
+    errs = summary["position_error_mm"]
+    yaw = summary["yaw_error_deg"]
+    print(f"success {report.successes}/{args.trials}" + (
+        f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
+        f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
+    for cause, n in report.causes().items():
+        print(f"  {n} x {cause}")
+    wall = sum(t.wall_time_s for t in report.trials) / len(report.trials)
+    print(f"real-time factor {report.real_time_factor():.1f} per worker ({wall:.2f} s wall per trial)")
+    rows = [t.to_row() for t in report.trials]
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text_atomic(out / "trials.csv", buf.getvalue())
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
+    draw_trials(report, object_outline(scene), setup.target_pose, out / "trials.png")
+    print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json and the trajectory")
+    return EXIT_OK
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
@@ -213,7 +330,7 @@ def run(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep,
-                    "tile": _tile}
+                    "tile": _tile, "simulate": _simulate}
         return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)

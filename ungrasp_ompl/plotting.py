@@ -193,3 +193,45 @@ def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
     status = "all pieces placed" if tiling.solved else f"{tiling.failed_piece} cannot be placed"
     ax.set_title(f"{layout.name}: top view, {len(tiling.placements)} of {n} pieces ({status})")
     _save(fig, path)
+
+
+def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.PathLike[str]) -> None:
+    """Simulated trials: (left) each trial's final object outline over the target outline, top
+    view in mm about the target's centroid, green for success and red for failure; (right) success
+    against each perturbation the trials drew. report: a sim SimulationReport; outline: the
+    object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4)."""
+    def placed(pose: np.ndarray) -> np.ndarray:
+        pts = np.column_stack([outline, np.zeros(len(outline))]) @ np.asarray(pose)[:3, :3].T + np.asarray(pose)[:3, 3]
+        return pts[:, :2]
+
+    want = placed(target)
+    centre = want.mean(axis=0)
+    keys = [k for k in report.trials[0].params if len({round(t.params[k], 9) for t in report.trials}) > 1]
+    cols = max(1, math.ceil(len(keys) / 2))
+    fig = plt.figure(figsize=(4.6 + 2.6 * cols, 4.6))
+    grid = fig.add_gridspec(2, 1 + cols, width_ratios=[1.8] + [1] * cols)
+    axes = [fig.add_subplot(grid[:, 0])] + [fig.add_subplot(grid[k % 2, 1 + k // 2]) for k in range(max(1, len(keys)))]
+    ax = axes[0]
+    ax.fill(*((want - centre) * 1000).T, color="0.85", label="target")
+    for t in report.trials:
+        got = (placed(t.final_pose) - centre) * 1000
+        ax.plot(*np.vstack([got, got[:1]]).T, color="tab:green" if t.success else "tab:red", lw=0.8, alpha=0.7)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"{report.scene}: {report.successes}/{len(report.trials)} placed", fontsize=10)
+    if not keys:
+        axes[1].text(0.5, 0.5, f"perturbation '{report.perturbation.name}':\nno random error drawn",
+                     ha="center", va="center")
+        axes[1].set_axis_off()
+    for ax, key in zip(axes[1:], keys):
+        x = np.array([t.params[key] for t in report.trials])
+        y = np.array([1.0 if t.success else 0.0 for t in report.trials])
+        jitter = np.random.default_rng(0).uniform(-0.06, 0.06, len(y))
+        ax.scatter(x, y + jitter, c=np.where(y > 0, "tab:green", "tab:red"), s=14)
+        ax.set_yticks([0, 1], ["failed", "placed"])
+        ax.set_ylim(-0.4, 1.4)
+        ax.set_xlabel(key, fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    _save(fig, path)

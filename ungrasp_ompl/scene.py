@@ -124,6 +124,18 @@ class RobotOptions:
     object_yaw: float = 0.0
 
 
+@dataclass(frozen=True)
+class SimOptions:
+    """How the scene is simulated in MuJoCo (the scene's `sim` section)."""
+
+    density: float = 1250.0  #: the object's density (kg/m^3); 1250 is a stiff plastic (celluloid, PLA)
+    grip_force: float = 5.0  #: the jaws' force limit (N): how hard the gripper squeezes
+    squeeze: float = 0.001  #: how far inside the planned opening the jaws are commanded (m)
+    timestep: float = 0.0005  #: simulation step (s)
+    settle_time: float = 0.3  #: stillness with the object in the pinch before the motion (s)
+    rest_time: float = 0.5  #: stillness after the retreat before the outcome is read (s)
+
+
 @dataclass
 class Scene:
     """A planar ungrasping problem (see the module docstring for units)."""
@@ -145,6 +157,7 @@ class Scene:
     max_tilt: float = math.radians(30.0)  # roll range of the prism simulation, rad
     robot: RobotOptions = field(default_factory=RobotOptions)
     solids: tuple = ()  # convex Solids fixed in the world (a layout's frame walls, pieces placed already)
+    sim: SimOptions = field(default_factory=SimOptions)  # how the scene is simulated
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -159,7 +172,8 @@ class Scene:
         r = _Reader(source)
         top = r.mapping(data, "scene")
         r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
-                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot"})
+                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot",
+                          "sim"})
         name = str(top.get("name", default_name))
 
         obj = r.mapping(r.require(top, "object"), "object")
@@ -191,8 +205,8 @@ class Scene:
         dig = r.mapping(r.require(top, "digits"), "digits")
         r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
                                 "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
-                                "width", "max_aperture", "finger_tip", "palm_width", "palm_length",
-                                "palm_thickness"})
+                                "width", "max_aperture", "finger_tip", "finger_tip_radius", "palm_width",
+                                "palm_length", "palm_thickness"})
         lengths = {}
         for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
                     "finger_tip_thickness", "finger_base_thickness", "width"):
@@ -217,11 +231,22 @@ class Scene:
         finger_tip = dig.get("finger_tip", "rounded")
         if finger_tip not in ("rounded", "flat"):
             raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
+        if finger_tip == "flat":
+            if "finger_tip_radius" in dig:
+                raise InputError("digits.finger_tip_radius", "needs finger_tip: rounded (a flat tip has no radius)", source)
+            tip_radius = 0.0
+        else:  # a dome across the tip's thickness unless given
+            tip_radius = r.number(dig, "digits.finger_tip_radius", "finger_tip_radius", positive=True,
+                                  default=lengths["finger_tip_thickness"] * length / 2) / length
+            if tip_radius > lengths["finger_tip_thickness"] / 2 + 1e-12:
+                raise InputError("digits.finger_tip_radius", "must be at most half of finger_tip_thickness "
+                                 f"({lengths['finger_tip_thickness'] * length / 2:.4g} m)", source)
         palm = {k: r.number(dig, f"digits.{k}", k, minimum=0.0, default=0.0) / length for k in ("palm_width", "palm_length")}
         # the housing's extent normal to the plane: the RH-P12-RN class's 60 mm unless given
         palm["palm_thickness"] = r.number(dig, "digits.palm_thickness", "palm_thickness", positive=True,
                                           default=DEFAULT_PALM_THICKNESS) / length
-        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat", **lengths, **palm)
+        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat",
+                               finger_tip_radius=tip_radius, **lengths, **palm)
 
         obstacles = r.obstacles(top.get("obstacles", []))
 
@@ -292,7 +317,7 @@ class Scene:
         )
         robot = r.robot(top.get("robot", {}))
         return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
-                   object3d, plane, mu_contacts, max_tilt, robot)
+                   object3d, plane, mu_contacts, max_tilt, robot, sim=r.sim(top.get("sim", {})))
 
     # -- queries -----------------------------------------------------------------
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
@@ -504,6 +529,22 @@ class _Reader:
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )
+
+    def sim(self, value: Any) -> SimOptions:
+        m = self.mapping(value, "sim")
+        d = SimOptions()
+        self.known(m, "sim", set(d.__dataclass_fields__))
+        out = {k: self.number(m, f"sim.{k}", k, positive=True, default=getattr(d, k)) for k in m}
+        if out.get("density", d.density) > 25000:
+            self.fail("sim.density", f"must be at most 25000 kg/m^3 (denser than any solid), got {out['density']:g}")
+        if out.get("timestep", d.timestep) > 0.002:
+            self.fail("sim.timestep", f"must be at most 0.002 s (the control period), got {out['timestep']:g}")
+        if out.get("grip_force", d.grip_force) > 170:
+            self.fail("sim.grip_force", f"must be at most 170 N (the gripper's rating), got {out['grip_force']:g}")
+        for k in ("squeeze", "settle_time", "rest_time"):
+            if out.get(k, 0.0) > (0.01 if k == "squeeze" else 10.0):
+                self.fail(f"sim.{k}", f"is absurdly large ({out[k]:g})")
+        return SimOptions(**{**{k: getattr(d, k) for k in d.__dataclass_fields__}, **out})
 
     def flag(self, m: dict, key: str, k: str) -> bool:
         v = m.get(k, False)

@@ -27,7 +27,9 @@ class DigitGeometry:
     palm_thickness: the gripper's housing behind the digit bases, centred
     between the digit faces (a symmetric parallel gripper), across the gap,
     along the digits and normal to the plane; zero width or length leaves it
-    out of collision checks.
+    out of collision checks. finger_tip_radius: radius of the rounded finger
+    tip (0 for a flat tip); it fixes where the robot puts the finger so that
+    the tip touches the object at A, not the planar force analysis.
     """
 
     alpha: float
@@ -42,6 +44,7 @@ class DigitGeometry:
     palm_width: float = 0.0  # the gripper housing across the gap, centred between the digits (0: none)
     palm_length: float = 0.0  # the housing from the palm line back toward the wrist
     palm_thickness: float = 0.0  # the housing normal to the plane (0: as wide as the digits)
+    finger_tip_radius: float = 0.0  # the rounded finger tip's radius (0: a flat tip)
 
     @property
     def finger_length(self) -> float:

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
 
@@ -75,6 +76,56 @@ class Plan:
         """plan.json text: the fields of the plan, angles in radians, d over l."""
         return json.dumps(self.to_dict(), indent=2) + "\n"
 
+    @classmethod
+    def from_dict(cls, doc: Any, source: str | None = None) -> "Plan":
+        """A plan from plan.json's mapping; InputError naming the field when it is malformed.
+        Only what executing it needs is checked: a solved plan, its start state and each
+        primitive's type and waypoints (states of three finite numbers)."""
+        if not isinstance(doc, dict):
+            raise InputError("plan", f"must be a mapping, got {type(doc).__name__}", source)
+        if doc.get("schema_version") != JSON_SCHEMA_VERSION:
+            raise InputError("schema_version", f"is {doc.get('schema_version')!r}; this reader understands "
+                             f"{JSON_SCHEMA_VERSION}", source)
+        if doc.get("solved") is not True:
+            raise InputError("solved", "the plan is not a solution (nothing to execute)", source)
+
+        def state(value: Any, field: str) -> list[float]:
+            if (not isinstance(value, list) or len(value) != 3
+                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+                    or not all(math.isfinite(v) for v in value)):
+                raise InputError(field, f"must be a state [theta_rad, d, psi_rad] of finite numbers, got {value!r}",
+                                 source)
+            return [float(v) for v in value]
+
+        states = doc.get("states")
+        if not isinstance(states, list) or not states:
+            raise InputError("states", "must be a non-empty list of states", source)
+        prims = doc.get("primitives")
+        if not isinstance(prims, list) or not prims:
+            raise InputError("primitives", "must be a non-empty list", source)
+        steps = []
+        for i, p in enumerate(prims):
+            key = f"primitives[{i}]"
+            if not isinstance(p, dict):
+                raise InputError(key, "must be a mapping", source)
+            if p.get("type") not in ("P_theta", "P_psi", "P_dpsi"):
+                raise InputError(f"{key}.type", f"must be P_theta, P_psi or P_dpsi, got {p.get('type')!r}", source)
+            ways = p.get("waypoints")
+            if not isinstance(ways, list) or len(ways) < 2:
+                raise InputError(f"{key}.waypoints", "must list at least the start and end states", source)
+            ways = [state(w, f"{key}.waypoints[{k}]") for k, w in enumerate(ways)]
+            sliding = p.get("sliding", {})
+            steps.append(PrimitiveStep(p["type"], str(p.get("direction", "forward")), ways[0], ways[-1],
+                                       dict(sliding) if isinstance(sliding, dict) else {},
+                                       str(p.get("stability", "")), ways, p.get("x_moments")))
+        known = set(cls.__dataclass_fields__) - {"states", "primitives"}
+        rest = {k: v for k, v in doc.items() if k in known}
+        rest.setdefault("scene", "plan")
+        rest.setdefault("planner", "unknown")
+        rest.setdefault("seed", None)
+        rest.setdefault("sliding_model", "relaxed")
+        return cls(states=[state(s, f"states[{k}]") for k, s in enumerate(states)], primitives=steps, **rest)
+
     def summary(self) -> str:
         """A few lines for a person: outcome, cost, the primitive sequence."""
         lines = []
@@ -108,6 +159,19 @@ class Plan:
         else:
             lines.append(f"no solution for {self.scene} with {self.planner}: {self.reason}")
         return "\n".join(lines)
+
+
+def read_plan(path: str) -> Plan:
+    """Read a plan.json; InputError naming the field (or the file) when it cannot be used."""
+    from pathlib import Path
+
+    try:
+        doc = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise InputError("--plan", "no such file", str(path)) from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError("--plan", f"not a readable JSON file ({exc.__class__.__name__})", str(path)) from None
+    return Plan.from_dict(doc, source=str(path))
 
 
 def _deg(q: list[float]) -> str:

@@ -8,11 +8,16 @@ plane's normal; its origin midway between the digit faces (a symmetric
 parallel gripper), the thumb's face at x = -opening/2 through the thumb tip,
 the finger's at +opening/2; the finger is alpha * l longer.
 
-Every state of the plan fixes the palm pose and the opening exactly: the
-thumb tip at B + s_B e, the finger tip at A, opening = l d sin(psi) (the
-object's thickness is neglected, as in the planar model). Legs are sampled
-densely so that contacts stay within 0.1 mm of their planned places between
-samples.
+Every state of the plan fixes the palm pose and the opening exactly. The
+planar model treats the object as its bottom face (G and B are its bottom
+edge); the robot puts the finger on the top face, so the finger's tip touches
+the object at A lifted by the thickness t, and the thumb's face passes through
+B. With a flat tip the finger's tip corner is that point; a rounded tip of
+radius r touches it with its dome, so the corner sits r(n_top - n_B + e) away.
+The opening is then l d sin(psi) + t cos(psi) (+ the dome's share), not the
+planar l d sin(psi), and the thumb tip is alpha l short of the finger's corner
+along e. Legs are sampled densely so that contacts stay within 0.1 mm of their
+planned places between samples.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import digit_axis, finger_tip, thumb_normal, thumb_tip
+from ..mechanics.kinematics import digit_axis, finger_tip, object_axis, thumb_normal
 from ..planning.result import Plan
 from ..scene import Scene
 
@@ -49,17 +54,23 @@ def densify(plan: Plan, angle_step: float = math.radians(0.25), d_step: float = 
 
 
 def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
-    """Thumb tip, finger tip (A), B, digit axis e and gap direction n_B in plane coordinates (metres), (N, 2) each."""
+    """Where the robot puts the digits for planar states q (N, 3), plane coordinates (metres).
+
+    thumb: the thumb's tip on its face; finger: the finger's tip corner on its face; a: the
+    contact A on the object's top face; b: B; e: the digit axis; n: the gap direction n_B
+    (unit vectors, (N, 2) each); opening: the distance between the digit faces (N,), m.
+    """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     th, d, ps = q.T
-    l = scene.object_length
-    return {
-        "thumb": thumb_tip(th, d, ps, scene.digits.alpha) * l,
-        "finger": finger_tip(th, d) * l,
-        "b": np.stack([np.cos(th), np.sin(th)], -1) * l,
-        "e": digit_axis(th, ps),
-        "n": thumb_normal(th, ps),
-    }
+    l, t = scene.object_length, scene.object_thickness
+    e, n, u = digit_axis(th, ps), thumb_normal(th, ps), object_axis(th)
+    top = np.stack([-u[:, 1], u[:, 0]], axis=-1)  # the top face's outward normal
+    b = u * l
+    a = finger_tip(th, d) * l + t * top
+    corner = a + scene.digits.finger_tip_radius * l * (top - n + e)
+    opening = np.sum((corner - b) * n, axis=-1)
+    thumb = corner - opening[:, None] * n - scene.digits.alpha * l * e
+    return {"thumb": thumb, "finger": corner, "a": a, "b": b, "e": e, "n": n, "opening": opening}
 
 
 def to_world(frame: NDArray, xz: NDArray) -> NDArray[np.float64]:
@@ -80,7 +91,7 @@ def palm_poses(scene: Scene, q: ArrayLike, frame: NDArray, thumb_length: float
     z_axis = np.column_stack([pts["e"][:, 0], np.zeros(len(q)), pts["e"][:, 1]]) @ rot.T
     x_axis = np.column_stack([pts["n"][:, 0], np.zeros(len(q)), pts["n"][:, 1]]) @ rot.T
     y_axis = np.cross(z_axis, x_axis)
-    openings = scene.object_length * q[:, 1] * np.sin(q[:, 2])
+    openings = pts["opening"]
     origin = to_world(frame, pts["thumb"] - thumb_length * pts["e"] + openings[:, None] / 2 * pts["n"])
     poses = np.tile(np.eye(4), (len(q), 1, 1))
     poses[:, :3, 0], poses[:, :3, 1], poses[:, :3, 2], poses[:, :3, 3] = x_axis, y_axis, z_axis, origin
@@ -88,9 +99,9 @@ def palm_poses(scene: Scene, q: ArrayLike, frame: NDArray, thumb_length: float
 
 
 def contact_points_world(scene: Scene, q: ArrayLike, frame: NDArray) -> dict[str, NDArray[np.float64]]:
-    """Planned world positions (N, 3) of the contacts: thumb tip, finger tip (A) and B."""
+    """Planned world positions (N, 3) of the thumb tip, the finger's tip corner, A and B."""
     pts = plane_points(scene, q)
-    return {k: to_world(frame, pts[k]) for k in ("thumb", "finger", "b")}
+    return {k: to_world(frame, pts[k]) for k in ("thumb", "finger", "a", "b")}
 
 
 def default_plane_frame(position: ArrayLike = (0.45, 0.10), yaw: float = 0.0) -> NDArray[np.float64]:

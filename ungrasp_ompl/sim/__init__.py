@@ -1,0 +1,1 @@
+"""Simulated execution in MuJoCo: does the exported trajectory put the object down?"""

@@ -1,0 +1,157 @@
+"""Many trials of one placement: seeded perturbations, all cores, a summary.
+
+``simulate`` runs trials of an executed plan and returns a ``SimulationReport``;
+``deviated_plan`` and ``plan_problems`` serve the experiments that run a plan the model
+would reject (a start outside force closure, a plan for another object).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field, replace
+from multiprocessing import get_context
+
+import numpy as np
+
+from ..errors import InputError
+from ..planning.result import Plan
+from ..scene import Scene
+from .outcome import Outcome, TrialResult
+from .perturb import Perturbation, TrialParams, trial_params
+from .setup import Variant
+from .trial import TrialSetup, run_trial
+
+
+@dataclass
+class SimulationReport:
+    """The trials of one placement, in trial order, and what they were run with."""
+
+    scene: str
+    perturbation: Perturbation
+    variant: Variant
+    seed: int
+    trials: list[TrialResult] = field(default_factory=list)
+    plan_problems: list[str] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
+    trajectory_duration_s: float = 0.0
+
+    @property
+    def successes(self) -> int:
+        return sum(t.success for t in self.trials)
+
+    def causes(self) -> dict[str, int]:
+        """Failures counted by outcome and phase ('grip lost in P_dpsi': 3)."""
+        counter = collections.Counter(f"{t.outcome.value} in {t.phase}" for t in self.trials if not t.success)
+        return dict(counter.most_common())
+
+    def errors_mm(self) -> np.ndarray:
+        """Placement errors (mm) of the successful trials."""
+        return np.array([t.position_error_mm for t in self.trials if t.success])
+
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second, over all trials (per worker)."""
+        wall = sum(t.wall_time_s for t in self.trials)
+        return sum(t.sim_time_s for t in self.trials) / wall if wall else math.nan
+
+    def to_dict(self) -> dict:
+        errs = self.errors_mm()
+        yaw = np.array([t.yaw_error_deg for t in self.trials if t.success])
+        return {
+            "scene": self.scene, "trials": len(self.trials), "successes": self.successes,
+            "success_rate": self.successes / len(self.trials) if self.trials else None,
+            "position_error_mm": {"mean": _stat(errs, np.mean), "max": _stat(errs, np.max)},
+            "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
+            "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
+            "seed": self.seed, "plan_problems": self.plan_problems,
+            "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
+        }
+
+
+def _stat(values: np.ndarray, f: Callable) -> float | None:
+    return float(f(values)) if len(values) else None
+
+
+def _one(args: tuple[TrialSetup, TrialParams, int, int]) -> TrialResult:
+    setup, params, k, seed = args
+    return run_trial(setup, params, k, seed)
+
+
+def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
+             progress: Callable[[TrialResult], None] | None = None, scene: str = "",
+             variant: Variant = Variant()) -> SimulationReport:
+    """Run trials 0 .. trials-1 of a placement, each with its own seeded perturbation (the same
+    seed gives the same trials wherever they run), jobs at a time in worker processes.
+    progress is called with each result as it arrives."""
+    if trials < 1:
+        raise InputError("--trials", f"must be at least 1, got {trials}")
+    if jobs < 1:
+        raise InputError("--jobs", f"must be at least 1, got {jobs}")
+    work = [(setup, p, k, seed) for k, p in enumerate(trial_params(perturbation, seed, trials))]
+    results: list[TrialResult] = []
+    if jobs == 1 or trials == 1:
+        for item in work:
+            results.append(_one(item))
+            if progress:
+                progress(results[-1])
+    else:
+        # spawned workers: they import only numpy, mujoco and this package's sim modules
+        with ProcessPoolExecutor(max_workers=min(jobs, trials), mp_context=get_context("spawn")) as pool:
+            for fut in as_completed([pool.submit(_one, item) for item in work]):
+                results.append(fut.result())
+                if progress:
+                    progress(results[-1])
+    results.sort(key=lambda r: r.trial)
+    return SimulationReport(scene, perturbation, variant, seed, results,
+                            trajectory_duration_s=float(setup.drive.times[-1]))
+
+
+def default_jobs() -> int:
+    """All cores."""
+    return max(1, os.cpu_count() or 1)
+
+
+def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
+    """The plan started with psi larger by psi_offset (rad): its states keep at least the
+    deviated start's psi (the forward primitives only raise psi), and primitives that
+    shrink to nothing are dropped. The paper's caging experiment (sec. 6.2.3) runs such a
+    plan: the start lies outside force closure."""
+    if psi_offset <= 0:
+        raise InputError("--start-psi-offset-deg", f"must be positive, got {math.degrees(psi_offset):g}")
+    floor = plan.states[0][2] + psi_offset
+
+    def lifted(q: list[float]) -> list[float]:
+        return [q[0], q[1], max(q[2], floor)]
+
+    steps = []
+    for p in plan.primitives:
+        ways = [lifted(w) for w in p.waypoints]
+        ways = [w for k, w in enumerate(ways) if k == 0 or w != ways[k - 1]]
+        if len(ways) >= 2:
+            steps.append(replace(p, start=ways[0], end=ways[-1], waypoints=ways))
+    if not steps:
+        raise InputError("--start-psi-offset-deg", "leaves nothing of the plan to execute")
+    return replace(plan, states=[lifted(plan.states[0])] + [lifted(q) for q in plan.states[1:]], primitives=steps)
+
+
+def plan_problems(scene: Scene, plan: Plan) -> list[str]:
+    """Why the scene's model would reject the plan, leg by leg (empty: every leg is secure):
+    kinematics, collision and force closure in each leg's contact mode (planning.verify)."""
+    from ..geometry.collision import CollisionChecker
+    from ..planning.verify import verify_leg
+
+    checker = CollisionChecker(scene)
+    resolution = np.asarray(scene.options.resolution) / 2
+    out = []
+    for k, p in enumerate(plan.primitives):
+        for a, b in zip(p.waypoints[:-1], p.waypoints[1:]):
+            reason = verify_leg(scene, p.type, a, b, resolution, checker)
+            if reason:
+                out.append(f"primitive {k + 1} ({p.type}): {reason}")
+                break
+    return out
+
+
+__all__ = ["Outcome", "SimulationReport", "deviated_plan", "plan_problems", "simulate"]

@@ -1,0 +1,68 @@
+"""What the simulated gripper is told: the palm pose and the commanded opening against time.
+
+The exported joint trajectory is what a robot controller gets. The simulator samples it the
+way a UR e-series streams it (linear interpolation of the joint samples at the 2 ms
+control period), takes the palm pose of each sample by forward kinematics of the arm model,
+and the gripper opening from the trajectory's last column.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..robot.model import RobotModel, tcp_pose
+from ..robot.trajectory import JointTrajectory
+
+#: The UR e-series control period (s): the palm pose is updated this often.
+CONTROL_PERIOD = 0.002
+
+
+@dataclass(frozen=True)
+class GripperDrive:
+    """Palm poses and openings at the control ticks of one placement.
+
+    times: (K,) s from the start of the placement's first primitive; palm: (K, 4, 4) world
+    poses of the palm frame; opening: (K,) m between the digit faces; phases: (name, start s,
+    end s) of each primitive, the termination and the retreat, in order.
+    """
+
+    times: NDArray[np.float64]
+    palm: NDArray[np.float64]
+    opening: NDArray[np.float64]
+    phases: tuple[tuple[str, float, float], ...]
+
+    def phase_at(self, t: float) -> tuple[int, str]:
+        """Index and name of the phase running at time t (s); the last phase after the end."""
+        for k, (name, a, b) in enumerate(self.phases):
+            if t <= b:
+                return k, name
+        return len(self.phases) - 1, self.phases[-1][0]
+
+    def phase_start(self, name: str) -> float:
+        """Start (s) of the first phase of that name; the end of the drive if there is none."""
+        return next((a for n, a, _ in self.phases if n == name), float(self.times[-1]))
+
+
+def drive_from_trajectory(traj: JointTrajectory, robot: RobotModel, prefix: str = "",
+                          period: float = CONTROL_PERIOD) -> GripperDrive:
+    """The drive of one placement of a trajectory: from the start of its first primitive
+    (the approach, where the object is carried, is left out: the trial starts with the object
+    in the pinch) to the end of its retreat. prefix selects a piece of a tiling trajectory
+    ('square/'); segments are named as robot.pipeline names them."""
+    mine = [(name[len(prefix):], a, b) for name, a, b in traj.segments
+            if name.startswith(prefix) and name[len(prefix):] not in ("approach", "return")]
+    if not mine:
+        raise ValueError(f"the trajectory has no segments named {prefix}<primitive>")
+    i0, i1 = mine[0][1], mine[-1][2]
+    t0, t1 = float(traj.times[i0]), float(traj.times[i1])
+    ticks = np.arange(0.0, t1 - t0 + 1e-12, period)
+    if ticks[-1] < t1 - t0 - 1e-9:
+        ticks = np.append(ticks, t1 - t0)
+    t = traj.times[i0:i1 + 1] - t0
+    q = np.column_stack([np.interp(ticks, t, traj.positions[i0:i1 + 1, j]) for j in range(traj.positions.shape[1])])
+    palm = np.array([tcp_pose(robot, row[:-1]) for row in q])
+    phases = tuple((name, float(traj.times[a]) - t0, float(traj.times[b]) - t0) for name, a, b in mine)
+    return GripperDrive(ticks, palm, q[:, -1].copy(), phases)

@@ -1,0 +1,251 @@
+"""The MuJoCo model of one trial: table, object, gripper, the scene's solids (MJCF text).
+
+World frame: the scene's (x, y on the table, z up, metres; the table's top is z = 0).
+
+What is dynamic and what is kinematic:
+
+* the object is a free body (six degrees of freedom, gravity, no constraint of any kind
+  holding it to the manipulation plane or to a digit);
+* the gripper's two jaws are dynamic: each slides along the palm's x axis, the two are
+  coupled symmetrically (as the RH-P12-RN's linkage couples them) and driven by one position
+  servo on the opening with a force limit, so the object is squeezed with at most the grip
+  force and the opening follows the object rather than the other way round;
+* the palm (the gripper's housing, carrying the jaws' slides) is kinematic: a mocap body set
+  at every control period to the pose forward kinematics gives for the exported joint
+  samples. A position-controlled UR5e moves its flange where it is told, whatever the few
+  newtons of the pinch; simulating the arm's joints would add nothing the contacts feel.
+
+Friction: each contact pair has the scene's physical coefficient (table-object mu_G,
+finger-object mu_A, thumb-object mu_B; walls and pieces already down mu_G), never more. The
+object's own geom has friction 0, so MuJoCo's rule (the larger of the two geoms' values)
+gives each pair the value of the other geom. Contacts use elliptic (Coulomb) cones with
+sliding friction only (condim 3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: Contact softness: a time constant (s) and damping ratio, and the impedance curve. Small
+#: time constants keep a squeezed thin object from sinking into the digits (the steady
+#: penetration scales with the time constant squared); 4 ms is eight simulation steps at the
+#: default 0.5 ms step, inside MuJoCo's advice of at least two.
+SOLREF = (0.004, 1.0)
+SOLIMP = (0.95, 0.995, 0.0002, 0.5, 2.0)
+#: Ratio of frictional to normal constraint impedance: > 1 makes sticking contacts stiffer
+#: (less creep), as MuJoCo advises with elliptic cones. It does not change the friction coefficient.
+IMPRATIO = 10.0
+#: Mass of each jaw (kg), as the robot model's digits.
+JAW_MASS = 0.05
+
+
+@dataclass(frozen=True)
+class GripperGeometry:
+    """The gripper as the simulator builds it (m). Digit lengths run from the palm (palm z = 0)
+    to the tip along palm z; thicknesses are behind each contact face (palm x), at the tip and
+    the base; width along palm y. finger_tip_radius 0 is a flat tip (an edge across the width);
+    otherwise a dome of that radius ends the finger, touching the object at one point."""
+
+    thumb_length: float  #: palm to thumb tip (m)
+    finger_length: float  #: palm to finger tip (m)
+    thumb_tip_thickness: float  #: behind the thumb's face at its tip (m)
+    thumb_base_thickness: float  #: behind the thumb's face at the palm (m)
+    finger_tip_thickness: float  #: behind the finger's face at its tip (m)
+    finger_base_thickness: float  #: behind the finger's face at the palm (m)
+    width: float  #: both digits along palm y (m)
+    finger_tip_radius: float  #: the finger's rounded tip (m); 0 for a flat tip
+    max_opening: float  #: the gripper's stroke between the digit faces (m)
+    palm_width: float  #: housing across the gap, palm x (m)
+    palm_thickness: float  #: housing along palm y (m)
+    palm_depth: float  #: housing along palm z, behind the palm (m)
+
+
+@dataclass(frozen=True)
+class SimObject:
+    """The object as the simulator builds it: its outline's convex prism.
+
+    outline: (N, 2) vertices (m) in the body frame's xy plane; the body frame is the
+    manipulation plane's frame when the object lies at its target (origin at G on the
+    table, x toward B, z up), so the prism spans z in [0, thickness].
+    """
+
+    outline: NDArray[np.float64]
+    thickness: float  #: m
+    density: float  #: kg/m^3
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Coulomb coefficients per contact pair, as the simulator uses them."""
+
+    table: float  #: object on the table (the scene's mu_G)
+    finger: float  #: object on the finger (mu_A)
+    thumb: float  #: object on the thumb (mu_B)
+    solids: float  #: object on walls and pieces already down (mu_G)
+
+
+@dataclass(frozen=True)
+class SimModelSpec:
+    """Everything the MJCF needs; plain data, so that it crosses to worker processes."""
+
+    obj: SimObject
+    gripper: GripperGeometry
+    friction: Friction
+    solids: tuple[tuple[str, NDArray[np.float64]], ...] = ()  #: (name, world vertices (N, 3)) convex bodies
+    placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()  #: free objects already down: name, object, 4x4 pose
+    timestep: float = 0.0005  #: s
+    grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object)
+    servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit
+    noslip_iterations: int = 0  #: MuJoCo's no-slip post-pass (0: off)
+
+
+@dataclass
+class ModelIds:
+    """Ids of what a trial reads back from the compiled model."""
+
+    object_body: int
+    palm_mocap: int
+    finger_geoms: set[int]
+    thumb_geoms: set[int]
+    table_geom: int
+    solid_geoms: set[int]
+    palm_geom: int
+    object_geom: int
+    actuator: int
+    thumb_body: int
+    finger_body: int
+    solid_names: dict[int, str] = field(default_factory=dict)
+
+
+def _quat(rot: NDArray) -> NDArray[np.float64]:
+    """Unit quaternion (w, x, y, z) of a rotation matrix."""
+    import mujoco
+
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(rot, dtype=float).ravel())
+    return q
+
+
+def _floats(values) -> str:
+    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
+
+
+def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
+    lo = np.column_stack([outline, np.full(len(outline), bottom)])
+    hi = np.column_stack([outline, np.full(len(outline), top)])
+    return np.vstack([lo, hi])
+
+
+def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0) -> NDArray[np.float64]:
+    """A tapered digit's vertices in its jaw frame: the contact face on x = 0 from z = 0 to
+    length - tip_cut, the body on the side of x given by side, width along y (filled in later)."""
+    end = length - tip_cut
+    t_end = t_base + (t_tip - t_base) * end / length
+    xz = np.array([[0.0, 0.0], [0.0, end], [side * t_end, end], [side * t_base, 0.0]])
+    return xz
+
+
+def _extrude_y(xz: NDArray, width: float) -> NDArray[np.float64]:
+    return np.vstack([np.column_stack([xz[:, 0], np.full(len(xz), s * width / 2), xz[:, 1]]) for s in (-1, 1)])
+
+
+def build_mjcf(spec: SimModelSpec) -> str:
+    """The MJCF text of the trial's world (see the module docstring for what moves how)."""
+    g, f, obj = spec.gripper, spec.friction, spec.obj
+    solref, solimp = _floats(SOLREF), _floats(SOLIMP)
+    half = g.max_opening / 2
+    flat = g.finger_tip_radius <= 0.0
+    thumb = _extrude_y(_digit(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
+    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0,
+                               0.0 if flat else g.finger_tip_radius), g.width)
+    assets = [f'<mesh name="object" vertex="{_floats(_prism(obj.outline, 0.0, obj.thickness))}"/>',
+              f'<mesh name="thumb" vertex="{_floats(thumb)}"/>',
+              f'<mesh name="finger" vertex="{_floats(finger)}"/>']
+    solids = []
+    for k, (name, verts) in enumerate(spec.solids):
+        centre = np.asarray(verts).mean(axis=0)
+        assets.append(f'<mesh name="solid{k}" vertex="{_floats(np.asarray(verts) - centre)}"/>')
+        solids.append(f'<geom name="solid{k}" type="mesh" mesh="solid{k}" pos="{_floats(centre)}" '
+                      f'friction="{f.solids} 0 0" rgba=".55 .45 .35 1"/>')
+    placed = []
+    for k, (name, other, pose) in enumerate(spec.placed):
+        assets.append(f'<mesh name="placed{k}" vertex="{_floats(_prism(other.outline, 0.0, other.thickness))}"/>')
+        quat = _quat(np.asarray(pose)[:3, :3])
+        placed.append(f'<body name="placed{k}" pos="{_floats(np.asarray(pose)[:3, 3])}" quat="{_floats(quat)}">'
+                      f'<freejoint/><geom name="placed{k}" type="mesh" mesh="placed{k}" density="{other.density:.9g}" '
+                      f'friction="{f.solids} 0 0" rgba=".6 .6 .2 1"/></body>')
+    tip = "" if flat else (
+        f'<geom name="finger_tip" type="sphere" size="{g.finger_tip_radius:.9g}" '
+        f'pos="{g.finger_tip_radius:.9g} 0 {g.finger_length - g.finger_tip_radius:.9g}" '
+        f'friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
+    return f"""<mujoco model="ungrasp">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{spec.timestep:.9g}" cone="elliptic" impratio="{IMPRATIO:g}" integrator="implicitfast"
+          noslip_iterations="{spec.noslip_iterations}">
+    <flag multiccd="enable"/>
+  </option>
+  <default>
+    <geom condim="3" solref="{solref}" solimp="{solimp}" friction="0 0 0"/>
+  </default>
+  <asset>
+    {chr(10).join('    ' + a for a in assets).strip()}
+  </asset>
+  <worldbody>
+    <geom name="table" type="plane" size="0 0 1" friction="{f.table} 0 0" rgba=".8 .8 .8 1"/>
+    {chr(10).join('    ' + s for s in solids).strip()}
+    <body name="palm" mocap="true">
+      <geom name="palm" type="box" size="{g.palm_width / 2:.9g} {g.palm_thickness / 2:.9g} {g.palm_depth / 2:.9g}"
+            pos="0 0 {-g.palm_depth / 2:.9g}" rgba=".3 .3 .3 1"/>
+      <body name="thumb">
+        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
+        <geom name="thumb" type="mesh" mesh="thumb" mass="{JAW_MASS}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
+      </body>
+      <body name="finger">
+        <joint name="finger_slide" type="slide" axis="1 0 0" range="0 {half:.9g}" damping="0"/>
+        <geom name="finger" type="mesh" mesh="finger" mass="{JAW_MASS}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
+        {tip}
+      </body>
+    </body>
+    <body name="object">
+      <freejoint name="object"/>
+      <geom name="object" type="mesh" mesh="object" density="{obj.density:.9g}" rgba=".9 .7 .1 1"/>
+    </body>
+    {chr(10).join('    ' + p for p in placed).strip()}
+  </worldbody>
+  <contact>
+    <exclude body1="thumb" body2="finger"/>
+  </contact>
+  <equality>
+    <joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>
+  </equality>
+  <actuator>
+    <position name="opening" joint="finger_slide" gear="2" kp="{spec.servo_stiffness:.9g}"
+              kv="{2 * math.sqrt(spec.servo_stiffness * JAW_MASS):.9g}" forcelimited="true"
+              forcerange="{-spec.grip_force:.9g} {spec.grip_force:.9g}" ctrllimited="true" ctrlrange="0 {g.max_opening:.9g}"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def model_ids(model) -> ModelIds:
+    """The ids a trial needs, looked up by name in a compiled model."""
+    import mujoco
+
+    def geom(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+
+    def body(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+
+    finger = {geom("finger")} | ({geom("finger_tip")} if geom("finger_tip") >= 0 else set())
+    names = {i: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)}
+    solids = {i for i, n in names.items() if n.startswith(("solid", "placed"))}
+    return ModelIds(object_body=body("object"), palm_mocap=int(model.body_mocapid[body("palm")]),
+                    finger_geoms=finger, thumb_geoms={geom("thumb")}, table_geom=geom("table"),
+                    solid_geoms=solids, palm_geom=geom("palm"), object_geom=geom("object"),
+                    actuator=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "opening"),
+                    thumb_body=body("thumb"), finger_body=body("finger"))

@@ -1,0 +1,81 @@
+"""Random errors of a trial, of the kinds an open-loop set-up like the paper's has.
+
+Every error is drawn uniformly within its bound (a bounded error, as calibration leaves),
+from a numpy Generator seeded per trial, so a campaign is reproducible trial by trial.
+Friction is only ever scaled down: the scene's coefficients are what the plan relies on,
+and a simulation that grants more friction than that proves nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class TrialParams:
+    """One trial's deviations from the scene (zero deviation: all defaults)."""
+
+    shift_along_mm: float = 0.0  #: the object shifted in the grasp along GB (mm)
+    shift_across_mm: float = 0.0  #: shifted across GB in its own plane, out of the manipulation plane (mm)
+    yaw_deg: float = 0.0  #: turned in its own plane about the grasp point (deg)
+    friction_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  #: factors on mu at G, A, B (at most 1)
+    mass_scale: float = 1.0  #: factor on the object's mass
+    thickness_scale: float = 1.0  #: factor on the object's thickness (the mass scales with it unless mass_scale says otherwise)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        fg, fa, fb = d.pop("friction_scale")
+        d.update(friction_scale_G=fg, friction_scale_A=fa, friction_scale_B=fb)
+        return d
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """Bounds of a trial's random errors; each is drawn uniformly within +-bound (friction in
+    [1 - friction, 1])."""
+
+    name: str
+    shift_mm: float = 0.0  #: object position in the grasp, along and across GB (mm)
+    yaw_deg: float = 0.0  #: object turn in the grasp (deg)
+    friction: float = 0.0  #: fraction by which each contact's friction may fall short of the scene's
+    mass: float = 0.0  #: fraction of mass either way
+    thickness: float = 0.0  #: fraction of thickness either way
+
+    def sample(self, rng: np.random.Generator) -> TrialParams:
+        """One trial's deviations."""
+        u = rng.uniform(-1.0, 1.0, size=5)
+        fr = rng.uniform(1.0 - self.friction, 1.0, size=3) if self.friction else np.ones(3)
+        return TrialParams(shift_along_mm=self.shift_mm * u[0], shift_across_mm=self.shift_mm * u[1],
+                           yaw_deg=self.yaw_deg * u[2], friction_scale=tuple(float(x) for x in fr),
+                           mass_scale=1.0 + self.mass * u[3], thickness_scale=1.0 + self.thickness * u[4])
+
+
+#: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves:
+#: about 1 mm and 2 deg of object pose in the grasp (a hand-over and a camera a few pixels off),
+#: friction up to 20% below the scene's (surfaces vary, dust), mass +-20% and thickness +-5%
+#: (printing and cutting tolerances). The others draw one kind of error at the paper's size.
+PRESETS: dict[str, Perturbation] = {p.name: p for p in (
+    Perturbation("none"),
+    Perturbation("paper", shift_mm=1.0, yaw_deg=2.0, friction=0.2, mass=0.2, thickness=0.05),
+    Perturbation("grasp", shift_mm=1.0, yaw_deg=2.0),
+    Perturbation("friction", friction=0.2),
+    Perturbation("mass", mass=0.2),
+    Perturbation("thickness", thickness=0.05),
+)}
+
+
+def preset(name: str) -> Perturbation:
+    """The named preset; InputError listing the presets for an unknown name."""
+    if name not in PRESETS:
+        raise InputError("--perturb", f"unknown preset {name!r} (one of: {', '.join(PRESETS)})")
+    return PRESETS[name]
+
+
+def trial_params(perturbation: Perturbation, seed: int, trials: int) -> list[TrialParams]:
+    """The deviations of trials 0 .. trials-1; trial k draws from a Generator seeded (seed, k),
+    so one trial's draw does not depend on how many others run, or where."""
+    return [perturbation.sample(np.random.default_rng([seed, k])) for k in range(trials)]

@@ -1,0 +1,89 @@
+"""From a scene and its executed plan to what every trial shares (a TrialSetup).
+
+Data flow: scene + plan -> robot trajectory (robot.pipeline) -> palm poses and openings
+(sim.drive) + the world's bodies (sim.model) -> trials (sim.trial).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..planning.result import Plan
+from ..robot.model import RobotModel
+from ..robot.pipeline import plane_frame
+from ..robot.trajectory import JointTrajectory
+from ..scene import Scene
+from .drive import drive_from_trajectory
+from .model import Friction, GripperGeometry, SimModelSpec, SimObject
+from .trial import TrialSetup
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A deliberate difference between the simulated world and the planned one (the
+    experiments' controls); the defaults simulate the scene as planned."""
+
+    friction_scale: float = 1.0  #: factor (0, 1] on every friction coefficient
+    thickness: float | None = None  #: the simulated object's thickness (m) instead of the scene's
+    equal_digits: bool = False  #: the thumb made as long as the finger (alpha 0), the motion unchanged
+
+
+def object_outline(scene: Scene) -> NDArray[np.float64]:
+    """The object's outline (N, 2) in its body frame (the manipulation plane's frame at the
+    target: x along GB from G, y across), m. Without an outline: a strip of the object's length
+    and the digits' width."""
+    if scene.object3d is not None and scene.plane is not None:
+        frame = scene.plane.frame
+        return (scene.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
+    l, w = scene.object_length, scene.digits.width * scene.object_length
+    return np.array([[0.0, -w / 2], [l, -w / 2], [l, w / 2], [0.0, w / 2]])
+
+
+def tilted(frame: NDArray, theta: float) -> NDArray[np.float64]:
+    """The object's body pose (4x4) at tilt theta (rad) about G: the plane frame turned about its
+    y axis so that x rises toward z."""
+    c, s = math.cos(theta), math.sin(theta)
+    turn = np.eye(4)
+    turn[:3, :3] = [[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]]
+    return frame @ turn
+
+
+def gripper_geometry(scene: Scene, robot: RobotModel, equal_digits: bool = False) -> GripperGeometry:
+    """The simulated gripper: the scene's digits (m) on the robot model's housing."""
+    l, dg, g = scene.object_length, scene.digits, robot.gripper
+    finger = dg.finger_length * l
+    return GripperGeometry(thumb_length=finger if equal_digits else dg.thumb_length * l, finger_length=finger,
+                           thumb_tip_thickness=dg.thumb_tip_thickness * l,
+                           thumb_base_thickness=dg.thumb_base_thickness * l,
+                           finger_tip_thickness=dg.finger_tip_thickness * l,
+                           finger_base_thickness=dg.finger_base_thickness * l, width=dg.width * l,
+                           finger_tip_radius=dg.finger_tip_radius * l, max_opening=g.max_opening,
+                           palm_width=g.palm_width, palm_thickness=g.palm_thickness, palm_depth=g.palm_depth)
+
+
+def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: RobotModel,
+                variant: Variant = Variant(), prefix: str = "",
+                placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()) -> TrialSetup:
+    """What every trial of the placement of scene's object by plan shares. trajectory and robot:
+    the executed plan (robot.pipeline); prefix: the piece's segment prefix in a tiling
+    trajectory; placed: objects already down (free bodies) with their poses."""
+    opts = scene.sim
+    frame = plane_frame(scene)
+    l = scene.object_length
+    mu_g, mu_a, mu_b = (m * variant.friction_scale for m in (scene.mu_contacts or scene.mu))
+    thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
+    obj = SimObject(object_outline(scene), thickness, opts.density)
+    spec = SimModelSpec(obj=obj, gripper=gripper_geometry(scene, robot, variant.equal_digits),
+                        friction=Friction(table=mu_g, finger=mu_a, thumb=mu_b, solids=mu_g),
+                        solids=tuple((s.name, np.asarray(s.vertices)) for s in scene.solids),
+                        placed=placed, timestep=opts.timestep, grip_force=opts.grip_force,
+                        servo_stiffness=2 * opts.grip_force / opts.squeeze)
+    theta0, d0, _ = plan.states[0]
+    return TrialSetup(spec=spec, drive=drive_from_trajectory(trajectory, robot, prefix),
+                      start_pose=tilted(frame, theta0), target_pose=frame.copy(),
+                      grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
+                      squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time)
