@@ -1,4 +1,4 @@
-"""Identities of the pinch geometry (MODEL.md section 2)."""
+"""Identities of the pinch geometry (docs/model.md, section 2)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,8 @@ def test_finger_is_alpha_longer_and_aperture_is_d_sin_psi(states):
 
 
 def test_thumb_clearance_is_height_of_thumb_tip_back_corner(states):
-    """The analytic clearance (MODEL.md) is the height of the thumb outline's tip back corner.
+    """The analytic clearance (docs/model.md, section 2.3) is the height of the thumb
+    outline's tip back corner.
     That corner is the thumb's lowest point while the digit axis is steep enough for the
     thicker base to stay above it and does not lean past vertical; the collision check
     covers the other poses."""
@@ -77,3 +78,17 @@ def test_kinematic_checks_name_each_failure():
     assert not checks["s_B >= 0"] and checks["d"] and checks["s_B <= thumb_length"]
     checks = kinematic_checks(0.0, 0.8, math.radians(20), DIGITS)  # flat object, thumb below the table
     assert not checks["thumb clearance"]
+
+
+def test_a_thick_object_moves_the_finger_to_its_top_face(states):
+    """With thickness t the finger presses the top face at A + t n_top: still alpha beyond the
+    thumb tip along e, the faces w(t) = d sin psi + t cos psi apart, and B on the thumb face."""
+    th, d, ps = states
+    t = 0.1
+    u = np.stack([np.cos(th), np.sin(th)], -1)
+    a_top = finger_tip(th, d) + t * np.stack([-u[..., 1], u[..., 0]], -1)
+    tip = thumb_tip(th, d, ps, DIGITS.alpha, t)
+    np.testing.assert_allclose(np.sum((a_top - tip) * digit_axis(th, ps), -1), DIGITS.alpha, atol=1e-12)
+    np.testing.assert_allclose(np.sum((a_top - tip) * thumb_normal(th, ps), -1), aperture(d, ps, t), atol=1e-12)
+    np.testing.assert_allclose(np.sum((u - tip) * thumb_normal(th, ps), -1), 0.0, atol=1e-12)
+    np.testing.assert_allclose(s_b(d, ps, DIGITS.alpha, t), s_b(d, ps, DIGITS.alpha) - t * np.sin(ps), atol=1e-12)

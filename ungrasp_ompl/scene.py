@@ -1,7 +1,7 @@
 """Scenes: the object, the digits, friction, obstacles, start and goal (YAML files).
 
 Units: lengths in metres, except ``digits.alpha`` and the d coordinate, which
-are over the object length l (MODEL.md section 2). Angles are radians in
+are over the object length l (docs/model.md, section 2). Angles are radians in
 code; a person types degrees in keys ending ``_deg``. Plane coordinates are
 (x, z) in the manipulation plane, G at the origin, x along the table toward
 B's side, z up. Every field is validated on load; a bad one raises
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -290,7 +290,11 @@ class Scene:
 
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
-                                 "mode_change_penalty", "forbid_partial"})
+                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin"})
+        margin = r.number(pl, "planning.thumb_tip_margin", "thumb_tip_margin", minimum=0.0, default=0.0)
+        if margin >= digits.thumb_length * length:
+            raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
+        digits = replace(digits, thumb_tip_margin=margin / length, object_thickness=thickness / length)
         model = pl.get("sliding_model", "relaxed")
         if model not in SLIDING_MODELS:
             raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
@@ -348,8 +352,6 @@ class Scene:
 
     def with_options(self, **changes: Any) -> "Scene":
         """A copy of the scene with some planning options replaced."""
-        from dataclasses import replace
-
         return replace(self, options=replace(self.options, **changes))
 
 

@@ -1,4 +1,4 @@
-"""Kinematic quantities of the pinch (MODEL.md section 2).
+"""Kinematic quantities of the pinch (docs/model.md, section 2).
 
 Frame: the manipulation plane, G at the origin, x along the table, z up.
 Lengths are over the object length l, angles in radians. Every function
@@ -30,6 +30,12 @@ class DigitGeometry:
     out of collision checks. finger_tip_radius: radius of the rounded finger
     tip (0 for a flat tip); it fixes where the robot puts the finger so that
     the tip touches the object at A, not the planar force analysis.
+    thumb_tip_margin: how far B must stay from the thumb's tip (s_B >= it);
+    0 lets a plan end with B on the tip's edge, which a real thumb loses.
+    object_thickness: the object's thickness t. G and B are on its bottom face
+    and the finger presses its top face, so the digits stand t cos(psi)
+    further apart and the whole gripper t sin(psi) further back along the
+    digit axis than for a segment: s_B shrinks by t sin(psi).
     """
 
     alpha: float
@@ -45,6 +51,8 @@ class DigitGeometry:
     palm_length: float = 0.0  # the housing from the palm line back toward the wrist
     palm_thickness: float = 0.0  # the housing normal to the plane (0: as wide as the digits)
     finger_tip_radius: float = 0.0  # the rounded finger tip's radius (0: a flat tip)
+    thumb_tip_margin: float = 0.0  # B kept at least this far from the thumb's tip (s_B >= margin)
+    object_thickness: float = 0.0  # the object's thickness: the finger presses its top face
 
     @property
     def finger_length(self) -> float:
@@ -73,16 +81,18 @@ def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
 
 
-def aperture(d: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
-    """Distance between the digit faces, over l: w = d sin psi."""
-    d, psi = _arrays(d, psi)
-    return d * np.sin(psi)
+def aperture(d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """Distance between the digit faces, over l: w = d sin psi + t cos psi (t the object's
+    thickness over l; the finger on its top face)."""
+    d, psi, thickness = _arrays(d, psi, thickness)
+    return d * np.sin(psi) + thickness * np.cos(psi)
 
 
-def s_b(d: ArrayLike, psi: ArrayLike, alpha: float) -> NDArray[np.float64]:
-    """Position of B on the thumb face from the thumb tip toward the palm, over l."""
-    d, psi = _arrays(d, psi)
-    return d * np.cos(psi) - alpha
+def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """Position of B on the thumb face from the thumb tip toward the palm, over l:
+    d cos psi - alpha - t sin psi (t the object's thickness over l)."""
+    d, psi, thickness = _arrays(d, psi, thickness)
+    return d * np.cos(psi) - alpha - thickness * np.sin(psi)
 
 
 def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
@@ -91,10 +101,11 @@ def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
     return (1.0 - d)[..., None] * object_axis(theta)
 
 
-def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float) -> NDArray[np.float64]:
+def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0
+              ) -> NDArray[np.float64]:
     """Thumb tip on its face: B + s_B e, shape (..., 2)."""
     theta, d, psi = _arrays(theta, d, psi)
-    return object_axis(theta) + s_b(d, psi, alpha)[..., None] * digit_axis(theta, psi)
+    return object_axis(theta) + s_b(d, psi, alpha, thickness)[..., None] * digit_axis(theta, psi)
 
 
 def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
@@ -103,7 +114,7 @@ def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Digi
     sin theta - s_B sin(theta + psi) - t_tip cos(theta + psi); it must stay >= 0.
     """
     theta, d, psi = _arrays(theta, d, psi)
-    sb = s_b(d, psi, digits.alpha)
+    sb = s_b(d, psi, digits.alpha, digits.object_thickness)
     return np.sin(theta) - sb * np.sin(theta + psi) - digits.thumb_tip_thickness * np.cos(theta + psi)
 
 
@@ -119,8 +130,9 @@ def digit_polygons(
     theta, d, psi = _arrays(theta, d, psi)
     e = digit_axis(theta, psi)
     n = thumb_normal(theta, psi)
-    t_tip = thumb_tip(theta, d, psi, digits.alpha)
-    a_tip = finger_tip(theta, d)
+    t_tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness)
+    u = object_axis(theta)
+    a_tip = finger_tip(theta, d) + digits.object_thickness * np.stack([-u[..., 1], u[..., 0]], axis=-1)
 
     def outline(tip, length, t_tip_k, t_base, side):
         base = tip - length * e
@@ -139,17 +151,18 @@ def kinematic_checks(
     """Each kinematic condition of a state, by name (True where it holds).
 
     - ``d``: 0 < d <= 1 (A lies on the object);
-    - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face;
+    - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face (and at least
+      ``thumb_tip_margin`` from its tip);
     - ``thumb clearance``: the thumb tip stays above the table;
     - ``aperture``: 0 <= d sin psi <= max_aperture (gripper stroke).
     """
     theta, d, psi = _arrays(theta, d, psi)
-    sb = s_b(d, psi, digits.alpha)
-    w = aperture(d, psi)
+    sb = s_b(d, psi, digits.alpha, digits.object_thickness)
+    w = aperture(d, psi, digits.object_thickness)
     tol = 1e-12
     return {
         "d": (d > 0.0) & (d <= 1.0 + tol),
-        "s_B >= 0": sb >= -tol,
+        "s_B >= 0": sb >= digits.thumb_tip_margin - tol,
         "s_B <= thumb_length": sb <= digits.thumb_length + tol,
         "thumb clearance": thumb_clearance(theta, d, psi, digits) >= -tol,
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),

@@ -1,0 +1,49 @@
+"""Speed of simulated execution: wall time of one trial and the real-time factor, per object.
+
+    python tools/bench_sim.py [--repeat N]
+
+Plans each shipped object once (RRT*, seed 1), builds its trajectory, then times N trials
+without perturbation (model compile, settle, drive, rest) and prints the best and median.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.planning import plan  # noqa: E402
+from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
+from ungrasp_ompl.sim.perturb import TrialParams  # noqa: E402
+from ungrasp_ompl.sim.setup import trial_setup  # noqa: E402
+from ungrasp_ompl.sim.trial import run_trial  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    print(f"{'object':<14} {'simulated s':>11} {'wall s (best)':>13} {'wall s (median)':>15} {'real-time factor':>16}")
+    for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
+        scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
+        result = plan(scene, planner="RRTstar", time=1.0, seed=1)
+        ex = execute(scene, result)
+        setup = trial_setup(scene, result, ex.trajectory, ex.robot)
+        walls, sim = [], 0.0
+        for _ in range(args.repeat):
+            t = time.perf_counter()
+            r = run_trial(setup, TrialParams())
+            walls.append(time.perf_counter() - t)
+            sim = r.sim_time_s
+        med = statistics.median(walls)
+        print(f"{name:<14} {sim:>11.2f} {min(walls):>13.3f} {med:>15.3f} {sim / med:>16.1f}")
+
+
+if __name__ == "__main__":
+    main()
