@@ -70,7 +70,7 @@ def test_sliding_models_nest(mode):
 
 
 def test_p_psi_near_reference_start_needs_relaxed_model():
-    """MODEL.md section 4: at theta 30 deg, d 0.8 and small psi, P_psi (B sliding toward
+    """docs/model.md, section 4.3: at theta 30 deg, d 0.8 and small psi, P_psi (B sliding toward
     the palm) is force-closed under the relaxed model and not under the strict one."""
     psi = np.radians(np.arange(0.0, 8.01, 0.5))
     relaxed = force_closure(math.radians(30), 0.8, psi, 0, -1, MU, "relaxed")

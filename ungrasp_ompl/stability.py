@@ -1,4 +1,4 @@
-"""Three-dimensional stability of a grasp in its manipulation plane (paper sec. 4, MODEL.md section 5).
+"""3D stability of a grasp in its manipulation plane (paper sec. 4, docs/model.md, section 5).
 
 Off the plane, y-forces and z-moments are balanced while at most one contact
 slides (full stability); a leg with two sliding contacts (P_dpsi) keeps only

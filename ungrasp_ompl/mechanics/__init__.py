@@ -1,4 +1,4 @@
-"""Planar ungrasping mechanics: pure numpy, no OMPL (MODEL.md sections 2-4).
+"""Planar ungrasping mechanics: pure numpy, no OMPL (docs/model.md, sections 2-4).
 
 All lengths here are over the object length l; angles are radians. The plane is
 the manipulation plane with G at the origin, x along the table toward B's side

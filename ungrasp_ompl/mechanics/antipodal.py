@@ -1,5 +1,5 @@
 """Planar antipodal pairs on an outline and the effective friction in the manipulation plane
-(paper sec. 5.1, MODEL.md section 5). Pure numpy; points in the object's own plane.
+(paper sec. 5.1, docs/model.md, section 5). Pure numpy; points in the object's own plane.
 
 For contacts G and B with in-plane inward normal cones, beta_X is the angle
 between the chord (from X toward the other contact) and the nearest inward

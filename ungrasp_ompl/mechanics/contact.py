@@ -1,4 +1,4 @@
-"""Contact modes and motion primitives (MODEL.md section 3).
+"""Contact modes and motion primitives (docs/model.md, section 3).
 
 G never slides. A slides iff d changes; B slides iff s_B changes, with
 ds_B = cos(psi) dd - d sin(psi) dpsi. A sliding contact pushes the object

@@ -1,4 +1,4 @@
-"""Planar force closure of the three contacts G, A, B (MODEL.md section 4).
+"""Planar force closure of the three contacts G, A, B (docs/model.md, section 4).
 
 A unit contact force f at point p gives the wrench (p_x f_z - p_z f_x, f_x, f_z),
 moments about G, lengths over l. A sticking contact contributes its two

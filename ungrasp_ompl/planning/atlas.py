@@ -5,9 +5,9 @@ resolution (``planning.resolution``): a leg is secure when every lattice state
 it passes is kinematically valid, collision-free and force-closed in the
 contact mode the leg's velocity makes there. Precomputing this once per
 scene, vectorised, turns a motion check during planning into a few array
-look-ups (MODEL.md section 9: the check must cost microseconds).
+look-ups (docs/model.md, section 8.2: the check must cost microseconds).
 
-Legs (one primitive each, MODEL.md section 3):
+Legs (one primitive each, docs/model.md, section 3.3):
 
 =====  ============  ==============================  ===================
 leg    primitive     moves                           sliding
