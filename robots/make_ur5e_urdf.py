@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""Write ``robots/ur5e.urdf`` from the UR5e's published DH table.
+"""Write ``ungrasp_ompl/robots/ur5e.urdf`` from the UR5e's published DH table.
 
-Run ``python robots/make_ur5e_urdf.py`` from anywhere to regenerate the URDF next to this script.
+Run ``python robots/make_ur5e_urdf.py`` from anywhere in a clone to regenerate the URDF. It is
+written into the package (``ungrasp_ompl/robots/``), which ships it as package data and loads it
+with ``ungrasp_ompl.robots.ur5e_urdf()``; this generator stays in the repository and is not shipped.
 
 Frames. Standard DH: T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i), and the flange (``tool0``) in the
 arm's base frame (``base_link``) is T_1 ... T_6. The URDF writes that product as
@@ -43,7 +45,8 @@ POSITION_LIMIT = 2 * math.pi
 VELOCITY_LIMIT = math.pi
 EFFORTS = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)
 
-URDF_PATH = Path(__file__).resolve().with_name("ur5e.urdf")
+#: Where the URDF goes: the package's robots/ directory, beside its loader.
+URDF_PATH = Path(__file__).resolve().parents[1] / "ungrasp_ompl" / "robots" / "ur5e.urdf"
 
 
 def _num(x: float) -> str:

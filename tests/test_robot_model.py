@@ -11,8 +11,9 @@ import pytest
 
 from ungrasp_ompl.errors import EXIT_NO_SOLUTION, InputError, UngraspError
 from ungrasp_ompl.robot.ik import ReachabilityError, ik_seed_for, solve_ik, solve_path
-from ungrasp_ompl.robot.model import (UR5E_URDF, GripperSpec, fk_dh, finger_tip, frame_pose,
-                                      load_ur5e, max_flange_distance_from_shoulder, tcp_pose, thumb_tip)
+from ungrasp_ompl.robot.model import (GripperSpec, fk_dh, finger_tip, frame_pose, load_ur5e,
+                                      max_flange_distance_from_shoulder, tcp_pose, thumb_tip)
+from ungrasp_ompl.robots import ur5e_urdf
 from ungrasp_ompl.robot.trajectory import ARM_JOINTS, GRIPPER_JOINT
 
 GRIPPER = GripperSpec(finger_length=0.09, thumb_length=0.07, finger_width=0.02, digit_thickness=0.012)
@@ -48,12 +49,13 @@ def _tz(z):
 
 
 def test_urdf_is_generated_from_the_dh_table():
-    """robots/ur5e.urdf is what robots/make_ur5e_urdf.py writes today."""
-    script = Path(UR5E_URDF).with_name("make_ur5e_urdf.py")
+    """The shipped ungrasp_ompl/robots/ur5e.urdf is what robots/make_ur5e_urdf.py writes today."""
+    script = Path(__file__).resolve().parents[1] / "robots" / "make_ur5e_urdf.py"
     spec = importlib.util.spec_from_file_location("make_ur5e_urdf", script)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert UR5E_URDF.read_text() == module.urdf_text()
+    assert module.URDF_PATH == ur5e_urdf().resolve()
+    assert ur5e_urdf().read_text() == module.urdf_text()
 
 
 @pytest.mark.parametrize("on_base", [False, True], ids=["identity base", "moved base"])

@@ -34,10 +34,8 @@ except ImportError:  # pragma: no cover
     import hppfcl as coal
 
 from ..errors import InputError
+from ..robots import ur5e_urdf
 from .trajectory import ARM_JOINTS, GRIPPER_JOINT
-
-#: The URDF written by robots/make_ur5e_urdf.py; robots/ is at the repository's top level.
-UR5E_URDF = Path(__file__).resolve().parents[2] / "robots" / "ur5e.urdf"
 
 #: UR5e published DH table (m, rad); standard DH, T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
 DH_A = np.array([0.0, -0.425, -0.3922, 0.0, 0.0, 0.0])
@@ -228,14 +226,15 @@ def _add_gripper(model: pin.Model, geometry: pin.GeometryModel, spec: GripperSpe
 
 def load_ur5e(gripper: GripperSpec, base: ArrayLike | None = None, urdf: Path | str | None = None
               ) -> RobotModel:
-    """Load the UR5e (robots/ur5e.urdf) with ``gripper`` on its flange.
+    """Load the UR5e (the shipped ``ungrasp_ompl/robots/ur5e.urdf``) with ``gripper`` on its flange.
 
     base: 4x4 pose of the arm's base frame in the world (default identity). urdf: another URDF
-    with the same link and joint names (default ``UR5E_URDF``).
+    with the same link and joint names (default ``ungrasp_ompl.robots.ur5e_urdf()``, the shipped
+    one, found with importlib.resources).
     """
-    path = Path(urdf) if urdf is not None else UR5E_URDF
+    path = Path(urdf) if urdf is not None else ur5e_urdf()
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no UR5e URDF; regenerate it with robots/make_ur5e_urdf.py")
+        raise FileNotFoundError(f"{path}: no UR5e URDF; regenerate the shipped one with robots/make_ur5e_urdf.py")
     base_pose = np.eye(4) if base is None else as_pose(base, "robot.base")
 
     model = pin.buildModelFromUrdf(str(path))
