@@ -190,7 +190,7 @@ class CollisionChecker:
             dg = self.scene.digits
             back = -digit_axis(th, ps)  # from the tips toward the palm
             across = thumb_normal(th, ps)
-            centre = thumb[:, 0] + (dg.thumb_length + dg.palm_length / 2) * back + (aperture(d, ps, dg.object_thickness) / 2)[:, None] * across
+            centre = thumb[:, 0] + (dg.thumb_length + dg.palm_length / 2) * back + (aperture(d, ps, dg.object_thickness, dg.finger_tip_radius) / 2)[:, None] * across
             a, c = dg.palm_length / 2 * back, dg.palm_width / 2 * across
             outline = np.stack([centre - a - c, centre + a - c, centre + a + c, centre - a + c], axis=1)
             poses["palm"] = (beta, centre * l, outline * l)

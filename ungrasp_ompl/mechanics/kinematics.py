@@ -28,8 +28,8 @@ class DigitGeometry:
     between the digit faces (a symmetric parallel gripper), across the gap,
     along the digits and normal to the plane; zero width or length leaves it
     out of collision checks. finger_tip_radius: radius of the rounded finger
-    tip (0 for a flat tip); it fixes where the robot puts the finger so that
-    the tip touches the object at A, not the planar force analysis.
+    tip (0 for a flat tip); it moves the digits so that the dome touches the
+    object at A (see finger_corner), not the planar force analysis.
     thumb_tip_margin: how far B must stay from the thumb's tip (s_B >= it);
     0 lets a plan end with B on the tip's edge, which a real thumb loses.
     object_thickness: the object's thickness t. G and B are on its bottom face
@@ -81,18 +81,20 @@ def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
 
 
-def aperture(d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0) -> NDArray[np.float64]:
-    """Distance between the digit faces, over l: w = d sin psi + t cos psi (t the object's
-    thickness over l; the finger on its top face)."""
-    d, psi, thickness = _arrays(d, psi, thickness)
-    return d * np.sin(psi) + thickness * np.cos(psi)
+def aperture(d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0, tip_radius: ArrayLike = 0.0
+             ) -> NDArray[np.float64]:
+    """Distance between the digit faces, over l: d sin psi + t cos psi + r (cos psi - 1), for an
+    object of thickness t (the finger on its top face) and a finger tip rounded with radius r."""
+    d, psi, thickness, tip_radius = _arrays(d, psi, thickness, tip_radius)
+    return d * np.sin(psi) + thickness * np.cos(psi) + tip_radius * (np.cos(psi) - 1.0)
 
 
-def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0) -> NDArray[np.float64]:
+def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0, tip_radius: ArrayLike = 0.0
+        ) -> NDArray[np.float64]:
     """Position of B on the thumb face from the thumb tip toward the palm, over l:
-    d cos psi - alpha - t sin psi (t the object's thickness over l)."""
-    d, psi, thickness = _arrays(d, psi, thickness)
-    return d * np.cos(psi) - alpha - thickness * np.sin(psi)
+    d cos psi - alpha - t sin psi + r (1 - sin psi) (t the thickness, r the finger tip's radius)."""
+    d, psi, thickness, tip_radius = _arrays(d, psi, thickness, tip_radius)
+    return d * np.cos(psi) - alpha - thickness * np.sin(psi) + tip_radius * (1.0 - np.sin(psi))
 
 
 def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
@@ -101,11 +103,23 @@ def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
     return (1.0 - d)[..., None] * object_axis(theta)
 
 
-def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0
-              ) -> NDArray[np.float64]:
+def finger_corner(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0,
+                  tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """The finger's tip corner on its contact face, shape (..., 2): A itself for a segment and a
+    flat tip; for thickness t, A lifted to the top face (A + t n_top); a tip rounded with radius r
+    touches the top face there with its dome, which puts the corner r (n_top - n_B + e) further."""
+    theta, d, psi, thickness, tip_radius = _arrays(theta, d, psi, thickness, tip_radius)
+    u = object_axis(theta)
+    top = np.stack([-u[..., 1], u[..., 0]], axis=-1)
+    lift = thickness[..., None] * top + tip_radius[..., None] * (top - thumb_normal(theta, psi) + digit_axis(theta, psi))
+    return finger_tip(theta, d) + lift
+
+
+def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0,
+              tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
     """Thumb tip on its face: B + s_B e, shape (..., 2)."""
     theta, d, psi = _arrays(theta, d, psi)
-    return object_axis(theta) + s_b(d, psi, alpha, thickness)[..., None] * digit_axis(theta, psi)
+    return object_axis(theta) + s_b(d, psi, alpha, thickness, tip_radius)[..., None] * digit_axis(theta, psi)
 
 
 def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
@@ -114,7 +128,7 @@ def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Digi
     sin theta - s_B sin(theta + psi) - t_tip cos(theta + psi); it must stay >= 0.
     """
     theta, d, psi = _arrays(theta, d, psi)
-    sb = s_b(d, psi, digits.alpha, digits.object_thickness)
+    sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
     return np.sin(theta) - sb * np.sin(theta + psi) - digits.thumb_tip_thickness * np.cos(theta + psi)
 
 
@@ -130,9 +144,8 @@ def digit_polygons(
     theta, d, psi = _arrays(theta, d, psi)
     e = digit_axis(theta, psi)
     n = thumb_normal(theta, psi)
-    t_tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness)
-    u = object_axis(theta)
-    a_tip = finger_tip(theta, d) + digits.object_thickness * np.stack([-u[..., 1], u[..., 0]], axis=-1)
+    t_tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+    a_tip = finger_corner(theta, d, psi, digits.object_thickness, digits.finger_tip_radius)
 
     def outline(tip, length, t_tip_k, t_base, side):
         base = tip - length * e
@@ -157,8 +170,8 @@ def kinematic_checks(
     - ``aperture``: 0 <= d sin psi <= max_aperture (gripper stroke).
     """
     theta, d, psi = _arrays(theta, d, psi)
-    sb = s_b(d, psi, digits.alpha, digits.object_thickness)
-    w = aperture(d, psi, digits.object_thickness)
+    sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+    w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
     tol = 1e-12
     return {
         "d": (d > 0.0) & (d <= 1.0 + tol),

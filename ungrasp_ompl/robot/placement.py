@@ -8,16 +8,12 @@ plane's normal; its origin midway between the digit faces (a symmetric
 parallel gripper), the thumb's face at x = -opening/2 through the thumb tip,
 the finger's at +opening/2; the finger is alpha * l longer.
 
-Every state of the plan fixes the palm pose and the opening exactly. The
-planar model treats the object as its bottom face (G and B are its bottom
-edge); the robot puts the finger on the top face, so the finger's tip touches
-the object at A lifted by the thickness t, and the thumb's face passes through
-B. With a flat tip the finger's tip corner is that point; a rounded tip of
-radius r touches it with its dome, so the corner sits r(n_top - n_B + e) away.
-The opening is then l d sin(psi) + t cos(psi) (+ the dome's share), not the
-planar l d sin(psi), and the thumb tip is alpha l short of the finger's corner
-along e. Legs are sampled densely so that contacts stay within 0.1 mm of their
-planned places between samples.
+Every state of the plan fixes the palm pose and the opening exactly
+(mechanics.kinematics): the finger's tip corner where its tip touches the
+object's top face at A (finger_corner: the thickness and a rounded tip's dome
+move it), the thumb's face through B, the thumb tip alpha l short of the
+finger's corner along e. Legs are sampled densely so that contacts stay
+within 0.1 mm of their planned places between samples.
 """
 
 from __future__ import annotations
@@ -27,7 +23,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import digit_axis, finger_tip, object_axis, thumb_normal
+from ..mechanics.kinematics import (aperture, digit_axis, finger_corner, finger_tip, object_axis,
+                                   thumb_normal, thumb_tip)
 from ..planning.result import Plan
 from ..scene import Scene
 
@@ -62,15 +59,12 @@ def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     th, d, ps = q.T
-    l, t = scene.object_length, scene.object_thickness
-    e, n, u = digit_axis(th, ps), thumb_normal(th, ps), object_axis(th)
-    top = np.stack([-u[:, 1], u[:, 0]], axis=-1)  # the top face's outward normal
-    b = u * l
-    a = finger_tip(th, d) * l + t * top
-    corner = a + scene.digits.finger_tip_radius * l * (top - n + e)
-    opening = np.sum((corner - b) * n, axis=-1)
-    thumb = corner - opening[:, None] * n - scene.digits.alpha * l * e
-    return {"thumb": thumb, "finger": corner, "a": a, "b": b, "e": e, "n": n, "opening": opening}
+    l, dg = scene.object_length, scene.digits
+    t, r = dg.object_thickness, dg.finger_tip_radius
+    u = object_axis(th)
+    return {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r) * l, "finger": finger_corner(th, d, ps, t, r) * l,
+            "a": (finger_tip(th, d) + t * np.stack([-u[:, 1], u[:, 0]], axis=-1)) * l, "b": u * l,
+            "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r) * l}
 
 
 def to_world(frame: NDArray, xz: NDArray) -> NDArray[np.float64]:

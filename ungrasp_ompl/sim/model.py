@@ -100,7 +100,6 @@ class SimModelSpec:
     timestep: float = 0.0005  #: s
     grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object)
     servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit
-    noslip_iterations: int = 0  #: MuJoCo's no-slip post-pass (0: off)
 
 
 @dataclass
@@ -118,7 +117,7 @@ class ModelIds:
     actuator: int
     thumb_body: int
     finger_body: int
-    solid_names: dict[int, str] = field(default_factory=dict)
+    placed_bodies: list[int] = field(default_factory=list)
 
 
 def _quat(rot: NDArray) -> NDArray[np.float64]:
@@ -141,8 +140,8 @@ def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
 
 
 def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0) -> NDArray[np.float64]:
-    """A tapered digit's vertices in its jaw frame: the contact face on x = 0 from z = 0 to
-    length - tip_cut, the body on the side of x given by side, width along y (filled in later)."""
+    """A tapered digit's outline (x, z) in its jaw frame: the contact face on x = 0 from z = 0 to
+    length - tip_cut, the body on the side of x given by side (extruded along y by _extrude_y)."""
     end = length - tip_cut
     t_end = t_base + (t_tip - t_base) * end / length
     xz = np.array([[0.0, 0.0], [0.0, end], [side * t_end, end], [side * t_base, 0.0]])
@@ -184,8 +183,7 @@ def build_mjcf(spec: SimModelSpec) -> str:
         f'friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{spec.timestep:.9g}" cone="elliptic" impratio="{IMPRATIO:g}" integrator="implicitfast"
-          noslip_iterations="{spec.noslip_iterations}">
+  <option timestep="{spec.timestep:.9g}" cone="elliptic" impratio="{IMPRATIO:g}" integrator="implicitfast">
     <flag multiccd="enable"/>
   </option>
   <default>
@@ -248,4 +246,5 @@ def model_ids(model) -> ModelIds:
                     finger_geoms=finger, thumb_geoms={geom("thumb")}, table_geom=geom("table"),
                     solid_geoms=solids, palm_geom=geom("palm"), object_geom=geom("object"),
                     actuator=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "opening"),
-                    thumb_body=body("thumb"), finger_body=body("finger"))
+                    thumb_body=body("thumb"), finger_body=body("finger"),
+                    placed_bodies=[body(f"placed{k}") for k in range(model.nbody) if body(f"placed{k}") >= 0])

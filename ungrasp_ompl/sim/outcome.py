@@ -54,6 +54,7 @@ class TrialResult:
     sim_time_s: float = 0.0
     wall_time_s: float = 0.0
     final_pose: list = field(default_factory=list)  #: 4x4 world pose of the object's body at the end
+    placed_poses: list = field(default_factory=list)  #: 4x4 poses of the objects already down, at the end
 
 
     @property
@@ -77,5 +78,6 @@ class TrialResult:
         row["cause"] = self.cause()
         params = row.pop("params")
         row.pop("final_pose")
+        row.pop("placed_poses")
         row.update({f"p_{k}": v for k, v in params.items()})
         return {k: (round(v, 6) if isinstance(v, float) and math.isfinite(v) else v) for k, v in row.items()}

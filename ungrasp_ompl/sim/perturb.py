@@ -24,7 +24,7 @@ class TrialParams:
     yaw_deg: float = 0.0  #: turned in its own plane about the grasp point (deg)
     friction_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  #: factors on mu at G, A, B (at most 1)
     mass_scale: float = 1.0  #: factor on the object's mass
-    thickness_scale: float = 1.0  #: factor on the object's thickness (the mass scales with it unless mass_scale says otherwise)
+    thickness_scale: float = 1.0  #: factor on the object's thickness (its mass stays as mass_scale sets it)
 
     def to_dict(self) -> dict:
         d = asdict(self)

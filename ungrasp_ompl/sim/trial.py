@@ -179,6 +179,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
+    others = [_pose(data, body).tolist() for body in ids.placed_bodies]
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
     pos_err, yaw_err = _placement_error(final, setup.target_pose, spec.obj.outline)
     if failure is None:
@@ -190,7 +191,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
     phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
     return TrialResult(outcome, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
-                       trial, seed, float(data.time), time.perf_counter() - wall, final.tolist())
+                       trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others)
 
 
 def _loss_cause(data, ids: ModelIds, setup: TrialSetup, obj: NDArray, plane_y: NDArray, solid: bool) -> Outcome:

@@ -1,0 +1,114 @@
+"""A whole layout simulated: every piece put down in order by the one tiling trajectory.
+
+Each attempt runs the pieces one after another. Piece k's world holds the frame's walls
+(fixed) and the pieces already down as free bodies, starting where their own trials left
+them, so a piece that ends askew is in the way of the next, and a later piece can push an
+earlier one. An attempt succeeds when every piece's own trial succeeds and, at the end, all
+pieces lie flat inside the frame (paper sec. 6.2.4).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field, replace
+from multiprocessing import get_context
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from ..layout import Layout
+from ..robot.model import RobotModel
+from ..robot.trajectory import JointTrajectory
+from ..tiling import Tiling
+from .outcome import FLAT_TILT_DEG, TrialResult
+from .perturb import Perturbation
+from .setup import trial_setup
+from .trial import TrialSetup, run_trial
+
+
+@dataclass
+class TilingAttempt:
+    """One attempt at the whole layout: each piece's trial in order, and the verdict."""
+
+    attempt: int
+    pieces: list[TrialResult] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+    flat_inside: list[bool] = field(default_factory=list)  #: per piece, at the end of the attempt
+
+    @property
+    def success(self) -> bool:
+        return len(self.pieces) == len(self.names) and all(t.success for t in self.pieces) and all(self.flat_inside)
+
+    def cause(self) -> str:
+        if self.success:
+            return "success"
+        for name, t in zip(self.names, self.pieces):
+            if not t.success:
+                return f"{name}: {t.cause()}"
+        bad = [n for n, ok in zip(self.names, self.flat_inside) if not ok]
+        return f"not flat inside the frame at the end: {', '.join(bad)}"
+
+
+def tiling_setups(layout: Layout, tiling: Tiling, trajectory: JointTrajectory, robot: RobotModel
+                  ) -> list[tuple[str, TrialSetup]]:
+    """Each piece's trial setup, in order: its scene with the frame's walls as the only fixed solids
+    (earlier pieces come in as free bodies), its part of the tiling trajectory."""
+    if not tiling.solved:
+        raise InputError("layout", "the tiling is not solved: nothing to simulate")
+    walls = tuple(layout.frame.walls())
+    return [(p.name, trial_setup(replace(p.scene, solids=walls), p.plan, trajectory, robot, prefix=f"{p.name}/"))
+            for p in tiling.placements]
+
+
+def _inside(layout: Layout, outline: NDArray, pose: NDArray, tol: float = 5e-4) -> bool:
+    """The placed outline's footprint lies within the frame's inner rectangle (tol m)."""
+    pts = np.column_stack([outline, np.zeros(len(outline))]) @ pose[:3, :3].T + pose[:3, 3]
+    frame = layout.frame
+    c, s = math.cos(frame.yaw), math.sin(frame.yaw)
+    local = (pts[:, :2] - np.asarray(frame.center)) @ np.array([[c, -s], [s, c]]) + np.asarray(frame.inner) / 2
+    return bool(np.all(local >= -tol) and np.all(local <= np.asarray(frame.inner) + tol))
+
+
+def run_attempt(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation, seed: int,
+                attempt: int) -> TilingAttempt:
+    """Attempt k: piece j draws its errors from a Generator seeded (seed, k, j)."""
+    out = TilingAttempt(attempt, names=[n for n, _ in setups])
+    placed: tuple = ()
+    for j, (name, setup) in enumerate(setups):
+        params = perturbation.sample(np.random.default_rng([seed, attempt, j]))
+        result = run_trial(replace(setup, spec=replace(setup.spec, placed=placed)), params, attempt, seed)
+        out.pieces.append(result)
+        if not result.success:
+            return out
+        obj = replace(setup.spec.obj, thickness=setup.spec.obj.thickness * params.thickness_scale)
+        placed = tuple((n, o, np.array(pose)) for (n, o, _), pose in zip(placed, result.placed_poses))
+        placed += ((name, obj, np.array(result.final_pose)),)
+    for (name, obj, pose) in placed:
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(pose[2, 2])))))
+        out.flat_inside.append(tilt <= FLAT_TILT_DEG and _inside(layout, obj.outline, pose))
+    return out
+
+
+def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation,
+                    attempts: int, seed: int, jobs: int = 1,
+                    progress: Callable[[TilingAttempt], None] | None = None) -> list[TilingAttempt]:
+    """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes."""
+    if attempts < 1:
+        raise InputError("--trials", f"must be at least 1, got {attempts}")
+    results: list[TilingAttempt] = []
+    if jobs == 1 or attempts == 1:
+        for k in range(attempts):
+            results.append(run_attempt(layout, setups, perturbation, seed, k))
+            if progress:
+                progress(results[-1])
+    else:
+        with ProcessPoolExecutor(max_workers=min(jobs, attempts), mp_context=get_context("spawn")) as pool:
+            futures = [pool.submit(run_attempt, layout, setups, perturbation, seed, k) for k in range(attempts)]
+            for fut in as_completed(futures):
+                results.append(fut.result())
+                if progress:
+                    progress(results[-1])
+    return sorted(results, key=lambda a: a.attempt)
