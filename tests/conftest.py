@@ -42,3 +42,20 @@ def pytest_unconfigure(config):
 
 def pytest_sessionfinish(session, exitstatus):
     session.config._ungrasp_exitstatus = exitstatus
+
+
+def assert_picture(path: Path, colours: tuple[tuple[float, float, float], ...] = ()) -> None:
+    """path is a PNG that shows a drawing: a real image of some size, not blank (a share of its
+    pixels is neither white nor one flat colour), holding each of the given RGB colours (0-1,
+    within 0.08) somewhere."""
+    import matplotlib.image as mpimg
+    import numpy as np
+
+    img = mpimg.imread(str(path))[..., :3]
+    assert img.shape[0] >= 200 and img.shape[1] >= 200, img.shape
+    ink = np.any(img < 0.95, axis=-1).mean()
+    assert 0.01 < ink < 0.99, f"{path}: {ink:.3f} of the pixels drawn"
+    assert len(np.unique((img * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 8
+    for c in colours:
+        near = np.all(np.abs(img - np.asarray(c)) < 0.08, axis=-1)
+        assert near.any(), f"{path}: no pixel of colour {c}"

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 
+from conftest import assert_picture
 from ungrasp_ompl.benchmark import LATTICE, parse_alpha_range, run_benchmark, run_sweep
 from ungrasp_ompl.errors import InputError
 
 SCENES = Path(__file__).parents[1] / "scenes"
 SCENE = SCENES / "reference_asymmetric.yaml"
 PLANNERS = ["RRTstar", "RRTConnect", LATTICE]
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ def test_no_planner_beats_the_lattice_optimum(bench):
 def test_plots_are_png(bench):
     out, _ = bench
     for name in ("success_vs_time.png", "cost_vs_time.png"):
-        assert (out / name).read_bytes()[:8] == PNG_SIGNATURE
+        assert_picture(out / name)
 
 
 @pytest.mark.parametrize("planners, words", [(["RRTstar", "NoSuchPlanner"], ["unknown planner", "NoSuchPlanner"]),
@@ -131,7 +131,7 @@ def test_sweep_over_alpha(tmp_path):
     assert [r["alpha"] for r in rows] == ["0.0", "0.47"]
     assert rows[0]["lattice_optimum"] == "" and rows[0]["lattice_reachable"] == "0"
     assert float(rows[1]["lattice_optimum"]) == pytest.approx(85.5) and rows[1]["lattice_reachable"] == "1"
-    assert (tmp_path / "sweep.png").read_bytes()[:8] == PNG_SIGNATURE
+    assert_picture(tmp_path / "sweep.png")
 
 
 def test_sweep_refuses_a_bad_alpha(tmp_path):

@@ -8,7 +8,7 @@ import math
 import pytest
 import yaml
 
-from conftest import SCENES, run_cli
+from conftest import SCENES, assert_picture, run_cli
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -40,7 +40,7 @@ def test_plan_writes_plan_and_picture(tmp_path):
                 "time_to_first_solution_s"):
         assert key in plan
     assert plan["solved"] and plan["planner"] == "RRTstar" and plan["seed"] == 1
-    assert (out / "cspace.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert_picture(out / "cspace.png")
     assert "P_theta" in proc.stdout and "stability" in proc.stdout
 
 
@@ -98,7 +98,7 @@ def test_regions_map(tmp_path):
     out = tmp_path / "map.png"
     proc = run_cli("regions", str(SCENES / "reference_upper_obstacle.yaml"), "--out", str(out))
     assert proc.returncode == 0, proc.stderr
-    assert out.read_bytes()[:4] == b"\x89PNG"
+    assert_picture(out)
 
 
 BAD_SCENES = {

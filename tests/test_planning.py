@@ -194,10 +194,17 @@ def test_plan_api_is_reproducible_in_process(scenes):
 
 
 def test_strict_model_changes_the_plan(scenes):
-    """Under the strict model P_psi cannot start from psi = 0 near the reference start, so the
-    exact optimum differs (or vanishes)."""
+    """Under the strict model a sliding contact pushes along one cone edge only: P_psi is not
+    force-closed at psi 2-8 deg near the reference start (B sticks at psi = 0 itself), and at 1 deg / 0.01 no secure path is left where the
+    relaxed model's optimum costs 86 (both found by the exact lattice search)."""
     scene = scenes["reference_asymmetric"]
-    relaxed = lattice_search(SecurityAtlas(scene, planning_box(scene), COARSE), scene.goal.box()).cost
+    fine = (math.radians(1), 0.01, math.radians(1))
+    relaxed = lattice_search(SecurityAtlas(scene, planning_box(scene), fine), scene.goal.box()).cost
     strict_scene = scene.with_options(sliding_model="strict")
-    strict = lattice_search(SecurityAtlas(strict_scene, planning_box(strict_scene), COARSE), scene.goal.box()).cost
-    assert strict is None or strict >= relaxed
+    strict = lattice_search(SecurityAtlas(strict_scene, planning_box(strict_scene), fine), scene.goal.box()).cost
+    assert relaxed == pytest.approx(86.0)
+    assert strict is None
+    q = np.array([[math.radians(30), 0.8, math.radians(psi)] for psi in (2, 5, 8)])
+    psi_up = np.tile([0.0, 0.0, 0.1], (3, 1))
+    assert scene.force_closure(q, psi_up).all() and not strict_scene.force_closure(q, psi_up).any()
+

@@ -113,10 +113,6 @@ class RobotModel:
     base: NDArray[np.float64]
 
     @property
-    def gripper_joint_id(self) -> int:
-        return self.model.getJointId(GRIPPER_JOINT)
-
-    @property
     def tool0_frame(self) -> int:
         return self.model.getFrameId(TOOL0_FRAME)
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import UngraspError
+from ..errors import EXIT_NO_SOLUTION, UngraspError
 from ..planning.result import Plan
 from ..scene import Scene
 from .collision import RobotCollisionChecker
@@ -37,7 +37,7 @@ ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 class CollisionError(UngraspError):
     """The arm or gripper would hit the table or an obstacle."""
 
-    exit_code = 3
+    exit_code = EXIT_NO_SOLUTION
 
 
 @dataclass

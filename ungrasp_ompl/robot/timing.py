@@ -21,7 +21,7 @@ import toppra.constraint as constraint
 from numpy.typing import NDArray
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-from ..errors import UngraspError
+from ..errors import EXIT_NO_SOLUTION, UngraspError
 
 
 #: Share of the joint limits TOPPRA plans against (the rest absorbs its between-grid-point error).
@@ -31,7 +31,7 @@ TOPPRA_MARGIN = 0.9
 class TimingError(UngraspError):
     """A path that cannot be timed within the limits."""
 
-    exit_code = 3
+    exit_code = EXIT_NO_SOLUTION
 
 
 @dataclass
