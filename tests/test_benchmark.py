@@ -73,7 +73,7 @@ def test_plots_are_png(bench):
 
 
 @pytest.mark.parametrize("planners, words", [(["RRTstar", "NoSuchPlanner"], ["unknown planner", "NoSuchPlanner"]),
-                                             (["PRM"], ["not usable", "deadlock"]),
+                                             (["LazyPRMstar"], ["unknown planner", "LazyPRMstar"]),
                                              ([], ["no planner"])])
 def test_bad_planner_is_refused_before_running(tmp_path, planners, words):
     out = tmp_path / "out"

@@ -299,7 +299,7 @@ def test_layout_api_rejects_a_scene_file():
         Layout.from_file(SCENES / "puzzle_piece.yaml")
 
 
-@pytest.mark.parametrize("args, word", [(["--planner", "PRM"], "planner"), (["--planner", "Nope"], "planner"),
+@pytest.mark.parametrize("args, word", [(["--planner", "LazyPRM"], "planner"), (["--planner", "Nope"], "planner"),
                                         (["--time", "0"], "time"), (["--approaches", "0"], "approaches"),
                                         (["--range", "-1"], "range")])
 def test_bad_tile_options_exit_2(tmp_path, args, word):

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 from ompl import base as ob
 
-from .atlas import D, PSI, THETA, SecurityAtlas, reference_cost
+from .atlas import D, PSI, THETA, SecurityAtlas
 
 
 class PrimitiveCostObjective(ob.OptimizationObjective):
@@ -23,6 +25,7 @@ class PrimitiveCostObjective(ob.OptimizationObjective):
         opts = atlas.scene.options
         self.d_weight = opts.d_weight
         self.penalty = opts.mode_change_penalty
+        self._res = tuple(float(x) for x in atlas.res)
 
     def isSymmetric(self) -> bool:
         return False
@@ -40,10 +43,14 @@ class PrimitiveCostObjective(ob.OptimizationObjective):
         if not self.atlas.allowed(step):
             return self.infiniteCost()
         legs = (step[THETA] != 0) + (step[D] != 0) + (step[PSI] != 0) - (step[D] * step[PSI] < 0)
-        res = self.atlas.res
-        return ob.Cost(float(reference_cost((step[0] * res[0], step[1] * res[1], step[2] * res[2]), self.d_weight))
-                       + self.penalty * legs)
+        res = self._res
+        return ob.Cost(_l1(step[0] * res[0], step[1] * res[1], step[2] * res[2], self.d_weight) + self.penalty * legs)
 
     def motionCostHeuristic(self, s1, s2) -> ob.Cost:
-        res = (abs(s2[0] - s1[0]), abs(s2[1] - s1[1]), abs(s2[2] - s1[2]))
-        return ob.Cost(float(reference_cost(res, self.d_weight)) * 0.99)
+        return ob.Cost(_l1(s2[0] - s1[0], s2[1] - s1[1], s2[2] - s1[2], self.d_weight) * 0.99)
+
+
+def _l1(dtheta: float, dd: float, dpsi: float, d_weight: float) -> float:
+    """reference_cost of one step in plain floats (the same arithmetic; no arrays, as it is
+    called for every edge a planner weighs)."""
+    return math.degrees(abs(dtheta) + abs(dpsi)) + d_weight * abs(dd)

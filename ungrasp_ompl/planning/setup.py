@@ -5,7 +5,7 @@ Mirrors og.SimpleSetup: :class:`UngraspSetup` owns the space information
 (start, sampleable goal region, objective) and the planner; :func:`plan` is
 the one-call entry point.
 
-Reproducibility (MODEL.md section 8): OMPL's RNG is seeded once per process,
+Reproducibility (docs/model.md, section 9): OMPL's RNG is seeded once per process,
 before its first random number, and a seeded run stops after a fixed count
 of planner iterations (not on wall time), so the same seed gives the same
 plan. A process that has planned already runs a later seeded plan in a fresh
@@ -18,6 +18,7 @@ import math
 import os
 import time
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 from ompl import base as ob
@@ -34,17 +35,21 @@ from .lattice import lattice_search
 from .objective import PrimitiveCostObjective
 from .result import Plan, merge_legs, sequence_cost
 from .space import make_state_space, path_states, set_state
+from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
 from .verify import verify_leg
 
 #: OMPL geometric planners that can be asked for by name.
 PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT",
-            "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1")
+            "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1", "PRM", "PRMstar")
 
 #: Planners that may spin in C++ without checking their termination condition, and what was seen.
+#: AORRTC's loop (its connect step re-adding one state, checking the same motion each time) is
+#: ended by PrimitiveMotionValidator.REPEAT_LIMIT; the watchdog stays for loops without callbacks.
 UNRULY_PLANNERS = {
-    "AORRTC": "in the ompl 2.0.1 wheel its tree growth can loop in nearest-neighbour search without "
-              "checking the time limit (seen in 5 of 10 runs on reference_asymmetric)",
+    "AORRTC": "in the ompl 2.0.1 wheel its connect loop can re-add one state forever without "
+              "checking the time limit (seen in 5 of 10 and 2 of 8 runs on reference_asymmetric before "
+              "the motion validator refused repeated motions; in none of 70 runs since)",
 }
 #: Seconds a run may take beyond its time cap before it counts as hung.
 HANG_GRACE_S = 60.0
@@ -52,18 +57,44 @@ HANG_GRACE_S = 60.0
 #: The exact lattice search, usable as a planner by this name.
 LATTICE = "lattice"
 
-#: Planners of the ompl wheel that cannot run with Python callbacks, and why.
-UNUSABLE_PLANNERS = {
-    name: "its solve() adds roadmap milestones from a second C++ thread, which waits for Python's GIL "
-          "while the first thread holds it and waits for the roadmap lock: a deadlock with Python "
-          "validity checkers (ompl 2.0.1 wheel)"
-    for name in ("PRM", "PRMstar")
-}
+#: Planners of the ompl wheel that cannot run with Python callbacks, and why. None now: PRM and
+#: PRMstar, whose two solver threads deadlock on the GIL, run with their threads taking turns
+#: (planning/turns.py).
+UNUSABLE_PLANNERS: dict[str, str] = {}
+
+
+class Limitation(Enum):
+    """Why a planner of the ompl wheel cannot solve ungrasping problems (directed, sparse secure
+    motions): measured, and read in its source. ``bench`` prints the code next to a 0% success
+    rate and the reason under its table."""
+
+    LAZY_ROADMAP = ("FMT* checks only the cheapest connection to each sample and never retries it from a "
+                    "node it has closed; secure motions here are sparse and one-way, so its open set empties "
+                    "after a few dozen edges and it reports that no path exists (0 of 20 bench runs of 1 s on "
+                    "reference_asymmetric and guitar_pick; none either with 3000 samples, 3x its radius or "
+                    "extended FMT* for 20 s)")
+    BACKWARD_GOAL_TREE = ("BFMT* grows its goal tree by checking each edge from the goal side, against the "
+                          "direction the path travels it; primitives run one way, so that tree never grows and "
+                          "what is left is FMT*'s lazy search (0 of 20 bench runs of 1 s on reference_asymmetric "
+                          "and guitar_pick, 0 of 3 runs of 5 s)")
+
+    @property
+    def code(self) -> str:
+        """A short name for tables: lazy-roadmap, backward-goal-tree."""
+        return self.name.lower().replace("_", "-")
+
+
+#: Planners that cannot solve these problems, and why (see Limitation).
+KNOWN_LIMITATIONS: dict[str, Limitation] = {"FMT": Limitation.LAZY_ROADMAP, "BFMT": Limitation.BACKWARD_GOAL_TREE}
 
 #: Iterations per second of --time that a seeded run is given (measured: RRT* runs
 #: 8,000-11,000 iterations per second on the reference scenes and 4,000-5,000 on the
 #: shipped 3D scenes on 2 cores, so a seeded run takes about --time seconds).
 ITERATIONS_PER_SECOND = 6000
+#: The same for planners far from that rate: PRM and PRM* make about 2 calls per milestone and
+#: share the time with their search rounds (measured: 1,000 calls take 0.45-0.85 s, 5,000 take
+#: 3.5-7.6 s on reference_asymmetric and guitar_pick on 2 cores).
+PLANNER_ITERATIONS_PER_SECOND = {"PRM": 1000, "PRMstar": 1000}
 
 
 @dataclass(frozen=True)
@@ -72,8 +103,9 @@ class PlannerOptions:
 
     time: seconds of planning (a seeded run: the size of its iteration
     budget, with 5x the time as a hard cap). iterations: planner iterations
-    (termination-condition calls); None: ITERATIONS_PER_SECOND * time when
-    seeded, unbounded otherwise. range: the planner's maximum motion length
+    (termination-condition calls); None: ITERATIONS_PER_SECOND (for PRM and
+    PRMstar PLANNER_ITERATIONS_PER_SECOND) * time when seeded, unbounded
+    otherwise. range: the planner's maximum motion length
     in state units (theta and psi in rad, d over l). goal_bias: how often a
     tree-based planner steers to a goal sample. simplify: shorten the path
     with OMPL's PathSimplifier (shortcuts in travel direction).
@@ -118,11 +150,12 @@ class UngraspSetup:
         self.space = make_state_space(planning_box(scene))
         self.si = ob.SpaceInformation(self.space)
         self.validity_checker = LatticeValidityChecker(self.si, self.atlas)
-        self.motion_validator = PrimitiveMotionValidator(self.si, self.atlas)
+        roadmap = self.options.planner in ROADMAP_PLANNERS
+        self.motion_validator = (RoadmapMotionValidator if roadmap else PrimitiveMotionValidator)(self.si, self.atlas)
         self.si.setStateValidityChecker(self.validity_checker)
         self.si.setMotionValidator(self.motion_validator)
         self.si.setup()
-        self.objective = PrimitiveCostObjective(self.si, self.atlas)
+        self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
         self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
         self.pdef = ob.ProblemDefinition(self.si)
         self._start = self.space.allocState()
@@ -175,7 +208,8 @@ class UngraspSetup:
         budget = opts.iterations
         cap = opts.time
         if opts.seed is not None:
-            budget = budget or max(1, int(ITERATIONS_PER_SECOND * opts.time))
+            rate = PLANNER_ITERATIONS_PER_SECOND.get(opts.planner, ITERATIONS_PER_SECOND)
+            budget = budget or max(1, int(rate * opts.time))
             cap = 5.0 * opts.time
         best_cost = getattr(self.planner, "bestCost", None)
         state = {"n": 0, "first": None, "stop": ""}
@@ -196,8 +230,17 @@ class UngraspSetup:
                 return True
             return False
 
-        status = self.planner.solve(ob.PlannerTerminationCondition(done))
+        turns = None
+        if opts.planner in ROADMAP_PLANNERS:
+            turns = TakeTurns(self.planner, done, lambda: self.objective.heuristic_calls,
+                              either_way=(self.motion_validator, self.objective))
+        status = self.planner.solve(ob.PlannerTerminationCondition(turns or done))
         plan.planning_time_s = time.perf_counter() - t0
+        if turns is not None:
+            if turns.interrupt is not None:
+                raise turns.interrupt
+            if state["first"] is None and self.objective.first_solution is not None:
+                state["first"] = self.objective.first_solution - t0
         plan.iterations = state["n"]
         plan.stopped_by = state["stop"] or "planner"
         exact = self.pdef.hasExactSolution() and str(status) in ("Exact solution",)
