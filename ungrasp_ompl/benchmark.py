@@ -49,7 +49,7 @@ import numpy as np
 from .errors import InputError
 from .planning.setup import HANG_GRACE_S
 from .io import write_atomic, write_text_atomic
-from .planning.setup import PLANNERS, UNUSABLE_PLANNERS, PlannerOptions
+from .planning.setup import KNOWN_LIMITATIONS, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions
 from .scene import Scene
 
 #: The exact search over the primitive lattice, benchmarked like a planner.
@@ -342,6 +342,7 @@ class SummaryRow:
     gap_percent: float | None
     mode_changes_median: float | None
     lattice_optimum: float | None
+    limitation: str | None = None  # 0% success where a path exists: the planner's known limitation's code
 
 
 def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: float | None) -> SummaryRow:
@@ -359,7 +360,15 @@ def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: floa
         first_solution_p90_s=_p90([r.time_to_first_solution_s for r in solved]),
         cost_median=cost, gap_percent=_gap_percent(cost, optimum),
         mode_changes_median=_median([r.mode_switches for r in solved]),
-        lattice_optimum=optimum)
+        lattice_optimum=optimum,
+        limitation=KNOWN_LIMITATIONS[planner].code
+        if planner in KNOWN_LIMITATIONS and not solved and optimum is not None else None)
+
+
+def limitation_notes(rows: Sequence[SummaryRow]) -> list[str]:
+    """One line per planner reported with a known limitation: why it cannot succeed here."""
+    named = dict.fromkeys(r.planner for r in rows if r.limitation)
+    return [f"{p}: {KNOWN_LIMITATIONS[p].code}: {KNOWN_LIMITATIONS[p].value}" for p in named]
 
 
 # -- tables and CSV -----------------------------------------------------------------
@@ -386,7 +395,8 @@ def format_table(columns: Sequence[Column], rows: Sequence[object]) -> str:
     """Fixed-width text table; text columns left-aligned, numbers right-aligned, '-' for missing."""
     cells = [[_cell(c.value(r), c.fmt, "-") for c in columns] for r in rows]
     widths = [max([len(c.header)] + [len(row[k]) for row in cells]) for k, c in enumerate(columns)]
-    left = [all(isinstance(c.value(r), str) for r in rows) for c in columns]
+    values = [[c.value(r) for r in rows] for c in columns]
+    left = [any(isinstance(v, str) for v in vs) and all(v is None or isinstance(v, str) for v in vs) for vs in values]
 
     def line(items: Sequence[str]) -> str:
         return "  ".join(s.ljust(w) if lft else s.rjust(w) for s, w, lft in zip(items, widths, left)).rstrip()
@@ -420,6 +430,7 @@ SUMMARY_COLUMNS = (
     Column("gap %", "gap_to_optimum_percent", lambda r: r.gap_percent, ".2f"),
     Column("mode changes", "mode_changes_median", lambda r: r.mode_changes_median, "g"),
     Column("lattice optimum", "lattice_optimum", lambda r: r.lattice_optimum, ".2f"),
+    Column("known limitation", "known_limitation", lambda r: r.limitation),
 )
 
 
@@ -568,7 +579,9 @@ def statistics_script() -> Path:
         path = Path(location) / "ompl_benchmark_statistics.py"
         if path.is_file():
             return path
-    raise RuntimeError("ompl_benchmark_statistics.py is not in the installed ompl package")
+    from .errors import ToolError  # exit 1, one line: an installation problem, not the input
+
+    raise ToolError("ompl_benchmark_statistics.py is not in the installed ompl package (reinstall ompl)")
 
 
 def logs_to_database(logs: Sequence[Path], db: Path) -> None:
@@ -579,8 +592,10 @@ def logs_to_database(logs: Sequence[Path], db: Path) -> None:
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-            raise RuntimeError(f"ompl_benchmark_statistics.py failed on {', '.join(map(str, logs))}: "
-                               + " | ".join(tail))
+            from .errors import ToolError  # exit 1, one line: OMPL's script failed, not the input
+
+            raise ToolError(f"ompl_benchmark_statistics.py failed on {', '.join(map(str, logs))}: "
+                            + " | ".join(tail))
 
     write_atomic(db, convert)
 
@@ -726,6 +741,9 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], planners: Seque
     table += ("\ntimes in s over the solved runs: OMPL planners from the start of solve(); lattice: building "
               f"the lattice plus the exact search.\ncosts: {' or '.join(units)}; gap = median cost / lattice "
               "optimum - 1 (the optimum on the planners' own lattice).")
+    notes = limitation_notes(summary)
+    if notes:
+        table += "\nknown limitations (why these planners solve nothing here):\n" + "\n".join(f"  {n}" for n in notes)
     print(table)
     print(f"wrote {', '.join(p.name for p in files.values())} to {out}")
     optima = {exp.key: exp.optimum for exp in experiments}

@@ -2,7 +2,8 @@
 
 Exit codes: 0 solved (or done); 2 bad input (one line naming the field and
 the reason); 3 no solution (with the reason found), including a plan the
-robot cannot execute (out of reach, or beyond its limits).
+robot cannot execute (out of reach, or beyond its limits); 1 a tool the
+command relies on is missing or failed (one line).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
+from .shipped import resolve, shipped_scenes
 
 
 class _Parser(argparse.ArgumentParser):
@@ -34,19 +36,20 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
-    pl.add_argument("scene", help="scene file (YAML)")
+    pl.add_argument("scene", help="scene file (YAML), or the name of a shipped scene (see `scenes`)")
     pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,
-                    help="planner iterations (default with a seed: 6000 per second of --time)")
+                    help="planner iterations (default with a seed: 6000 per second of --time; "
+                         "1000 for PRM and PRMstar)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
                          "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
 
     bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
-    bn.add_argument("scenes", nargs="+", help="scene files (YAML)")
+    bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")
     bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
                     help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
     bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
@@ -56,7 +59,7 @@ def _parser() -> argparse.ArgumentParser:
     bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
 
     sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
-    sw.add_argument("scene", help="scene file (YAML)")
+    sw.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
     sw.add_argument("--planner", default="RRTstar")
     sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
@@ -66,10 +69,10 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", default="sweep", help="output directory (default ./sweep)")
 
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
-    st.add_argument("scene", help="scene file (YAML) with object.outline")
+    st.add_argument("scene", help="scene file (YAML) with object.outline, or the name of a shipped scene")
 
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
-    tl.add_argument("layout", help="layout file (YAML): a frame and its pieces")
+    tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
     tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
     tl.add_argument("--time", type=float, default=1.0, help="planning time per piece in seconds (default 1)")
     tl.add_argument("--seed", type=int, default=None, help="seed: piece k is planned with seed + k")
@@ -81,7 +84,8 @@ def _parser() -> argparse.ArgumentParser:
 
     sm = sub.add_parser("simulate", help="execute a plan in MuJoCo: success rate and placement errors over "
                         "perturbed trials")
-    sm.add_argument("scene", help="scene file (YAML) with an object thickness")
+    sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
+                    "turn), or the name of a shipped one")
     sm.add_argument("--plan", default=None, help="plan.json to execute instead of planning (may be one the "
                     "model rejects for this scene: a warning says why)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
@@ -104,8 +108,10 @@ def _parser() -> argparse.ArgumentParser:
                     help="simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)")
 
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
-    rg.add_argument("scene", help="scene file (YAML)")
+    rg.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     rg.add_argument("--out", required=True, help="PNG file to write")
+
+    sub.add_parser("scenes", help="list the shipped scenes and layouts, which every command takes by name")
     return p
 
 
@@ -114,7 +120,7 @@ def _plan(args: argparse.Namespace) -> int:
     from .planning import plan
     from .scene import Scene
 
-    scene = Scene.from_file(args.scene)
+    scene = Scene.from_file(resolve(args.scene, "scene"))
     out = Path(args.out) if args.out else None
     export = Path(args.export) if args.export else None
     for flag, path in (("--out", out), ("--export", export)):
@@ -147,7 +153,7 @@ def _stability(args: argparse.Namespace) -> int:
     from .scene import Scene
     from .stability import analyse
 
-    scene = Scene.from_file(args.scene)
+    scene = Scene.from_file(resolve(args.scene, "scene"))
     if scene.plane is None:
         raise InputError("object.outline", "is missing: the stability analysis needs the object's outline", scene.source)
     plane = scene.plane
@@ -172,15 +178,16 @@ def _bench(args: argparse.Namespace) -> int:
     from .benchmark import run_benchmark
 
     planners = [p.strip() for p in args.planners.split(",") if p.strip()]
-    run_benchmark(args.scenes, planners, args.runs, args.time, args.jobs, args.out, seed=args.seed)
+    scenes = [resolve(s, "scene") for s in args.scenes]
+    run_benchmark(scenes, planners, args.runs, args.time, args.jobs, args.out, seed=args.seed)
     return EXIT_OK
 
 
 def _sweep(args: argparse.Namespace) -> int:
     from .benchmark import parse_alpha_range, run_sweep
 
-    run_sweep(args.scene, parse_alpha_range(args.alpha), args.runs, args.time, args.jobs, args.out,
-              planner=args.planner, seed=args.seed)
+    run_sweep(resolve(args.scene, "scene"), parse_alpha_range(args.alpha), args.runs, args.time, args.jobs,
+              args.out, planner=args.planner, seed=args.seed)
     return EXIT_OK
 
 
@@ -193,14 +200,15 @@ def _tile(args: argparse.Namespace) -> int:
     from .planning.setup import PlannerOptions
     from .tiling import TilingOptions, tile
 
-    layout = Layout.from_file(args.layout)
+    layout = Layout.from_file(resolve(args.layout, "layout"))
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     if args.planner != "lattice":
         PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
-    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
-                                        approaches=args.approaches))
+    with _TileProgress() as progress:
+        result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
+                                            approaches=args.approaches), progress)
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
     draw_layout(layout, result, out / "layout.png")
@@ -220,6 +228,28 @@ def _tile(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+class _TileProgress:
+    """tile()'s progress as one line on stderr, overwritten in place (\\r) and ended with a newline."""
+
+    def __init__(self) -> None:
+        self.width = 0
+
+    def __call__(self, p) -> None:  # p: tiling.TilingProgress
+        line = (f"searching an order: {p.done}/{p.total} pieces down, {p.checks} approaches checked ({p.piece})"
+                if p.stage == "search" else f"planning: {p.done}/{p.total} pieces planned ({p.piece})")
+        self.width = max(self.width, len(line))
+        sys.stderr.write("\r" + line.ljust(self.width))
+        sys.stderr.flush()
+
+    def __enter__(self) -> "_TileProgress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.width:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
 def _simulate(args: argparse.Namespace) -> int:
     import csv
     import io
@@ -233,16 +263,21 @@ def _simulate(args: argparse.Namespace) -> int:
     from .plotting import draw_trials
     from .robot.export import export_all
     from .robot.pipeline import execute
-    from .scene import Scene
+    from .scene import Scene, read_yaml
     from .sim.campaign import default_jobs, deviated_plan, plan_problems, simulate
     from .sim.perturb import preset
     from .sim.setup import Variant, object_outline, trial_setup
 
-    scene = Scene.from_file(args.scene)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     perturbation = preset(args.perturb)
+    shipped = next((s for s in shipped_scenes() if s.name == args.scene), None)
+    args.scene = str(resolve(args.scene, shipped.kind if shipped and not Path(args.scene).exists() else "scene"))
+    doc = read_yaml(args.scene, "scene")
+    if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
+        return _simulate_layout(args, perturbation, out)
+    scene = Scene.from_dict(doc, source=args.scene, default_name=Path(args.scene).stem)
     if not 0.0 < args.friction_scale <= 1.0:
         raise InputError("--friction-scale", f"must lie in (0, 1]: the simulator never grants more friction than "
                          f"the scene's, got {args.friction_scale:g}")
@@ -279,17 +314,7 @@ def _simulate(args: argparse.Namespace) -> int:
     print(f"simulating {args.trials} trials of {scene.name} ({len(result.primitives)} primitives, "
           f"{setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat), perturbation "
           f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
-    done = []
-
-    def progress(_) -> None:
-        done.append(1)
-        filled = round(30 * len(done) / args.trials)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {len(done)}/{args.trials}")
-        if len(done) == args.trials:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-
-    report = simulate(setup, perturbation, args.trials, args.seed, jobs, progress, scene.name, variant)
+    report = simulate(setup, perturbation, args.trials, args.seed, jobs, _progress(args.trials), scene.name, variant)
     report.plan_problems = problems
     summary = report.to_dict()
     errs = summary["position_error_mm"]
@@ -313,15 +338,88 @@ def _simulate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _simulate_layout(args: argparse.Namespace, perturbation, out: Path) -> int:
+    """simulate on a layout: tile it, then run whole attempts (every piece in order)."""
+    import json
+
+    from .io import write_text_atomic
+    from .layout import Layout
+    from .robot.export import export_all
+    from .robot.pipeline import execute_sequence
+    from .sim.campaign import default_jobs
+    from .sim.tiling import simulate_tiling, tiling_setups
+    from .tiling import TilingOptions, tile
+
+    for flag in ("plan", "start_psi_offset_deg", "thickness", "finger_tip"):
+        if getattr(args, flag) is not None:
+            raise InputError(f"--{flag.replace('_', '-')}", "applies to a single scene, not to a layout")
+    if args.equal_digits or args.friction_scale != 1.0:
+        raise InputError("--equal-digits" if args.equal_digits else "--friction-scale",
+                         "applies to a single scene, not to a layout")
+    jobs = default_jobs() if args.jobs is None else args.jobs
+    if args.trials < 1 or jobs < 1:
+        raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
+    layout = Layout.from_file(args.scene)
+    tiling = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed))
+    print(tiling.summary())
+    if not tiling.solved:
+        return EXIT_NO_SOLUTION
+    execution = execute_sequence([(p.scene, p.plan) for p in tiling.placements],
+                                 labels=[p.name for p in tiling.placements])
+    export_all(execution.trajectory, out)
+    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
+    print(f"simulating {args.trials} attempts of {layout.name}: {len(setups)} pieces each, perturbation "
+          f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
+    attempts = simulate_tiling(layout, setups, perturbation, args.trials, args.seed, jobs, _progress(args.trials))
+    placed = sum(a.success for a in attempts)
+    print(f"success {placed}/{args.trials} (all {len(setups)} pieces flat inside the frame)")
+    for a in attempts:
+        if not a.success:
+            print(f"  attempt {a.attempt}: {a.cause()}")
+    doc = {"layout": layout.name, "attempts": args.trials, "successes": placed,
+           "results": [{"attempt": a.attempt, "success": a.success, "cause": a.cause(),
+                        "pieces": [dict(name=n, **t.to_row()) for n, t in zip(a.names, a.pieces)]} for a in attempts]}
+    write_text_atomic(out / "summary.json", json.dumps(doc, indent=1) + "\n")
+    print(f"wrote {out / 'summary.json'} and the trajectory")
+    return EXIT_OK
+
+
+def _progress(total: int):
+    """A progress bar on stderr, advanced by each call."""
+    done = []
+
+    def step(_) -> None:
+        done.append(1)
+        filled = round(30 * len(done) / total)
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {len(done)}/{total}")
+        if len(done) == total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    return step
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
 
-    scene = Scene.from_file(args.scene)
+    scene = Scene.from_file(resolve(args.scene, "scene"))
     if not args.out.lower().endswith(".png"):
         raise InputError("--out", "must name a .png file")
     draw_regions(scene, args.out)
     print(f"wrote {args.out}")
+    return EXIT_OK
+
+
+def _scenes(args: argparse.Namespace) -> int:
+    shipped = shipped_scenes()
+    width = max([len("name")] + [len(s.name) for s in shipped])
+    print(f"{'name':<{width}}  {'kind':<6}  description")
+    for s in shipped:
+        print(f"{s.name:<{width}}  {s.kind:<6}  {s.description}")
+    if shipped:
+        print(f"\nrun one by name (ungrasp-ompl plan guitar_pick, ungrasp-ompl tile tangram); "
+              f"the files are in {shipped[0].path.parent}")
     return EXIT_OK
 
 
@@ -330,7 +428,7 @@ def run(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep,
-                    "tile": _tile, "simulate": _simulate}
+                    "tile": _tile, "simulate": _simulate, "scenes": _scenes}
         return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 #: Exit codes of the ``ungrasp-ompl`` command.
 EXIT_OK = 0
+EXIT_FAILURE = 1  # something the command relies on (not the input) is missing or failed
 EXIT_BAD_INPUT = 2
 EXIT_NO_SOLUTION = 3
 
@@ -23,3 +24,10 @@ class InputError(UngraspError, ValueError):
         self.source = source
         where = f"{source}: " if source else ""
         super().__init__(f"{where}{field}: {reason}")
+
+
+class ToolError(UngraspError):
+    """A tool the command relies on is missing or failed (an installation problem, not the input).
+    The CLI reports it as one line and exits 1."""
+
+    exit_code = EXIT_FAILURE

@@ -38,7 +38,7 @@ from .scene import Object3D, Scene, _Reader, read_yaml
 
 #: Scene sections a layout shares among its pieces.
 SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",
-                   "stability", "robot")
+                   "stability", "robot", "sim")
 #: A piece's goal when the layout gives none: put down (theta <= 3 deg), the grasp free.
 DEFAULT_GOAL = {"theta_max_deg": 3.0, "d": [0.0, 1.0], "psi_deg": [0.0, 120.0]}
 DEFAULT_RESOLUTION = {"theta_deg": 1.0, "d": 0.01, "psi_deg": 1.0}
@@ -115,13 +115,13 @@ class Layout:
         if "inner_size" not in fr:
             raise InputError("frame.inner_size", "is missing", source)
         inner = r.pair(fr, "frame.inner_size", "inner_size") if isinstance(fr["inner_size"], list) else \
-            (r.number(fr, "frame.inner_size", "inner_size", positive=True),) * 2
+            (r.length(fr, "frame.inner_size", "inner_size"),) * 2
         if min(inner) <= 0:
             raise InputError("frame.inner_size", f"must be positive, got {list(inner)}", source)
         frame = Frame(center=r.pair(fr, "frame.center", "center"),
-                      yaw=math.radians(r.number(fr, "frame.yaw_deg", "yaw_deg", default=0.0)), inner=inner,
-                      wall_height=r.number(fr, "frame.wall_height", "wall_height", positive=True),
-                      wall_thickness=r.number(fr, "frame.wall_thickness", "wall_thickness", positive=True))
+                      yaw=math.radians(r.angle(fr, "frame.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0)),
+                      inner=inner, wall_height=r.length(fr, "frame.wall_height", "wall_height"),
+                      wall_thickness=r.length(fr, "frame.wall_thickness", "wall_thickness"))
 
         items = r.require(top, "pieces")
         if not isinstance(items, list) or not items:
@@ -131,11 +131,11 @@ class Layout:
             key = f"pieces[{i}]"
             p = r.mapping(item, key)
             r.known(p, key, {"name", "thickness", "outline", "target"})
-            name = str(p.get("name", f"piece{i + 1}"))
+            name = r.name(p, f"{key}.name", f"piece{i + 1}")
             if name in names:
                 raise InputError(f"{key}.name", f"{name!r} is used twice", source)
             names.add(name)
-            thickness = r.number(p, f"{key}.thickness", "thickness", positive=True)
+            thickness = r.length(p, f"{key}.thickness", "thickness")
             if "outline" not in p:
                 raise InputError(f"{key}.outline", "is missing", source)
             obj = r.object3d(p["outline"], p.get("target", {}), thickness, prefix=key)
@@ -146,7 +146,7 @@ class Layout:
         planning = shared.setdefault("planning", {})
         if isinstance(planning, dict):
             planning.setdefault("resolution", dict(DEFAULT_RESOLUTION))
-        layout = cls(str(top.get("name", default_name)), frame, pieces, shared, source)
+        layout = cls(r.name(top, "name", default_name), frame, pieces, shared, source)
         layout._check_placement()
         for i in range(len(pieces)):  # each piece's scene: shared sections and the piece itself
             layout.scene(i)

@@ -29,6 +29,14 @@ from .mechanics.force_closure import SLIDING_MODELS
 
 #: The gripper housing's extent normal to the manipulation plane when a scene does not give it, m.
 DEFAULT_PALM_THICKNESS = 0.06
+#: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
+MAX_LENGTH = 10.0
+#: Largest friction coefficient a scene may give: beyond it a value is a typo.
+MAX_FRICTION = 10.0
+#: Largest magnitude of any number in a scene: no field means anything beyond it.
+MAX_MAGNITUDE = 1e6
+#: Most lattice states planning.resolution may make over the bounds (memory and time stay bounded).
+MAX_LATTICE_STATES = 25_000_000
 
 
 @dataclass(frozen=True)
@@ -174,11 +182,11 @@ class Scene:
         r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
                           "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot",
                           "sim"})
-        name = str(top.get("name", default_name))
+        name = r.name(top, "name", default_name)
 
         obj = r.mapping(r.require(top, "object"), "object")
         r.known(obj, "object", {"length", "thickness", "outline", "target"})
-        thickness = r.number(obj, "object.thickness", "thickness", minimum=0.0, default=0.0)
+        thickness = r.length(obj, "object.thickness", "thickness", zero=True, default=0.0)
         mu_contacts = r.friction(top)
         object3d, plane = None, None
         if "outline" in obj:
@@ -193,11 +201,14 @@ class Scene:
             plane = choose_plane(object3d.outline, mu_contacts[0], mu_contacts[2], object3d.position,
                                  object3d.yaw, fixed, source)
             length = plane.length
+            if length > MAX_LENGTH:
+                raise InputError("object.outline", f"makes the object length |GB| {length:.4g} m, over {MAX_LENGTH:g} m",
+                                 source)
             mu = (plane.mu_g, mu_contacts[1], plane.mu_b)
         else:
             if "contacts" in top:
                 raise InputError("contacts", "needs object.outline", source)
-            length = r.number(obj, "object.length", "length", positive=True)
+            length = r.length(obj, "object.length", "length")
             mu = mu_contacts
         if thickness >= length:
             raise InputError("object.thickness", f"must be smaller than the object length ({length:.4g} m)", source)
@@ -210,24 +221,24 @@ class Scene:
         lengths = {}
         for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
                     "finger_tip_thickness", "finger_base_thickness", "width"):
-            lengths[key] = r.number(dig, f"digits.{key}", key, positive=True) / length
+            lengths[key] = r.length(dig, f"digits.{key}", key) / length
         thumb_len = lengths["thumb_length"]
         if "alpha" in dig:
             alpha = r.number(dig, "digits.alpha", "alpha")
         elif "finger_length" in dig:  # alpha follows from the lengths and l
-            alpha = r.number(dig, "digits.finger_length", "finger_length", positive=True) / length - thumb_len
+            alpha = r.length(dig, "digits.finger_length", "finger_length") / length - thumb_len
         else:
             raise InputError("digits.alpha", "is missing (give alpha, over the object length, or finger_length)", source)
         if not -1.0 < alpha < 1.0:
             raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha:.4g}", source)
         if "finger_length" in dig and "alpha" in dig:
-            finger = r.number(dig, "digits.finger_length", "finger_length", positive=True)
+            finger = r.length(dig, "digits.finger_length", "finger_length")
             if abs(finger / length - (thumb_len + alpha)) > 1e-6:
                 raise InputError("digits.finger_length", "must equal thumb_length + alpha * object length "
                                  f"({(thumb_len + alpha) * length:.6g} m), got {finger:g}", source)
         if thumb_len + alpha <= 0:
             raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive", source)
-        max_ap = r.number(dig, "digits.max_aperture", "max_aperture", positive=True, default=math.inf) / length
+        max_ap = r.length(dig, "digits.max_aperture", "max_aperture", default=math.inf) / length
         finger_tip = dig.get("finger_tip", "rounded")
         if finger_tip not in ("rounded", "flat"):
             raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
@@ -235,15 +246,16 @@ class Scene:
             if "finger_tip_radius" in dig:
                 raise InputError("digits.finger_tip_radius", "needs finger_tip: rounded (a flat tip has no radius)", source)
             tip_radius = 0.0
-        else:  # a dome across the tip's thickness unless given
-            tip_radius = r.number(dig, "digits.finger_tip_radius", "finger_tip_radius", positive=True,
-                                  default=lengths["finger_tip_thickness"] * length / 2) / length
+        else:  # a dome across the tip's thickness unless given; a segment object keeps a point finger
+            default_radius = lengths["finger_tip_thickness"] * length / 2 if thickness > 0 else 0.0
+            tip_radius = r.number(dig, "digits.finger_tip_radius", "finger_tip_radius", minimum=0.0,
+                                  default=default_radius) / length
             if tip_radius > lengths["finger_tip_thickness"] / 2 + 1e-12:
                 raise InputError("digits.finger_tip_radius", "must be at most half of finger_tip_thickness "
                                  f"({lengths['finger_tip_thickness'] * length / 2:.4g} m)", source)
-        palm = {k: r.number(dig, f"digits.{k}", k, minimum=0.0, default=0.0) / length for k in ("palm_width", "palm_length")}
+        palm = {k: r.length(dig, f"digits.{k}", k, zero=True, default=0.0) / length for k in ("palm_width", "palm_length")}
         # the housing's extent normal to the plane: the RH-P12-RN class's 60 mm unless given
-        palm["palm_thickness"] = r.number(dig, "digits.palm_thickness", "palm_thickness", positive=True,
+        palm["palm_thickness"] = r.length(dig, "digits.palm_thickness", "palm_thickness",
                                           default=DEFAULT_PALM_THICKNESS) / length
         digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat",
                                finger_tip_radius=tip_radius, **lengths, **palm)
@@ -277,11 +289,14 @@ class Scene:
 
         gl = r.mapping(r.require(top, "goal"), "goal")
         r.known(gl, "goal", {"theta_max_deg", "d", "psi_deg"})
-        theta_max = math.radians(r.number(gl, "goal.theta_max_deg", "theta_max_deg", minimum=0.0))
+        theta_max = math.radians(r.angle(gl, "goal.theta_max_deg", "theta_max_deg", 0.0, 90.0))
+        goal_psi = r.interval(gl, "goal.psi_deg", "psi_deg", within=(0.0, 180.0), unit=" deg")
+        if goal_psi[1] >= 180.0:
+            raise InputError("goal.psi_deg", f"must lie within [0, 180) deg, got high {goal_psi[1]:g}", source)
         goal = GoalSpec(
             theta_max=min(theta_max, bounds[1, 0]),
-            d=r.interval(gl, "goal.d", "d"),
-            psi=r.interval(gl, "goal.psi_deg", "psi_deg", degrees=True),
+            d=r.interval(gl, "goal.d", "d", within=(0.0, 1.0), unit=" (over the object length)"),
+            psi=(math.radians(goal_psi[0]), math.radians(goal_psi[1])),
             theta_min=bounds[0, 0],
         )
         glo, ghi = goal.box()
@@ -291,7 +306,7 @@ class Scene:
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                                  "mode_change_penalty", "forbid_partial", "thumb_tip_margin"})
-        margin = r.number(pl, "planning.thumb_tip_margin", "thumb_tip_margin", minimum=0.0, default=0.0)
+        margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
         digits = replace(digits, thumb_tip_margin=margin / length, object_thickness=thickness / length)
@@ -302,22 +317,28 @@ class Scene:
         forbid_partial = r.flag(pl, "planning.forbid_partial", "forbid_partial")
         stab = r.mapping(top.get("stability", {}), "stability")
         r.known(stab, "stability", {"max_tilt_deg"})
-        max_tilt = math.radians(r.number(stab, "stability.max_tilt_deg", "max_tilt_deg", positive=True, default=30.0))
+        max_tilt = math.radians(r.angle(stab, "stability.max_tilt_deg", "max_tilt_deg", 1.0, 90.0, default=30.0))
         res = r.mapping(pl.get("resolution", {}), "planning.resolution")
         r.known(res, "planning.resolution", {"theta_deg", "d", "psi_deg"})
         resolution = (
-            math.radians(r.number(res, "planning.resolution.theta_deg", "theta_deg", positive=True, default=0.5)),
-            r.number(res, "planning.resolution.d", "d", positive=True, default=0.005),
-            math.radians(r.number(res, "planning.resolution.psi_deg", "psi_deg", positive=True, default=0.5)),
+            math.radians(r.number(res, "planning.resolution.theta_deg", "theta_deg", positive=True, maximum=10.0,
+                                  default=0.5, unit=" deg")),
+            r.number(res, "planning.resolution.d", "d", positive=True, maximum=0.1, default=0.005),
+            math.radians(r.number(res, "planning.resolution.psi_deg", "psi_deg", positive=True, maximum=10.0,
+                                  default=0.5, unit=" deg")),
         )
+        states = float(np.prod(np.floor((bounds[1] - bounds[0]) / np.asarray(resolution)) + 1))
+        if states > MAX_LATTICE_STATES:
+            raise InputError("planning.resolution", f"is too fine for the bounds: its lattice would hold {states:.3g} "
+                             f"states (at most {MAX_LATTICE_STATES:.3g}); coarsen it or narrow the bounds", source)
         options = PlanningOptions(
             sliding_model=model,
             reverse_primitives=reverse,
             forbid_partial=forbid_partial,
             resolution=resolution,
-            d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, default=100.0),
+            d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
-                                         minimum=0.0, default=1.0),
+                                         minimum=0.0, maximum=1e4, default=1.0),
         )
         robot = r.robot(top.get("robot", {}))
         return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
@@ -407,7 +428,8 @@ class _Reader:
                 self.fail(f"{prefix}.{k}" if prefix else str(k), f"unknown field (expected one of: {', '.join(sorted(keys))})")
 
     def number(self, m: dict, key: str, k: str, *, positive: bool = False, minimum: float | None = None,
-               default: float | None = None) -> float:
+               default: float | None = None, maximum: float | None = None, unit: str = "") -> float:
+        """A finite number, at most MAX_MAGNITUDE in size; minimum and maximum are inclusive bounds."""
         if k not in m:
             if default is None:
                 self.fail(key, "is missing")
@@ -415,24 +437,43 @@ class _Reader:
         v = m[k]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             self.fail(key, f"must be a number, got {v!r}")
-        v = float(v)
+        try:
+            v = float(v)
+        except OverflowError:  # an integer too large for a float
+            self.fail(key, f"must be a number of magnitude at most {MAX_MAGNITUDE:g}, got {v:.6g}")
         if not math.isfinite(v):
             self.fail(key, f"must be finite, got {v}")
         if positive and v <= 0:
             self.fail(key, f"must be > 0, got {v:g}")
         if minimum is not None and v < minimum:
-            self.fail(key, f"must be >= {minimum:g}, got {v:g}")
+            self.fail(key, f"must be >= {minimum:g}{unit}, got {v:g}")
+        if maximum is not None and v > maximum:
+            self.fail(key, f"must be at most {maximum:g}{unit}, got {v:g}")
+        if abs(v) > MAX_MAGNITUDE:
+            self.fail(key, f"is absurdly large ({v:g}; no field goes beyond {MAX_MAGNITUDE:g})")
         return v
 
+    def length(self, m: dict, key: str, k: str, *, default: float | None = None, zero: bool = False) -> float:
+        """A length in metres: > 0 (>= 0 with zero) and at most MAX_LENGTH."""
+        return self.number(m, key, k, positive=not zero, minimum=0.0 if zero else None, default=default,
+                           maximum=MAX_LENGTH, unit=" m")
+
+    def angle(self, m: dict, key: str, k: str, lo: float, hi: float, *, default: float | None = None) -> float:
+        """An angle in degrees within [lo, hi]."""
+        return self.number(m, key, k, minimum=lo, maximum=hi, default=default, unit=" deg")
+
     def interval(self, m: dict, key: str, k: str, *, default: tuple[float, float] | None = None,
-                 degrees: bool = False) -> tuple[float, float]:
+                 degrees: bool = False, within: tuple[float, float] | None = None,
+                 unit: str = "") -> tuple[float, float]:
+        """A [low, high] pair, low <= high, both within the closed range within when given."""
         if k not in m and default is not None:
             lo, hi = default
         else:
             v = self.require(m, k) if default is None else m[k]
             if not isinstance(v, (list, tuple)) or len(v) != 2:
                 self.fail(key, f"must be a [low, high] pair, got {v!r}")
-            lo, hi = (self.number({0: x}, key, 0) for x in v)
+            a, b = within if within is not None else (None, None)
+            lo, hi = (self.number({0: x}, key, 0, minimum=a, maximum=b, unit=unit) for x in v)
             if lo > hi:
                 self.fail(key, f"low {lo:g} exceeds high {hi:g}")
         if degrees:
@@ -449,8 +490,8 @@ class _Reader:
         for c in "GAB":
             v = self.number(f, f"{key}.{c}", c)
             if key == "friction":
-                if v < 0:
-                    self.fail(f"{key}.{c}", f"must be >= 0, got {v:g}")
+                if not 0 <= v <= MAX_FRICTION:
+                    self.fail(f"{key}.{c}", f"must lie in [0, {MAX_FRICTION:g}] (a friction coefficient), got {v:g}")
                 out.append(v)
             else:
                 if not 0 <= v < 90:
@@ -465,7 +506,7 @@ class _Reader:
         for i, item in enumerate(value):
             key = f"obstacles[{i}]"
             o = self.mapping(item, key)
-            name = str(o.get("name", f"obstacle{i}"))
+            name = self.name(o, f"{key}.name", f"obstacle{i}")
             if "corner" in o:
                 # A corner point and the quadrant the obstacle fills, as the
                 # reference planner describes its upper obstacle.
@@ -498,8 +539,9 @@ class _Reader:
             pos = b.get("position", [0.0, 0.0, 0.0])
             if not isinstance(pos, list) or len(pos) != 3:
                 self.fail("robot.base.position", f"must be [x, y, z] in metres, got {pos!r}")
-            x, y, z = (self.number({0: v}, "robot.base.position", 0) for v in pos)
-            yaw = math.radians(self.number(b, "robot.base.yaw_deg", "yaw_deg", default=0.0))
+            x, y, z = (self.number({0: v}, "robot.base.position", 0, minimum=-MAX_LENGTH, maximum=MAX_LENGTH,
+                                   unit=" m") for v in pos)
+            yaw = math.radians(self.angle(b, "robot.base.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
             c, s_ = math.cos(yaw), math.sin(yaw)
             base = ((c, -s_, 0.0, x), (s_, c, 0.0, y), (0.0, 0.0, 1.0, z), (0.0, 0.0, 0.0, 1.0))
         home = d.home
@@ -507,7 +549,7 @@ class _Reader:
             h = m["home_deg"]
             if not isinstance(h, list) or len(h) != 6:
                 self.fail("robot.home_deg", f"must list 6 joint angles in degrees, got {h!r}")
-            home = tuple(math.radians(self.number({0: v}, "robot.home_deg", 0)) for v in h)
+            home = tuple(math.radians(self.angle({0: v}, "robot.home_deg", 0, -360.0, 360.0)) for v in h)
         term = m.get("termination", d.termination)
         if term not in ("open", "rotate"):
             self.fail("robot.termination", f"must be open or rotate, got {term!r}")
@@ -516,18 +558,20 @@ class _Reader:
             o = self.mapping(m["object"], "robot.object")
             self.known(o, "robot.object", {"position", "yaw_deg"})
             obj_pos = self.pair(o, "robot.object.position", "position") if "position" in o else obj_pos
-            obj_yaw = math.radians(self.number(o, "robot.object.yaw_deg", "yaw_deg", default=0.0))
+            obj_yaw = math.radians(self.angle(o, "robot.object.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
         return RobotOptions(
             base=base,
-            palm_depth=self.number(m, "robot.palm_depth", "palm_depth", positive=True, default=d.palm_depth),
+            palm_depth=self.length(m, "robot.palm_depth", "palm_depth", default=d.palm_depth),
             home=home,
-            contact_speed=self.number(m, "robot.contact_speed", "contact_speed", positive=True, default=d.contact_speed),
+            contact_speed=self.number(m, "robot.contact_speed", "contact_speed", positive=True, maximum=1.0,
+                                      default=d.contact_speed, unit=" m/s"),
             termination=term,
-            termination_opening=self.number(m, "robot.termination_opening", "termination_opening", positive=True,
+            termination_opening=self.length(m, "robot.termination_opening", "termination_opening",
                                             default=d.termination_opening),
             termination_angle=math.radians(self.number(m, "robot.termination_angle_deg", "termination_angle_deg",
-                                                       positive=True, default=math.degrees(d.termination_angle))),
-            retreat_height=self.number(m, "robot.retreat_height", "retreat_height", minimum=0.0, default=d.retreat_height),
+                                                       positive=True, maximum=90.0, unit=" deg",
+                                                       default=math.degrees(d.termination_angle))),
+            retreat_height=self.length(m, "robot.retreat_height", "retreat_height", zero=True, default=d.retreat_height),
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )
@@ -577,29 +621,44 @@ class _Reader:
                 m = self.mapping(value, key)
                 self.known(m, key, {"vertices", "radius"})
                 radius = m.get("radius")
-                radii = [self.number({0: x}, f"{key}.radius", 0, minimum=0.0) for x in
+                radii = [self.length({0: x}, f"{key}.radius", 0, zero=True) for x in
                          (radius if isinstance(radius, list) else [self.require(m, "radius")])]
-                outline = rounded_polygon(self.points(self.require(m, "vertices"), f"{key}.vertices"),
-                                          radii if len(radii) > 1 else radii[0])
+                vertices = self.points(self.require(m, "vertices"), f"{key}.vertices")
+                if len(radii) not in (1, len(vertices)):
+                    self.fail(f"{key}.radius", f"must be one radius or one per vertex ({len(vertices)}), "
+                              f"got {len(radii)}")
+                outline = rounded_polygon(vertices, radii if len(radii) > 1 else radii[0])
             elif kind == "ellipse":
                 m = self.mapping(value, key)
                 self.known(m, key, {"a", "b"})
-                outline = ellipse(self.number(m, f"{key}.a", "a", positive=True), self.number(m, f"{key}.b", "b", positive=True))
+                outline = ellipse(self.length(m, f"{key}.a", "a"), self.length(m, f"{key}.b", "b"))
             else:
                 m = self.mapping(value, key)
                 self.known(m, key, {"radius"})
-                rad = self.number(m, f"{key}.radius", "radius", positive=True)
+                rad = self.length(m, f"{key}.radius", "radius")
                 outline = ellipse(rad, rad)
         except OutlineError as exc:
             self.fail(key, str(exc))
         tg = self.mapping(target, f"{prefix}.target")
         self.known(tg, f"{prefix}.target", {"position", "yaw_deg"})
         position = self.pair(tg, f"{prefix}.target.position", "position") if "position" in tg else (0.0, 0.0)
-        yaw = math.radians(self.number(tg, f"{prefix}.target.yaw_deg", "yaw_deg", default=0.0))
+        yaw = math.radians(self.angle(tg, f"{prefix}.target.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
         return Object3D(outline, thickness, position, yaw)
 
     def pair(self, m: dict, key: str, k: str) -> tuple[float, float]:
+        """Two coordinates in metres, each within +-MAX_LENGTH."""
         v = self.require(m, k)
         if not isinstance(v, (list, tuple)) or len(v) != 2:
             self.fail(key, f"must be an [x, z] pair, got {v!r}")
-        return tuple(self.number({0: x}, key, 0) for x in v)
+        return tuple(self.number({0: x}, key, 0, minimum=-MAX_LENGTH, maximum=MAX_LENGTH, unit=" m") for x in v)
+
+    def name(self, m: dict, key: str, default: str) -> str:
+        """A name: a string or a number, usable in a file name and a picture's title (no path
+        separator, control character or $, which starts a formula in matplotlib)."""
+        v = m.get("name", default)
+        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+            self.fail(key, f"must be a string, got {v!r}")
+        v = str(v)
+        if not v.strip() or any(c in v for c in "/\\$") or any(ord(c) < 32 for c in v):
+            self.fail(key, f"must be a non-empty name without /, \\, $ or control characters, got {v!r}")
+        return v

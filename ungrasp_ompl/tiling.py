@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,6 +76,19 @@ class TilingOptions:
         if not isinstance(self.max_checks, int) or self.max_checks < 1:
             raise InputError("max_checks", f"must be a positive integer, got {self.max_checks!r}")
         return self
+
+
+@dataclass(frozen=True)
+class TilingProgress:
+    """Where tile() is, for a progress indicator: stage "search" (finding an order; done is the
+    number of pieces down in the order being tried) or "plan" (done pieces of total planned so
+    far), the approaches checked so far and the piece being worked on."""
+
+    stage: str
+    done: int
+    total: int
+    checks: int
+    piece: str
 
 
 @dataclass(frozen=True)
@@ -274,12 +288,20 @@ def prove(scene: Scene) -> str | None:
 
 # -- the search ----------------------------------------------------------------------
 
-def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
-    """Find an order and a plan per piece that put every piece of layout into its frame."""
+def tile(layout: Layout, options: TilingOptions = TilingOptions(),
+         progress: Callable[[TilingProgress], None] | None = None) -> Tiling:
+    """Find an order and a plan per piece that put every piece of layout into its frame.
+
+    progress, when given, is called with a TilingProgress at each approach checked during the
+    search and before and after each piece is planned (it must not raise)."""
     opts = options.validated()
     t0 = time.perf_counter()
     result = Tiling(layout.name)
     n = len(layout.pieces)
+
+    def report(stage: str, done: int, i: int) -> None:
+        if progress is not None:
+            progress(TilingProgress(stage, done, n, result.checks, layout.pieces[i].name))
     walls = [wall_contact(layout, i) for i in range(n)]
     screened: dict[tuple[frozenset, int], tuple[list, list[str]]] = {}
     proven: dict[tuple[frozenset, int], tuple[Approach, Scene] | None] = {}
@@ -295,6 +317,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
             ok, why = [], []
             for a in approaches(layout, i, placed, opts.approaches):
                 result.checks += 1
+                report("search", len(placed), i)
                 scene = layout.scene(i, (a.g, a.b), placed)
                 problem = screen(scene)
                 if problem:
@@ -332,6 +355,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
                         why.append(f"stopped after {opts.max_checks} approach checks")
                         break
                     result.checks += 1
+                    report("search", len(placed), i)
                     problem = prove(scene)
                     if problem is None:
                         proven[key] = (a, scene)
@@ -359,6 +383,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
         result.time_s = time.perf_counter() - t0
         return result
     for k, (i, a, scene) in enumerate(found):
+        report("plan", k, i)
         seed = None if opts.seed is None else opts.seed + k
         p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range)
         note = None
@@ -370,6 +395,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions()) -> Tiling:
             result.reasons = [f"{a.describe()}: {p.planner} found no plan ({p.reason})"]
             break
         result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note))
+        report("plan", k + 1, i)
     result.time_s = time.perf_counter() - t0
     return result
 
