@@ -99,7 +99,6 @@ def run_mutated(command, template, doc):
 
 
 def check(code, stderr, written, path):
-    event(f"exit {code}")
     assert code in (EXIT_OK, EXIT_BAD_INPUT, EXIT_NO_SOLUTION), (path, code, stderr)
     assert "Traceback" not in stderr, (path, stderr)
     if code == EXIT_BAD_INPUT:
@@ -114,18 +113,24 @@ SLOW_SETTINGS = dict(deadline=None, derandomize=not LONG,
                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
+@pytest.mark.slow
 @settings(max_examples=LONG or 40, **SLOW_SETTINGS)
 @given(mutation(SCENES, SCENE_COMMANDS))
 def test_scene_commands_answer_any_mutated_value(case):
     command, template, doc, path = case
-    check(*run_mutated(command, template, doc), path)
+    code, stderr, written = run_mutated(command, template, doc)
+    event(f"exit {code}")
+    check(code, stderr, written, path)
 
 
+@pytest.mark.slow
 @settings(max_examples=LONG // 4 or 6, **SLOW_SETTINGS)
 @given(mutation(LAYOUTS, LAYOUT_COMMANDS))
 def test_layout_commands_answer_any_mutated_value(case):
     command, template, doc, path = case
-    check(*run_mutated(command, template, doc), path)
+    code, stderr, written = run_mutated(command, template, doc)
+    event(f"exit {code}")
+    check(code, stderr, written, path)
 
 
 BROKEN_FILES = {

@@ -44,6 +44,7 @@ def test_plan_writes_plan_and_picture(tmp_path):
     assert "P_theta" in proc.stdout and "stability" in proc.stdout
 
 
+@pytest.mark.slow
 def test_same_seed_same_plan(tmp_path):
     plans = []
     for k in range(2):
@@ -57,6 +58,7 @@ def test_same_seed_same_plan(tmp_path):
     assert plans[0] == plans[1]
 
 
+@pytest.mark.slow
 def test_other_seed_other_run(tmp_path):
     """The seed reaches OMPL: different seeds explore differently (iterations are equal, trees are not)."""
     texts = []
@@ -170,6 +172,7 @@ def test_unknown_command_exits_2():
     assert_one_line_error(run_cli("fly"), "invalid choice")
 
 
+@pytest.mark.slow
 def test_bench_and_sweep_commands(tmp_path):
     """The commands a user runs: a tiny benchmark and sweep, each writing its files."""
     out = tmp_path / "b"

@@ -46,7 +46,7 @@ def test_fcl_agrees_with_polygon_oracle(scenes, name):
     rng = np.random.default_rng(2)
     n = 3000
     q = np.column_stack([rng.uniform(0, math.pi / 2, n), rng.uniform(0.3, 1, n), rng.uniform(0, math.radians(110), n)])
-    fcl_hit = CollisionChecker(scene).in_collision(q)
+    fcl_hit = CollisionChecker(scene.collision_model()).in_collision(q)
     expected = oracle(scene, q)
     assert 0.05 < expected.mean() < 0.95
     disagree = np.flatnonzero(fcl_hit != expected)
@@ -57,9 +57,9 @@ def test_contacts_name_the_bodies(scenes):
     scene = scenes["reference_upper_obstacle"]
     # digits upright at the start's finger position: the finger reaches into the upper corner
     q = np.array([math.radians(30), 0.8, math.radians(60)])
-    names = CollisionChecker(scene).contacts(q)
+    names = CollisionChecker(scene.collision_model()).contacts(q)
     assert "finger/upper_corner" in names
-    assert CollisionChecker(scene).contacts(scene.start) == []
+    assert CollisionChecker(scene.collision_model()).contacts(scene.start) == []
 
 
 # -- solids: 3D convex bodies fixed in the world (a layout's walls and pieces) ------------------
@@ -130,7 +130,7 @@ def test_solids_agree_with_a_world_frame_oracle():
     n = 400
     q = np.column_stack([rng.uniform(0, math.radians(30), n), rng.uniform(0.3, 0.9, n),
                          rng.uniform(0, math.radians(110), n)])
-    got = CollisionChecker(scene).in_collision(q)  # the object's prism too, clear of the solids here
+    got = CollisionChecker(scene.collision_model()).in_collision(q)  # the object's prism too, clear of the solids here
     expected = _world_oracle(scene, q)
     assert 0.1 < expected.mean() < 0.9
     disagree = np.flatnonzero(got != expected)
@@ -149,7 +149,7 @@ def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
     spot = a + (scene.digits.finger_tip_thickness * l + 0.003) * thumb_normal(q[0], q[2])
     block = Box("block", tuple(spot - 0.0005), tuple(spot + 0.0005))
     scene = dataclasses.replace(scene, obstacles=[block])
-    checker = CollisionChecker(scene)
+    checker = CollisionChecker(scene.collision_model())
     assert not checker.in_collision(q)[0]
     assert checker.termination_collides(q, "open", 0.005)[0]
     assert not checker.termination_collides(q, "open", 0.002)[0]

@@ -83,6 +83,7 @@ def test_termination_maneuver(executed):
         assert np.ptp(opening) < 1e-9
 
 
+@pytest.mark.slow
 def test_export_command_writes_four_files_within_limits(tmp_path):
     out = tmp_path / "t"
     proc = run_cli("plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--export", str(out))

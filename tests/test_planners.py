@@ -68,6 +68,7 @@ def prm_star_runs(tmp_path_factory):
     return [plan_cli(tmp, "PRMstar", seed=1, time=1.0) for _ in range(2)]
 
 
+@pytest.mark.slow
 def test_seeded_prm_star_solves_the_reference_case(prm_star_runs):
     plan = prm_star_runs[0]
     assert plan["solved"] and plan["planner"] == "PRMstar"
@@ -77,6 +78,7 @@ def test_seeded_prm_star_solves_the_reference_case(prm_star_runs):
     assert 0 < plan["time_to_first_solution_s"] <= plan["planning_time_s"]
 
 
+@pytest.mark.slow
 def test_seeded_prm_star_is_reproducible(prm_star_runs):
     a, b = ({k: v for k, v in p.items() if k not in TIMING} for p in prm_star_runs)
     assert a == b

@@ -43,6 +43,7 @@ def test_motion_validator_is_directed(setup):
     assert not obj.isSymmetric()
 
 
+@pytest.mark.slow
 def test_reverse_primitives_allow_the_way_back(scenes):
     scene = scenes["reference_asymmetric"].with_options(reverse_primitives=True)
     s = UngraspSetup(scene, PlannerOptions())

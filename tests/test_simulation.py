@@ -155,6 +155,7 @@ def test_simulate_refuses_a_scene_without_thickness_and_a_bad_sim_section(tmp_pa
     assert r.returncode == 2 and "sim.timestep" in r.stderr and not (tmp_path / "b").exists()
 
 
+@pytest.mark.slow
 def test_simulate_command_writes_its_files(tmp_path):
     out = tmp_path / "sim"
     r = run_cli("simulate", str(SCENES / "guitar_pick.yaml"), "--planner", "lattice", "--trials", "2",

@@ -16,7 +16,7 @@ import yaml
 from conftest import SCENES, run_cli
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.layout import Layout
-from ungrasp_ompl.planning.result import Plan, PrimitiveStep
+from ungrasp_ompl.planning.result import Plan, PlanOutcome, PrimitiveStep
 from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
@@ -84,6 +84,7 @@ def tiled(tmp_path_factory):
     return proc, out, yaml.safe_load(TANGRAM.read_text())
 
 
+@pytest.mark.slow
 def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
     proc, out, doc = tiled
     assert proc.returncode == 0, proc.stderr
@@ -103,6 +104,7 @@ def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
         assert plan["manipulation_plane"]["G"] == pytest.approx(p["approach"]["G"])
 
 
+@pytest.mark.slow
 def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
     """Along every planned path, the piece (its outline's prism, tilted about the plane's normal
     through G) stays clear of the walls and of the pieces put down before it (fcl meshes)."""
@@ -124,7 +126,7 @@ def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
         obj = fcl.CollisionObject(body)
         scene = layout.scene([q.name for q in layout.pieces].index(name), (p["approach"]["G"], p["approach"]["B"]))
         steps = [PrimitiveStep(**s) for s in plan["primitives"]]
-        states, _ = densify(Plan(solved=True, scene=name, planner="", seed=None, sliding_model="",
+        states, _ = densify(Plan(outcome=PlanOutcome.SOLVED, scene=name, planner="", seed=None, sliding_model="",
                                  states=plan["states"], primitives=steps), angle_step=math.radians(0.5))
         for theta in np.unique(states[:, 0]):
             # tilt by theta about the plane's y axis through G (x toward z), then into the world
@@ -139,6 +141,7 @@ def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
     assert checked > 100
 
 
+@pytest.mark.slow
 def test_robot_misses_the_frame_and_earlier_pieces_in_3d(tiled):
     """Every sample of the exported trajectory: the gripper and wrist (forward kinematics of the
     URDF's collision geometry) clear the walls and the pieces down at that time (fcl meshes)."""
@@ -205,6 +208,7 @@ def test_frame_too_tight_for_the_thumb_names_the_piece_and_exits_3(tmp_path):
     assert (tmp_path / "out" / "layout.png").exists() and not (tmp_path / "out" / "trajectory.csv").exists()
 
 
+@pytest.mark.slow
 def test_the_same_square_with_room_is_placed(tmp_path):
     """The control: with 15 mm around it the square goes in."""
     proc = run_cli("tile", _square_in_frame(tmp_path, 0.015), "--planner", "lattice", "--out", str(tmp_path / "out"))

@@ -9,9 +9,9 @@ Quick use::
 """
 
 from .errors import InputError, UngraspError
-from .planning import PLANNERS, Plan, PlannerOptions, plan
+from .planning import PLANNERS, Plan, PlanOutcome, PlannerOptions, plan
 from .scene import Scene
 
 __version__ = "0.1.0"
 
-__all__ = ["PLANNERS", "InputError", "Plan", "PlannerOptions", "Scene", "UngraspError", "plan", "__version__"]
+__all__ = ["PLANNERS", "InputError", "Plan", "PlanOutcome", "PlannerOptions", "Scene", "UngraspError", "plan", "__version__"]

@@ -34,7 +34,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
 from .geometry.solids import Solid, box, polygons_overlap, prism
-from .scene import Object3D, Scene, _Reader, read_yaml
+from .scene import Scene
+from .scene_file import SceneReader, read_yaml
+from .scene_options import Object3D
 
 #: Scene sections a layout shares among its pieces.
 SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",
@@ -107,7 +109,7 @@ class Layout:
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":
-        r = _Reader(source)
+        r = SceneReader(source)
         top = r.mapping(data, "layout")
         r.known(top, "", {"name", "description", "frame", "pieces", *SHARED_SECTIONS})
         fr = r.mapping(r.require(top, "frame"), "frame")

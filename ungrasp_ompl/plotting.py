@@ -12,30 +12,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-from .geometry.collision import CollisionChecker  # noqa: E402
 from .io import write_atomic  # noqa: E402
-from .mechanics import force_closure, kinematic_validity  # noqa: E402
 from .planning.result import Plan  # noqa: E402
 from .scene import Scene  # noqa: E402
 
-#: State classes of the C-space map, in drawing order.
+#: Labels of the C-space map's state classes (scene.StateClass values, in drawing order).
 REGION_CLASSES = ("free (force-closed)", "not force-closed", "in collision", "kinematically invalid")
 _REGION_COLOURS = ("#7fc97f", "#fdc086", "#e7298a", "#bdbdbd")
 _PRIMITIVE_COLOURS = {"P_theta": "#1b9e77", "P_psi": "#d95f02", "P_dpsi": "#7570b3"}
-
-
-def classify(scene: Scene, q: np.ndarray) -> np.ndarray:
-    """Index into REGION_CLASSES of each state (rows of q), sticking contacts."""
-    th, d, ps = q.T
-    kin = kinematic_validity(th, d, ps, scene.digits)
-    cls = np.full(len(q), 3)
-    hit = np.zeros(len(q), dtype=bool)
-    hit[kin] = CollisionChecker(scene).in_collision(q[kin])
-    fc = force_closure(th, d, ps, 0, 0, scene.mu, scene.options.sliding_model)
-    cls[kin & hit] = 2
-    cls[kin & ~hit & ~fc] = 1
-    cls[kin & ~hit & fc] = 0
-    return cls
 
 
 def _save(fig, path: str | os.PathLike[str]) -> None:
@@ -58,7 +42,7 @@ def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, 
     for ax, d in zip(axes.flat, ds):
         T, P = np.meshgrid(th, ps, indexing="ij")
         q = np.column_stack([T.ravel(), np.full(T.size, d), P.ravel()])
-        cls = classify(scene, q).reshape(T.shape)
+        cls = scene.classify(q).reshape(T.shape)
         ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5,
                   extent=[math.degrees(th[0]), math.degrees(th[-1]), math.degrees(ps[0]), math.degrees(ps[-1])])
         ax.set_title(f"d = {d:.2f}")

@@ -44,8 +44,8 @@ from .mechanics.antipodal import antipodal_pairs
 from .planning import plan as plan_scene
 from .planning.atlas import SecurityAtlas, planning_box
 from .planning.lattice import lattice_search
-from .planning.setup import LATTICE
-from .planning.result import Plan
+from .planning.result import Plan, PlanOutcome, describe_outcome
+from .planning.setup import LATTICE, ends_problem
 from .scene import Scene
 
 #: Room beyond B (and behind G) counted by the ranking, m: more is not better.
@@ -54,19 +54,22 @@ ROOM_CAP = 0.02
 
 @dataclass(frozen=True)
 class TilingOptions:
-    """How to tile: the planner per piece (an OMPL planner by name, or lattice), its time (s), seed
-    (piece k gets seed + k) and range (state units; longer than plan's default 0.3: a piece's
-    secure states are a thin share of its wide planning box, and long motions reach the goal in
-    one staircase of primitives; measured on the tangram's last piece, RRT* found a path in 0.5 s
-    in 7 of 8 runs at range 1.0 against 4 of 8 at 0.3), the approaches tried per piece, and a cap
-    on approach checks."""
+    """How to tile a layout."""
 
     planner: str = "RRTstar"
+    """The planner per piece: an OMPL planner by name, or lattice."""
     time: float = 1.0
+    """Planning time per piece (s)."""
     seed: int | None = None
+    """Seed: piece k of the order is planned with seed + k. None: not reproducible."""
     range: float = 1.0
+    """The planner's longest motion (state units). Longer than plan's 0.3: a piece's secure states
+    are a thin share of its wide planning box (measured on the tangram's last piece, RRT* found a
+    path in 0.5 s in 7 of 8 runs at 1.0 against 4 of 8 at 0.3)."""
     approaches: int = 6
+    """Manipulation planes (G, B pairs) tried per piece."""
     max_checks: int = 400
+    """Cap on approach checks over the whole search for an order."""
 
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
@@ -258,24 +261,13 @@ def wall_contact(layout: Layout, i: int) -> float:
 
 def screen(scene: Scene) -> str | None:
     """Why an approach cannot work, from the start grasp and the goal region alone; None if it may."""
-    from .geometry.collision import CollisionChecker
-
-    if not scene.is_valid(scene.start)[0]:
-        hits = CollisionChecker(scene).contacts(scene.start)
-        return "start grasp " + ("collides: " + ", ".join(hits) if hits else "cannot be held")
     box = planning_box(scene)
     glo, ghi = scene.goal.box()
     goal_box = np.array([np.maximum(box[0], glo), np.minimum(box[1], ghi)])
     if np.any(goal_box[0] > goal_box[1]):
-        return "goal region lies outside the planning box"
-    atlas = SecurityAtlas(scene, goal_box)
-    if not atlas.holdable.any():
-        kin = atlas.kinematic.any()
-        return ("no goal state can be held" + (": every kinematically valid one collides or is not force-closed"
-                                                if kin else " (kinematics)"))
-    if not atlas.can_let_go_in(goal_box):
-        return f"the gripper cannot let go ({scene.robot.termination}) at any goal state without a collision"
-    return None
+        return describe_outcome(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
+    problem = ends_problem(scene, SecurityAtlas(scene, goal_box))  # the goal's states only: cheap
+    return describe_outcome(problem.pop("outcome"), problem) if problem else None
 
 
 def prove(scene: Scene) -> str | None:
@@ -398,8 +390,3 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         report("plan", k + 1, i)
     result.time_s = time.perf_counter() - t0
     return result
-
-
-def _area(poly: NDArray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))

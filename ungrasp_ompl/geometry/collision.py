@@ -17,19 +17,15 @@ sends only the state/body pairs that may touch to FCL's narrow phase.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import math
+from dataclasses import dataclass
 
 import fcl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import aperture, digit_axis, digit_polygons, thumb_normal
-from .solids import convex_shape
-
-if TYPE_CHECKING:
-    from ..scene import Scene
+from ..mechanics.kinematics import DigitGeometry, aperture, digit_axis, digit_polygons, thumb_normal
+from .solids import Solid, convex_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
@@ -106,27 +102,52 @@ def _turned(points: NDArray, pivot: NDArray, angle: NDArray) -> NDArray:
     return pivot + np.stack([c * rel[..., 0] - s * rel[..., 1], s * rel[..., 0] + c * rel[..., 1]], axis=-1)
 
 
-def _outline_in_plane(scene: "Scene") -> NDArray[np.float64]:
-    """The object's outline at its target pose in plane coordinates (x along GB from G, y the
-    plane's normal), metres, (N, 2)."""
-    frame = scene.plane.frame
-    return (scene.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
+@dataclass(frozen=True)
+class Box:
+    """An obstacle: an axis-aligned box in the plane, extruded normal to it (metres)."""
+
+    name: str
+    lo: tuple[float, float]  # (x, z) of the lower-left corner
+    hi: tuple[float, float]  # (x, z) of the upper-right corner
+
+
+@dataclass(frozen=True)
+class CollisionModel:
+    """What collision checking needs to know of a scene (Scene.collision_model builds it).
+
+    Plane coordinates: x along GB from G, z up, y the plane's normal; metres."""
+
+    #: The object length l, m: the unit of the digits' dimensions.
+    length: float
+    #: The object's thickness, m (0: a segment, checked as a slab 1 um thick).
+    thickness: float
+    #: The digits' geometry, over l.
+    digits: DigitGeometry
+    #: Planar obstacles, extruded through the plane.
+    boxes: tuple[Box, ...] = ()
+    #: The object's outline at its target pose in plane coordinates (x, y), m, shape (N, 2); None:
+    #: the object is the segment GB (a slab of the digits' width).
+    section: NDArray[np.float64] | None = None
+    #: Convex bodies fixed in the world (a frame's walls, pieces placed already).
+    solids: tuple[Solid, ...] = ()
+    #: The manipulation plane's pose in the world (4 x 4); needed with solids.
+    frame: NDArray[np.float64] | None = None
 
 
 class CollisionChecker:
     """Collision checks of states (theta, d, psi) of one scene, vectorised over states."""
 
-    def __init__(self, scene: "Scene"):
-        self.scene = scene
-        l = scene.object_length
-        dg = scene.digits
+    def __init__(self, model: CollisionModel):
+        self.model = model
+        l = model.length
+        dg = model.digits
         self._length = l
         # Digit outlines in their own frame (x from tip toward palm, z along n_B), metres.
         thumb = np.array([[0, 0], [dg.thumb_length, 0], [dg.thumb_length, -dg.thumb_base_thickness],
                           [0, -dg.thumb_tip_thickness]]) * l
         finger = np.array([[0, 0], [dg.finger_length, 0], [dg.finger_length, dg.finger_base_thickness],
                            [0, dg.finger_tip_thickness]]) * l
-        t = max(scene.object_thickness, 1e-6)
+        t = max(model.thickness, 1e-6)
         width = dg.width * l
         self._bodies = {
             "thumb": fcl.CollisionObject(_prism(thumb, width)),
@@ -135,8 +156,8 @@ class CollisionChecker:
         self._object_extent = None  # (x_min, x_max) of the outline's prism along GB, m
         # extent of each body normal to the plane (y, m)
         self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "object")}
-        if scene.object3d is not None and scene.plane is not None:
-            pts = _outline_in_plane(scene)
+        if model.section is not None:
+            pts = model.section
             lo, hi = np.column_stack([pts, np.zeros(len(pts))]), np.column_stack([pts, np.full(len(pts), t)])
             self._bodies["object"] = fcl.CollisionObject(convex_shape(np.vstack([lo, hi])))
             self._object_extent = (float(pts[:, 0].min()), float(pts[:, 0].max()))
@@ -150,20 +171,20 @@ class CollisionChecker:
             self._y_range["palm"] = (-depth / 2, depth / 2)
         self._targets: list[tuple[str, NDArray, fcl.CollisionObject]] = []
         self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
-        for box in scene.obstacles:
+        for box in model.boxes:
             lo, hi = np.array(box.lo), np.array(box.hi)
             size, centre = hi - lo, (hi + lo) / 2
             obj = fcl.CollisionObject(fcl.Box(size[0], _DEPTH, size[1]), fcl.Transform(np.array([centre[0], 0.0, centre[1]])))
             self._targets.append((box.name, np.array([lo, hi]), obj))
-        if scene.solids:
-            if scene.plane is None:
+        if model.solids:
+            if model.frame is None:
                 raise ValueError("solids need the scene's manipulation plane (an object outline)")
-            for solid in scene.solids:
-                local = solid.transformed(scene.plane.frame)  # plane frame: x along GB, y its normal, z up
+            for solid in model.solids:
+                local = solid.transformed(model.frame)  # plane frame: x along GB, y its normal, z up
                 xz = local[:, [0, 2]]
                 self._target_y[solid.name] = (float(local[:, 1].min()), float(local[:, 1].max()))
                 self._targets.append((solid.name, np.array([xz.min(axis=0), xz.max(axis=0)]),
-                                      solid.in_frame(scene.plane.frame)))
+                                      solid.in_frame(model.frame)))
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
@@ -171,9 +192,9 @@ class CollisionChecker:
         """Per body: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
         th, d, ps = q[:, 0], q[:, 1], q[:, 2]
         l = self._length
-        thumb, finger = digit_polygons(th, d, ps, self.scene.digits)
+        thumb, finger = digit_polygons(th, d, ps, self.model.digits)
         u = np.stack([np.cos(th), np.sin(th)], axis=-1)
-        t = max(self.scene.object_thickness, 1e-6) / l
+        t = max(self.model.thickness, 1e-6) / l
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
         if self._object_extent is None:  # the slab along GB, centred on it
             obj = np.stack([-nrm * t / 2, u - nrm * t / 2, u + nrm * t / 2, nrm * t / 2], axis=1)
@@ -187,7 +208,7 @@ class CollisionChecker:
             "object": (th, np.zeros((len(q), 2)), obj * l),
         }
         if "palm" in self._bodies:
-            dg = self.scene.digits
+            dg = self.model.digits
             back = -digit_axis(th, ps)  # from the tips toward the palm
             across = thumb_normal(th, ps)
             centre = thumb[:, 0] + (dg.thumb_length + dg.palm_length / 2) * back + (aperture(d, ps, dg.object_thickness, dg.finger_tip_radius) / 2)[:, None] * across

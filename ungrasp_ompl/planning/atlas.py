@@ -81,7 +81,7 @@ class SecurityAtlas:
         fc = self._fc(0, 0, self.kinematic.ravel())
         check = self.kinematic.ravel() & fc
         self.collision = np.zeros(len(grid), dtype=bool)
-        self._checker = CollisionChecker(scene)
+        self._checker = CollisionChecker(scene.collision_model())
         self._releasable: dict[tuple, NDArray[np.bool_]] = {}
         self.collision[check] = self._checker.in_collision(grid[check])
         self.collision = self.collision.reshape(self.shape)

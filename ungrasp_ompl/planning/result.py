@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
+from enum import Enum
 from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
 from ..mechanics import primitive_sliding_signs
+from ..scene import StateClass, StateDiagnosis
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
 
 JSON_SCHEMA_VERSION = 1
@@ -40,11 +42,65 @@ class PrimitiveStep:
     x_moments: str | None = None  # how x-moments are held (scenes with an outline)
 
 
+class PlanOutcome(Enum):
+    """How planning ended. Plan.evidence holds what supports it (keys named below)."""
+
+    #: A path was found and every leg passed re-validation.
+    SOLVED = "solved"
+    #: The start state cannot be held: state_class, failed_checks, contacts (Scene.diagnose).
+    START_NOT_HELD = "start_not_held"
+    #: No lattice state of the goal region can be held with room to let go: outside_box (the region
+    #: lies outside the planning box), holdable (some state can be held), termination (how the
+    #: gripper lets go).
+    GOAL_EMPTY = "goal_empty"
+    #: The exact search over the primitive lattice reaches no goal state: resolution.
+    NO_SECURE_PATH = "no_secure_path"
+    #: None found within the budget, though the lattice holds one: stopped_by, limit, lattice_optimum.
+    NOT_FOUND = "not_found"
+    #: The path returned fails re-validation in its travel direction: problem.
+    INVALID_PATH = "invalid_path"
+    #: The planner did not stop and was killed: deadline_s, known.
+    HUNG = "hung"
+
+
+def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: str = "the planner") -> str:
+    """One sentence for a person from an outcome and its evidence."""
+    e = evidence
+    if outcome is PlanOutcome.SOLVED:
+        return "solved"
+    if outcome is PlanOutcome.START_NOT_HELD:
+        return StateDiagnosis(StateClass[e["state_class"]], tuple(e.get("failed_checks", ())),
+                              tuple(e.get("contacts", ()))).describe("start state")
+    if outcome is PlanOutcome.GOAL_EMPTY:
+        if e.get("outside_box"):
+            return "goal region lies outside the planning box"
+        if e.get("holdable"):
+            return (f"goal region is empty: the gripper cannot let go ({e.get('termination', 'open')}) at any "
+                    "goal state without a collision")
+        return ("goal region is empty: no lattice state inside it is kinematically valid, collision-free and "
+                "force-closed")
+    if outcome is PlanOutcome.NO_SECURE_PATH:
+        return f"no secure path exists: the exact search over the primitive lattice ({_at(e)}) reaches no goal state"
+    if outcome is PlanOutcome.NOT_FOUND:
+        return (f"no path found within {e['limit']}; the exact lattice search ({_at(e)}) finds one of cost "
+                f"{e['lattice_optimum']:.2f}: allow more time or try another planner")
+    if outcome is PlanOutcome.INVALID_PATH:
+        return f"the returned path fails re-validation: {e['problem']}"
+    return f"{planner} did not stop within {e['deadline_s']:.0f} s and was killed: {e['known']}"
+
+
+def _at(evidence: dict[str, Any]) -> str:
+    res = evidence.get("resolution")
+    if not res:
+        return "its resolution"
+    return f"{math.degrees(res[0]):g} deg / {res[1]:g} / {math.degrees(res[2]):g} deg"
+
+
 @dataclass
 class Plan:
     """The result of planning a scene (see README for every field)."""
 
-    solved: bool
+    outcome: PlanOutcome
     scene: str
     planner: str
     seed: int | None
@@ -60,15 +116,32 @@ class Plan:
     iterations: int = 0
     stopped_by: str = ""
     resolution: list[float] = field(default_factory=list)
-    reason: str | None = None
+    evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
     lattice_optimum: float | None = None
     object: dict | None = None  # outline, thickness, target pose (scenes with an outline)
     manipulation_plane: dict | None = None  # G, B, margin, effective friction, frame in the world
     mu_eff: dict | None = None  # friction used in the plane at G, A, B
     stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
 
+    @property
+    def solved(self) -> bool:
+        """A path was found and passed re-validation."""
+        return self.outcome is PlanOutcome.SOLVED
+
+    @property
+    def reason(self) -> str | None:
+        """Why there is no solution, for a person (None when solved)."""
+        return None if self.solved else describe_outcome(self.outcome, self.evidence, self.planner)
+
+    def fail(self, outcome: PlanOutcome, **evidence: Any) -> "Plan":
+        """Mark the plan as ended without a solution, with the evidence; returns it."""
+        self.outcome, self.evidence = outcome, evidence
+        return self
+
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
+        d = {"solved": self.solved, **asdict(self)}
+        d["outcome"] = self.outcome.value
+        d["reason"] = self.reason
         d["schema_version"] = JSON_SCHEMA_VERSION
         return d
 
@@ -118,13 +191,14 @@ class Plan:
             steps.append(PrimitiveStep(p["type"], str(p.get("direction", "forward")), ways[0], ways[-1],
                                        dict(sliding) if isinstance(sliding, dict) else {},
                                        str(p.get("stability", "")), ways, p.get("x_moments")))
-        known = set(cls.__dataclass_fields__) - {"states", "primitives"}
+        known = set(cls.__dataclass_fields__) - {"states", "primitives", "outcome"}
         rest = {k: v for k, v in doc.items() if k in known}
         rest.setdefault("scene", "plan")
         rest.setdefault("planner", "unknown")
         rest.setdefault("seed", None)
         rest.setdefault("sliding_model", "relaxed")
-        return cls(states=[state(s, f"states[{k}]") for k, s in enumerate(states)], primitives=steps, **rest)
+        return cls(outcome=PlanOutcome.SOLVED, states=[state(s, f"states[{k}]") for k, s in enumerate(states)],
+                   primitives=steps, **rest)
 
     def summary(self) -> str:
         """A few lines for a person: outcome, cost, the primitive sequence."""

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-import time
+from time import perf_counter
 from dataclasses import dataclass
 from enum import Enum
 
@@ -27,13 +27,12 @@ from ompl import util as ou
 
 from ..errors import InputError
 from ..geometry.collision import CollisionChecker
-from ..mechanics import force_closure, kinematic_checks
-from ..scene import Scene
+from ..scene import Scene, StateClass
 from .atlas import Leg, SecurityAtlas, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search
 from .objective import PrimitiveCostObjective
-from .result import Plan, merge_legs, sequence_cost
+from .result import Plan, PlanOutcome, merge_legs, sequence_cost
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -99,25 +98,23 @@ PLANNER_ITERATIONS_PER_SECOND = {"PRM": 1000, "PRMstar": 1000}
 
 @dataclass(frozen=True)
 class PlannerOptions:
-    """How to run the planner.
-
-    time: seconds of planning (a seeded run: the size of its iteration
-    budget, with 5x the time as a hard cap). iterations: planner iterations
-    (termination-condition calls); None: ITERATIONS_PER_SECOND (for PRM and
-    PRMstar PLANNER_ITERATIONS_PER_SECOND) * time when seeded, unbounded
-    otherwise. range: the planner's maximum motion length
-    in state units (theta and psi in rad, d over l). goal_bias: how often a
-    tree-based planner steers to a goal sample. simplify: shorten the path
-    with OMPL's PathSimplifier (shortcuts in travel direction).
-    """
+    """How to run the planner."""
 
     planner: str = "RRTstar"
+    """An OMPL geometric planner by name (PLANNERS)."""
     time: float = 1.0
+    """Planning time (s); a seeded run: the size of its iteration budget, with 5x as a hard cap."""
     seed: int | None = None
+    """Seed of OMPL's random numbers: the same seed gives the same plan. None: not reproducible."""
     iterations: int | None = None
+    """Planner iterations (termination-condition calls); None: ITERATIONS_PER_SECOND (PRM, PRM*:
+    PLANNER_ITERATIONS_PER_SECOND) times time when seeded, unbounded otherwise."""
     range: float = 0.3
+    """The planner's longest motion, in state units (theta and psi in rad, d over l)."""
     goal_bias: float = 0.1
+    """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
+    """Shorten the path with OMPL's PathSimplifier (shortcuts in travel direction)."""
 
     def validated(self) -> "PlannerOptions":
         if self.planner in UNUSABLE_PLANNERS:
@@ -143,8 +140,8 @@ class UngraspSetup:
     def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions()):
         self.scene = scene
         self.options = options.validated()
-        _OMPL_USED.append(True)  # planners draw seeds from OMPL's RNG when built
-        t0 = time.perf_counter()
+        _OmplRng.drawn = True  # planners draw seeds from OMPL's RNG when built
+        t0 = perf_counter()
         self.atlas = SecurityAtlas(scene, planning_box(scene))
         self.atlas.prepare()
         self.space = make_state_space(planning_box(scene))
@@ -169,42 +166,25 @@ class UngraspSetup:
                 getattr(self.planner, setter)(value)
         self.planner.setProblemDefinition(self.pdef)
         self.planner.setup()
-        self.setup_time = time.perf_counter() - t0
+        self.setup_time = perf_counter() - t0
 
     # -- diagnosis -----------------------------------------------------------------
-    def start_problem(self) -> str | None:
-        """Why the start state cannot be held, or None."""
-        s = self.scene
-        idx = self.atlas.index(s.start)
-        if self.atlas.holdable[idx]:
-            return None
-        th, d, ps = s.start
-        failed = [k for k, ok in kinematic_checks(th, d, ps, s.digits).items() if not ok]
-        if failed:
-            return "start state is kinematically invalid: " + ", ".join(failed) + " fails"
-        if not force_closure(th, d, ps, 0, 0, s.mu, s.options.sliding_model)[0]:
-            return "start state is not force-closed (contacts cannot hold the object)"
-        hits = CollisionChecker(s).contacts(s.start)
-        return "start state is in collision: " + ", ".join(hits)
-
-    def goal_problem(self) -> str | None:
-        if self.goal.maxSampleCount() == 0:
-            return ("goal region is empty: no lattice state inside it is kinematically valid, "
-                    "collision-free and force-closed with room for the gripper to let go")
-        return None
+    def ends_problem(self) -> dict | None:
+        """Why planning cannot start (the start cannot be held, or the goal region is empty) as
+        Plan.fail's arguments, or None."""
+        return ends_problem(self.scene, self.atlas, self.goal.maxSampleCount() > 0)
 
     # -- solving -------------------------------------------------------------------
     def solve(self) -> Plan:
         """Plan, re-validate the path leg by leg in its travel direction, and report."""
         opts, scene = self.options, self.scene
-        plan = Plan(solved=False, scene=scene.name, planner=opts.planner, seed=opts.seed,
+        plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=opts.planner, seed=opts.seed,
                     sliding_model=scene.options.sliding_model, setup_time_s=self.setup_time,
                     resolution=[float(x) for x in self.atlas.res])
-        problem = self.start_problem() or self.goal_problem()
+        problem = self.ends_problem()
         if problem:
-            plan.reason = problem
             plan.stopped_by = "not started"
-            return plan
+            return plan.fail(**problem)
         budget = opts.iterations
         cap = opts.time
         if opts.seed is not None:
@@ -213,11 +193,11 @@ class UngraspSetup:
             cap = 5.0 * opts.time
         best_cost = getattr(self.planner, "bestCost", None)
         state = {"n": 0, "first": None, "stop": ""}
-        t0 = time.perf_counter()
+        t0 = perf_counter()
 
         def done() -> bool:
             state["n"] += 1
-            elapsed = time.perf_counter() - t0
+            elapsed = perf_counter() - t0
             if state["first"] is None:
                 found = math.isfinite(best_cost().value()) if best_cost else self.pdef.hasExactSolution()
                 if found:
@@ -235,7 +215,7 @@ class UngraspSetup:
             turns = TakeTurns(self.planner, done, lambda: self.objective.heuristic_calls,
                               either_way=(self.motion_validator, self.objective))
         status = self.planner.solve(ob.PlannerTerminationCondition(turns or done))
-        plan.planning_time_s = time.perf_counter() - t0
+        plan.planning_time_s = perf_counter() - t0
         if turns is not None:
             if turns.interrupt is not None:
                 raise turns.interrupt
@@ -245,16 +225,14 @@ class UngraspSetup:
         plan.stopped_by = state["stop"] or "planner"
         exact = self.pdef.hasExactSolution() and str(status) in ("Exact solution",)
         if not exact:
-            plan.reason = self._no_path_reason(plan)
-            return plan
+            return self._no_path(plan)
         path = self.pdef.getSolutionPath()
         if opts.simplify:
             simplifier = og.PathSimplifier(self.si, self.goal, self.objective)
             simplifier.reduceVertices(path)
         legs, problem = self.path_legs(path_states(path))
         if problem:
-            plan.reason = f"the returned path fails re-validation: {problem}"
-            return plan
+            return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
         if plan.time_to_first_solution_s is None:
             plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
         fill_solution(plan, self.atlas, legs)
@@ -281,23 +259,40 @@ class UngraspSetup:
         legs = _fewest_changes(options)
         return legs, verify_legs(self.scene, atlas, legs)
 
-    def _no_path_reason(self, plan: Plan) -> str:
+    def _no_path(self, plan: Plan) -> Plan:
+        """The plan failed with the exact lattice search's verdict: no secure path, or one the
+        planner did not find (its cost recorded as lattice_optimum)."""
         result = lattice_search(self.atlas, self.scene.goal.box())
-        res = self.atlas.res
-        at = f"{math.degrees(res[0]):g} deg / {res[1]:g} / {math.degrees(res[2]):g} deg"
+        res = plan.resolution
         if not result.reachable:
-            return (f"no secure path exists: the exact search over the primitive lattice ({at}) "
-                    f"reaches no goal state from the start")
+            return plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=res)
         plan.lattice_optimum = result.cost
         limit = f"{plan.iterations} iterations" if plan.stopped_by == "iterations" else f"{plan.planning_time_s:.2f} s"
-        return (f"no path found within {limit}; the exact lattice search ({at}) finds one of cost "
-                f"{result.cost:.2f}: allow more time or try another planner")
+        return plan.fail(PlanOutcome.NOT_FOUND, resolution=res, stopped_by=plan.stopped_by, limit=limit,
+                         lattice_optimum=result.cost)
+
+
+def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None = None) -> dict | None:
+    """Why no path can start or end: the start state cannot be held (Scene.diagnose's evidence)
+    or no goal state can be held with room to let go; Plan.fail's arguments, or None.
+    goal_reachable: whether the goal region holds such a state, when the caller knows."""
+    start = scene.diagnose(scene.start)
+    if start.state_class is not StateClass.HELD:
+        return dict(outcome=PlanOutcome.START_NOT_HELD, state_class=start.state_class.name,
+                    failed_checks=list(start.failed_checks), contacts=list(start.contacts))
+    box = scene.goal.box()
+    if goal_reachable is None:
+        goal_reachable = bool(atlas.releasable_in(box).any())
+    if not goal_reachable:
+        return dict(outcome=PlanOutcome.GOAL_EMPTY, holdable=bool(atlas.holdable_in(box).any()),
+                    termination=scene.robot.termination)
+    return None
 
 
 def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | None:
     """Re-check every leg in its travel direction with the exact mechanics and FCL at half the
     lattice step; the first failure, or None."""
-    checker = CollisionChecker(scene)
+    checker = CollisionChecker(scene.collision_model())
     for k, leg in enumerate(legs):
         why = verify_leg(scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), atlas.res / 2, checker)
         if why:
@@ -311,27 +306,26 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg]) -> None:
     plan.primitives = steps
     plan.states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
     plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
-    plan.solved = True
+    plan.outcome, plan.evidence = PlanOutcome.SOLVED, {}
 
 
 def lattice_plan(scene: Scene, seed: int | None = None) -> Plan:
     """The exact optimum on the scene's lattice as a plan (the 'lattice' planner): a Dijkstra search
     with the planners' cost, its legs re-validated like any planner's path."""
-    t0 = time.perf_counter()
+    t0 = perf_counter()
     atlas = SecurityAtlas(scene, planning_box(scene))
-    t1 = time.perf_counter()
+    t1 = perf_counter()
     result = lattice_search(atlas, scene.goal.box())
-    t2 = time.perf_counter()
-    plan = Plan(solved=False, scene=scene.name, planner=LATTICE, seed=seed, sliding_model=scene.options.sliding_model,
-                setup_time_s=t1 - t0, planning_time_s=t2 - t1, resolution=[float(x) for x in atlas.res],
-                stopped_by="planner", lattice_optimum=result.cost)
+    t2 = perf_counter()
+    plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=LATTICE, seed=seed,
+                sliding_model=scene.options.sliding_model, setup_time_s=t1 - t0, planning_time_s=t2 - t1,
+                resolution=[float(x) for x in atlas.res], stopped_by="planner", lattice_optimum=result.cost)
     if not result.reachable:
-        plan.reason = "no secure path exists: the exact search over the primitive lattice reaches no goal state"
-        return plan
+        problem = ends_problem(scene, atlas)
+        return plan.fail(**problem) if problem else plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=plan.resolution)
     problem = verify_legs(scene, atlas, result.legs)
     if problem:
-        plan.reason = f"the lattice path fails re-validation: {problem}"
-        return plan
+        return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
     plan.time_to_first_solution_s = t2 - t1
     fill_solution(plan, atlas, result.legs)
     return plan
@@ -358,7 +352,11 @@ def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
     return [leg for k, i in enumerate(trail) for leg in options[k][i]]
 
 
-_OMPL_USED: list[bool] = []  # whether this process has built a planner (and so drawn from OMPL's RNG)
+class _OmplRng:
+    """OMPL's random number generator is one per process and takes a seed only before its first
+    number: whether this process has built a planner (and so drawn from it)."""
+
+    drawn = False
 
 
 def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
@@ -377,7 +375,7 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
     if planner in UNRULY_PLANNERS:
         return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
-    if seed is not None and _OMPL_USED:
+    if seed is not None and _OmplRng.drawn:
         return _plan_in_child(scene, opts)
     return _plan_here(scene, opts)
 
@@ -432,10 +430,9 @@ def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = 
     except queues.Empty:
         proc.kill()
         proc.join()
-        return Plan(solved=False, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, stopped_by="killed",
-                    planning_time_s=deadline, reason=f"{opts.planner} did not stop within {deadline:.0f} s and was "
-                    f"killed: {UNRULY_PLANNERS[opts.planner]}")
+        return Plan(outcome=PlanOutcome.HUNG, scene=scene.name, planner=opts.planner, seed=opts.seed,
+                    sliding_model=scene.options.sliding_model, stopped_by="killed", planning_time_s=deadline,
+                    evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS[opts.planner]))
     proc.join()
     if isinstance(result, BaseException):
         raise result

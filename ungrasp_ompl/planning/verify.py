@@ -39,7 +39,7 @@ def verify_leg(
     fc = force_closure(th, d, ps, sa, sb, scene.mu, scene.options.sliding_model)
     if not fc.all():
         return f"not force-closed in its contact mode at {_fmt(q[np.argmin(fc)])}"
-    checker = checker or CollisionChecker(scene)
+    checker = checker or CollisionChecker(scene.collision_model())
     hit = checker.in_collision(q)
     if hit.any():
         bad = q[np.argmax(hit)]

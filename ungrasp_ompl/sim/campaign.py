@@ -142,7 +142,7 @@ def plan_problems(scene: Scene, plan: Plan) -> list[str]:
     from ..geometry.collision import CollisionChecker
     from ..planning.verify import verify_leg
 
-    checker = CollisionChecker(scene)
+    checker = CollisionChecker(scene.collision_model())
     resolution = np.asarray(scene.options.resolution) / 2
     out = []
     for k, p in enumerate(plan.primitives):

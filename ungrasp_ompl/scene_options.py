@@ -1,0 +1,97 @@
+"""The options a scene fixes (planning, robot execution, simulation) and the object's 3D shape.
+
+Units: metres, radians, seconds, newtons; each attribute's docstring names its unit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .geometry.outline import Outline
+
+
+@dataclass(frozen=True)
+class PlanningOptions:
+    """Options of the planar planner that a scene fixes (the scene's `planning` section). Costs
+    are in the reference units: 1 per degree of theta or psi."""
+
+    sliding_model: str = "relaxed"
+    """How a sliding contact's friction is modelled: relaxed or strict (docs/model.md, section 4)."""
+    reverse_primitives: bool = False
+    """Allow the reverse directions too (pivot up, thumb closing, finger sliding back)."""
+    resolution: tuple[float, float, float] = (math.radians(0.5), 0.005, math.radians(0.5))
+    """Lattice step (theta rad, d over l, psi rad) at which states and motions are checked."""
+    d_weight: float = 100.0
+    """Cost per unit of d (over l)."""
+    mode_change_penalty: float = 1.0
+    """Cost per change of primitive."""
+    forbid_partial: bool = False
+    """No leg with two sliding contacts (P_dpsi), so every leg keeps full 3D stability."""
+
+
+@dataclass(frozen=True)
+class Object3D:
+    """A thin object: outline in its own plane (metres), thickness, and target pose on the table."""
+
+    outline: Outline
+    thickness: float
+    position: tuple[float, float] = (0.0, 0.0)
+    yaw: float = 0.0
+
+    def placed_outline(self) -> NDArray[np.float64]:
+        """The outline's vertices (N, 2) turned by yaw and moved to position (the frame of position)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return self.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(self.position)
+
+    def to_dict(self) -> dict:
+        return {"outline": self.outline.vertices.tolist(), "thickness_m": self.thickness,
+                "target": {"position": list(self.position), "yaw_rad": self.yaw}}
+
+
+@dataclass(frozen=True)
+class RobotOptions:
+    """How the plan is executed by the UR5e and its gripper (the scene's `robot` section)."""
+
+    base: tuple = ((1.0, 0, 0, 0), (0, 1.0, 0, 0), (0, 0, 1.0, 0), (0, 0, 0, 1.0))
+    """4 x 4 pose of the arm's base in the world (metres)."""
+    palm_depth: float = 0.11
+    """From the UR flange to the gripper's palm (m)."""
+    home: tuple[float, ...] = (0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0)
+    """Arm joint angles the approach starts from (rad)."""
+    contact_speed: float = 0.01
+    """Cap on the digit tips' speed along the primitives (m/s)."""
+    termination: str = "open"
+    """How the gripper lets go: open (by termination_opening) or rotate (about the thumb tip)."""
+    termination_opening: float = 0.01
+    """How far the gripper opens to let go (m)."""
+    termination_angle: float = math.radians(10.0)
+    """How far the gripper turns about the thumb tip to let go (rad)."""
+    retreat_height: float = 0.05
+    """Lift of the palm after letting go (m)."""
+    object_position: tuple[float, float] = (0.45, 0.10)
+    """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
+    its target pose)."""
+    object_yaw: float = 0.0
+    """Direction of GB on the table (world yaw, rad) for scenes without an outline."""
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """How the scene is simulated in MuJoCo (the scene's `sim` section)."""
+
+    density: float = 1250.0
+    """The object's density (kg/m^3); 1250 is a stiff plastic (celluloid, PLA)."""
+    grip_force: float = 5.0
+    """The jaws' force limit (N): how hard the gripper squeezes."""
+    squeeze: float = 0.001
+    """How far inside the planned opening the jaws are commanded (m)."""
+    timestep: float = 0.0005
+    """Simulation step (s)."""
+    settle_time: float = 0.3
+    """Stillness with the object in the pinch before the motion (s)."""
+    rest_time: float = 0.5
+    """Stillness after the retreat before the outcome is read (s)."""
