@@ -107,6 +107,14 @@ def _parser() -> argparse.ArgumentParser:
     sm.add_argument("--equal-digits", action="store_true",
                     help="simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)")
 
+    vw = sub.add_parser("view", help="an animated 3D view (one offline HTML page) of what plan --export, tile or "
+                        "simulate wrote")
+    vw.add_argument("dir", metavar="DIR", help="a directory holding trajectory.json (plan --export DIR, tile --out DIR, "
+                    "simulate --out DIR)")
+    vw.add_argument("--out", default=None, help="the HTML file to write (default DIR/view.html)")
+    vw.add_argument("--frames", type=int, default=None, metavar="K",
+                    help="also write a PNG strip of K key frames beside it (view_frames.png)")
+
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     rg.add_argument("--out", required=True, help="PNG file to write")
@@ -143,7 +151,11 @@ def _plan(args: argparse.Namespace) -> int:
         execution = execute(scene, result)
         print(execution.summary())
         paths = export_all(execution.trajectory, export)
+        from .view import write_view_record
+
+        paths["view"] = write_view_record(export, [(scene, result)], execution)
         print("wrote " + ", ".join(str(p) for p in paths.values()))
+        print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
 
 
@@ -224,7 +236,12 @@ def _tile(args: argparse.Namespace) -> int:
                                  labels=[p.name for p in result.placements])
     print(execution.summary())
     paths = export_all(execution.trajectory, out)
+    from .view import write_view_record
+
+    paths["view"] = write_view_record(out, [(p.scene, p.plan) for p in result.placements], execution,
+                                      labels=[p.name for p in result.placements], kind="tiling")
     print("wrote " + ", ".join(str(p) for p in paths.values()))
+    print(f"view it: ungrasp-ompl view {out}  (writes {out / 'view.html'})")
     return EXIT_OK
 
 
@@ -334,7 +351,12 @@ def _simulate(args: argparse.Namespace) -> int:
     write_text_atomic(out / "trials.csv", buf.getvalue())
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
     draw_trials(report, object_outline(scene), setup.target_pose, out / "trials.png")
-    print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json and the trajectory")
+    from .view.trial_poses import write_simulated_view
+
+    write_simulated_view(out, scene, result, execution, setup, perturbation, args.seed, report.trials[0].final_pose)
+    print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json, the trajectory, "
+          f"view_scene.json and trial_poses.json (trial 0's object poses)")
+    print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
     return EXIT_OK
 
 
@@ -399,6 +421,19 @@ def _progress(total: int):
     return step
 
 
+def _view(args: argparse.Namespace) -> int:
+    from .view import make_view
+
+    files = make_view(args.dir, args.out, args.frames)
+    for note in files.notes:
+        print(f"note: {note}")
+    print(f"wrote {files.page} (open it in a browser; it works offline)")
+    if files.frames is not None:
+        times = ", ".join(f"{t:.2f}" for t in files.key_times)
+        print(f"wrote {files.frames}: {len(files.key_times)} key frames at {times} s")
+    return EXIT_OK
+
+
 def _regions(args: argparse.Namespace) -> int:
     from .plotting import draw_regions
     from .scene import Scene
@@ -428,7 +463,7 @@ def run(argv: list[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep,
-                    "tile": _tile, "simulate": _simulate, "scenes": _scenes}
+                    "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
         return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)

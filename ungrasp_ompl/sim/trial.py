@@ -119,8 +119,11 @@ def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
     data.mocap_quat[ids.palm_mocap] = quat
 
 
-def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None) -> TrialResult:
-    """Simulate one trial of a placement and judge it (see Outcome)."""
+def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
+              record: list | None = None) -> TrialResult:
+    """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
+    (time s from the drive's start, 4x4 world pose of the object) is appended after the settling
+    (time 0), after every control tick, and once after the rest (the 3D view shows it)."""
     import mujoco
 
     wall = time.perf_counter()
@@ -146,6 +149,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     substeps = max(1, round(period / spec.timestep))
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
     mujoco.mj_step(model, data, nstep=max(1, round(setup.settle_time / spec.timestep)))
+    if record is not None:
+        record.append((0.0, _pose(data, ids.object_body)))
 
     watch = _Watch(ids)
     plane_y = setup.target_pose[:3, 1]
@@ -159,6 +164,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
         mujoco.mj_step(model, data, nstep=substeps)
         t = float(drive.times[k])
+        if record is not None:
+            record.append((t, _pose(data, ids.object_body)))
         if t >= release or failure is not None:
             continue
         a, b, solid, _ = watch.flags(data)
@@ -179,6 +186,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
+    if record is not None:
+        record.append((float(drive.times[-1]) + setup.rest_time, final))
     others = [_pose(data, body).tolist() for body in ids.placed_bodies]
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
     pos_err, yaw_err = _placement_error(final, setup.target_pose, spec.obj.outline)

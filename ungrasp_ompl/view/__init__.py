@@ -1,0 +1,96 @@
+"""The 3D view of an exported trajectory: the UR5e, its gripper, the objects, the table.
+
+``make_view(DIR)`` reads what ``plan --export DIR``, ``tile --out DIR`` or ``simulate --out DIR``
+wrote (trajectory.json, view_scene.json, and trial_poses.json after a simulation) and writes one
+self-contained HTML page (meshcat's viewer, animated) and, on request, a PNG strip of key frames.
+
+Modules: ``record`` (view_scene.json: what the view needs besides the trajectory), ``trial_poses``
+(a simulated trial's object poses), ``geometry`` (triangle meshes), ``scene`` (bodies and their
+poses over time), ``html`` (the meshcat page), ``frames`` (the key-frame strip, matplotlib).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import InputError
+from .record import RECORD_FILE, write_view_record
+from .trial_poses import POSES_FILE
+
+TRAJECTORY_FILE = "trajectory.json"
+VIEW_FILE = "view.html"
+FRAMES_FILE = "view_frames.png"
+
+PathLike = str | os.PathLike[str]
+
+
+@dataclass
+class ViewFiles:
+    """What make_view wrote: the page, the strip (or None) and its key times (s); what it read."""
+
+    page: Path
+    frames: Path | None
+    key_times: list[float]
+    sources: list[Path]
+    notes: list[str]
+
+
+def load_scene(directory: PathLike):
+    """The ViewScene (view.scene) of what DIR holds; InputError naming DIR when it holds no
+    trajectory.json, or naming the field of a malformed file."""
+    from ..robot.export import read_json
+    from .record import default_record, read_view_record
+    from .scene import build_scene
+    from .trial_poses import read_trial_poses
+
+    d = Path(directory)
+    if not d.is_dir():
+        raise InputError("DIR", f"{d} is not a directory (give what plan --export DIR, tile --out DIR or "
+                         "simulate --out DIR wrote)")
+    traj_path = d / TRAJECTORY_FILE
+    if not traj_path.is_file():
+        raise InputError("DIR", f"{d} holds no {TRAJECTORY_FILE} (write one with plan --export DIR, tile --out DIR "
+                         "or simulate --out DIR)")
+    traj = read_json(traj_path)
+    sources = [traj_path]
+    record_path = d / RECORD_FILE
+    if record_path.is_file():
+        record = read_view_record(record_path)
+        sources.append(record_path)
+    else:
+        record = default_record()
+    trial = None
+    if (d / POSES_FILE).is_file() and record.kind == "simulation":
+        trial = read_trial_poses(d / POSES_FILE)
+        sources.append(d / POSES_FILE)
+    scene = build_scene(traj, record, trial)
+    if not record_path.is_file():
+        scene.notes.append(f"no {RECORD_FILE} beside the trajectory: the robot only, its base at the origin")
+    return scene, sources
+
+
+def make_view(directory: PathLike, out: PathLike | None = None, frames: int | None = None) -> ViewFiles:
+    """Write the view page of DIR to out (default DIR/view.html) and, with frames = K, the strip of
+    K key frames beside it (view_frames.png)."""
+    from .frames import MAX_FRAMES, draw_frames
+    from .html import write_page
+
+    if frames is not None and not 1 <= frames <= MAX_FRAMES:
+        raise InputError("--frames", f"must be a count of key frames in 1..{MAX_FRAMES}, got {frames}")
+    page = Path(out) if out is not None else Path(directory) / VIEW_FILE
+    if page.suffix.lower() not in (".html", ".htm"):
+        raise InputError("--out", f"must name an .html file, got {page}")
+    if page.is_dir():
+        raise InputError("--out", f"{page} is a directory")
+    scene, sources = load_scene(directory)
+    write_page(scene, page)
+    strip, times = None, []
+    if frames is not None:
+        strip = page.with_name(page.stem + "_frames.png")  # view.html -> view_frames.png
+        times = [float(t) for t in draw_frames(scene, frames, strip)]
+    return ViewFiles(page, strip, times, sources, scene.notes)
+
+
+__all__ = ["FRAMES_FILE", "RECORD_FILE", "VIEW_FILE", "ViewFiles", "load_scene", "make_view", "write_view_record"]

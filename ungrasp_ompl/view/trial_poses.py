@@ -1,0 +1,138 @@
+"""The simulated object's pose over time in one trial: ``trial_poses.json``, for the 3D view.
+
+``simulate --out DIR`` runs its first trial once more in the main process with pose recording on
+(MuJoCo is deterministic: it is the campaign's trial 0 again; ``final_pose_difference_m`` says how
+far its end pose lies from the campaign's) and writes the object's world pose every RECORD_PERIOD_S
+of trajectory time. Units: s (trajectory time, as in trajectory.json), m; poses are 4x4 world
+poses of the object's body frame (the manipulation plane's frame at the target: origin at G, x
+toward B, z up; the prism spans z in [0, thickness]).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from ..io import write_text_atomic
+
+POSES_FILE = "trial_poses.json"
+FORMAT = "ungrasp-ompl trial poses"
+SCHEMA_VERSION = 1
+#: Poses are kept every this many seconds (the simulator records every 2 ms control tick).
+RECORD_PERIOD_S = 0.02
+
+PathLike = str | os.PathLike[str]
+
+
+@dataclass
+class TrialPoses:
+    """One simulated trial's object poses: times (N,) s of trajectory time, poses (N, 4, 4);
+    outline (M, 2) m and thickness m of the simulated prism; the trial's outcome for the legend."""
+
+    times: NDArray[np.float64]
+    poses: NDArray[np.float64]
+    outline: NDArray[np.float64]
+    thickness: float
+    trial: int = 0
+    outcome: str = ""
+    position_error_mm: float = float("nan")
+    final_pose_difference_m: float | None = None
+
+
+def record_trial(setup: Any, params: Any, start_time: float, trial: int = 0, seed: int | None = None,
+                 campaign_final: Any = None) -> TrialPoses:
+    """Run one trial (sim.trial.run_trial) with recording on. setup: its TrialSetup; params: its
+    TrialParams; start_time: trajectory time (s) of the drive's start (its first primitive);
+    campaign_final: the campaign's final 4x4 pose of the same trial, to compare with."""
+    from ..sim.trial import run_trial, trial_spec
+
+    record: list[tuple[float, NDArray]] = []
+    result = run_trial(setup, params, trial, seed, record=record)
+    times = np.array([t for t, _ in record]) + start_time
+    poses = np.array([p for _, p in record])
+    keep = _thinned(times)
+    spec = trial_spec(setup, params)
+    diff = None
+    if campaign_final is not None:
+        diff = float(np.max(np.abs(np.asarray(campaign_final, dtype=float)[:3, 3] - np.asarray(result.final_pose)[:3, 3])))
+    return TrialPoses(times[keep], poses[keep], np.asarray(spec.obj.outline, dtype=float), float(spec.obj.thickness),
+                      trial, result.cause(), float(result.position_error_mm), diff)
+
+
+def _thinned(times: NDArray) -> NDArray[np.int64]:
+    """Indices of samples at least RECORD_PERIOD_S apart, keeping the first and the last."""
+    keep, last = [], -np.inf
+    for i, t in enumerate(times):
+        if t - last >= RECORD_PERIOD_S - 1e-9:
+            keep.append(i)
+            last = t
+    if keep[-1] != len(times) - 1:
+        keep.append(len(times) - 1)
+    return np.array(keep)
+
+
+def write_trial_poses(directory: PathLike, poses: TrialPoses) -> Path:
+    """Write directory/trial_poses.json atomically; returns its path."""
+    doc = {"format": FORMAT, "schema_version": SCHEMA_VERSION,
+           "units": {"time": "s (trajectory time)", "length": "m"},
+           "trial": poses.trial, "outcome": poses.outcome,
+           "position_error_mm": None if np.isnan(poses.position_error_mm) else poses.position_error_mm,
+           "final_pose_difference_m": poses.final_pose_difference_m,
+           "outline": np.round(poses.outline, 9).tolist(), "thickness": poses.thickness,
+           "times_s": np.round(poses.times, 6).tolist(), "poses": np.round(poses.poses, 9).tolist()}
+    path = Path(directory) / POSES_FILE
+    write_text_atomic(path, json.dumps(doc) + "\n")
+    return path
+
+
+def read_trial_poses(path: PathLike) -> TrialPoses:
+    """Read a trial_poses.json; InputError naming the field for malformed content."""
+    source = str(path)
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise InputError("json", str(e), source) from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise InputError("format", f"expected {FORMAT!r}", source)
+    if doc.get("schema_version") != SCHEMA_VERSION:
+        raise InputError("schema_version", f"is {doc.get('schema_version')!r}; this reader understands "
+                         f"{SCHEMA_VERSION}", source)
+    try:
+        times = np.asarray(doc["times_s"], dtype=float)
+        poses = np.asarray(doc["poses"], dtype=float)
+        outline = np.asarray(doc["outline"], dtype=float)
+        thickness = float(doc["thickness"])
+    except KeyError as e:
+        raise InputError(str(e.args[0]), "missing", source) from None
+    except (TypeError, ValueError) as e:
+        raise InputError("poses", f"not numbers ({e})", source) from None
+    if times.ndim != 1 or poses.shape != (len(times), 4, 4) or len(times) == 0 or np.any(np.diff(times) <= 0):
+        raise InputError("poses", "needs one 4x4 pose per time, times increasing", source)
+    if outline.ndim != 2 or outline.shape[1] != 2 or len(outline) < 3 or not thickness > 0:
+        raise InputError("outline", "needs (N >= 3, 2) points and a positive thickness", source)
+    err = doc.get("position_error_mm")
+    return TrialPoses(times, poses, outline, thickness, int(doc.get("trial", 0)), str(doc.get("outcome", "")),
+                      float("nan") if err is None else float(err), doc.get("final_pose_difference_m"))
+
+
+def write_simulated_view(directory: PathLike, scene: Any, plan: Any, execution: Any, setup: Any, perturbation: Any,
+                         seed: int, campaign_final: Any = None) -> list[Path]:
+    """What the 3D view of a simulated plan needs, written into directory: view_scene.json (kind
+    simulation) and trial_poses.json of trial 0 (run again with recording; its perturbation is the
+    campaign's trial 0's, drawn from (seed, 0)). Returns the two paths."""
+    from ..sim.perturb import trial_params
+    from .record import NON_PRIMITIVES, write_view_record
+
+    traj = execution.trajectory
+    start = next(float(traj.times[a]) for name, a, _ in traj.segments if name not in NON_PRIMITIVES[:2])
+    params = trial_params(perturbation, seed, 1)[0]
+    poses = record_trial(setup, params, start, 0, seed, campaign_final)
+    return [write_view_record(directory, [(scene, plan)], execution, kind="simulation"),
+            write_trial_poses(directory, poses)]
