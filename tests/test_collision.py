@@ -153,3 +153,43 @@ def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
     assert not checker.in_collision(q)[0]
     assert checker.termination_collides(q, "open", 0.005)[0]
     assert not checker.termination_collides(q, "open", 0.002)[0]
+
+
+def test_planar_hull_agrees_with_qhull():
+    """The planar hull (monotone chain) against scipy's Qhull on random point sets, with collinear
+    and repeated points: the same vertices, counter-clockwise."""
+    from scipy.spatial import ConvexHull
+
+    from ungrasp_ompl.geometry.solids import convex_hull_2d
+
+    rng = np.random.default_rng(7)
+    for n in range(3, 60):
+        p = rng.normal(size=(n, 2))
+        p = np.vstack([p, p[:3], 0.5 * (p[0] + p[1])[None]])  # repeats and a midpoint
+        hull = convex_hull_2d(p)
+        qhull = p[ConvexHull(p).vertices]
+        assert {tuple(v) for v in hull} == {tuple(v) for v in qhull}
+        signed_area = np.sum(hull[:, 0] * np.roll(hull[:, 1], -1) - np.roll(hull[:, 0], -1) * hull[:, 1])
+        assert signed_area > 0
+
+
+def test_prism_shape_collides_like_the_hull_of_its_corners():
+    """An extruded planar hull and the 3D hull of the same corners (Qhull) give FCL the same body:
+    the same answers against boxes placed at random."""
+    import fcl
+
+    from ungrasp_ompl.geometry.solids import convex_shape, prism_shape
+
+    rng = np.random.default_rng(3)
+    poly = rng.normal(size=(12, 2))
+    a = fcl.CollisionObject(prism_shape(poly, 0.0, 0.3))
+    corners = np.vstack([np.column_stack([poly, np.zeros(12)]), np.column_stack([poly, np.full(12, 0.3)])])
+    b = fcl.CollisionObject(convex_shape(corners))
+    hits = 0
+    for _ in range(300):
+        box = fcl.CollisionObject(fcl.Box(0.2, 0.2, 0.2), fcl.Transform(rng.uniform([-2.5, -2.5, -0.2], [2.5, 2.5, 0.5])))
+        ra = fcl.collide(a, box, fcl.CollisionRequest(), fcl.CollisionResult()) > 0
+        rb = fcl.collide(b, box, fcl.CollisionRequest(), fcl.CollisionResult()) > 0
+        assert ra == rb
+        hits += ra
+    assert 20 < hits < 280  # both outcomes were tried

@@ -188,3 +188,28 @@ def test_read_json_checks_schema_version(traj, tmp_path, version):
         export.read_json(path)
     assert e.value.field == "schema_version"
     assert "schema_version" in str(e.value)
+
+
+def test_ros2_points_are_written_as_pyyaml_writes_them():
+    """write_ros2_yaml formats its points itself (speed); PyYAML is the oracle: for values of
+    every kind (tiny, huge, negative, whole, 1e-05 that YAML 1.1 needs written 1.0e-05) the text
+    equals yaml.dump's, and reads back to the same floats."""
+    import yaml
+
+    from ungrasp_ompl.robot.export import _YAML_DUMPER, _duration_msg, _yaml_points
+
+    rng = np.random.default_rng(5)
+    specials = [0.0, -0.0, 1.0, -2.0, 1e-05, -3e-300, 1.5e300, 123456789.0, 0.1, 2.0 ** -40]
+    points = []
+    for k in range(40):
+        cols = [(rng.normal(size=7) * 10.0 ** rng.integers(-12, 12, size=7)).tolist() for _ in range(3)]
+        cols[k % 3][k % 7] = specials[k % len(specials)]
+        points.append((float(k) * 0.0173 + 1e-10 * k, *cols))
+    doc = {"points": [{"positions": q, "velocities": dq, "accelerations": ddq, "effort": [],
+                       "time_from_start": _duration_msg(t)} for t, q, dq, ddq in points]}
+    oracle = yaml.dump(doc, Dumper=_YAML_DUMPER, sort_keys=False, default_flow_style=None, width=2**16)
+    ours = _yaml_points(points)
+    assert ours == "".join("  " + line + "\n" for line in oracle.splitlines())
+    parsed = yaml.safe_load("trajectory:\n" + ours)["trajectory"]["points"]
+    assert [p["positions"] for p in parsed] == [p[1] for p in points]
+    assert _yaml_points([]) == "  points: []\n"

@@ -6,12 +6,28 @@ Quick use::
     scene = Scene.from_file("scenes/reference_asymmetric.yaml")
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     print(result.to_json())
+
+The names below load on first use (PEP 562): ``import ungrasp_ompl`` alone costs nothing, and
+the command line loads only what a command needs.
 """
 
-from .errors import InputError, UngraspError
-from .planning import PLANNERS, Plan, PlanOutcome, PlannerOptions, plan
-from .scene import Scene
+from importlib import import_module
 
 __version__ = "0.1.0"
 
-__all__ = ["PLANNERS", "InputError", "Plan", "PlanOutcome", "PlannerOptions", "Scene", "UngraspError", "plan", "__version__"]
+_WHERE = {"InputError": ".errors", "UngraspError": ".errors", "PLANNERS": ".planning", "Plan": ".planning",
+          "PlanOutcome": ".planning", "PlannerOptions": ".planning", "plan": ".planning", "Scene": ".scene"}
+
+__all__ = sorted(_WHERE) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(_WHERE[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))

@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
 from .io import write_atomic  # noqa: E402
-from .planning.result import Plan  # noqa: E402
+from .planning.result import HoldableMap, Plan  # noqa: E402
 from .scene import Scene  # noqa: E402
 
 #: Labels of the C-space map's state classes (scene.StateClass values, in drawing order).
@@ -56,32 +56,30 @@ def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, 
     _save(fig, path)
 
 
-def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 12000) -> None:
+def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 5000) -> None:
     """The force-closed free region around the path with the path's primitives drawn in it.
 
     Three projections (theta-psi, theta-d, psi-d), each shading how much of the
     hidden coordinate's range is free and force-closed with sticking
     contacts, and a 3D view; the goal box in red.
     """
-    from .planning.atlas import SecurityAtlas, planning_box
-
-    box = planning_box(scene)
-    res = np.array([math.radians(1.0), 0.01, math.radians(1.0)])
-    atlas = SecurityAtlas(scene, box, resolution=res)
+    lattice = plan.holdable_map or _holdable_map(scene)
     conv = np.array([180 / math.pi, 1.0, 180 / math.pi])  # plotted units: deg, d, deg
     names = ("theta (deg)", "d (over l)", "psi (deg)")
-    fig = plt.figure(figsize=(12, 10), constrained_layout=True)
+    # a fixed layout: matplotlib's constrained layout would draw the figure twice (half the time)
+    fig = plt.figure(figsize=(12, 10))
+    fig.subplots_adjust(left=0.06, right=0.89, bottom=0.06, top=0.93, wspace=0.22, hspace=0.2)
     glo, ghi = scene.goal.box()
     segments = [(p.type, np.array(p.start) * conv, np.array(p.end) * conv) for p in plan.primitives]
     start = scene.start * conv
     for n, (x, y) in enumerate(((0, 2), (0, 1), (2, 1))):
         ax = fig.add_subplot(2, 2, n + 1)
         hidden = 3 - x - y
-        share = atlas.holdable.mean(axis=hidden)
+        share = lattice.holdable.mean(axis=hidden)
         if x > y:
             share = share.T
-        ext = [atlas.axes[x][0] * conv[x], atlas.axes[x][-1] * conv[x],
-               atlas.axes[y][0] * conv[y], atlas.axes[y][-1] * conv[y]]
+        ext = [lattice.axes[x][0] * conv[x], lattice.axes[x][-1] * conv[x],
+               lattice.axes[y][0] * conv[y], lattice.axes[y][-1] * conv[y]]
         im = ax.imshow(share.T if x < y else share.T, origin="lower", aspect="auto", cmap="Greens",
                        vmin=0, vmax=1, extent=ext)
         ax.add_patch(plt.Rectangle((glo[x] * conv[x], glo[y] * conv[y]), (ghi[x] - glo[x]) * conv[x],
@@ -97,12 +95,15 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
             handles, labels = ax.get_legend_handles_labels()
             unique = dict(zip(labels, handles))
             ax.legend(unique.values(), unique.keys(), loc="best", fontsize=8)
-    fig.colorbar(im, ax=fig.axes, shrink=0.5, label="share of the hidden coordinate free and force-closed")
+    fig.colorbar(im, cax=fig.add_axes((0.915, 0.3, 0.014, 0.4)),
+                 label="share of the hidden coordinate free and force-closed")
     ax = fig.add_subplot(2, 2, 4, projection="3d")
-    free = atlas.state(np.argwhere(atlas.holdable))
+    idx = np.argwhere(lattice.holdable)
+    free = np.column_stack([lattice.axes[a][idx[:, a]] for a in range(3)])
     if len(free) > max_points:
         free = free[np.random.default_rng(0).choice(len(free), max_points, replace=False)]
-    ax.scatter(np.degrees(free[:, 0]), np.degrees(free[:, 2]), free[:, 1], s=2, alpha=0.12, color="#41ab5d")
+    ax.scatter(np.degrees(free[:, 0]), np.degrees(free[:, 2]), free[:, 1], s=1, color="#a1d99b", depthshade=False,
+               rasterized=True)
     _wire_box(ax, glo, ghi)
     for kind, a, b in segments:
         ax.plot([a[0], b[0]], [a[2], b[2]], [a[1], b[1]], lw=3, color=_PRIMITIVE_COLOURS[kind])
@@ -114,6 +115,13 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
     title += f", cost {plan.cost:.1f} ({plan.mode_switches} changes)" if plan.solved else f": {plan.reason}"
     fig.suptitle(title)
     _save(fig, path)
+
+
+def _holdable_map(scene: Scene) -> HoldableMap:
+    """The planner's lattice for a plan that does not carry it (one read from plan.json)."""
+    from .planning.atlas import SecurityAtlas, planning_box
+
+    return HoldableMap.of(SecurityAtlas(scene, planning_box(scene)))
 
 
 def _wire_box(ax, lo: np.ndarray, hi: np.ndarray) -> None:

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics.kinematics import DigitGeometry, aperture, digit_axis, digit_polygons, thumb_normal
-from .solids import Solid, convex_shape
+from .solids import Solid, prism_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
@@ -158,8 +158,7 @@ class CollisionChecker:
         self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "object")}
         if model.section is not None:
             pts = model.section
-            lo, hi = np.column_stack([pts, np.zeros(len(pts))]), np.column_stack([pts, np.full(len(pts), t)])
-            self._bodies["object"] = fcl.CollisionObject(convex_shape(np.vstack([lo, hi])))
+            self._bodies["object"] = fcl.CollisionObject(prism_shape(pts, 0.0, t))
             self._object_extent = (float(pts[:, 0].min()), float(pts[:, 0].max()))
             self._y_range["object"] = (float(pts[:, 1].min()), float(pts[:, 1].max()))
         else:

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import fcl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import ConvexHull
 
 
 @dataclass(frozen=True)
@@ -63,10 +62,17 @@ def box(name: str, centre: ArrayLike, size: ArrayLike, yaw: float = 0.0) -> Soli
     return prism(name, corners @ rot.T + c[:2], c[2] - sz, c[2] + sz)
 
 
+def _convex_hull(points: NDArray):
+    """scipy's ConvexHull, imported on first use: scipy.spatial alone takes 0.3 s to import."""
+    from scipy.spatial import ConvexHull
+
+    return ConvexHull(points)
+
+
 def convex_shape(vertices: ArrayLike) -> fcl.Convex:
     """An FCL convex shape on the convex hull of points (N, 3), faces wound outward."""
     v = np.asarray(vertices, dtype=float)
-    hull = ConvexHull(v)
+    hull = _convex_hull(v)
     pts = v[hull.vertices]
     remap = {int(old): new for new, old in enumerate(hull.vertices)}
     faces = []
@@ -78,12 +84,46 @@ def convex_shape(vertices: ArrayLike) -> fcl.Convex:
     return fcl.Convex(pts, len(hull.simplices), np.array(faces, dtype=np.int64))
 
 
+def convex_hull_2d(points: ArrayLike) -> NDArray[np.float64]:
+    """The convex hull of planar points (N, 2): its vertices counter-clockwise, collinear points
+    dropped (Andrew's monotone chain; the planar case needs no scipy, whose import costs 0.3 s)."""
+    p = np.unique(np.asarray(points, dtype=float), axis=0)  # sorted by x, then y
+    if len(p) < 3:
+        return p
+
+    def chain(pts: NDArray) -> list[NDArray]:
+        out: list[NDArray] = []
+        for q in pts:
+            while len(out) >= 2:
+                (ax, ay), (bx, by) = out[-1] - out[-2], q - out[-2]
+                if ax * by - ay * bx > 0:  # a left turn: keep
+                    break
+                out.pop()
+            out.append(q)
+        return out
+
+    lower, upper = chain(p), chain(p[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def prism_shape(polygon: ArrayLike, bottom: float, top: float) -> fcl.Convex:
+    """An FCL convex shape: the convex hull of a planar polygon (N, 2) extruded along the third
+    axis from bottom to top (m), faces wound outward."""
+    hull = convex_hull_2d(polygon)
+    n = len(hull)
+    verts = np.vstack([np.column_stack([hull, np.full(n, bottom)]), np.column_stack([hull, np.full(n, top)])])
+    faces = [list(range(n - 1, -1, -1)), list(range(n, 2 * n))]
+    faces += [[i, (i + 1) % n, n + (i + 1) % n, n + i] for i in range(n)]
+    flat = np.concatenate([[len(f), *f] for f in faces]).astype(np.int64)
+    return fcl.Convex(verts, len(faces), flat)
+
+
 def polygons_overlap(a: ArrayLike, b: ArrayLike, tol: float = 1e-6) -> bool:
     """Whether the convex hulls of two planar polygons (N, 2) overlap by more than tol (m) along
     every separating-axis candidate (touching along an edge is not an overlap)."""
     polys = [np.asarray(p, dtype=float) for p in (a, b)]
     for p in polys:
-        hull = p[ConvexHull(p).vertices]
+        hull = convex_hull_2d(p)
         edges = np.roll(hull, -1, axis=0) - hull
         axes = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
         for ax in axes:

@@ -172,11 +172,17 @@ def roll_simulation(
 def _touch_fraction(pts, origin, axis, angle, k, plane) -> float:
     """Fraction of the rotation step at which vertex k reaches the plane (bisection)."""
     point, up = plane
+    # the vertex's height above the plane after turning by a (Rodrigues, as _rotate):
+    # h(a) = cos_part cos a + sin_part sin a + rest
+    p = pts[k] - origin
+    along = float(p @ axis)
+    cos_part = float((p - axis * along) @ up)
+    sin_part = float(np.cross(axis, p) @ up)
+    rest = float((origin + axis * along - point) @ up)
     lo, hi = 0.0, 1.0
     for _ in range(24):
         mid = (lo + hi) / 2
-        p = _rotate(pts[k : k + 1], origin, axis, np.array([angle * mid]))[0, 0]
-        if (p - point) @ up < 0:
+        if cos_part * math.cos(angle * mid) + sin_part * math.sin(angle * mid) + rest < 0:
             hi = mid
         else:
             lo = mid

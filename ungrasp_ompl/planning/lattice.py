@@ -15,8 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
@@ -102,6 +100,9 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64]) -> Latti
         costs.append(np.zeros(n_prim))
     rows_a, cols_a, costs_a = (np.concatenate(x) for x in (rows, cols, costs))
     n_nodes = start_node + 1
+    from scipy.sparse import coo_matrix  # here, not at import: only the lattice search needs scipy
+    from scipy.sparse.csgraph import dijkstra
+
     graph = coo_matrix((costs_a, (rows_a, cols_a)), shape=(n_nodes, n_nodes)).tocsr()
     dist, pred = dijkstra(graph, indices=start_node, return_predecessors=True)
 

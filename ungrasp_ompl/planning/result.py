@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from enum import Enum
 from typing import Any
 
@@ -96,6 +96,20 @@ def _at(evidence: dict[str, Any]) -> str:
     return f"{math.degrees(res[0]):g} deg / {res[1]:g} / {math.degrees(res[2]):g} deg"
 
 
+@dataclass(frozen=True)
+class HoldableMap:
+    """The planner's lattice, as the C-space picture shades it: which states can be held with all
+    contacts sticking. Kept with a plan in memory (never written to plan.json), so drawing does
+    not build the lattice again."""
+
+    axes: tuple[np.ndarray, np.ndarray, np.ndarray]  #: lattice values of theta (rad), d (over l), psi (rad)
+    holdable: np.ndarray  #: bool, shape (len(theta), len(d), len(psi))
+
+    @classmethod
+    def of(cls, atlas: SecurityAtlas) -> "HoldableMap":
+        return cls(tuple(atlas.axes), atlas.holdable)
+
+
 @dataclass
 class Plan:
     """The result of planning a scene (see README for every field)."""
@@ -122,6 +136,7 @@ class Plan:
     manipulation_plane: dict | None = None  # G, B, margin, effective friction, frame in the world
     mu_eff: dict | None = None  # friction used in the plane at G, A, B
     stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
+    holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
     def solved(self) -> bool:
@@ -139,7 +154,8 @@ class Plan:
         return self
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"solved": self.solved, **asdict(self)}
+        d = {"solved": self.solved, **asdict(replace(self, holdable_map=None))}
+        del d["holdable_map"]
         d["outcome"] = self.outcome.value
         d["reason"] = self.reason
         d["schema_version"] = JSON_SCHEMA_VERSION

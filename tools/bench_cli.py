@@ -1,0 +1,77 @@
+"""Whole-process wall time of the commands a user types; prints best and median, asserts nothing.
+
+Each command runs REPEAT times in a fresh process, output to a temporary directory, as a new
+user runs it (the installed console script next to this interpreter, else ``python -m
+ungrasp_ompl``). The commands are the ones of the speed table in the README:
+
+    python tools/bench_cli.py [--repeat 5] [--only plan,import,...]
+
+Names: import (``python -c "import ungrasp_ompl.cli"``), help (``ungrasp-ompl --help``),
+bad_input (a scene that does not exist: exit 2), plan (reference_asymmetric, 1 s of RRT*,
+pictures), export (guitar_pick planned, timed and exported), tile (the tangram, RRT*).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "scenes"
+
+
+def _cli() -> list[str]:
+    script = Path(sys.executable).with_name("ungrasp-ompl")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "ungrasp_ompl"]
+
+
+#: name -> (argument list with {out} for the output directory, expected exit codes, aim in s)
+COMMANDS: dict[str, tuple[list[str], tuple[int, ...], float]] = {
+    "import": ([sys.executable, "-c", "import ungrasp_ompl.cli"], (0,), 0.3),
+    "help": (_cli() + ["--help"], (0,), 0.3),
+    "bad_input": (_cli() + ["plan", "no_such_scene.yaml"], (2,), 0.3),
+    "plan": (_cli() + ["plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", "1", "--time", "1",
+                       "--out", "{out}"], (0,), 1.5),
+    "export": (_cli() + ["plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--export", "{out}"], (0,), 2.0),
+    "tile": (_cli() + ["tile", str(SCENES / "tangram.yaml"), "--out", "{out}"], (0, 3), 15.0),
+}
+
+
+def _time_once(argv: list[str], ok: tuple[int, ...]) -> float:
+    out = tempfile.mkdtemp(prefix="bench_cli_")
+    try:
+        t0 = time.perf_counter()
+        proc = subprocess.run([a.replace("{out}", out) for a in argv], capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    if proc.returncode not in ok:
+        tail = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
+        raise SystemExit(f"bench_cli: {' '.join(argv)} exited {proc.returncode}: {tail}")
+    return wall
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--repeat", type=int, default=5, help="runs per command (default 5)")
+    p.add_argument("--only", default=",".join(COMMANDS), help="comma-separated names (default: all)")
+    args = p.parse_args()
+    names = [n.strip() for n in args.only.split(",") if n.strip()]
+    unknown = [n for n in names if n not in COMMANDS]
+    if unknown:
+        raise SystemExit(f"bench_cli: --only: unknown command(s) {', '.join(unknown)}; known: {', '.join(COMMANDS)}")
+    print(f"{'command':<10} {'best':>7} {'median':>7} {'aim':>6}   (whole process, s, {args.repeat} runs)")
+    for name in names:
+        argv, ok, aim = COMMANDS[name]
+        walls = [_time_once(argv, ok) for _ in range(args.repeat)]
+        print(f"{name:<10} {min(walls):7.2f} {statistics.median(walls):7.2f} {aim:6.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
