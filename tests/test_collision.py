@@ -193,3 +193,36 @@ def test_prism_shape_collides_like_the_hull_of_its_corners():
         assert ra == rb
         hits += ra
     assert 20 < hits < 280  # both outcomes were tried
+
+
+def test_exact_planar_narrow_phase_agrees_with_fcl():
+    """Against the frame's walls and placed pieces (upright prisms) the digits and housing are
+    checked in numpy; FCL is the oracle (exact_planar=False): the same answers on states spread
+    over the planning box of several pieces of the tangram, collisions and letting go alike."""
+    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.planning.atlas import planning_box
+    from ungrasp_ompl.shipped import resolve
+    from ungrasp_ompl.tiling import approaches
+
+    layout = Layout.from_file(resolve("tangram", "layout"))
+    n = len(layout.pieces)
+    rng = np.random.default_rng(11)
+    hits = solid_hits = states = 0
+    for i in range(n):
+        placed = [j for j in range(n) if j != i][: (2 * i) % n]
+        for a in approaches(layout, i, placed, 2):
+            scene = layout.scene(i, (a.g, a.b), placed)
+            model = scene.collision_model()
+            exact, oracle = CollisionChecker(model), CollisionChecker(model, exact_planar=False)
+            box = planning_box(scene)
+            q = rng.uniform(box[0], box[1], size=(3000, 3))
+            q[:, 0] = np.round(q[:, 0], 1)  # few distinct theta, as on a lattice (the object goes to FCL)
+            got = exact.in_collision(q)
+            assert np.array_equal(got, oracle.in_collision(q))
+            assert np.array_equal(exact.termination_collides(q[:500], "rotate", 0.3),
+                                  oracle.termination_collides(q[:500], "rotate", 0.3))
+            bare = CollisionChecker(dataclasses.replace(model, solids=())).in_collision(q)
+            hits += int(got.sum())
+            solid_hits += int((got & ~bare).sum())  # decided against the walls and pieces
+            states += len(q)
+    assert 0 < solid_hits and hits < states

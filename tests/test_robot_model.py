@@ -213,3 +213,40 @@ def test_bad_inputs_are_input_errors():
         GripperSpec(finger_length=0.09, thumb_length=0.07, finger_width=-0.02, digit_thickness=0.012)
     with pytest.raises(InputError, match="robot.base"):
         load_ur5e(GRIPPER, np.diag([1.0, 1.0, 2.0, 1.0]))
+
+
+def test_robot_collision_broad_phase_drops_no_pair(robot):
+    """The robot checker sends FCL only the link/target pairs whose bounding ball and box meet;
+    FCL over every pair is the oracle: the same pairs collide for configurations spread over
+    the joint limits, near the tangram's frame and pieces, and some do collide."""
+    import fcl
+
+    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.robot.collision import RobotCollisionChecker
+    from ungrasp_ompl.robot.model import configuration
+    from ungrasp_ompl.robot.pipeline import plane_frame
+    from ungrasp_ompl.shipped import resolve
+    from ungrasp_ompl.tiling import approaches
+
+    layout = Layout.from_file(resolve("tangram", "layout"))
+    a = approaches(layout, 0, [1, 2, 3, 4], 1)[0]
+    scene = layout.scene(0, (a.g, a.b), [1, 2, 3, 4])
+    checker = RobotCollisionChecker(robot, scene, plane_frame(scene))
+    request = fcl.CollisionRequest()
+    rng = np.random.default_rng(2)
+    found = 0
+    for q in _random_q7(robot, rng, 400):
+        got = set(checker.collisions(q))
+        pin.forwardKinematics(robot.model, robot.data, configuration(robot, q))
+        pin.updateGeometryPlacements(robot.model, robot.data, checker.geom, checker.gdata)
+        expected = set()
+        for (name, obj, _), placement in zip(checker.links, checker.gdata.oMg):
+            obj.setTransform(fcl.Transform(placement.rotation, placement.translation))
+            for target_name, target, _ in checker.targets:
+                if target_name == "table" and name.startswith("shoulder_link"):
+                    continue
+                if fcl.collide(obj, target, request, fcl.CollisionResult()):
+                    expected.add(f"{name}/{target_name}")
+        assert got == expected
+        found += bool(expected)
+    assert 0 < found < 400

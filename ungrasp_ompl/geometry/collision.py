@@ -11,8 +11,13 @@ table at G and the digits at A and B): as a slab of the digits' width along GB,
 or, when the scene has its outline, as the whole outline's convex prism, tilted
 by theta about the plane's normal through G.
 
-A numpy broad phase (bounding boxes in the plane, vectorised over states)
-sends only the state/body pairs that may touch to FCL's narrow phase.
+A numpy broad phase (bounding boxes in the plane, vectorised over states) sends only the
+state/body pairs that may touch to the narrow phase. Where a target is, within the slab a
+body sweeps normal to the plane, a rectangle of the plane (every obstacle box; a solid that is
+an upright prism when the plane stands upright, as a frame's walls and the placed pieces are),
+the narrow phase is exact in numpy: the body's outline and the rectangle are apart exactly
+when an edge normal of one separates them (touching counts as a collision). Other solids go
+to FCL's narrow phase (``exact_planar=False`` sends all of them there, the test's oracle).
 """
 
 from __future__ import annotations
@@ -93,6 +98,21 @@ def _max(xs: list[NDArray]) -> NDArray:
     return np.maximum(np.maximum(xs[0], xs[1]), np.maximum(xs[2], xs[3]))
 
 
+def _slab_rect(foot: NDArray, heights: tuple[float, float], y_lo: float, y_hi: float) -> NDArray | None:
+    """An upright prism (its foot, a convex polygon (N, 2) of (x, y), from z = heights[0] to
+    heights[1]) cut by the slab y_lo <= y <= y_hi: the rectangle ((x, z) low, high) it shows in
+    the xz-plane, or None when the slab misses it. The x range comes from the foot's corners
+    inside the slab and its edges' crossings of the two planes."""
+    xs = list(foot[(foot[:, 1] >= y_lo) & (foot[:, 1] <= y_hi), 0])
+    for (x0, y0), (x1, y1) in zip(foot, np.roll(foot, -1, axis=0)):
+        for y in (y_lo, y_hi):
+            if (y0 - y) * (y1 - y) < 0:  # the edge crosses the plane y
+                xs.append(x0 + (x1 - x0) * (y - y0) / (y1 - y0))
+    if not xs:
+        return None
+    return np.array([[min(xs), heights[0]], [max(xs), heights[1]]])
+
+
 def _turned(points: NDArray, pivot: NDArray, angle: NDArray) -> NDArray:
     """Plane points (N, 2) or outlines (N, K, 2) turned by angle (N,) about pivot (N, 2), x toward z."""
     if points.ndim == 3:
@@ -137,7 +157,7 @@ class CollisionModel:
 class CollisionChecker:
     """Collision checks of states (theta, d, psi) of one scene, vectorised over states."""
 
-    def __init__(self, model: CollisionModel):
+    def __init__(self, model: CollisionModel, exact_planar: bool = True):
         self.model = model
         l = model.length
         dg = model.digits
@@ -169,12 +189,18 @@ class CollisionChecker:
             self._bodies["palm"] = fcl.CollisionObject(fcl.Box(dg.palm_length * l, depth, dg.palm_width * l))
             self._y_range["palm"] = (-depth / 2, depth / 2)
         self._targets: list[tuple[str, NDArray, fcl.CollisionObject]] = []
+        #: Per target and body: the target's rectangle ((x, z) low, high) in the body's slab normal
+        #: to the plane, when exact there (None: the slab misses it); bodies absent: FCL decides.
+        self._rect: dict[str, dict[str, NDArray | None]] = {}
+        # the digits and the housing are prisms normal to the plane; the object's outline is not
+        prisms = [body for body in self._bodies if body != "object"]
         self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
         for box in model.boxes:
             lo, hi = np.array(box.lo), np.array(box.hi)
             size, centre = hi - lo, (hi + lo) / 2
             obj = fcl.CollisionObject(fcl.Box(size[0], _DEPTH, size[1]), fcl.Transform(np.array([centre[0], 0.0, centre[1]])))
             self._targets.append((box.name, np.array([lo, hi]), obj))
+            self._rect[box.name] = dict.fromkeys(prisms, np.array([lo, hi])) if exact_planar else {}
         if model.solids:
             if model.frame is None:
                 raise ValueError("solids need the scene's manipulation plane (an object outline)")
@@ -184,6 +210,15 @@ class CollisionChecker:
                 self._target_y[solid.name] = (float(local[:, 1].min()), float(local[:, 1].max()))
                 self._targets.append((solid.name, np.array([xz.min(axis=0), xz.max(axis=0)]),
                                       solid.in_frame(model.frame)))
+                foot = solid.upright_foot() if exact_planar and abs(model.frame[2, 2] - 1.0) < 1e-12 else None
+                self._rect[solid.name] = {}
+                if foot is not None:  # the plane stands upright: the foot turns in the plane's (x, y)
+                    hull, bottom, top = foot
+                    frame = model.frame
+                    local_foot = (hull - frame[:2, 3]) @ frame[:2, :2]
+                    heights = (bottom - frame[2, 3], top - frame[2, 3])
+                    self._rect[solid.name] = {body: _slab_rect(local_foot, heights, *self._y_range[body])
+                                              for body in prisms}
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
@@ -217,20 +252,32 @@ class CollisionChecker:
         return poses
 
     def _pairs(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]]):
-        """Broad phase over the bodies of poses: yields (state index, body, target name, angle, x, z, target)."""
+        """Broad phase over the bodies of poses: yields (body, target name, state indices that may
+        touch it, whether they do touch it (exact), the target's FCL object)."""
         for body, (angle, origin, outline) in poses.items():
             corners = [outline[:, v] for v in range(4)]
             lo, hi = _min(corners), _max(corners)
             blo, bhi = self._y_range[body]
-            for name, (tlo, thi), target in self._targets:
+            for name, box, target in self._targets:
                 tyl, tyh = self._target_y.get(name, (-np.inf, np.inf))
                 if tyl > bhi or tyh < blo:  # apart normal to the plane
                     continue
+                exact = body in self._rect[name]
+                rect = self._rect[name][body] if exact else box
+                if rect is None:
+                    continue
+                tlo, thi = rect
                 near = (lo[:, 0] <= thi[0]) & (hi[:, 0] >= tlo[0]) & (lo[:, 1] <= thi[1]) & (hi[:, 1] >= tlo[1])
                 idx = np.flatnonzero(near)
-                idx = idx[~_separated(outline[idx], tlo, thi)]
-                for i, a, x, z in zip(idx.tolist(), angle[idx].tolist(), origin[idx, 0].tolist(), origin[idx, 1].tolist()):
-                    yield i, body, name, a, x, z, target
+                if len(idx):
+                    yield body, name, idx[~_separated(outline[idx], tlo, thi)], exact, target
+
+    def _fcl_hits(self, body: str, poses: dict[str, tuple[NDArray, NDArray, NDArray]], idx: NDArray,
+                  target: fcl.CollisionObject) -> NDArray[np.bool_]:
+        """FCL's narrow phase for body against target at the states idx."""
+        angle, origin, _ = poses[body]
+        return np.array([self._collide(body, a, x, z, target) for a, x, z in
+                         zip(angle[idx].tolist(), origin[idx, 0].tolist(), origin[idx, 1].tolist())], dtype=bool)
 
     @staticmethod
     def _below_table(outline: NDArray, gap: float = _TABLE_GAP) -> NDArray[np.bool_]:
@@ -268,9 +315,9 @@ class CollisionChecker:
         for body, (_, _, outline) in poses.items():
             if body != "object":
                 hit |= self._below_table(outline, table_gap)
-        for i, body, _, angle, x, z, target in self._pairs(poses):
-            if not hit[i] and self._collide(body, angle, x, z, target):
-                hit[i] = True
+        for body, _, idx, exact, target in self._pairs(poses):
+            idx = idx[~hit[idx]]
+            hit[idx] = True if exact else self._fcl_hits(body, poses, idx, target)
         return hit
 
     def termination_collides(self, q: ArrayLike, kind: str, amount: float, steps: int = 6) -> NDArray[np.bool_]:
@@ -306,5 +353,5 @@ class CollisionChecker:
         poses = self._poses(q)
         out = [f"{body}/table" for body, (_, _, outline) in poses.items()
                if body != "object" and self._below_table(outline)[0]]
-        return out + [f"{body}/{name}" for _, body, name, angle, x, z, target in self._pairs(poses)
-                      if self._collide(body, angle, x, z, target)]
+        return out + [f"{body}/{name}" for body, name, idx, exact, target in self._pairs(poses)
+                      if len(idx) and (exact or self._fcl_hits(body, poses, idx, target)[0])]

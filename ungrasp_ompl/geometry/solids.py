@@ -33,8 +33,23 @@ class Solid:
         if key not in _SHAPES:
             if len(_SHAPES) > 4096:
                 _SHAPES.clear()
-            _SHAPES[key] = convex_shape(self.vertices)
+            foot = self.upright_foot()
+            _SHAPES[key] = prism_shape(foot[0], foot[1], foot[2]) if foot else convex_shape(self.vertices)
         return _SHAPES[key]
+
+    def upright_foot(self) -> tuple[NDArray[np.float64], float, float] | None:
+        """When the solid is an upright prism (two heights, the same (x, y) at both): its foot's
+        convex hull (K, 2) of world (x, y) counter-clockwise, and its bottom and top z (m); else None."""
+        key = (self.name, self.vertices.tobytes())
+        if key not in _FEET:
+            if len(_FEET) > 4096:
+                _FEET.clear()
+            v = self.vertices
+            z = np.unique(v[:, 2])
+            feet = [{tuple(p) for p in v[v[:, 2] == h, :2].round(12)} for h in z]
+            upright = len(z) == 2 and feet[0] == feet[1]
+            _FEET[key] = (convex_hull_2d(v[:, :2]), float(z[0]), float(z[1])) if upright else None
+        return _FEET[key]
 
     def in_frame(self, pose: NDArray) -> fcl.CollisionObject:
         """A collision object of the solid in another frame, pose (4x4) mapping that frame to the world."""
@@ -43,6 +58,7 @@ class Solid:
 
 
 _SHAPES: dict[tuple, fcl.Convex] = {}
+_FEET: dict[tuple, tuple[NDArray, float, float] | None] = {}
 
 
 def prism(name: str, polygon: ArrayLike, bottom: float, top: float) -> Solid:

@@ -67,13 +67,10 @@ class SecurityAtlas:
         self.scene = scene
         self.res = np.asarray(resolution if resolution is not None else scene.options.resolution, dtype=float)
         self.origin = np.asarray(scene.start, dtype=float)
-        box = np.asarray(box, dtype=float)
-        self.lo_index = np.ceil((box[0] - self.origin) / self.res - 1e-9).astype(int)
-        hi_index = np.floor((box[1] - self.origin) / self.res + 1e-9).astype(int)
-        self.shape = tuple(int(x) for x in hi_index - self.lo_index + 1)
+        self.lo_index, self.axes = lattice_axes(self.origin, self.res, box)
+        self.shape = tuple(len(ax) for ax in self.axes)
         if min(self.shape) < 1:
             raise ValueError("the box holds no lattice state")
-        self.axes = [self.origin[a] + self.res[a] * np.arange(self.lo_index[a], hi_index[a] + 1) for a in range(3)]
         grid = np.stack(np.meshgrid(*self.axes, indexing="ij"), axis=-1).reshape(-1, 3)
         self._grid = grid
         th, d, ps = grid.T
@@ -283,6 +280,16 @@ class SecurityAtlas:
             if all(self.leg_secure(l.kind, l.start, l.end) for l in legs):
                 return True
         return False
+
+
+def lattice_axes(origin: NDArray, res: NDArray, box: ArrayLike) -> tuple[NDArray[np.int_], list[NDArray]]:
+    """The lattice through origin with steps res ((theta rad, d, psi rad) each) inside box ((2, 3)
+    corners): the index of its lowest state per coordinate (in steps from origin) and the values
+    along each coordinate (an axis may be empty)."""
+    box = np.asarray(box, dtype=float)
+    lo = np.ceil((box[0] - origin) / res - 1e-9).astype(int)
+    hi = np.floor((box[1] - origin) / res + 1e-9).astype(int)
+    return lo, [origin[a] + res[a] * np.arange(lo[a], hi[a] + 1) for a in range(3)]
 
 
 def planning_box(scene: Scene) -> NDArray[np.float64]:
