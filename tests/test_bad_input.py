@@ -42,6 +42,7 @@ SCENE_COMMANDS = {
     "sweep": ("--alpha", "0.2:0.3:0.1", "--runs", "1", "--time", "0.2", "--jobs", "1", "--seed", "1",
               "--out", "{out}"),
     "simulate": ("--trials", "1", "--perturb", "none", "--jobs", "1", "--time", "0.2", "--out", "{out}"),
+    "map": ("--alpha", "0.4", "--time", "0.2", "--jobs", "1", "--seed", "1", "--out", "{out}"),
 }
 LAYOUT_COMMANDS = {
     "tile": ("--planner", "lattice", "--approaches", "1", "--out", "{out}"),

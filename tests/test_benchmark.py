@@ -3,14 +3,21 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import assert_picture
-from ungrasp_ompl.benchmark import LATTICE, parse_alpha_range, run_benchmark, run_sweep
+from ungrasp_ompl.benchmark import (LATTICE, BenchmarkOptions, RunStatus, SweepOptions, parse_alpha_range,
+                                    run_benchmark, run_sweep)
+from ungrasp_ompl.benchmark.sweep import scene_with_alpha
+from ungrasp_ompl.benchmark.tasks import Task, run_task, run_tasks
 from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.runner import LocalRunner
+from ungrasp_ompl.scene import Scene
 
 SCENES = Path(__file__).parents[1] / "scenes"
 SCENE = SCENES / "reference_asymmetric.yaml"
@@ -20,10 +27,11 @@ PLANNERS = ["RRTstar", "RRTConnect", LATTICE]
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    result = run_benchmark([SCENE], PLANNERS, runs=2, time_limit=0.3, jobs=2, out_dir=out, progress=False)
+    result = run_benchmark([SCENE], BenchmarkOptions(planners=tuple(PLANNERS), runs=2, time=0.3, jobs=2, out=out))
     return out, result
 
 
+@pytest.mark.slow
 def test_database_holds_every_run(bench):
     out, _ = bench
     with sqlite3.connect(out / "benchmark.db") as db:
@@ -38,6 +46,7 @@ def test_database_holds_every_run(bench):
     assert (out / "reference_asymmetric.log").read_text().startswith("OMPL version ")
 
 
+@pytest.mark.slow
 def test_summary_lists_the_planners(bench):
     out, result = bench
     with open(out / "summary.csv", newline="") as f:
@@ -49,6 +58,7 @@ def test_summary_lists_the_planners(bench):
         assert planner in result.table
 
 
+@pytest.mark.slow
 def test_no_planner_beats_the_lattice_optimum(bench):
     out, result = bench
     optimum = result.optima["reference_asymmetric"]
@@ -66,6 +76,7 @@ def test_no_planner_beats_the_lattice_optimum(bench):
     assert costs == [(optimum,), (optimum,)] and logged == optimum
 
 
+@pytest.mark.slow
 def test_plots_are_png(bench):
     out, _ = bench
     for name in ("success_vs_time.png", "cost_vs_time.png"):
@@ -78,20 +89,21 @@ def test_plots_are_png(bench):
 def test_bad_planner_is_refused_before_running(tmp_path, planners, words):
     out = tmp_path / "out"
     with pytest.raises(InputError) as err:
-        run_benchmark([SCENE], planners, runs=1, time_limit=0.3, jobs=2, out_dir=out, progress=False)
+        run_benchmark([SCENE], BenchmarkOptions(planners=tuple(planners), runs=1, time=0.3, jobs=2, out=out))
     assert err.value.field == "--planners"
     assert all(w in str(err.value) for w in words), str(err.value)
     assert not out.exists()
 
 
-@pytest.mark.parametrize("kwargs, field", [(dict(runs=0), "--runs"), (dict(time_limit=-1.0), "--time"),
-                                           (dict(jobs=0), "--jobs")])
+@pytest.mark.parametrize("kwargs, field", [(dict(runs=0), "--runs"), (dict(time=-1.0), "--time"),
+                                           (dict(jobs=0), "--jobs"), (dict(iterations=0), "--iterations"),
+                                           (dict(seed=-1), "--seed")])
 def test_bad_options_are_refused(tmp_path, kwargs, field):
-    args = dict(scene_paths=[SCENE], planners=["RRTstar"], runs=1, time_limit=0.3, jobs=2, out_dir=tmp_path / "o",
-                progress=False) | kwargs
+    options = BenchmarkOptions(**(dict(planners=("RRTstar",), runs=1, time=0.3, jobs=2, out=tmp_path / "o") | kwargs))
     with pytest.raises(InputError) as err:
-        run_benchmark(**args)
+        run_benchmark([SCENE], options)
     assert err.value.field == field
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("text, expected", [
@@ -119,8 +131,9 @@ def test_parse_alpha_range_errors(text):
     assert err.value.field == "--alpha"
 
 
+@pytest.mark.slow
 def test_sweep_over_alpha(tmp_path):
-    result = run_sweep(SCENE, [0.0, 0.47], runs=1, time_limit=0.3, jobs=2, out_dir=tmp_path, progress=False)
+    result = run_sweep(SCENE, SweepOptions(alphas=(0.0, 0.47), runs=1, time=0.3, jobs=2, out=tmp_path))
     equal, reference = result.points
     assert equal.alpha == 0.0 and not equal.lattice_reachable and equal.lattice_optimum is None
     assert equal.success_rate == 0.0 and equal.median_cost is None
@@ -136,5 +149,37 @@ def test_sweep_over_alpha(tmp_path):
 
 def test_sweep_refuses_a_bad_alpha(tmp_path):
     with pytest.raises(InputError) as err:
-        run_sweep(SCENE, [1.5], runs=1, time_limit=0.3, jobs=2, out_dir=tmp_path, progress=False)
+        run_sweep(SCENE, SweepOptions(alphas=(1.5,), runs=1, time=0.3, jobs=2, out=tmp_path))
     assert err.value.field == "--alpha"
+
+
+def test_a_run_status_comes_from_the_plans_outcome():
+    """The lattice run's status on scenes whose outcome is known: solved, a goal region that holds
+    no state (equal digits: no goal state is force-closed), a start that cannot be held."""
+    reference = Scene.from_file(SCENE)
+    equal = Scene.from_file(SCENES / "reference_equal_digits.yaml")
+    unheld = dataclasses.replace(reference, start=np.array([0.1, 0.8, 0.0]))  # the finger in the table
+    assert unheld.diagnose(unheld.start).state_class.name == "COLLISION"
+    solved = run_task(Task("r", reference, LATTICE, -1, 1, 0.3))
+    assert solved.status is RunStatus.EXACT and solved.cost == pytest.approx(85.5)
+    assert run_task(Task("e", equal, LATTICE, -1, 1, 0.3)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
+    assert run_task(Task("u", unheld, LATTICE, -1, 1, 0.3)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
+
+
+def test_seeded_runs_are_reproducible_each_in_its_own_process():
+    """With an iteration budget, a run's result depends on its seed only: the same seed in
+    another process gives the same path cost, iterations and primitive changes."""
+    scene = Scene.from_file(SCENE)
+    tasks = [Task("r", scene, "RRTstar", k, seed, 0.5, 1500) for k, seed in enumerate((3, 4, 3, 4))]
+    a, b, c, d = run_tasks(tasks, LocalRunner(2, fresh=True))
+    assert all(r.status is RunStatus.EXACT for r in (a, b, c, d))
+    assert (a.cost, a.iterations, a.mode_switches) == (c.cost, c.iterations, c.mode_switches)
+    assert (b.cost, b.iterations, b.mode_switches) == (d.cost, d.iterations, d.mode_switches)
+    assert a.iterations == 1500 and a.cost >= 85.5 - 1e-9
+
+
+def test_scene_with_alpha_changes_only_alpha():
+    scene = Scene.from_file(SCENE)
+    changed = scene_with_alpha(scene, 0.2)
+    assert changed.digits.alpha == 0.2 and scene.digits.alpha == 0.47
+    assert changed.digits.thumb_length == scene.digits.thumb_length and changed.mu == scene.mu

@@ -15,7 +15,9 @@ import pytest
 
 from conftest import ROOT, SCENES
 from ungrasp_ompl import Scene
-from ungrasp_ompl.benchmark import SUMMARY_COLUMNS, RunResult, limitation_notes, summarise, validate_planners
+from ungrasp_ompl.benchmark.options import validate_planners
+from ungrasp_ompl.benchmark.statistics import SUMMARY_COLUMNS, limitation_notes, summarise
+from ungrasp_ompl.benchmark.tasks import RunResult, RunStatus
 from ungrasp_ompl.planning.atlas import FORWARD
 from ungrasp_ompl.planning.setup import (KNOWN_LIMITATIONS, PLANNER_ITERATIONS_PER_SECOND, PLANNERS, PlannerOptions,
                                          UngraspSetup)
@@ -128,7 +130,7 @@ def test_motion_asked_for_over_and_over_is_refused():
 
 def _runs(planner: str, status: str, n: int = 3) -> list[RunResult]:
     solved = status == "exact"
-    return [RunResult(group="s", planner=planner, run=k, seed=k, status=status, cost=86.0 if solved else None,
+    return [RunResult(group="s", planner=planner, run=k, seed=k, status=RunStatus(status), cost=86.0 if solved else None,
                       mode_switches=3 if solved else None, time_to_first_solution_s=0.1 if solved else None,
                       planning_time_s=1.0, setup_time_s=0.5, iterations=100, wall_time_s=1.6) for k in range(n)]
 

@@ -38,6 +38,10 @@ def _parser() -> argparse.ArgumentParser:
     pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
     pl.add_argument("scene", help="scene file (YAML), or the name of a shipped scene (see `scenes`)")
     pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
+    pl.add_argument("--objective", default="cost", choices=("cost", "margin", "balanced"),
+                    help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
+                         "primitive changes, then cost) or balanced (cost plus planning.margin_weight times a "
+                         "penalty growing as the margin shrinks)")
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,
@@ -56,7 +60,12 @@ def _parser() -> argparse.ArgumentParser:
     bn.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
     bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
     bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
+    bn.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations per run: runs become reproducible like plan --seed (5x --time as a "
+                         "hard cap); default: stop on wall time, like OMPL's Benchmark")
     bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
+    bn.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    bn.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
 
     sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
     sw.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
@@ -65,11 +74,49 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
     sw.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
     sw.add_argument("--jobs", type=int, default=2)
-    sw.add_argument("--seed", type=int, default=1)
+    sw.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
+    sw.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations per run (reproducible runs); default: stop on wall time")
     sw.add_argument("--out", default="sweep", help="output directory (default ./sweep)")
+    sw.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    sw.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
+
+    mp = sub.add_parser("map", help="a feasibility map over digit asymmetry and friction: the exact verdict, the "
+                        "planner's success and cost (and simulated success) per cell")
+    mp.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    mp.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
+    mp.add_argument("--friction-scale", default="1", metavar="START:STOP:STEP",
+                    help="factors on every friction coefficient of the scene, e.g. 0.5:1.5:0.1 (default 1)")
+    mp.add_argument("--start-theta", type=float, default=None, metavar="DEG",
+                    help="the start pinch's theta in degrees in every cell (default the scene's)")
+    mp.add_argument("--planner", default="RRTstar", help="planner per cell (an OMPL planner, or lattice)")
+    mp.add_argument("--time", type=float, default=0.5,
+                    help="planning time per cell in seconds, as a seeded iteration budget (default 0.5)")
+    mp.add_argument("--seed", type=int, default=1, help="seed of the planner and the simulated trials (default 1)")
+    mp.add_argument("--simulate", type=int, default=0, metavar="N",
+                    help="also simulate N trials of each cell's plan (needs an object thickness)")
+    mp.add_argument("--perturb", default="paper", help="perturbation preset of the simulated trials (default paper)")
+    mp.add_argument("--jobs", type=int, default=2, help="cells at a time on this machine (default 2)")
+    mp.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    mp.add_argument("--resume", action="store_true", help="keep the cells already done in OUT/map.csv")
+    mp.add_argument("--out", default="map", help="output directory (default ./map): map.csv and map.png")
 
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline, or the name of a shipped scene")
+
+    cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
+    cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
+    cg.add_argument("--plan", default=None, help="plan.json to examine (default: plan the scene, as plan does)")
+    cg.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
+    cg.add_argument("--time", type=float, default=1.0, help="planning time in seconds when planning (default 1)")
+    cg.add_argument("--seed", type=int, default=1, help="seed when planning (default 1)")
+    cg.add_argument("--squeeze", type=float, default=0.0,
+                    help="a constant force (N) pressing the object where the finger does (default 0: gravity only)")
+    cg.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
+                    help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
+    cg.add_argument("--start-psi-offset-deg", type=float, default=None,
+                    help="start the plan with psi this much larger (the paper's deviated start, sec. 6.2.3)")
+    cg.add_argument("--out", default=None, help="directory for cage.png and cage.json")
 
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
     tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
@@ -96,6 +143,7 @@ def _parser() -> argparse.ArgumentParser:
                     "friction, mass, thickness")
     sm.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
     sm.add_argument("--out", default="simulation", help="output directory (default ./simulation)")
+    sm.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
     sm.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
                     help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
     sm.add_argument("--start-psi-offset-deg", type=float, default=None,
@@ -124,17 +172,19 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _plan(args: argparse.Namespace) -> int:
+    path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
     from .io import write_text_atomic
     from .planning import plan
     from .scene import Scene
 
-    scene = Scene.from_file(resolve(args.scene, "scene"))
+    scene = Scene.from_file(path)
     out = Path(args.out) if args.out else None
     export = Path(args.export) if args.export else None
     for flag, path in (("--out", out), ("--export", export)):
         if path is not None and path.exists() and not path.is_dir():
             raise InputError(flag, f"{path} exists and is not a directory")
-    result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations)
+    result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations,
+                  objective=args.objective)
     print(result.summary())
     if out is not None:
         from .plotting import draw_plan
@@ -186,21 +236,183 @@ def _stability(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _bench(args: argparse.Namespace) -> int:
-    from .benchmark import run_benchmark
+def _cage(args: argparse.Namespace) -> int:
+    import json
+    import math
 
-    planners = [p.strip() for p in args.planners.split(",") if p.strip()]
+    from .io import write_text_atomic
+    from .planning import plan
+    from .planning.result import read_plan
+    from .robustness import cage_profile, plan_friction_margins
+    from .scene import Scene
+
+    scene = Scene.from_file(resolve(args.scene, "scene"))
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    if scene.object_thickness <= 0.0:
+        raise InputError("object.thickness", "the cage's potential energy needs an object with a thickness (m)",
+                         scene.source)
+    if args.plan is not None:
+        result = read_plan(args.plan)
+    else:
+        result = plan(scene, planner=args.planner, time=args.time, seed=args.seed)
+        if not result.solved:
+            print(result.summary())
+            return EXIT_NO_SOLUTION
+        print(f"planned {scene.name} with {result.planner} (seed {result.seed}): cost {result.cost:.2f}")
+    if args.finger_tip is not None:
+        from dataclasses import replace
+
+        dg = scene.digits
+        scene = replace(scene, digits=replace(dg, flat_finger_tip=args.finger_tip == "flat",
+                                              finger_tip_radius=0.0 if args.finger_tip == "flat"
+                                              else dg.finger_tip_thickness / 2))
+    if args.start_psi_offset_deg is not None:
+        from .sim.campaign import deviated_plan
+
+        result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
+        start = result.states[0]
+        held = scene.diagnose(start)
+        print(f"deviated start: psi {math.degrees(start[2]):.1f} deg ({held.describe('it')}; friction margin "
+              f"{float(scene.margin(start).friction_deg[0]):.2f} deg with every contact sticking)")
+    profile = cage_profile(scene, result, squeeze=args.squeeze)
+    margins = plan_friction_margins(scene, profile.samples)
+    cage0 = profile.cages[0]
+    print(f"cage of {scene.name} along the plan: {len(profile.cages)} states, grid {cage0.spacing[0] * 1000:.2f} mm / "
+          f"{math.degrees(cage0.spacing[2]):.2f} deg, penetration tolerance {cage0.tolerance * 1000:.2f} mm"
+          + (f", squeeze {args.squeeze:g} N" if args.squeeze else ", gravity only"))
+    print(f"  {'state (theta deg, d, psi deg)':<34} {'primitive':<8} {'cage':<12} {'escape mJ':>10} {'margin deg':>10}")
+    last = None
+    for k, (q, c) in enumerate(zip(profile.samples.states, profile.cages)):
+        prim = result.primitives[profile.samples.primitive[k]].type
+        row = (prim, c.outcome.value, round(c.escape_energy_mj, 4))
+        if row == last and k != len(profile.cages) - 1:
+            continue  # print where something changes, and the last state
+        last = row
+        energy = "inf" if math.isinf(c.escape_energy) else f"{c.escape_energy_mj:.4f}"
+        print(f"  ({math.degrees(q[0]):5.1f}, {q[1]:.3f}, {math.degrees(q[2]):5.1f}){'':<13} {prim:<8} "
+              f"{c.outcome.value:<12} {energy:>10} {math.degrees(margins[k]):>10.2f}")
+    e_min, at = profile.minimum()
+    counts = ", ".join(f"{n} {o.replace('_', ' ')}" for o, n in profile.counts().items() if n)
+    q = profile.samples.states[at]
+    start_energy = "inf" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f}"
+    print(f"start: {cage0.outcome.value.replace('_', ' ')} (escape energy {start_energy} mJ)")
+    print(f"smallest escape energy {'inf' if math.isinf(e_min) else f'{e_min * 1000:.4f}'} mJ at (theta "
+          f"{math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi {math.degrees(q[2]):.1f} deg); states: {counts}; "
+          f"smallest friction margin {math.degrees(margins.min()):.2f} deg")
+    if out is not None:
+        from .robustness_plot import draw_cage_profile
+
+        doc = {"scene": scene.name, "squeeze_n": args.squeeze,
+               "states": [[float(x) for x in q] for q in profile.samples.states],
+               "primitive": [int(p) for p in profile.samples.primitive],
+               "friction_margin_deg": [float(math.degrees(m)) for m in margins],
+               "cage": [c.to_dict() for c in profile.cages],
+               "min_escape_energy_mj": None if math.isinf(e_min) else e_min * 1000}
+        write_text_atomic(out / "cage.json", json.dumps(doc, indent=1) + "\n")
+        draw_cage_profile(scene.name, result, profile, margins, out / "cage.png")
+        print(f"wrote {out / 'cage.json'} and {out / 'cage.png'}")
+    return EXIT_OK
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from .benchmark import BenchmarkOptions, run_benchmark
+
+    planners = tuple(p.strip() for p in args.planners.split(",") if p.strip())
     scenes = [resolve(s, "scene") for s in args.scenes]
-    run_benchmark(scenes, planners, args.runs, args.time, args.jobs, args.out, seed=args.seed)
+    options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
+                               out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume)
+    result = run_benchmark(scenes, options, progress=_bar)
+    print(result.table)
+    print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")
     return EXIT_OK
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from .benchmark import parse_alpha_range, run_sweep
+    from .benchmark import SweepOptions, parse_alpha_range, run_sweep
 
-    run_sweep(resolve(args.scene, "scene"), parse_alpha_range(args.alpha), args.runs, args.time, args.jobs,
-              args.out, planner=args.planner, seed=args.seed)
+    options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
+                           time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
+                           cluster=_cluster(args), resume=args.resume)
+    result = run_sweep(resolve(args.scene, "scene"), options, progress=_bar)
+    o = result.options
+    print(f"{result.scene}: {o.planner}, {o.runs} run(s) of {o.time:g} s per alpha; costs in {result.units}")
+    print(result.table)
+    print(f"wrote {', '.join(p.name for p in result.files.values())} to {o.out}")
     return EXIT_OK
+
+
+def _map(args: argparse.Namespace) -> int:
+    from .benchmark.map import MapOptions, run_map
+    from .benchmark.ranges import parse_range
+    from .errors import EXIT_FAILURE
+
+    options = MapOptions(alphas=tuple(parse_range(args.alpha, "--alpha")),
+                         friction_scales=tuple(parse_range(args.friction_scale, "--friction-scale")),
+                         start_theta_deg=args.start_theta, planner=args.planner, time=args.time, seed=args.seed,
+                         simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
+                         resume=args.resume, out=args.out)
+    with _Line() as line:
+        result = run_map(resolve(args.scene, "scene"), options, progress=lambda p: line(_map_progress(p)))
+    o, cells = result.options, result.cells
+    exists = sum(bool(c.secure_path) for c in cells)
+    solved = sum(bool(c.planner_solved) for c in cells)
+    print(f"{result.scene}: {len(o.alphas)} x {len(o.friction_scales)} cells (alpha x friction scale), "
+          f"{result.ran} computed now, {len(cells) - result.ran} kept from {result.files['csv']}")
+    print(f"  a secure path exists in {exists}; {o.planner} ({o.time:g} s, seed {o.seed}) solved {solved}"
+          + (f"; simulated {o.simulate} trials per solved cell ({o.perturb})" if o.simulate else ""))
+    if result.failed:
+        print(f"  {len(result.failed)} cells failed (task_status in map.csv), e.g. alpha {result.failed[0].alpha:g}, "
+              f"friction x{result.failed[0].friction_scale:g}: {result.failed[0].error}; --resume runs them again")
+    print(f"wrote {result.files['csv']} and {result.files['plot']}")
+    return EXIT_FAILURE if result.failed else EXIT_OK
+
+
+def _map_progress(p) -> str:
+    """One progress line of a map (p: benchmark.map.MapProgress)."""
+    line = f"map: {p.done}/{p.total} cells"
+    if p.resumed:
+        line += f" ({p.resumed} from an earlier run)"
+    if p.failed:
+        line += f", {p.failed} failed"
+    if p.last is not None:
+        verdict = ("failed" if p.last.secure_path is None else
+                   "secure path" if p.last.secure_path else "no secure path")
+        line += f"; last alpha {p.last.alpha:g}, friction x{p.last.friction_scale:g}: {verdict}"
+    return line
+
+
+class _Line:
+    """One line on stderr, overwritten in place (\\r) and ended with a newline."""
+
+    def __init__(self) -> None:
+        self.width = 0
+
+    def __call__(self, text: str) -> None:
+        self.width = max(self.width, len(text))
+        sys.stderr.write("\r" + text.ljust(self.width))
+        sys.stderr.flush()
+
+    def __enter__(self) -> "_Line":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.width:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _cluster(args: argparse.Namespace) -> str | None:
+    """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
+    return args.cluster or os.environ.get("RAY_ADDRESS") or None
+
+
+def _bar(done: int, total: int, width: int = 30) -> None:
+    """A progress bar on stderr, redrawn in place; a newline when all is done."""
+    filled = width * done // total if total else width
+    sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total}" + ("\n" if done == total else ""))
+    sys.stderr.flush()
 
 
 def _tile(args: argparse.Namespace) -> int:
@@ -331,7 +543,8 @@ def _simulate(args: argparse.Namespace) -> int:
     print(f"simulating {args.trials} trials of {scene.name} ({len(result.primitives)} primitives, "
           f"{setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat), perturbation "
           f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
-    report = simulate(setup, perturbation, args.trials, args.seed, jobs, _progress(args.trials), scene.name, variant)
+    report = simulate(setup, perturbation, args.trials, args.seed, jobs, _progress(args.trials), scene.name, variant,
+                      cluster=_cluster(args))
     report.plan_problems = problems
     summary = report.to_dict()
     errs = summary["position_error_mm"]
@@ -392,7 +605,8 @@ def _simulate_layout(args: argparse.Namespace, perturbation, out: Path) -> int:
     setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
     print(f"simulating {args.trials} attempts of {layout.name}: {len(setups)} pieces each, perturbation "
           f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
-    attempts = simulate_tiling(layout, setups, perturbation, args.trials, args.seed, jobs, _progress(args.trials))
+    attempts = simulate_tiling(layout, setups, perturbation, args.trials, args.seed, jobs, _progress(args.trials),
+                               cluster=_cluster(args))
     placed = sum(a.success for a in attempts)
     print(f"success {placed}/{args.trials} (all {len(setups)} pieces flat inside the frame)")
     for a in attempts:
@@ -462,8 +676,9 @@ def run(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     try:
         args = _parser().parse_args(argv)
-        commands = {"plan": _plan, "regions": _regions, "stability": _stability, "bench": _bench, "sweep": _sweep,
-                    "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
+        commands = {"plan": _plan, "regions": _regions, "stability": _stability, "cage": _cage, "bench": _bench,
+                    "sweep": _sweep,
+                    "map": _map, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
         return commands[args.command](args)
     except UngraspError as exc:
         print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)

@@ -15,7 +15,7 @@ import os
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,6 +27,10 @@ from .mechanics import DigitGeometry, force_closure, kinematic_checks, kinematic
 from .mechanics.force_closure import SLIDING_MODELS
 from .scene_file import MAX_LENGTH, SceneReader, read_yaml
 from .scene_options import Object3D, PlanningOptions, RobotOptions, SimOptions
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .mechanics.cage import Cage, CageGrid
+    from .mechanics.margin import Margins
 
 __all__ = ["Box", "GoalSpec", "Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass",
            "StateDiagnosis", "read_yaml"]
@@ -248,7 +252,7 @@ class Scene:
 
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
-                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin"})
+                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight"})
         margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -278,6 +282,7 @@ class Scene:
             sliding_model=model,
             reverse_primitives=reverse,
             forbid_partial=forbid_partial,
+            margin_weight=r.margin_weight(pl),
             resolution=resolution,
             d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
@@ -304,6 +309,57 @@ class Scene:
                 raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
             sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
         return force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
+
+    def margin(self, q: ArrayLike, dq: ArrayLike | None = None) -> Margins:
+        """How far states q (N, 3) (theta rad, d over l, psi rad) are from losing their grip
+        (docs/model.md, section 4.4): the friction margin (rad) in the contact mode each velocity
+        dq makes (every contact sticking without dq, as in :meth:`force_closure`), positive
+        exactly where that holds, and the kinematic margins (m) of B on the thumb, the digits
+        above the table and from the obstacles (mechanics.margin.kinematic_margins)."""
+        from .mechanics.margin import Margins, friction_margin, kinematic_margins
+
+        q = _states(q, "q")
+        if dq is None:
+            sa = sb = np.zeros(len(q), dtype=np.int8)
+        else:
+            dq = _states(dq, "dq")
+            if dq.shape != q.shape:
+                raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
+            sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+        l = self.object_length
+        boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]]) / l
+                      for b in self.obstacles)
+        friction = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
+        return Margins(friction, kinematic_margins(q[:, 0], q[:, 1], q[:, 2], self.digits, l, boxes))
+
+    def cage(self, q: ArrayLike, grid: CageGrid | None = None, squeeze: float = 0.0) -> list[Cage]:
+        """The energy-bounded cage of each state q (N, 3) (docs/model.md, section 4.5): with the
+        digits and the table where the state puts them, the energy (J) the object (its section by
+        the manipulation plane, its weight from sim.density and its volume) must gain to escape.
+        squeeze: a constant force (N) pressing it where the finger does. Raises InputError for an
+        object without thickness (it has no weight)."""
+        from .mechanics.cage import CageGrid, escape_energy, pinch_problem, weight_of
+
+        q = _states(q, "q")
+        if self.object_thickness <= 0.0:
+            raise InputError("object.thickness", "the cage's potential energy needs an object with a thickness (m)",
+                             self.source)
+        if not (math.isfinite(squeeze) and squeeze >= 0.0):
+            raise InputError("squeeze", f"must be a force in newtons >= 0, got {squeeze!r}")
+        l = self.object_length
+        centre_x, area = l / 2, l * self.digits.width * l
+        section = self.collision_model().section
+        if section is not None:
+            x, y = section[:, 0], section[:, 1]
+            cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+            area = abs(float(cross.sum())) / 2
+            centre_x = float(((x + np.roll(x, -1)) * cross).sum() / (3 * cross.sum()))
+        weight = weight_of(self.sim.density * area * self.object_thickness)
+        boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]])
+                      for b in self.obstacles)
+        grid = grid or CageGrid()
+        return [escape_energy(pinch_problem(*state, self.digits, l, self.object_thickness, centre_x, weight, boxes,
+                                            squeeze), grid, l) for state in q]
 
     def collision_model(self) -> CollisionModel:
         """What collision checking needs of this scene, in plane coordinates (metres)."""

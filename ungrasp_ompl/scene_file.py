@@ -236,6 +236,11 @@ class SceneReader:
                 self.fail(f"sim.{k}", f"is absurdly large ({out[k]:g})")
         return SimOptions(**{**{k: getattr(d, k) for k in d.__dataclass_fields__}, **out})
 
+    def margin_weight(self, planning: dict) -> float:
+        """planning.margin_weight: the balanced objective's weight (cost x deg), in [0, 1e4]."""
+        return self.number(planning, "planning.margin_weight", "margin_weight", minimum=0.0, maximum=1e4, default=1.0,
+                           unit=" (cost x deg)")
+
     def flag(self, m: dict, key: str, k: str) -> bool:
         v = m.get(k, False)
         if not isinstance(v, bool):

@@ -31,6 +31,8 @@ class PlanningOptions:
     """Cost per change of primitive."""
     forbid_partial: bool = False
     """No leg with two sliding contacts (P_dpsi), so every leg keeps full 3D stability."""
+    margin_weight: float = 1.0
+    """The balanced objective's weight on friction margin (cost x deg): a step costs this times its L1 length over its margin in deg."""
 
 
 @dataclass(frozen=True)

@@ -42,11 +42,13 @@ from .errors import InputError
 from .layout import Layout
 from .mechanics.antipodal import antipodal_pairs
 from .planning import plan as plan_scene
-from .planning.atlas import SecurityAtlas, planning_box
+from .geometry.collision import CollisionChecker
+from .mechanics import kinematic_validity
+from .planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from .planning.lattice import lattice_search
 from .planning.result import Plan, PlanOutcome, describe_outcome
-from .planning.setup import LATTICE, ends_problem
-from .scene import Scene
+from .planning.setup import LATTICE
+from .scene import Scene, StateClass
 
 #: Room beyond B (and behind G) counted by the ranking, m: more is not better.
 ROOM_CAP = 0.02
@@ -259,23 +261,46 @@ def wall_contact(layout: Layout, i: int) -> float:
 
 # -- checking one approach -------------------------------------------------------------
 
-def screen(scene: Scene) -> str | None:
-    """Why an approach cannot work, from the start grasp and the goal region alone; None if it may."""
+def screen(scene: Scene, chunk: int = 8192) -> str | None:
+    """Why an approach cannot work, from the start grasp and the goal region alone; None if it may.
+
+    The answer of planning.setup.ends_problem on the goal's lattice states, found a chunk of
+    states at a time: it stops at the first state that can be held and let go."""
     box = planning_box(scene)
     glo, ghi = scene.goal.box()
     goal_box = np.array([np.maximum(box[0], glo), np.minimum(box[1], ghi)])
     if np.any(goal_box[0] > goal_box[1]):
         return describe_outcome(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
-    problem = ends_problem(scene, SecurityAtlas(scene, goal_box))  # the goal's states only: cheap
-    return describe_outcome(problem.pop("outcome"), problem) if problem else None
+    checker = CollisionChecker(scene.collision_model())
+    if scene.classify(scene.start, checker)[0] != StateClass.HELD.value:
+        start = scene.diagnose(scene.start)
+        return describe_outcome(PlanOutcome.START_NOT_HELD, dict(
+            state_class=start.state_class.name, failed_checks=list(start.failed_checks), contacts=list(start.contacts)))
+    _, axes = lattice_axes(np.asarray(scene.start, dtype=float), np.asarray(scene.options.resolution, dtype=float),
+                           goal_box)
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    r = scene.robot
+    amount = r.termination_opening if r.termination == "open" else r.termination_angle
+    holdable = False
+    for k in range(0, len(grid), chunk):
+        q = grid[k:k + chunk]
+        q = q[kinematic_validity(q[:, 0], q[:, 1], q[:, 2], scene.digits)]
+        q = q[scene.force_closure(q)]
+        q = q[~checker.in_collision(q)] if len(q) else q
+        holdable |= bool(len(q))
+        for j in range(0, len(q), 64):  # letting go costs most: a few states at a time
+            if not checker.termination_collides(q[j:j + 64], r.termination, amount).all():
+                return None
+    return describe_outcome(PlanOutcome.GOAL_EMPTY, dict(holdable=holdable, termination=r.termination))
 
 
-def prove(scene: Scene) -> str | None:
-    """None when the exact lattice search finds a secure path, else why not."""
+def prove(scene: Scene) -> tuple[str | None, SecurityAtlas]:
+    """Whether the exact lattice search finds a secure path (None, or why not) and the secure
+    lattice it searched, which planning the piece then reuses."""
     atlas = SecurityAtlas(scene, planning_box(scene))
     if not lattice_search(atlas, scene.goal.box()).reachable:
-        return "no secure path (exact lattice search)"
-    return None
+        return "no secure path (exact lattice search)", atlas
+    return None, atlas
 
 
 # -- the search ----------------------------------------------------------------------
@@ -296,7 +321,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             progress(TilingProgress(stage, done, n, result.checks, layout.pieces[i].name))
     walls = [wall_contact(layout, i) for i in range(n)]
     screened: dict[tuple[frozenset, int], tuple[list, list[str]]] = {}
-    proven: dict[tuple[frozenset, int], tuple[Approach, Scene] | None] = {}
+    proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
     deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
 
     def out_of_checks() -> bool:
@@ -348,9 +373,9 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                         break
                     result.checks += 1
                     report("search", len(placed), i)
-                    problem = prove(scene)
+                    problem, atlas = prove(scene)
                     if problem is None:
-                        proven[key] = (a, scene)
+                        proven[key] = (a, scene, atlas)
                         break
                     why.append(f"{a.describe()}: {problem}")
                 if proven[key] is None:  # it cannot be placed now, nor after more pieces
@@ -374,10 +399,11 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                                   "TilingOptions.max_checks, before trying every order)")
         result.time_s = time.perf_counter() - t0
         return result
-    for k, (i, a, scene) in enumerate(found):
+    for k, (i, a, scene, atlas) in enumerate(found):
         report("plan", k, i)
         seed = None if opts.seed is None else opts.seed + k
-        p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range)
+        p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range,
+                       atlas=atlas)  # the lattice the proof searched
         note = None
         if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
             note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"

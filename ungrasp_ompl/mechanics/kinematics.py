@@ -186,3 +186,27 @@ def kinematic_validity(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: D
     """True where every kinematic condition of :func:`kinematic_checks` holds."""
     checks = kinematic_checks(theta, d, psi, digits)
     return np.logical_and.reduce(list(checks.values()))
+
+
+def digit_bodies(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> list[NDArray[np.float64]]:
+    """The thumb, the finger and (when sized) the housing as counter-clockwise polygons (N, 4, 2),
+    over l: the digits of :func:`digit_polygons` and the housing as geometry/collision.py places it,
+    behind the digit bases, centred between the faces."""
+    theta, d, psi = np.broadcast_arrays(*(np.ravel(x) for x in _arrays(theta, d, psi)))
+    thumb, finger = digit_polygons(theta, d, psi, digits)
+    out = [_ccw(thumb), _ccw(finger)]
+    if digits.palm_width > 0 and digits.palm_length > 0:
+        back = -digit_axis(theta, psi)
+        across = thumb_normal(theta, psi)
+        w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
+        centre = thumb[:, 0] + (digits.thumb_length + digits.palm_length / 2) * back + (w / 2)[:, None] * across
+        a, c = digits.palm_length / 2 * back, digits.palm_width / 2 * across
+        out.append(_ccw(np.stack([centre - a - c, centre + a - c, centre + a + c, centre - a + c], axis=1)))
+    return out
+
+
+def _ccw(poly: NDArray) -> NDArray:
+    """Polygons (N, k, 2) with their vertex order reversed where it runs clockwise."""
+    x, z = poly[..., 0], poly[..., 1]
+    area = np.sum(x * np.roll(z, -1, axis=-1) - np.roll(x, -1, axis=-1) * z, axis=-1)
+    return np.where((area < 0)[:, None, None], poly[:, ::-1], poly)

@@ -136,6 +136,9 @@ class Plan:
     manipulation_plane: dict | None = None  # G, B, margin, effective friction, frame in the world
     mu_eff: dict | None = None  # friction used in the plane at G, A, B
     stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
+    objective: str = "cost"  # what the planner optimised: cost, margin or balanced (docs/model.md, section 6)
+    min_margin_deg: float | None = None  # smallest friction margin along the path's motion, each leg in its mode
+    start_margin_deg: float | None = None  # the start's friction margin with every contact sticking
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
@@ -230,6 +233,9 @@ class Plan:
         if self.solved:
             lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
                          f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
+            if self.min_margin_deg is not None:
+                lines.append(f"  objective {self.objective}: smallest friction margin along the path "
+                             f"{self.min_margin_deg:.3f} deg (the start, held: {self.start_margin_deg:.3f} deg)")
             first = self.time_to_first_solution_s
             lines.append(f"  first solution {first:.3f} s, planning {self.planning_time_s:.2f} s "
                          f"({self.iterations} iterations, stopped by {self.stopped_by}), setup {self.setup_time_s:.2f} s")

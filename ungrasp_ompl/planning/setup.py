@@ -15,7 +15,6 @@ child process.
 from __future__ import annotations
 
 import math
-import os
 from time import perf_counter
 from dataclasses import dataclass
 from enum import Enum
@@ -25,22 +24,22 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from ..errors import InputError
+from ..errors import InputError, ToolError
 from ..geometry.collision import CollisionChecker
+from ..runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
 from .atlas import Leg, SecurityAtlas, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search
-from .objective import PrimitiveCostObjective
-from .result import Plan, PlanOutcome, merge_legs, sequence_cost
+from .names import LATTICE, PLANNERS
+from .margins import OBJECTIVES, LatticeMargins
+from .objective import BalancedObjective, MarginObjective, PrimitiveCostObjective
+from .result import HoldableMap, Plan, PlanOutcome, merge_legs, sequence_cost
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
 from .verify import verify_leg
 
-#: OMPL geometric planners that can be asked for by name.
-PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar", "BITstar", "AORRTC", "FMT", "BFMT",
-            "RRT", "RRTConnect", "KPIECE1", "BKPIECE1", "LBKPIECE1", "PRM", "PRMstar")
 
 #: Planners that may spin in C++ without checking their termination condition, and what was seen.
 #: AORRTC's loop (its connect step re-adding one state, checking the same motion each time) is
@@ -52,9 +51,6 @@ UNRULY_PLANNERS = {
 }
 #: Seconds a run may take beyond its time cap before it counts as hung.
 HANG_GRACE_S = 60.0
-
-#: The exact lattice search, usable as a planner by this name.
-LATTICE = "lattice"
 
 #: Planners of the ompl wheel that cannot run with Python callbacks, and why. None now: PRM and
 #: PRMstar, whose two solver threads deadlock on the GIL, run with their threads taking turns
@@ -115,6 +111,9 @@ class PlannerOptions:
     """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
     """Shorten the path with OMPL's PathSimplifier (shortcuts in travel direction)."""
+    objective: str = "cost"
+    """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
+    the path) or balanced (cost plus planning.margin_weight times a penalty growing as it shrinks)."""
 
     def validated(self) -> "PlannerOptions":
         if self.planner in UNUSABLE_PLANNERS:
@@ -131,18 +130,32 @@ class PlannerOptions:
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not 0 <= self.goal_bias <= 1:
             raise InputError("goal_bias", f"must lie in [0, 1], got {self.goal_bias!r}")
+        check_objective(self.objective, self.planner)
         return self
+
+
+def check_objective(objective: str, planner: str) -> None:
+    """InputError unless objective is one of OBJECTIVES and the planner can optimise it."""
+    if objective not in OBJECTIVES:
+        raise InputError("objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if objective != "cost" and planner in ROADMAP_PLANNERS:
+        raise InputError("objective", f"{planner} optimises the cost only (its roadmap objective takes edges "
+                         "either way while it grows); use RRTstar or lattice for the margin objectives")
 
 
 class UngraspSetup:
     """The OMPL problem of one scene, ready to solve (like og.SimpleSetup)."""
 
-    def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions()):
+    def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions(), atlas: SecurityAtlas | None = None):
+        """atlas: the scene's secure lattice over its planning box when built already (tiling's
+        proof built it); otherwise it is built here."""
         self.scene = scene
         self.options = options.validated()
         _OmplRng.drawn = True  # planners draw seeds from OMPL's RNG when built
         t0 = perf_counter()
-        self.atlas = SecurityAtlas(scene, planning_box(scene))
+        if atlas is not None and (atlas.scene is not scene or not np.allclose(atlas.res, scene.options.resolution)):
+            raise ValueError("the atlas given was built for another scene or resolution")
+        self.atlas = atlas if atlas is not None else SecurityAtlas(scene, planning_box(scene))
         self.atlas.prepare()
         self.space = make_state_space(planning_box(scene))
         self.si = ob.SpaceInformation(self.space)
@@ -152,7 +165,15 @@ class UngraspSetup:
         self.si.setStateValidityChecker(self.validity_checker)
         self.si.setMotionValidator(self.motion_validator)
         self.si.setup()
-        self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
+        self.margins = LatticeMargins(self.atlas) if self.options.objective != "cost" else None
+        if self.margins is not None:
+            self.margins.prepare()
+        if self.options.objective == "margin":
+            self.objective = MarginObjective(self.si, self.atlas, self.margins)
+        elif self.options.objective == "balanced":
+            self.objective = BalancedObjective(self.si, self.atlas, self.margins)
+        else:
+            self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
         self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
         self.pdef = ob.ProblemDefinition(self.si)
         self._start = self.space.allocState()
@@ -180,7 +201,8 @@ class UngraspSetup:
         opts, scene = self.options, self.scene
         plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=opts.planner, seed=opts.seed,
                     sliding_model=scene.options.sliding_model, setup_time_s=self.setup_time,
-                    resolution=[float(x) for x in self.atlas.res])
+                    resolution=[float(x) for x in self.atlas.res], holdable_map=HoldableMap.of(self.atlas),
+                    objective=opts.objective)
         problem = self.ends_problem()
         if problem:
             plan.stopped_by = "not started"
@@ -240,8 +262,8 @@ class UngraspSetup:
 
     def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
         """Primitive legs realising a path of states, each edge in its travel direction,
-        choosing among the realisations of every edge those with fewest primitive
-        changes overall; every leg re-validated with the exact mechanics."""
+        choosing among the realisations of every edge (the best for a robust objective) those
+        with fewest primitive changes overall; every leg re-validated with the exact mechanics."""
         atlas = self.atlas
         idx = []
         for q in states:
@@ -255,6 +277,10 @@ class UngraspSetup:
             found = atlas.realise(a, b)
             if not found:
                 return [], f"edge {k} has no secure primitive legs in its travel direction"
+            if self.margins is not None:  # the realisations the objective counted: widest, or least penalised
+                score = [(-min(self.margins.leg_margin(l) for l in r) if self.options.objective == "margin"
+                          else sum(self.margins.leg_penalty(l) for l in r)) for r in found]
+                found = [r for r, v in zip(found, score) if v == min(score)]
             options.append(found)
         legs = _fewest_changes(options)
         return legs, verify_legs(self.scene, atlas, legs)
@@ -282,7 +308,7 @@ def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None
                     failed_checks=list(start.failed_checks), contacts=list(start.contacts))
     box = scene.goal.box()
     if goal_reachable is None:
-        goal_reachable = bool(atlas.releasable_in(box).any())
+        goal_reachable = atlas.can_let_go_in(box)
     if not goal_reachable:
         return dict(outcome=PlanOutcome.GOAL_EMPTY, holdable=bool(atlas.holdable_in(box).any()),
                     termination=scene.robot.termination)
@@ -301,25 +327,38 @@ def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | No
 
 
 def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg]) -> None:
-    """Record verified legs in a plan: merged primitives, corner states, cost; marks it solved."""
+    """Record verified legs in a plan: merged primitives, corner states, cost, the friction margins
+    (the path's smallest, the start's); marks it solved."""
+    from ..mechanics.margin import friction_margin
+    from ..robustness import path_margin
+
     steps = merge_legs(atlas, legs)
     plan.primitives = steps
     plan.states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
     plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
     plan.outcome, plan.evidence = PlanOutcome.SOLVED, {}
+    scene = atlas.scene
+    if steps:
+        plan.min_margin_deg = math.degrees(path_margin(scene, plan, atlas.res))
+    plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.mu, scene.options.sliding_model)[0]))
 
 
-def lattice_plan(scene: Scene, seed: int | None = None) -> Plan:
+def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | None = None,
+                 objective: str = "cost") -> Plan:
     """The exact optimum on the scene's lattice as a plan (the 'lattice' planner): a Dijkstra search
-    with the planners' cost, its legs re-validated like any planner's path."""
+    with the planners' cost (or a bottleneck search for the margin objective, lattice_search), its
+    legs re-validated like any planner's path."""
+    check_objective(objective, LATTICE)
     t0 = perf_counter()
-    atlas = SecurityAtlas(scene, planning_box(scene))
+    atlas = atlas if atlas is not None else SecurityAtlas(scene, planning_box(scene))
+    margins = LatticeMargins(atlas) if objective != "cost" else None
     t1 = perf_counter()
-    result = lattice_search(atlas, scene.goal.box())
+    result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
     plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=LATTICE, seed=seed,
                 sliding_model=scene.options.sliding_model, setup_time_s=t1 - t0, planning_time_s=t2 - t1,
-                resolution=[float(x) for x in atlas.res], stopped_by="planner", lattice_optimum=result.cost)
+                resolution=[float(x) for x in atlas.res], stopped_by="planner", lattice_optimum=result.cost,
+                holdable_map=HoldableMap.of(atlas), objective=objective)
     if not result.reachable:
         problem = ends_problem(scene, atlas)
         return plan.fail(**problem) if problem else plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=plan.resolution)
@@ -360,15 +399,16 @@ class _OmplRng:
 
 
 def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
-         iterations: int | None = None, **options) -> Plan:
+         iterations: int | None = None, atlas: SecurityAtlas | None = None, **options) -> Plan:
     """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions.
 
     With a seed the result is reproducible: the same seed gives the same plan
     (timing fields aside). A planner known to ignore its time limit runs in a
-    child process that is stopped HANG_GRACE_S seconds after its cap.
+    child process that is stopped HANG_GRACE_S seconds after its cap. atlas: the
+    scene's secure lattice when built already (used when planning in this process).
     """
     if planner == LATTICE:
-        result = lattice_plan(scene, seed)
+        result = lattice_plan(scene, seed, atlas, options.get("objective", "cost"))
         if scene.plane is not None:
             add_3d_report(scene, result)
         return result
@@ -377,14 +417,14 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
         return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
     if seed is not None and _OmplRng.drawn:
         return _plan_in_child(scene, opts)
-    return _plan_here(scene, opts)
+    return _plan_here(scene, opts, atlas)
 
 
-def _plan_here(scene: Scene, opts: PlannerOptions) -> Plan:
+def _plan_here(scene: Scene, opts: PlannerOptions, atlas: SecurityAtlas | None = None) -> Plan:
     if opts.seed is not None:
         ou.RNG.setSeed(opts.seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-    result = UngraspSetup(scene, opts).solve()
+    result = UngraspSetup(scene, opts, atlas).solve()
     if scene.plane is not None:
         add_3d_report(scene, result)
     return result
@@ -406,37 +446,17 @@ def add_3d_report(scene: Scene, result: Plan) -> None:
         p.x_moments = report.x_mechanism
 
 
-def _child(scene: Scene, opts: PlannerOptions, queue) -> None:
-    try:
-        queue.put(_plan_here(scene, opts))
-    except BaseException as exc:  # handed back to the parent
-        queue.put(exc)
-    queue.close()
-    queue.join_thread()  # the result is in the pipe
-    os._exit(0)  # skip interpreter finalisation, where nanobind lists OMPL objects still alive
-
-
 def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = None) -> Plan:
-    """Plan in a fresh process (its own OMPL RNG); stop it after deadline seconds if given."""
-    import multiprocessing as mp
-    import queue as queues
-
-    ctx = mp.get_context("spawn")
-    queue = ctx.Queue()
-    proc = ctx.Process(target=_child, args=(scene, opts, queue), daemon=True)
-    proc.start()
-    try:
-        result = queue.get(timeout=deadline)
-    except queues.Empty:
-        proc.kill()
-        proc.join()
+    """Plan in a fresh process (its own OMPL RNG); stop it after deadline seconds if given.
+    An exception raised there is raised here; a process that ends without an answer is a ToolError."""
+    outcome = run_in_child(_plan_here, scene, opts, deadline=deadline)
+    if outcome.status is TaskStatus.HUNG:
         return Plan(outcome=PlanOutcome.HUNG, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, stopped_by="killed", planning_time_s=deadline,
-                    evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS[opts.planner]))
-    proc.join()
-    if isinstance(result, BaseException):
-        raise result
-    return result
+                    sliding_model=scene.options.sliding_model, stopped_by="killed", planning_time_s=deadline or 0.0,
+                    evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS.get(opts.planner, "")))
+    if outcome.status is TaskStatus.DIED:
+        raise ToolError(f"the process planning {scene.name} with {opts.planner} ended without an answer")
+    return outcome.unwrap()
 
 
 __all__ = ["PLANNERS", "PlannerOptions", "UngraspSetup", "plan"]

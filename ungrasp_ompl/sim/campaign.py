@@ -10,15 +10,15 @@ from __future__ import annotations
 import collections
 import math
 import os
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterator
+from contextlib import closing, contextmanager
 from dataclasses import dataclass, field, replace
-from multiprocessing import get_context
 
 import numpy as np
 
 from ..errors import InputError
 from ..planning.result import Plan
+from ..runner import InlineRunner, LocalRunner, Runner, open_runner
 from ..scene import Scene
 from .outcome import Outcome, TrialResult
 from .perturb import Perturbation, TrialParams, trial_params
@@ -81,31 +81,40 @@ def _one(args: tuple[TrialSetup, TrialParams, int, int]) -> TrialResult:
 
 def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
              progress: Callable[[TrialResult], None] | None = None, scene: str = "",
-             variant: Variant = Variant()) -> SimulationReport:
+             variant: Variant = Variant(), cluster: str | None = None) -> SimulationReport:
     """Run trials 0 .. trials-1 of a placement, each with its own seeded perturbation (the same
-    seed gives the same trials wherever they run), jobs at a time in worker processes.
+    seed gives the same trials wherever they run), jobs at a time in worker processes
+    (ungrasp_ompl.runner), or on the Ray cluster at the address cluster. A trial that raises, or whose worker dies, ends the campaign with
+    that error (TaskLost for a worker that died).
     progress is called with each result as it arrives."""
     if trials < 1:
         raise InputError("--trials", f"must be at least 1, got {trials}")
     if jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {jobs}")
     work = [(setup, p, k, seed) for k, p in enumerate(trial_params(perturbation, seed, trials))]
+    # spawned workers import only numpy, mujoco and this package's sim modules
     results: list[TrialResult] = []
-    if jobs == 1 or trials == 1:
-        for item in work:
-            results.append(_one(item))
+    with trial_runner(jobs, trials, cluster) as runner, closing(runner.run(_one, work)) as outcomes:
+        for outcome in outcomes:
+            results.append(outcome.unwrap())
             if progress:
                 progress(results[-1])
-    else:
-        # spawned workers: they import only numpy, mujoco and this package's sim modules
-        with ProcessPoolExecutor(max_workers=min(jobs, trials), mp_context=get_context("spawn")) as pool:
-            for fut in as_completed([pool.submit(_one, item) for item in work]):
-                results.append(fut.result())
-                if progress:
-                    progress(results[-1])
     results.sort(key=lambda r: r.trial)
     return SimulationReport(scene, perturbation, variant, seed, results,
                             trajectory_duration_s=float(setup.drive.times[-1]))
+
+
+@contextmanager
+def trial_runner(jobs: int, trials: int, cluster: str | None = None) -> Iterator[Runner]:
+    """Where trials run: a Ray cluster's pooled workers (at the address), else this process for
+    one job, else ``jobs`` worker processes here, each running trial after trial."""
+    if cluster is not None:
+        with open_runner(jobs, cluster, fresh=False) as runner:
+            yield runner
+    elif jobs == 1 or trials == 1:
+        yield InlineRunner()
+    else:
+        yield LocalRunner(min(jobs, trials), fresh=False)
 
 
 def default_jobs() -> int:

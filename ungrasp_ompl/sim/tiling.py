@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import closing
 from dataclasses import dataclass, field, replace
-from multiprocessing import get_context
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +22,7 @@ from ..layout import Layout
 from ..robot.model import RobotModel
 from ..robot.trajectory import JointTrajectory
 from ..tiling import Tiling
+from .campaign import trial_runner
 from .outcome import FLAT_TILT_DEG, TrialResult
 from .perturb import Perturbation
 from .setup import trial_setup
@@ -92,23 +92,23 @@ def run_attempt(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbati
     return out
 
 
+def _attempt(args: tuple) -> TilingAttempt:
+    return run_attempt(*args)
+
+
 def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation,
                     attempts: int, seed: int, jobs: int = 1,
-                    progress: Callable[[TilingAttempt], None] | None = None) -> list[TilingAttempt]:
-    """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes."""
+                    progress: Callable[[TilingAttempt], None] | None = None,
+                    cluster: str | None = None) -> list[TilingAttempt]:
+    """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes
+    (ungrasp_ompl.runner), or on the Ray cluster at the address cluster."""
     if attempts < 1:
         raise InputError("--trials", f"must be at least 1, got {attempts}")
+    work = [(layout, setups, perturbation, seed, k) for k in range(attempts)]
     results: list[TilingAttempt] = []
-    if jobs == 1 or attempts == 1:
-        for k in range(attempts):
-            results.append(run_attempt(layout, setups, perturbation, seed, k))
+    with trial_runner(jobs, attempts, cluster) as runner, closing(runner.run(_attempt, work)) as outcomes:
+        for outcome in outcomes:
+            results.append(outcome.unwrap())
             if progress:
                 progress(results[-1])
-    else:
-        with ProcessPoolExecutor(max_workers=min(jobs, attempts), mp_context=get_context("spawn")) as pool:
-            futures = [pool.submit(run_attempt, layout, setups, perturbation, seed, k) for k in range(attempts)]
-            for fut in as_completed(futures):
-                results.append(fut.result())
-                if progress:
-                    progress(results[-1])
     return sorted(results, key=lambda a: a.attempt)

@@ -1,0 +1,45 @@
+"""Campaigns of planning tasks: benchmarks of the planners on scenes (OMPL's benchmark log and
+database), a sweep over alpha, and a feasibility map over alpha and friction.
+
+Every run happens in a fresh child process (:mod:`ungrasp_ompl.runner`), on this machine or on a
+Ray cluster: OMPL's RNG can be seeded only once per process, before any planner exists. Results
+stream to a CSV file as they arrive (:mod:`ungrasp_ompl.stream`), so a campaign resumes. The planner ``lattice`` is the exact
+Dijkstra search over the primitive lattice at the scene's own resolution, the lattice the OMPL
+planners plan on: its cost is the optimum those planners can reach, so a planner's cost over it
+is a true optimality gap.
+
+Units: times in seconds; costs in the reference units (degrees of theta and psi + 100 d + 1 per
+primitive change, with the scene's ``d_weight`` and ``mode_change_penalty``).
+
+One concern per module:
+
+* :mod:`.options` -- :class:`BenchmarkOptions`, :class:`SweepOptions` and their checks;
+* :mod:`.ranges` -- ``START:STOP:STEP`` ranges of the command line;
+* :mod:`.tasks` -- one run of a planner on a scene, its typed status, running many;
+* :mod:`.statistics` -- per planner and scene: success, failures, times, cost, gap;
+* :mod:`.table` -- columns for text tables and CSV;
+* :mod:`.ompl_log` -- OMPL's benchmark log format;
+* :mod:`.database` -- the SQLite database made from the logs by OMPL's script;
+* :mod:`.plots` -- the pictures;
+* :mod:`.bench` -- :func:`run_benchmark`;
+* :mod:`.sweep` -- :func:`run_sweep`;
+* :mod:`.map` -- :func:`run_map`, the feasibility map.
+
+Nothing here prints: the CLI does.
+"""
+
+from __future__ import annotations
+
+from .bench import BenchmarkResult, run_benchmark
+from .map import MapOptions, MapResult, run_map
+from .options import BenchmarkOptions, SweepOptions, validate_planners
+from .ranges import parse_alpha_range, parse_range
+from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
+from .sweep import SweepPoint, SweepResult, run_sweep, scene_with_alpha
+from .tasks import LATTICE, STATUSES, RunResult, RunStatus
+
+__all__ = ["LATTICE", "STATUSES", "SUMMARY_COLUMNS", "BenchmarkOptions", "BenchmarkResult", "MapOptions", "MapResult",
+           "RunResult",
+           "RunStatus", "SummaryRow", "SweepOptions", "SweepPoint", "SweepResult", "limitation_notes",
+           "parse_alpha_range", "parse_range", "run_benchmark", "run_map", "run_sweep", "scene_with_alpha", "summarise",
+           "validate_planners"]

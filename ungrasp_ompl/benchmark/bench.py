@@ -1,0 +1,135 @@
+"""``bench``: planners on scenes, every run in a fresh process, written as OMPL's benchmark logs,
+the database, a summary and plots.
+
+Outputs in the options' ``out`` directory: ``<scene>.log`` per scene in OMPL's benchmark log
+format (its parser reads one experiment per file), ``benchmark.db`` made from the logs,
+``summary.csv``, ``success_vs_time.png``, ``cost_vs_time.png``, and ``runs.csv`` (every run's
+row, streamed as runs finish, which ``resume`` reads back). Times in seconds, costs in
+reference units.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+from ..errors import InputError
+from ..io import write_text_atomic
+from ..planning.setup import LATTICE
+from ..runner import open_runner
+from ..scene import Scene
+from ..stream import RowStream
+from .database import logs_to_database
+from .ompl_log import Experiment, cost_units
+from .options import BenchmarkOptions
+from .plots import plot_final_cost, plot_success_vs_time
+from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
+from .table import format_table, write_csv
+from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
+
+
+@dataclass
+class BenchmarkResult:
+    """What a benchmark measured and wrote."""
+
+    runs: list[RunResult]
+    """Every planner run (lattice yardstick runs left out), in task order."""
+    optima: dict[str, float | None]
+    """Per scene key: the lattice optimum (reference units); None: no secure path."""
+    summary: list[SummaryRow]
+    """One row per scene and planner."""
+    units: list[str]
+    """The costs' units, one per distinct weighting of the scenes."""
+    out: Path
+    """The output directory."""
+    files: dict[str, Path] = field(default_factory=dict)
+    """The files written, by role (runs, log:<scene>, db, summary, success_plot, cost_plot)."""
+
+    @property
+    def table(self) -> str:
+        """The summary as a text table, with what its columns mean and the planners' known limitations."""
+        text = format_table(SUMMARY_COLUMNS, self.summary)
+        text += ("\ntimes in s over the solved runs: OMPL planners from the start of solve(); lattice: building "
+                 f"the lattice plus the exact search.\ncosts: {' or '.join(self.units)}; gap = median cost / lattice "
+                 "optimum - 1 (the optimum on the planners' own lattice).")
+        notes = limitation_notes(self.summary)
+        if notes:
+            text += "\nknown limitations (why these planners solve nothing here):\n" + "\n".join(f"  {n}" for n in notes)
+        return text
+
+
+def scene_key(name: str, taken: set[str]) -> str:
+    """A file-name-safe key for a scene, unique among taken (which it joins): its log's name."""
+    base = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "scene"
+    key, k = base, 2
+    while key in taken:
+        key, k = f"{base}_{k}", k + 1
+    taken.add(key)
+    return key
+
+
+def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: BenchmarkOptions,
+                  progress: Progress | None = None) -> BenchmarkResult:
+    """Benchmark the options' planners on the scenes: ``runs`` runs each per scene and planner,
+    each in a fresh process with OMPL seeded with seed + run index, ``jobs`` at a time here or
+    on the options' Ray cluster. Each run's row is appended to ``runs.csv`` as it arrives;
+    with ``resume`` the runs already there are kept, not run again.
+
+    ``lattice`` among the planners is the exact search; the optimum it finds (reference cost
+    units) is also the yardstick of the gap column, computed once per scene when ``lattice``
+    is not benchmarked. Writes the files (see the module) and returns the result. Raises
+    InputError naming the option (``--planners``, ``--runs``, ...) or the scene, before
+    anything runs.
+    """
+    options = options.validated()
+    out = Path(options.out)
+    if not scene_paths:
+        raise InputError("scene", "no scene given")
+    taken: set[str] = set()
+    scenes = {}
+    for p in scene_paths:
+        scene = Scene.from_file(p)
+        scenes[scene_key(scene.name, taken)] = scene
+    names = list(options.planners)
+    limit, its = float(options.time), options.iterations
+    tasks = [Task(key, scene, name, k, options.seed + k, limit, its)
+             for key, scene in scenes.items() for name in names for k in range(options.runs)]
+    if LATTICE not in names:
+        tasks += [Task(key, scene, LATTICE, -1, options.seed, limit) for key, scene in scenes.items()]
+    started = datetime.now()
+    with open_runner(options.jobs, options.cluster, fresh=True) as runner, \
+            RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
+        results = run_tasks(tasks, runner, progress, stream)
+    stream.finish([task_key(t) for t in tasks])
+
+    experiments = []
+    for key, scene in scenes.items():
+        lattice = lattice_yardstick(results, key)
+        by_planner = {name: [r for r in results if r.group == key and r.planner == name and r.run >= 0]
+                      for name in names}
+        experiments.append(Experiment(key, scene, names, by_planner, lattice.cost, lattice.status, options.seed,
+                                      limit, options.runs, started, options.jobs))
+    files: dict[str, Path] = {"runs": stream.path}
+    for exp in experiments:
+        files[f"log:{exp.key}"] = out / f"{exp.key}.log"
+        write_text_atomic(files[f"log:{exp.key}"], exp.log_text())
+    files["db"] = out / "benchmark.db"
+    logs_to_database([p for k, p in files.items() if k.startswith("log:")], files["db"])
+
+    summary = [summarise(exp.key, name, exp.runs[name], exp.optimum) for exp in experiments for name in names]
+    files["summary"] = out / "summary.csv"
+    write_csv(files["summary"], SUMMARY_COLUMNS, summary)
+    files["success_plot"] = out / "success_vs_time.png"
+    plot_success_vs_time(experiments, files["success_plot"])
+    files["cost_plot"] = out / "cost_vs_time.png"
+    plot_final_cost(experiments, files["cost_plot"])
+    units = sorted({cost_units(scene) for scene in scenes.values()})
+    optima = {exp.key: exp.optimum for exp in experiments}
+    return BenchmarkResult([r for r in results if r.run >= 0], optima, summary, units, out, files)
+
+
+__all__ = ["BenchmarkResult", "run_benchmark", "scene_key"]

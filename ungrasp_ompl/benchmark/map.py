@@ -1,0 +1,396 @@
+"""``map``: a feasibility map over two parameters of a scene, digit asymmetry and friction.
+
+Each cell of the grid (alpha, friction scale) is one task, run in a fresh process (OMPL's RNG
+takes a seed once per process) on this machine or on a Ray cluster. A task carries its cell's
+scene and the seed, so its row does not depend on where it ran. Per cell:
+
+* the exact lattice verdict: whether a secure primitive path exists at the scene's resolution
+  (:func:`~ungrasp_ompl.planning.lattice.lattice_search`), with its optimum; or why the start
+  or the goal rules one out;
+* the planner's outcome and cost, seeded like ``plan --seed`` (a fixed iteration budget, so
+  reproducible). Where the lattice proves that no secure path exists the planner is not run:
+  it plans on the same lattice and could not succeed;
+* with ``simulate`` trials, the simulated success rate of the planner's plan (MuJoCo, seeded
+  perturbations), where the plan exists and the robot can execute it.
+
+Rows stream to ``map.csv`` as cells finish (:class:`~ungrasp_ompl.stream.RowStream`), so an
+interrupted map resumes where it stopped; at the end ``map.csv`` is rewritten in grid order
+and ``map.png`` drawn. alpha is over the object length; the friction scale multiplies the
+scene's friction coefficients at G, A and B; costs are in reference units.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ..errors import InputError
+from ..planning.result import PlanOutcome
+from ..planning.setup import HANG_GRACE_S, LATTICE
+from ..runner import TaskStatus, open_runner
+from ..scene import Scene, read_yaml
+from ..stream import RowStream
+from .options import check_jobs, check_out, check_time, validate_planners
+
+#: Seconds a cell may take per simulated trial before it counts as hung.
+SIM_TRIAL_GRACE_S = 120.0
+#: The most cells a map may have.
+MAX_CELLS = 1_000_000
+
+
+@dataclass(frozen=True)
+class MapOptions:
+    """What ``map`` computes over its grid and how it runs."""
+
+    alphas: tuple[float, ...] = ()
+    """Digit asymmetry values (finger minus thumb length, over the object length): the grid's columns."""
+    friction_scales: tuple[float, ...] = (1.0,)
+    """Factors on every friction coefficient of the scene (dimensionless, > 0): the grid's rows."""
+    start_theta_deg: float | None = None
+    """The start pinch's theta (deg) in every cell; None: the scene's."""
+    planner: str = "RRTstar"
+    """The planner run in each cell (an OMPL geometric planner, or ``lattice``)."""
+    time: float = 0.5
+    """Planning time per cell (s): a seeded run's iteration budget, as for ``plan --seed``."""
+    seed: int = 1
+    """Seed of the planner (OMPL's RNG, goal samples) and of the simulated perturbations."""
+    simulate: int = 0
+    """Simulated trials per cell with a plan (count); 0: none."""
+    perturb: str = "paper"
+    """The simulated trials' perturbation preset (see ``simulate --perturb``)."""
+    jobs: int = 2
+    """Cells at a time on this machine (count of child processes); unused on a cluster."""
+    cluster: str | None = None
+    """Ray cluster address ("local" starts one here); None: child processes on this machine."""
+    resume: bool = False
+    """Keep the cells already done in out/map.csv and run only the others."""
+    out: str | os.PathLike[str] = "map"
+    """Output directory for map.csv and map.png."""
+
+    def validated(self) -> "MapOptions":
+        """These options checked; InputError naming the option otherwise."""
+        (planner,) = validate_planners([self.planner], "--planner")
+        check_time(self.time)
+        check_jobs(self.jobs)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
+            raise InputError("--seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        if isinstance(self.simulate, bool) or not isinstance(self.simulate, int) or not 0 <= self.simulate <= 10000:
+            raise InputError("--simulate", f"must be a number of trials in [0, 10000], got {self.simulate!r}")
+        if self.start_theta_deg is not None and not (math.isfinite(self.start_theta_deg)
+                                                     and 0.0 <= self.start_theta_deg <= 90.0):
+            raise InputError("--start-theta", f"must be an angle in [0, 90] deg, got {self.start_theta_deg!r}")
+        if not self.alphas:
+            raise InputError("--alpha", "gives no value")
+        if not self.friction_scales:
+            raise InputError("--friction-scale", "gives no value")
+        for s in self.friction_scales:
+            if not (math.isfinite(s) and s > 0):
+                raise InputError("--friction-scale", f"must be positive factors, got {s:g}")
+        if len(self.alphas) * len(self.friction_scales) > MAX_CELLS:
+            raise InputError("--alpha", f"and --friction-scale give more than {MAX_CELLS} cells")
+        check_out(self.out)
+        if self.simulate:
+            from ..sim.perturb import preset
+
+            preset(self.perturb)  # InputError("--perturb") for an unknown preset
+        return replace(self, planner=planner, alphas=tuple(map(float, self.alphas)),
+                       friction_scales=tuple(map(float, self.friction_scales)))
+
+
+def scene_variant(doc: dict, alpha: float, friction_scale: float, start_theta_deg: float | None,
+                  source: str | None, name: str) -> Scene:
+    """The scene of a YAML document with digits.alpha set, every friction coefficient times
+    friction_scale (angles turned into coefficients) and the start's theta set (deg) if given.
+    Raises InputError naming the option that makes the scene invalid."""
+    base = copy.deepcopy(doc)
+    if not isinstance(base, dict) or not isinstance(base.get("digits"), dict):
+        return Scene.from_dict(base, source=source, default_name=name)  # the scene's own error
+    base["digits"]["alpha"] = alpha
+    base["digits"].pop("finger_length", None)
+    if start_theta_deg is not None and isinstance(base.get("start"), dict):
+        base["start"]["theta_deg"] = start_theta_deg
+    try:
+        Scene.from_dict(base, source=source, default_name=name)
+    except InputError as exc:
+        if exc.field.startswith("digits"):
+            raise InputError("--alpha", f"{alpha:g}: {exc.field}: {exc.reason}") from None
+        if exc.field.startswith("start"):
+            raise InputError("--start-theta", f"{start_theta_deg:g}: {exc.field}: {exc.reason}") from None
+        raise
+    friction = base.pop("friction", None)
+    angles = base.pop("friction_angle_deg", None)
+    if isinstance(angles, dict):
+        friction = {c: math.tan(math.radians(float(v))) for c, v in angles.items()}
+    base["friction"] = {c: float(v) * friction_scale for c, v in (friction or {}).items()}
+    try:
+        return Scene.from_dict(base, source=source, default_name=name)
+    except InputError as exc:
+        raise InputError("--friction-scale", f"{friction_scale:g}: {exc.field}: {exc.reason}") from None
+
+
+@dataclass(frozen=True)
+class MapTask:
+    """One cell: its scene, planner and seeds; it needs nothing else, wherever it runs."""
+
+    index: int
+    """The cell's index in grid order (friction scale by friction scale, alpha by alpha)."""
+    alpha: float
+    """Digit asymmetry (over the object length)."""
+    friction_scale: float
+    """Factor on the scene's friction coefficients."""
+    scene: Scene
+    """The cell's scene."""
+    planner: str
+    """The planner's name (or ``lattice``)."""
+    time: float
+    """Planning time (s): the seeded iteration budget's size."""
+    seed: int
+    """The planner's and the trials' seed."""
+    trials: int = 0
+    """Simulated trials (count)."""
+    perturb: str = "paper"
+    """The trials' perturbation preset."""
+
+
+@dataclass(frozen=True)
+class MapCell:
+    """What one cell found. Costs in reference units."""
+
+    alpha: float
+    """Digit asymmetry (over the object length)."""
+    friction_scale: float
+    """Factor on the scene's friction coefficients."""
+    task_status: TaskStatus
+    """How the cell's task ended (DONE, or FAILED, HUNG, DIED: then error says why)."""
+    lattice_outcome: PlanOutcome | None = None
+    """The exact search's verdict: SOLVED (a secure path exists), START_NOT_HELD, GOAL_EMPTY, NO_SECURE_PATH."""
+    lattice_optimum: float | None = None
+    """The cheapest secure path's cost on the lattice (reference units); None: none."""
+    planner_outcome: PlanOutcome | None = None
+    """The planner's outcome; None: not run (no secure path exists) or the task failed."""
+    planner_cost: float | None = None
+    """The planner's path cost (reference units); None: no path."""
+    sim_successes: int | None = None
+    """Successful simulated trials (count); None: not simulated (no plan, or the robot cannot execute it)."""
+    error: str = ""
+    """Why the task failed, or why a plan was not simulated (the robot's reason); empty otherwise."""
+
+    @property
+    def secure_path(self) -> bool | None:
+        """A secure path exists (None: unknown, the task failed)."""
+        return None if self.lattice_outcome is None else self.lattice_optimum is not None
+
+    @property
+    def planner_solved(self) -> bool | None:
+        """The planner found a re-validated path (None: unknown, the task failed)."""
+        if self.task_status is not TaskStatus.DONE:
+            return None
+        return self.planner_outcome is PlanOutcome.SOLVED
+
+
+#: map.csv's columns; the first two identify a cell.
+MAP_COLUMNS = ("alpha", "friction_scale", "task_status", "secure_path", "lattice_outcome", "lattice_optimum",
+               "planner", "planner_outcome", "planner_solved", "planner_cost", "sim_trials", "sim_successes",
+               "sim_success_rate", "seed", "time_s", "error")
+
+
+def cell_key(alpha: float, friction_scale: float) -> tuple[str, str]:
+    """A cell's key in map.csv: its alpha and friction scale as written."""
+    return repr(float(alpha)), repr(float(friction_scale))
+
+
+def cell_row(cell: MapCell, task: MapTask) -> list[object]:
+    """A cell's map.csv row (MAP_COLUMNS): booleans 0/1, None for missing."""
+
+    def flag(b: bool | None) -> int | None:
+        return None if b is None else int(b)
+
+    rate = None if cell.sim_successes is None or not task.trials else cell.sim_successes / task.trials
+    return [*cell_key(cell.alpha, cell.friction_scale), cell.task_status.value, flag(cell.secure_path),
+            cell.lattice_outcome.value if cell.lattice_outcome else None, cell.lattice_optimum, task.planner,
+            cell.planner_outcome.value if cell.planner_outcome else None, flag(cell.planner_solved),
+            cell.planner_cost, task.trials, cell.sim_successes, rate, task.seed, repr(float(task.time)),
+            cell.error.replace("\n", " ")]
+
+
+def cell_from_row(row: dict[str, str]) -> MapCell:
+    """A MapCell from a map.csv row (as csv.DictReader gives it)."""
+
+    def number(key: str) -> float | None:
+        return float(row[key]) if row[key] else None
+
+    return MapCell(alpha=float(row["alpha"]), friction_scale=float(row["friction_scale"]),
+                   task_status=TaskStatus(row["task_status"]),
+                   lattice_outcome=PlanOutcome(row["lattice_outcome"]) if row["lattice_outcome"] else None,
+                   lattice_optimum=number("lattice_optimum"),
+                   planner_outcome=PlanOutcome(row["planner_outcome"]) if row["planner_outcome"] else None,
+                   planner_cost=number("planner_cost"),
+                   sim_successes=int(row["sim_successes"]) if row["sim_successes"] else None, error=row["error"])
+
+
+def run_cell(task: MapTask) -> MapCell:
+    """Compute one cell (in a fresh process: OMPL's RNG is seeded here)."""
+    from ompl import util as ou
+
+    from ..planning.lattice import lattice_search
+    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan
+
+    scene = task.scene
+    done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
+    if task.planner == LATTICE:
+        plan = lattice_plan(scene, task.seed)
+        exists = plan.lattice_optimum is not None
+        verdict = PlanOutcome.SOLVED if exists else plan.outcome
+        cell = MapCell(**done, lattice_outcome=verdict, lattice_optimum=plan.lattice_optimum,
+                       planner_outcome=plan.outcome, planner_cost=plan.cost)
+    else:
+        ou.RNG.setSeed(task.seed)
+        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+        setup = UngraspSetup(scene, PlannerOptions(planner=task.planner, time=task.time, seed=task.seed))
+        problem = setup.ends_problem()
+        if problem:
+            return MapCell(**done, lattice_outcome=problem["outcome"])
+        found = lattice_search(setup.atlas, scene.goal.box())
+        if not found.reachable:
+            return MapCell(**done, lattice_outcome=PlanOutcome.NO_SECURE_PATH)
+        plan = setup.solve()
+        cell = MapCell(**done, lattice_outcome=PlanOutcome.SOLVED, lattice_optimum=found.cost,
+                       planner_outcome=plan.outcome, planner_cost=plan.cost)
+    if task.trials and plan.solved:
+        cell = _simulated(cell, task, plan)
+    return cell
+
+
+def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
+    """The cell with the simulated trials of its plan counted (or why the robot cannot execute it)."""
+    from ..errors import UngraspError
+    from ..planning.setup import add_3d_report
+    from ..robot.pipeline import execute
+    from ..sim.perturb import preset, trial_params
+    from ..sim.setup import trial_setup
+    from ..sim.trial import run_trial
+
+    scene = task.scene
+    if scene.plane is not None:
+        add_3d_report(scene, plan)
+    try:
+        execution = execute(scene, plan)
+    except UngraspError as exc:  # out of reach, a collision of the arm, beyond the joint limits
+        return replace(cell, error=f"not executable: {exc}")
+    setup = trial_setup(scene, plan, execution.trajectory, execution.robot)
+    params = trial_params(preset(task.perturb), task.seed, task.trials)
+    return replace(cell, sim_successes=sum(run_trial(setup, p, k, task.seed).success for k, p in enumerate(params)))
+
+
+@dataclass(frozen=True)
+class MapProgress:
+    """How far a map has got, for a progress line."""
+
+    done: int
+    """Cells done, those of an earlier run included (count)."""
+    total: int
+    """Cells in the grid (count)."""
+    resumed: int
+    """Cells taken from an earlier run's map.csv (count)."""
+    failed: int
+    """Cells whose task failed, hung or died (count)."""
+    last: MapCell | None
+    """The cell that just finished (None before the first)."""
+
+
+@dataclass
+class MapResult:
+    """The map: its cells in grid order and the files written."""
+
+    scene: str
+    """The scene's name."""
+    reference: tuple[float, float]
+    """The scene's own (alpha, friction scale 1)."""
+    options: MapOptions
+    """What the map ran with (validated)."""
+    cells: list[MapCell]
+    """Every cell, friction scale by friction scale, alpha by alpha."""
+    ran: int
+    """Cells computed by this run (count); the others came from an earlier run (--resume)."""
+    units: str
+    """The costs' units."""
+    files: dict[str, Path] = field(default_factory=dict)
+    """The files written, by role (csv, plot)."""
+
+    @property
+    def failed(self) -> list[MapCell]:
+        """The cells whose task failed, hung or died."""
+        return [c for c in self.cells if c.task_status is not TaskStatus.DONE]
+
+
+def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
+            progress: Callable[[MapProgress], None] | None = None) -> MapResult:
+    """Compute every cell of the grid (see the module), streaming rows to out/map.csv; then
+    rewrite map.csv in grid order and draw map.png. Raises InputError naming the option or the
+    scene before anything runs or is written."""
+    from .ompl_log import cost_units
+    from .plots import plot_map
+
+    options = options.validated()
+    source = str(scene_path)
+    doc = read_yaml(scene_path, "scene")
+    base = Scene.from_dict(doc, source=source, default_name=Path(source).stem)
+    if options.simulate and base.object_thickness <= 0.0:
+        raise InputError("--simulate", "the simulator needs a scene with an object thickness (m)")
+    grid = [(a, f) for f in options.friction_scales for a in options.alphas]
+    tasks = [MapTask(i, a, f, scene_variant(doc, a, f, options.start_theta_deg, source, base.name), options.planner,
+                     options.time, options.seed, options.simulate, options.perturb) for i, (a, f) in enumerate(grid)]
+    out = Path(options.out)
+    stream = RowStream(out / "map.csv", MAP_COLUMNS, key_columns=2, resume=options.resume)
+    by_key = {cell_key(t.alpha, t.friction_scale): t for t in tasks}
+    kept = {k: row for k, row in stream.rows.items()
+            if k in by_key and dict(zip(MAP_COLUMNS, row))["task_status"] == TaskStatus.DONE.value}
+    for key, row in kept.items():
+        task, named = by_key[key], dict(zip(MAP_COLUMNS, row))
+        if (named["planner"], named["sim_trials"], named["seed"], named["time_s"]) != (
+                task.planner, str(task.trials), str(task.seed), repr(float(task.time))):
+            raise InputError("--resume", f"{stream.path} was made with other options (planner, --time, --seed or "
+                             "--simulate); use another --out or leave out --resume")
+    stream.rows = dict(kept)
+    resumed = len(kept)
+    todo = [t for t in tasks if cell_key(t.alpha, t.friction_scale) not in kept]
+    cells: dict[int, MapCell] = {}
+    failed = 0
+    deadline = 5.0 * options.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
+    with open_runner(options.jobs, options.cluster, fresh=True) as runner, stream:
+        if progress:
+            progress(MapProgress(resumed, len(tasks), resumed, 0, None))
+        for outcome in runner.run(run_cell, todo, deadline):
+            task = todo[outcome.index]
+            cell = outcome.value if outcome.status is TaskStatus.DONE else MapCell(
+                task.alpha, task.friction_scale, outcome.status, error=_why(outcome))
+            failed += cell.task_status is not TaskStatus.DONE
+            cells[task.index] = cell
+            stream.append(cell_row(cell, task))
+            if progress:
+                progress(MapProgress(resumed + len(cells), len(tasks), resumed, failed, cell))
+    stream.finish([cell_key(t.alpha, t.friction_scale) for t in tasks])
+    ordered = [cells.get(t.index) or cell_from_row(dict(zip(MAP_COLUMNS, kept[cell_key(t.alpha, t.friction_scale)])))
+               for t in tasks]
+    result = MapResult(base.name, (base.digits.alpha, 1.0), options, ordered, len(cells), cost_units(base))
+    result.files["csv"] = stream.path
+    result.files["plot"] = out / "map.png"
+    plot_map(result, result.files["plot"])
+    return result
+
+
+def _why(outcome) -> str:
+    """One line on a task that did not finish."""
+    if outcome.status is TaskStatus.HUNG:
+        return f"killed after {outcome.wall_time_s:.0f} s without an answer"
+    if outcome.error is None:
+        return "its process ended without an answer"
+    return f"{type(outcome.error).__name__}: {str(outcome.error).splitlines()[0] if str(outcome.error) else ''}"
+
+
+__all__ = ["MAP_COLUMNS", "MapCell", "MapOptions", "MapProgress", "MapResult", "MapTask", "cell_key", "run_cell",
+           "run_map", "scene_variant"]

@@ -1,0 +1,177 @@
+"""The benchmark's and the sweep's pictures (PNG, written atomically): success against time,
+final cost per planner, and success and cost against alpha."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..io import write_atomic
+from ..planning.setup import LATTICE
+from .ompl_log import Experiment, cost_units
+
+if TYPE_CHECKING:
+    from .map import MapResult
+    from .sweep import SweepResult
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_png(fig, path: Path) -> None:
+    """Write the figure to path atomically and close it."""
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+    pyplot().close(fig)
+
+
+def _panels(n: int, width: float = 6.0, height: float = 4.0):
+    plt = pyplot()
+    fig, axes = plt.subplots(1, n, figsize=(width * n, height), squeeze=False, constrained_layout=True)
+    return fig, list(axes[0])
+
+
+def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
+    """Per scene and planner: the fraction of runs whose first solution came by time t (s)."""
+    fig, axes = _panels(len(experiments))
+    for ax, exp in zip(axes, experiments):
+        times = [r.time_to_first_solution_s for runs in exp.runs.values() for r in runs if r.solved]
+        t_max = max([exp.time_limit] + times) * 1.02
+        t = np.linspace(0.0, t_max, 400)
+        for planner in exp.planners:
+            runs = exp.runs[planner]
+            first = np.array([r.time_to_first_solution_s for r in runs if r.solved])
+            frac = (first[None, :] <= t[:, None]).sum(axis=1) / len(runs)
+            style = dict(color="black", linestyle="--", label="lattice (exact; builds the lattice too)") \
+                if planner == LATTICE else dict(label=planner)
+            ax.step(t, frac, where="post", **style)
+        ax.axvline(exp.time_limit, color="grey", linestyle=":", label=f"time limit {exp.time_limit:g} s")
+        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="fraction of runs solved by t",
+               title=f"{exp.key}: first solution by time t")
+        ax.legend(fontsize=8, loc="lower right")
+    save_png(fig, path)
+
+
+def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
+    """Per scene: the final cost (reference units) of each planner's solved runs, with the
+    lattice optimum as a line. Costs over time are not recorded; this is the cost at the end."""
+    fig, axes = _panels(len(experiments))
+    rng = np.random.default_rng(0)
+    for ax, exp in zip(axes, experiments):
+        labels = []
+        for k, planner in enumerate(exp.planners):
+            runs = exp.runs[planner]
+            costs = np.array([r.cost for r in runs if r.solved])
+            labels.append(f"{planner}\n{len(costs)}/{len(runs)} solved")
+            if len(costs):
+                ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
+                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3)
+        if exp.optimum is not None:
+            ax.axhline(exp.optimum, color="black", linestyle="--", label=f"lattice optimum {exp.optimum:.2f}")
+            ax.legend(fontsize=8)
+        ax.set_xticks(range(len(labels)), labels, fontsize=8)
+        ax.set(xlim=(-0.6, len(labels) - 0.4), ylabel=f"final cost ({cost_units(exp.scene)})",
+               title=f"{exp.key}: final cost after {exp.time_limit:g} s\n(cost over time is not recorded)")
+    save_png(fig, path)
+
+
+def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
+    """Success rate and cost (reference units) against alpha."""
+    plt = pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6.0), sharex=True, constrained_layout=True)
+    alphas = [p.alpha for p in result.points]
+    nan = float("nan")
+    top.plot(alphas, [p.success_rate for p in result.points], "o-", label=result.planner)
+    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate ({time_limit:g} s)",
+            title=f"{result.scene}: sweep over alpha")
+    top.legend(fontsize=8)
+    bottom.plot(alphas, [nan if p.median_cost is None else p.median_cost for p in result.points], "o-",
+                label=f"{result.planner} median cost")
+    bottom.plot(alphas, [nan if p.lattice_optimum is None else p.lattice_optimum for p in result.points], "k--x",
+                label="lattice optimum")
+    blocked = [p.alpha for p in result.points if not p.lattice_reachable]
+    for k, a in enumerate(blocked):
+        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path" if k == 0 else None)
+    bottom.set(xlabel="alpha (finger - thumb length, over l)", ylabel=f"cost ({result.units})")
+    bottom.legend(fontsize=8)
+    save_png(fig, path)
+
+
+def _edges(values: Sequence[float]) -> np.ndarray:
+    """Cell edges around grid values (midpoints; a single value gets a unit-wide cell)."""
+    v = np.asarray(values, dtype=float)
+    if len(v) == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5]) if v[0] == 0 else np.array([v[0] * 0.9, v[0] * 1.1])
+    mid = (v[1:] + v[:-1]) / 2
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+
+
+def plot_map(result: "MapResult", path: Path) -> None:
+    """Heat maps over (alpha, friction scale): the lattice optimum where a secure path exists, the
+    planner's cost where it found one, and with simulation the simulated success rate. Grey: no
+    secure path; red: a path exists but the planner found none; black: the cell's task failed.
+    A star marks the scene's own (alpha, friction scale 1)."""
+    from matplotlib.colors import ListedColormap
+
+    from ..planning.result import PlanOutcome
+    from ..runner import TaskStatus
+
+    plt = pyplot()
+    o = result.options
+    alphas, scales = list(o.alphas), list(o.friction_scales)
+    shape = (len(scales), len(alphas))
+    cells = np.array(result.cells, dtype=object).reshape(shape)
+
+    def grid(value) -> np.ndarray:
+        return np.array([[np.nan if value(c) is None else value(c) for c in row] for row in cells], dtype=float)
+
+    failed = grid(lambda c: 1.0 if c.task_status is not TaskStatus.DONE else None)
+    blocked = grid(lambda c: 1.0 if c.secure_path is False else None)
+    missed = grid(lambda c: 1.0 if c.secure_path and c.planner_outcome is not PlanOutcome.SOLVED else None)
+    optimum = grid(lambda c: c.lattice_optimum)
+    cost = grid(lambda c: c.planner_cost if c.planner_outcome is PlanOutcome.SOLVED else None)
+    panels = [("exact lattice: optimum where a secure path exists", optimum, "viridis", f"cost ({result.units})"),
+              (f"{o.planner} ({o.time:g} s, seed {o.seed}): cost where solved", cost, "viridis",
+               f"cost ({result.units})")]
+    if o.simulate:
+        rate = grid(lambda c: None if c.sim_successes is None else c.sim_successes / o.simulate)
+        panels.append((f"simulated success rate ({o.simulate} trials, {o.perturb})", rate, "RdYlGn",
+                       "success rate"))
+    x, y = _edges(alphas), _edges(scales)
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.6 * len(panels), 4.6), squeeze=False,
+                             constrained_layout=True)
+    finite = np.concatenate([optimum[np.isfinite(optimum)], cost[np.isfinite(cost)]])
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    for k, (ax, (title, values, cmap, label)) in enumerate(zip(axes[0], panels)):
+        ax.pcolormesh(x, y, blocked, cmap=ListedColormap(["0.8"]), vmin=0, vmax=1)
+        if k == 1:
+            ax.pcolormesh(x, y, missed, cmap=ListedColormap(["#d62728"]), vmin=0, vmax=1)
+        ax.pcolormesh(x, y, failed, cmap=ListedColormap(["black"]), vmin=0, vmax=1)
+        bounds = dict(vmin=0.0, vmax=1.0) if cmap == "RdYlGn" else dict(vmin=vmin, vmax=vmax)
+        mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), cmap=cmap, **bounds)
+        fig.colorbar(mesh, ax=ax, label=label)
+        ref_alpha, ref_scale = result.reference
+        ax.plot([ref_alpha], [ref_scale], marker="*", markersize=16, color="white", markeredgecolor="black",
+                linestyle="none", label=f"the scene (alpha {ref_alpha:g}, friction x1)")
+        ax.set(xlim=(x[0], x[-1]), ylim=(y[0], y[-1]), xlabel="alpha (finger - thumb length, over l)",
+               ylabel="friction scale (x the scene's coefficients)", title=title)
+        ax.title.set_fontsize(9)
+    handles = [plt.Rectangle((0, 0), 1, 1, color="0.8", label="no secure path"),
+               plt.Rectangle((0, 0), 1, 1, color="#d62728", label="a path exists, not found"),
+               plt.Rectangle((0, 0), 1, 1, color="black", label="task failed")]
+    star = axes[0][0].get_legend_handles_labels()[0]
+    fig.legend(handles=handles + star, loc="outside lower center", ncol=4, fontsize=8)
+    fig.suptitle(f"{result.scene}: feasibility over digit asymmetry and friction")
+    save_png(fig, path)
+
+
+__all__ = ["plot_final_cost", "plot_map", "plot_success_vs_time", "plot_sweep", "pyplot", "save_png"]

@@ -1,0 +1,133 @@
+"""``sweep``: one planner's success and cost against the digit asymmetry alpha, with the exact
+lattice search's verdict on whether a secure path exists at each alpha.
+
+Outputs in the options' ``out`` directory: ``sweep.csv`` and ``sweep.png``. Costs in
+reference units; alpha over the object length.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import InputError
+from ..planning.setup import LATTICE
+from ..runner import open_runner
+from ..scene import Scene
+from ..stream import RowStream
+from .ompl_log import cost_units
+from .options import SweepOptions
+from .plots import plot_sweep
+from .statistics import median
+from .table import Column, format_table, write_csv
+from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
+
+
+def scene_with_alpha(scene: Scene, alpha: float) -> Scene:
+    """The scene with digits.alpha replaced (over the object length); InputError("--alpha") if invalid."""
+    if not (math.isfinite(alpha) and -1.0 < alpha < 1.0):
+        raise InputError("--alpha", f"{alpha:g} must lie in (-1, 1) (over the object length)")
+    if scene.digits.thumb_length + alpha <= 0:
+        raise InputError("--alpha", f"{alpha:g} makes the finger length thumb_length + alpha non-positive")
+    return dataclasses.replace(scene, digits=dataclasses.replace(scene.digits, alpha=float(alpha)))
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One alpha: the planner's runs and the lattice search's run (costs in reference units)."""
+
+    alpha: float
+    """Digit asymmetry (over the object length)."""
+    runs: list[RunResult]
+    """The planner's runs at this alpha."""
+    lattice: RunResult
+    """The exact lattice search at this alpha."""
+
+    @property
+    def success_rate(self) -> float:
+        """Share of the planner's runs with a re-validated path (0-1)."""
+        return sum(r.solved for r in self.runs) / len(self.runs)
+
+    @property
+    def median_cost(self) -> float | None:
+        """Median cost of the solved runs (reference units)."""
+        return median([r.cost for r in self.runs if r.solved])
+
+    @property
+    def lattice_optimum(self) -> float | None:
+        """The exact optimum on the lattice (reference units); None: no secure path."""
+        return self.lattice.cost
+
+    @property
+    def lattice_reachable(self) -> bool:
+        """A secure path exists on the lattice."""
+        return self.lattice.cost is not None
+
+
+#: The sweep's columns, in the printed table and sweep.csv.
+SWEEP_COLUMNS = (
+    Column("alpha", "alpha", lambda p: p.alpha, "g"),
+    Column("success", "success_rate", lambda p: p.success_rate, ".0%"),
+    Column("median cost", "median_cost", lambda p: p.median_cost, ".2f"),
+    Column("lattice optimum", "lattice_optimum", lambda p: p.lattice_optimum, ".2f"),
+    Column("secure path exists", "lattice_reachable", lambda p: p.lattice_reachable),
+)
+
+
+@dataclass
+class SweepResult:
+    """The sweep over alpha: one point per alpha and the files written."""
+
+    scene: str
+    """The scene's name."""
+    planner: str
+    """The planner swept."""
+    points: list[SweepPoint]
+    """One point per alpha, in the order given."""
+    units: str
+    """The costs' units."""
+    options: SweepOptions
+    """What the sweep ran with (validated)."""
+    files: dict[str, Path] = field(default_factory=dict)
+    """The files written, by role (runs, csv, plot)."""
+
+    @property
+    def table(self) -> str:
+        """The points as a text table."""
+        return format_table(SWEEP_COLUMNS, self.points)
+
+
+def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progress: Progress | None = None
+              ) -> SweepResult:
+    """For each alpha of the options: ``runs`` runs of the planner (fresh processes, OMPL seeded
+    with seed + run index; here or on the options' Ray cluster) and the exact lattice search
+    once. Streams every run to ``runs.csv`` (``resume`` keeps those already there); writes
+    ``sweep.csv`` and ``sweep.png`` and returns the result. Raises InputError naming the option or the scene."""
+    options = options.validated()
+    out = Path(options.out)
+    base = Scene.from_file(scene_path)
+    scenes = [scene_with_alpha(base, a) for a in options.alphas]
+    limit = float(options.time)
+    groups = [repr(a) for a in options.alphas]
+    tasks = [Task(g, scene, LATTICE, -1, options.seed, limit) for g, scene in zip(groups, scenes)]
+    tasks += [Task(g, scene, options.planner, k, options.seed + k, limit, options.iterations)
+              for g, scene in zip(groups, scenes) for k in range(options.runs)]
+    with open_runner(options.jobs, options.cluster, fresh=True) as runner, \
+            RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
+        results = run_tasks(tasks, runner, progress, stream)
+    stream.finish([task_key(t) for t in tasks])
+    points = [SweepPoint(a, [r for r in results if r.group == g and r.run >= 0], lattice_yardstick(results, g))
+              for g, a in zip(groups, options.alphas)]
+    result = SweepResult(base.name, options.planner, points, cost_units(base), options)
+    result.files["runs"] = stream.path
+    result.files["csv"] = out / "sweep.csv"
+    write_csv(result.files["csv"], SWEEP_COLUMNS, points)
+    result.files["plot"] = out / "sweep.png"
+    plot_sweep(result, limit, result.files["plot"])
+    return result
+
+
+__all__ = ["SWEEP_COLUMNS", "SweepPoint", "SweepResult", "run_sweep", "scene_with_alpha"]

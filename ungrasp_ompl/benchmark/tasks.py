@@ -1,0 +1,249 @@
+"""Benchmark runs: one planner on one scene, each in a fresh child process.
+
+OMPL's RNG can be seeded only once per process, before any planner exists, so every run
+gets its own process (a :class:`~ungrasp_ompl.runner.Runner` with fresh processes): it
+seeds the RNG with ``seed + run``, builds the scene's
+:class:`~ungrasp_ompl.planning.UngraspSetup` with the planner by name and solves on wall
+time, like OMPL's ``tools::Benchmark`` does (or, given iterations, for that many
+iterations, reproducibly). The planner ``lattice`` is the exact search over the primitive
+lattice at the scene's own resolution. A run's status is read from the plan's typed
+outcome (:class:`~ungrasp_ompl.planning.result.PlanOutcome`), never from its text.
+"""
+
+from __future__ import annotations
+
+import enum
+import time
+from collections.abc import Callable, Sequence
+from contextlib import closing
+from dataclasses import dataclass
+
+from ..errors import ToolError, UngraspError
+from ..planning.result import Plan, PlanOutcome
+from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions
+from ..runner import Runner, TaskStatus
+from ..scene import Scene
+from ..stream import RowStream
+
+
+class RunStatus(enum.Enum):
+    """How one benchmark run ended (the order is the benchmark log's enum)."""
+
+    EXACT = "exact"  #: a path that passed re-validation
+    TIMEOUT = "timeout"  #: none found within the time, though the lattice holds one
+    INVALID = "invalid"  #: the path returned failed re-validation
+    UNSOLVABLE_START_OR_GOAL = "unsolvable_start_or_goal"  #: the start cannot be held or the goal region is empty
+    INFEASIBLE = "infeasible"  #: the exact lattice search reaches no goal state
+    HUNG = "hung"  #: killed HANG_GRACE_S s after its time cap, or its process ended without an answer
+
+
+#: The run statuses by name, in the benchmark log's enum order.
+STATUSES = tuple(s.value for s in RunStatus)
+
+#: A run's status from its plan's outcome.
+_STATUS_OF = {
+    PlanOutcome.SOLVED: RunStatus.EXACT,
+    PlanOutcome.START_NOT_HELD: RunStatus.UNSOLVABLE_START_OR_GOAL,
+    PlanOutcome.GOAL_EMPTY: RunStatus.UNSOLVABLE_START_OR_GOAL,
+    PlanOutcome.INVALID_PATH: RunStatus.INVALID,
+    PlanOutcome.NO_SECURE_PATH: RunStatus.INFEASIBLE,
+    PlanOutcome.NOT_FOUND: RunStatus.TIMEOUT,
+    PlanOutcome.HUNG: RunStatus.HUNG,
+}
+
+#: Called with (runs done, runs in all) before the first run and after each run.
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: a planner on a scene, in its own child process. It carries all it needs
+    (scene, seed), so its result does not depend on where it runs."""
+
+    group: str
+    """The scene's key (benchmark) or the alpha's index (sweep)."""
+    scene: Scene
+    """The scene to plan."""
+    planner: str
+    """An OMPL planner by name, or ``lattice``."""
+    run: int
+    """The run's index (count); -1: a lattice yardstick run, not reported as a planner run."""
+    seed: int
+    """OMPL's RNG seed of this run."""
+    time_limit: float
+    """Planning time (s): wall time, or with iterations the cap of 5 times it."""
+    iterations: int | None = None
+    """Planner iterations (count), making the run reproducible; None: stop on wall time."""
+
+    @property
+    def deadline(self) -> float:
+        """Seconds after which the run's process is killed and the run counted as hung."""
+        return (5.0 * self.time_limit if self.iterations else self.time_limit) + HANG_GRACE_S
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What one run measured. Times in seconds, cost in reference units (None: no path).
+
+    time_s is the benchmark log's ``time``: an OMPL planner's planning time
+    (solve() only), or the lattice planner's wall time to build the lattice
+    and search it. wall_time_s: the whole task in its process, setup included.
+    """
+
+    group: str
+    planner: str
+    run: int
+    seed: int
+    status: RunStatus
+    cost: float | None
+    mode_switches: int | None
+    time_to_first_solution_s: float | None
+    planning_time_s: float
+    setup_time_s: float
+    iterations: int | None
+    wall_time_s: float
+
+    @property
+    def solved(self) -> bool:
+        """A path was found and passed re-validation."""
+        return self.status is RunStatus.EXACT
+
+    @property
+    def time_s(self) -> float:
+        return self.planning_time_s
+
+
+def run_status(plan: Plan) -> RunStatus:
+    """The status of a run from its plan's outcome."""
+    return _STATUS_OF[plan.outcome]
+
+
+def _ompl_run(task: Task) -> dict:
+    """Solve with an OMPL planner, OMPL seeded with the task's seed: on wall time, or for the
+    task's iterations (its goal samples seeded too, so the run is reproducible)."""
+    from ompl import util as ou
+
+    from ..planning.setup import UngraspSetup
+
+    ou.RNG.setSeed(task.seed)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+    seeded = task.iterations is not None
+    options = PlannerOptions(planner=task.planner, time=task.time_limit, seed=task.seed if seeded else None,
+                             iterations=task.iterations)
+    plan = UngraspSetup(task.scene, options).solve()
+    return dict(status=run_status(plan), cost=plan.cost, mode_switches=plan.mode_switches,
+                time_to_first_solution_s=plan.time_to_first_solution_s, planning_time_s=plan.planning_time_s,
+                setup_time_s=plan.setup_time_s, iterations=plan.iterations)
+
+
+def _lattice_run(scene: Scene) -> dict:
+    """The exact optimum on the scene's lattice; its time is building the lattice plus the search.
+    Its cost is the optimum even when the optimum's legs fail re-validation (status invalid)."""
+    from ..planning.setup import lattice_plan
+
+    plan = lattice_plan(scene)
+    elapsed = plan.setup_time_s + plan.planning_time_s
+    return dict(status=run_status(plan), cost=plan.lattice_optimum, mode_switches=plan.mode_switches,
+                time_to_first_solution_s=elapsed if plan.solved else None, planning_time_s=elapsed,
+                setup_time_s=0.0, iterations=None)
+
+
+def run_task(task: Task) -> RunResult:
+    """Run one task (in a fresh process: OMPL's RNG is seeded here)."""
+    t0 = time.perf_counter()
+    measured = _lattice_run(task.scene) if task.planner == LATTICE else _ompl_run(task)
+    return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed,
+                     wall_time_s=time.perf_counter() - t0, **measured)
+
+
+def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None = None,
+              stream: RowStream | None = None) -> list[RunResult]:
+    """Run tasks on a runner that gives each its own process; results in task order.
+
+    With a stream (RUN_COLUMNS), a task whose row it holds already (an earlier, interrupted
+    campaign) is not run again, and each new result is appended to it as it arrives. A run
+    still going at its deadline (a planner that stops checking its termination condition, see
+    planning.setup.UNRULY_PLANNERS) is killed and counted as hung, as is one whose process
+    ends without an answer. A run that raises ends the campaign: its UngraspError as itself,
+    anything else as a ToolError naming the run.
+    """
+    total = len(tasks)
+    out: list[RunResult | None] = [None] * total
+    todo = []
+    for k, task in enumerate(tasks):
+        row = stream.rows.get(task_key(task)) if stream else None
+        if row is None:
+            todo.append(k)
+        else:
+            out[k] = result_from_row(row)
+    done = total - len(todo)
+    if progress:
+        progress(done, total)
+    deadline = max((tasks[k].deadline for k in todo), default=HANG_GRACE_S)
+    with closing(runner.run(run_task, [tasks[k] for k in todo], deadline)) as outcomes:
+        for outcome in outcomes:
+            task = tasks[todo[outcome.index]]
+            if outcome.status is TaskStatus.FAILED:
+                if isinstance(outcome.error, UngraspError):
+                    raise outcome.error
+                raise ToolError(f"{task.planner} run {task.run} on {task.group} failed: "
+                                f"{type(outcome.error).__name__}: {outcome.error}") from outcome.error
+            result = outcome.value if outcome.status is TaskStatus.DONE else hung_result(task, outcome.wall_time_s)
+            out[todo[outcome.index]] = result
+            if stream:
+                stream.append(run_row(task, result))
+            done += 1
+            if progress:
+                progress(done, total)
+    return out  # type: ignore[return-value]
+
+
+#: runs.csv's columns: a task's key (the first six), then what it measured.
+RUN_COLUMNS = ("group", "planner", "run", "seed", "time_limit_s", "iteration_budget", "status", "cost",
+               "mode_switches", "time_to_first_solution_s", "planning_time_s", "setup_time_s", "iterations",
+               "wall_time_s")
+#: How many leading RUN_COLUMNS identify a task.
+RUN_KEY_COLUMNS = 6
+
+
+def task_key(task: Task) -> tuple[str, ...]:
+    """A task's key in runs.csv: what decides its result."""
+    return (task.group, task.planner, str(task.run), str(task.seed), repr(float(task.time_limit)),
+            "" if task.iterations is None else str(task.iterations))
+
+
+def run_row(task: Task, r: RunResult) -> list[object]:
+    """A run's row of runs.csv (RUN_COLUMNS)."""
+    return [*task_key(task), r.status.value, r.cost, r.mode_switches, r.time_to_first_solution_s, r.planning_time_s,
+            r.setup_time_s, r.iterations, r.wall_time_s]
+
+
+def result_from_row(row: Sequence[str]) -> RunResult:
+    """A RunResult from its row of runs.csv."""
+    named = dict(zip(RUN_COLUMNS, row))
+
+    def number(key: str, kind: type = float):
+        return kind(named[key]) if named[key] else None
+
+    return RunResult(group=named["group"], planner=named["planner"], run=int(named["run"]), seed=int(named["seed"]),
+                     status=RunStatus(named["status"]), cost=number("cost"), mode_switches=number("mode_switches", int),
+                     time_to_first_solution_s=number("time_to_first_solution_s"),
+                     planning_time_s=float(named["planning_time_s"]), setup_time_s=float(named["setup_time_s"]),
+                     iterations=number("iterations", int), wall_time_s=float(named["wall_time_s"]))
+
+
+def hung_result(task: Task, wall: float) -> RunResult:
+    """The result of a run killed at its deadline or whose process ended without an answer."""
+    return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed, status=RunStatus.HUNG,
+                     cost=None, mode_switches=None, time_to_first_solution_s=None, planning_time_s=task.time_limit,
+                     setup_time_s=0.0, iterations=None, wall_time_s=wall)
+
+
+def lattice_yardstick(results: Sequence[RunResult], group: str) -> RunResult:
+    """The first lattice run of a group (all are the same search)."""
+    return next(r for r in results if r.group == group and r.planner == LATTICE)
+
+
+__all__ = ["LATTICE", "RUN_COLUMNS", "RUN_KEY_COLUMNS", "STATUSES", "Progress", "RunResult", "RunStatus", "Task",
+           "hung_result", "lattice_yardstick", "result_from_row", "run_row", "run_status", "run_task", "run_tasks",
+           "task_key"]
