@@ -181,8 +181,8 @@ def test_python_api_queries(scenes):
 
 
 def test_plan_api_is_reproducible_in_process(scenes):
-    """plan() with a seed gives the same result called twice in one process (the second call
-    runs in a fresh child process, since OMPL's RNG is seeded once per process)."""
+    """plan() with a seed gives the same result called twice in one process (OMPL's seed
+    generator restarted for each, planning.setup.seed_ompl)."""
     from ungrasp_ompl import plan
 
     scene = scenes["reference_upper_obstacle"]

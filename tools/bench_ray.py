@@ -3,8 +3,8 @@ and a map on 2 workers against 1. Prints figures, asserts nothing.
 
     python tools/bench_ray.py [--cells-alpha 20] [--cells-friction 10] [--time 0.5] [--tasks 400]
 
-1. overhead: --tasks empty tasks through RayRunner on a warm local cluster of 2 CPUs, on pooled
-   workers and with a fresh worker per task (max_calls=1, what seeded planner runs need), per task;
+1. overhead: --tasks empty tasks through RayRunner on a warm local cluster of 2 CPUs, on the pooled
+   workers campaigns use (each seeded task reseeds OMPL), per task, with and without a deadline;
 2. a map of cells-alpha x cells-friction cells of reference_asymmetric (alpha 0.005 ... by 0.03,
    friction scale 0.6 ... by 0.1) on a local cluster of 1 CPU, then of 2 CPUs: wall time, time
    per cell, speed-up. A cell is the lattice verdict and a seeded RRT* run of --time seconds.
@@ -39,19 +39,20 @@ def _start(cpus: int) -> None:
 
 
 def overhead(tasks: int) -> None:
-    """Seconds per empty task on a warm cluster of 2 CPUs, pooled and fresh workers."""
+    """Seconds per empty task on a warm cluster of 2 CPUs, pooled workers, with and without a
+    deadline (a deadline runs the task in a thread of its worker)."""
     _start(2)
     try:
-        for fresh, n in ((False, tasks), (True, max(10, tasks // 20))):
-            runner = RayRunner("local", fresh=fresh)
-            list(runner.run(_empty, range(4)))  # warm: workers started, the function exported
+        for deadline in (None, 60.0):
+            runner = RayRunner("local", fresh=False)
+            list(runner.run(_empty, range(4), deadline))  # warm: workers started, the function exported
             t0 = time.perf_counter()
-            with closing(runner.run(_empty, range(n))) as outcomes:
+            with closing(runner.run(_empty, range(tasks), deadline)) as outcomes:
                 done = sum(1 for _ in outcomes)
             wall = time.perf_counter() - t0
-            kind = "fresh worker per task (max_calls=1)" if fresh else "pooled workers"
-            print(f"overhead, {kind}: {n} empty tasks in {wall:.2f} s = {1000 * wall / done:.1f} ms per task "
-                  f"(2 CPUs)")
+            kind = "without a deadline" if deadline is None else f"with a {deadline:g} s deadline"
+            print(f"overhead, pooled workers {kind}: {tasks} empty tasks in {wall:.2f} s = "
+                  f"{1000 * wall / done:.1f} ms per task (2 CPUs)")
     finally:
         ray.shutdown()
 

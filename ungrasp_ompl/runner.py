@@ -169,8 +169,8 @@ class RayRunner:
     tasks run its functions. A task that raises is FAILED with its exception; a task whose
     worker process dies is run again by Ray up to max_retries times, then reported DIED; a
     task given a deadline runs in a thread of its worker and is reported HUNG when it has not
-    returned within the deadline from its start (its worker then leaves: deadlines imply a
-    fresh worker per task).
+    returned within the deadline from its start; that worker, its thread still busy, leaves at
+    the next task it is given, which Ray runs again on another worker.
     """
 
     def __init__(self, address: str = "local", fresh: bool = True, max_retries: int = 3,
@@ -217,8 +217,7 @@ class RayRunner:
 
     def _run(self, fn: Callable[[T], R], tasks: list[T], deadline: float | None) -> Iterator[TaskOutcome[R]]:
         ray = _ray()
-        fresh = self.fresh or deadline is not None
-        remote = ray.remote(max_calls=1 if fresh else 0, max_retries=self.max_retries, num_cpus=1)(_ray_call)
+        remote = ray.remote(max_calls=1 if self.fresh else 0, max_retries=self.max_retries, num_cpus=1)(_ray_call)
         limit = self.in_flight or max(1, 2 * int(ray.cluster_resources().get("CPU", 1)))
         pending = deque(enumerate(tasks))
         running: dict[Any, tuple[int, float]] = {}  # object ref -> (task index, hand-over time)
@@ -281,9 +280,17 @@ def _probe_ray(address: str) -> None:
     ray.shutdown()
 
 
+#: In a Ray worker: whether a task of this worker hung (its thread may still run).
+_HUNG_HERE = False
+
+
 def _ray_call(fn: Callable[[T], R], task: T, deadline: float | None) -> tuple[bool, Any]:
     """In a Ray worker: (True, fn(task)); with a deadline, fn runs in a thread and the answer is
-    (False, seconds) when it has not returned by then. fn's exception is raised."""
+    (False, seconds) when it has not returned by then. fn's exception is raised. A worker one of
+    whose tasks hung ends when given the next (Ray counts it dead and runs that task elsewhere)."""
+    global _HUNG_HERE
+    if _HUNG_HERE:
+        os._exit(1)
     if deadline is None:
         return True, fn(task)
     answer: list = []
@@ -298,6 +305,7 @@ def _ray_call(fn: Callable[[T], R], task: T, deadline: float | None) -> tuple[bo
     thread.start()
     thread.join(deadline)
     if not answer:
+        _HUNG_HERE = True
         return False, deadline
     ok, value = answer[0]
     if ok is None:

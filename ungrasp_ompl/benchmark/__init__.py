@@ -1,8 +1,8 @@
 """Campaigns of planning tasks: benchmarks of the planners on scenes (OMPL's benchmark log and
 database), a sweep over alpha, and a feasibility map over alpha and friction.
 
-Every run happens in a fresh child process (:mod:`ungrasp_ompl.runner`), on this machine or on a
-Ray cluster: OMPL's RNG can be seeded only once per process, before any planner exists. Results
+Every run is a task of worker processes (:mod:`ungrasp_ompl.runner`), on this machine or on a
+Ray cluster, with OMPL's random numbers seeded afresh for it (planning.setup.seed_ompl). Results
 stream to a CSV file as they arrive (:mod:`ungrasp_ompl.stream`), so a campaign resumes. The planner ``lattice`` is the exact
 Dijkstra search over the primitive lattice at the scene's own resolution, the lattice the OMPL
 planners plan on: its cost is the optimum those planners can reach, so a planner's cost over it

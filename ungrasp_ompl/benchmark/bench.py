@@ -1,4 +1,4 @@
-"""``bench``: planners on scenes, every run in a fresh process, written as OMPL's benchmark logs,
+"""``bench``: planners on scenes, every run a task of worker processes, written as OMPL's benchmark logs,
 the database, a summary and plots.
 
 Outputs in the options' ``out`` directory: ``<scene>.log`` per scene in OMPL's benchmark log
@@ -75,7 +75,7 @@ def scene_key(name: str, taken: set[str]) -> str:
 def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: BenchmarkOptions,
                   progress: Progress | None = None) -> BenchmarkResult:
     """Benchmark the options' planners on the scenes: ``runs`` runs each per scene and planner,
-    each in a fresh process with OMPL seeded with seed + run index, ``jobs`` at a time here or
+    each with OMPL seeded with seed + run index, ``jobs`` at a time here or
     on the options' Ray cluster. Each run's row is appended to ``runs.csv`` as it arrives;
     with ``resume`` the runs already there are kept, not run again.
 
@@ -101,7 +101,7 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     if LATTICE not in names:
         tasks += [Task(key, scene, LATTICE, -1, options.seed, limit) for key, scene in scenes.items()]
     started = datetime.now()
-    with open_runner(options.jobs, options.cluster, fresh=True) as runner, \
+    with open_runner(options.jobs, options.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])

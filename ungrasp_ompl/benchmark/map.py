@@ -1,7 +1,7 @@
 """``map``: a feasibility map over two parameters of a scene, digit asymmetry and friction.
 
-Each cell of the grid (alpha, friction scale) is one task, run in a fresh process (OMPL's RNG
-takes a seed once per process) on this machine or on a Ray cluster. A task carries its cell's
+Each cell of the grid (alpha, friction scale) is one task, run by worker processes (OMPL's
+random numbers seeded afresh for each) on this machine or on a Ray cluster. A task carries its cell's
 scene and the seed, so its row does not depend on where it ran. Per cell:
 
 * the exact lattice verdict: whether a secure primitive path exists at the scene's resolution
@@ -233,11 +233,9 @@ def cell_from_row(row: dict[str, str]) -> MapCell:
 
 
 def run_cell(task: MapTask) -> MapCell:
-    """Compute one cell (in a fresh process: OMPL's RNG is seeded here)."""
-    from ompl import util as ou
-
+    """Compute one cell (OMPL's random numbers seeded here for it)."""
     from ..planning.lattice import lattice_search
-    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan
+    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan, seed_ompl
 
     scene = task.scene
     done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
@@ -248,8 +246,7 @@ def run_cell(task: MapTask) -> MapCell:
         cell = MapCell(**done, lattice_outcome=verdict, lattice_optimum=plan.lattice_optimum,
                        planner_outcome=plan.outcome, planner_cost=plan.cost)
     else:
-        ou.RNG.setSeed(task.seed)
-        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+        seed_ompl(task.seed)
         setup = UngraspSetup(scene, PlannerOptions(planner=task.planner, time=task.time, seed=task.seed))
         problem = setup.ends_problem()
         if problem:
@@ -361,7 +358,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     cells: dict[int, MapCell] = {}
     failed = 0
     deadline = 5.0 * options.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
-    with open_runner(options.jobs, options.cluster, fresh=True) as runner, stream:
+    with open_runner(options.jobs, options.cluster, fresh=False) as runner, stream:
         if progress:
             progress(MapProgress(resumed, len(tasks), resumed, 0, None))
         for outcome in runner.run(run_cell, todo, deadline):

@@ -123,7 +123,7 @@ class Experiment:
             "solved = a path that passed re-validation",
             "geometric_lattice = the exact Dijkstra search on the same lattice (not an OMPL planner); "
             "its time is building the lattice plus the search",
-            f"one fresh process per run, OMPL seeded with {self.seed} + run index; {self.jobs} parallel jobs",
+            f"OMPL seeded afresh per run with {self.seed} + run index; {self.jobs} parallel jobs",
             "memory limit: none enforced (0)",
         ])
 

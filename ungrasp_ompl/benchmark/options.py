@@ -30,7 +30,7 @@ class BenchmarkOptions:
     jobs: int = 2
     """Runs at a time on this machine (count of child processes); unused on a cluster."""
     seed: int = 1
-    """Seed of OMPL's RNG for run 0 (run k gets seed + k); each run has a fresh process."""
+    """Seed of OMPL's RNG for run 0 (run k gets seed + k), seeded afresh per run."""
     out: str | os.PathLike[str] = "benchmark"
     """Output directory for the logs, the database, summary.csv and the plots."""
     iterations: int | None = None

@@ -102,7 +102,7 @@ class SweepResult:
 
 def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progress: Progress | None = None
               ) -> SweepResult:
-    """For each alpha of the options: ``runs`` runs of the planner (fresh processes, OMPL seeded
+    """For each alpha of the options: ``runs`` runs of the planner (OMPL seeded
     with seed + run index; here or on the options' Ray cluster) and the exact lattice search
     once. Streams every run to ``runs.csv`` (``resume`` keeps those already there); writes
     ``sweep.csv`` and ``sweep.png`` and returns the result. Raises InputError naming the option or the scene."""
@@ -115,7 +115,7 @@ def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progres
     tasks = [Task(g, scene, LATTICE, -1, options.seed, limit) for g, scene in zip(groups, scenes)]
     tasks += [Task(g, scene, options.planner, k, options.seed + k, limit, options.iterations)
               for g, scene in zip(groups, scenes) for k in range(options.runs)]
-    with open_runner(options.jobs, options.cluster, fresh=True) as runner, \
+    with open_runner(options.jobs, options.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])

@@ -1,8 +1,7 @@
-"""Benchmark runs: one planner on one scene, each in a fresh child process.
+"""Benchmark runs: one planner on one scene, each a task of a :class:`~ungrasp_ompl.runner.Runner`.
 
-OMPL's RNG can be seeded only once per process, before any planner exists, so every run
-gets its own process (a :class:`~ungrasp_ompl.runner.Runner` with fresh processes): it
-seeds the RNG with ``seed + run``, builds the scene's
+A run seeds OMPL's random numbers afresh with ``seed + run`` (planning.setup.seed_ompl, so a
+worker runs task after task and each gives what it would in a fresh process), builds the scene's
 :class:`~ungrasp_ompl.planning.UngraspSetup` with the planner by name and solves on wall
 time, like OMPL's ``tools::Benchmark`` does (or, given iterations, for that many
 iterations, reproducibly). The planner ``lattice`` is the exact search over the primitive
@@ -121,12 +120,9 @@ def run_status(plan: Plan) -> RunStatus:
 def _ompl_run(task: Task) -> dict:
     """Solve with an OMPL planner, OMPL seeded with the task's seed: on wall time, or for the
     task's iterations (its goal samples seeded too, so the run is reproducible)."""
-    from ompl import util as ou
+    from ..planning.setup import UngraspSetup, seed_ompl
 
-    from ..planning.setup import UngraspSetup
-
-    ou.RNG.setSeed(task.seed)
-    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+    seed_ompl(task.seed)
     seeded = task.iterations is not None
     options = PlannerOptions(planner=task.planner, time=task.time_limit, seed=task.seed if seeded else None,
                              iterations=task.iterations)
@@ -149,7 +145,7 @@ def _lattice_run(scene: Scene) -> dict:
 
 
 def run_task(task: Task) -> RunResult:
-    """Run one task (in a fresh process: OMPL's RNG is seeded here)."""
+    """Run one task (OMPL's random numbers seeded here for it)."""
     t0 = time.perf_counter()
     measured = _lattice_run(task.scene) if task.planner == LATTICE else _ompl_run(task)
     return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed,
@@ -158,7 +154,7 @@ def run_task(task: Task) -> RunResult:
 
 def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None = None,
               stream: RowStream | None = None) -> list[RunResult]:
-    """Run tasks on a runner that gives each its own process; results in task order.
+    """Run tasks on a runner (child processes here or Ray workers); results in task order.
 
     With a stream (RUN_COLUMNS), a task whose row it holds already (an earlier, interrupted
     campaign) is not run again, and each new result is appended to it as it arrives. A run

@@ -5,11 +5,10 @@ Mirrors og.SimpleSetup: :class:`UngraspSetup` owns the space information
 (start, sampleable goal region, objective) and the planner; :func:`plan` is
 the one-call entry point.
 
-Reproducibility (docs/model.md, section 9): OMPL's RNG is seeded once per process,
-before its first random number, and a seeded run stops after a fixed count
-of planner iterations (not on wall time), so the same seed gives the same
-plan. A process that has planned already runs a later seeded plan in a fresh
-child process.
+Reproducibility (docs/model.md, section 9): OMPL's seed generator is seeded
+afresh before every seeded run (seed_ompl), and a seeded run stops after a
+fixed count of planner iterations (not on wall time), so the same seed gives
+the same plan, in a fresh process or after other plans.
 """
 
 from __future__ import annotations
@@ -151,7 +150,6 @@ class UngraspSetup:
         proof built it); otherwise it is built here."""
         self.scene = scene
         self.options = options.validated()
-        _OmplRng.drawn = True  # planners draw seeds from OMPL's RNG when built
         t0 = perf_counter()
         if atlas is not None and (atlas.scene is not scene or not np.allclose(atlas.res, scene.options.resolution)):
             raise ValueError("the atlas given was built for another scene or resolution")
@@ -391,13 +389,6 @@ def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
     return [leg for k, i in enumerate(trail) for leg in options[k][i]]
 
 
-class _OmplRng:
-    """OMPL's random number generator is one per process and takes a seed only before its first
-    number: whether this process has built a planner (and so drawn from it)."""
-
-    drawn = False
-
-
 def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
          iterations: int | None = None, atlas: SecurityAtlas | None = None, **options) -> Plan:
     """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions.
@@ -415,19 +406,29 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
     if planner in UNRULY_PLANNERS:
         return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
-    if seed is not None and _OmplRng.drawn:
-        return _plan_in_child(scene, opts)
     return _plan_here(scene, opts, atlas)
 
 
 def _plan_here(scene: Scene, opts: PlannerOptions, atlas: SecurityAtlas | None = None) -> Plan:
     if opts.seed is not None:
-        ou.RNG.setSeed(opts.seed)
+        seed_ompl(opts.seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     result = UngraspSetup(scene, opts, atlas).solve()
     if scene.plane is not None:
         add_3d_report(scene, result)
     return result
+
+
+def seed_ompl(seed: int) -> None:
+    """Seed OMPL's random numbers for the planner built next. OMPL's seed generator is one per
+    process; setting its seed again restarts it, so every planner, sampler and goal built after
+    this call draws the same numbers as in a fresh process (OMPL logs an error that the seed changes
+    after numbers were drawn, which is what is wanted here: it is silenced)."""
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    try:
+        ou.RNG.setSeed(seed)
+    finally:
+        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
 
 
 def add_3d_report(scene: Scene, result: Plan) -> None:
