@@ -262,12 +262,7 @@ def _cage(args: argparse.Namespace) -> int:
             return EXIT_NO_SOLUTION
         print(f"planned {scene.name} with {result.planner} (seed {result.seed}): cost {result.cost:.2f}")
     if args.finger_tip is not None:
-        from dataclasses import replace
-
-        dg = scene.digits
-        scene = replace(scene, digits=replace(dg, flat_finger_tip=args.finger_tip == "flat",
-                                              finger_tip_radius=0.0 if args.finger_tip == "flat"
-                                              else dg.finger_tip_thickness / 2))
+        scene = _with_finger_tip(scene, args.finger_tip)
     if args.start_psi_offset_deg is not None:
         from .sim.campaign import deviated_plan
 
@@ -403,6 +398,15 @@ class _Line:
             sys.stderr.flush()
 
 
+def _with_finger_tip(scene, tip: str):
+    """The scene with the finger's tip rounded (a dome of half the tip thickness) or flat."""
+    from dataclasses import replace
+
+    dg = scene.digits
+    return replace(scene, digits=replace(dg, flat_finger_tip=tip == "flat",
+                                         finger_tip_radius=0.0 if tip == "flat" else dg.finger_tip_thickness / 2))
+
+
 def _cluster(args: argparse.Namespace) -> str | None:
     """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
@@ -430,9 +434,9 @@ def _tile(args: argparse.Namespace) -> int:
         raise InputError("--out", f"{out} exists and is not a directory")
     if args.planner != "lattice":
         PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
-    with _TileProgress() as progress:
+    with _Line() as line:
         result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
-                                            approaches=args.approaches), progress)
+                                            approaches=args.approaches), _tile_progress(line))
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
     draw_layout(layout, result, out / "layout.png")
@@ -457,26 +461,12 @@ def _tile(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-class _TileProgress:
-    """tile()'s progress as one line on stderr, overwritten in place (\\r) and ended with a newline."""
-
-    def __init__(self) -> None:
-        self.width = 0
-
-    def __call__(self, p) -> None:  # p: tiling.TilingProgress
-        line = (f"searching an order: {p.done}/{p.total} pieces down, {p.checks} approaches checked ({p.piece})"
-                if p.stage == "search" else f"planning: {p.done}/{p.total} pieces planned ({p.piece})")
-        self.width = max(self.width, len(line))
-        sys.stderr.write("\r" + line.ljust(self.width))
-        sys.stderr.flush()
-
-    def __enter__(self) -> "_TileProgress":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.width:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+def _tile_progress(line: _Line):
+    """tile()'s progress (p: tiling.TilingProgress) as one line on stderr."""
+    def show(p) -> None:
+        line(f"searching an order: {p.done}/{p.total} pieces down, {p.checks} approaches checked ({p.piece})"
+             if p.stage == "search" else f"planning: {p.done}/{p.total} pieces planned ({p.piece})")
+    return show
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -484,7 +474,6 @@ def _simulate(args: argparse.Namespace) -> int:
     import io
     import json
     import math
-    from dataclasses import replace
 
     from .io import write_text_atomic
     from .planning import plan
@@ -518,10 +507,7 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.trials < 1 or jobs < 1:
         raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
     if args.finger_tip is not None:
-        dg = scene.digits
-        scene = replace(scene, digits=replace(dg, flat_finger_tip=args.finger_tip == "flat",
-                                              finger_tip_radius=0.0 if args.finger_tip == "flat"
-                                              else dg.finger_tip_thickness / 2))
+        scene = _with_finger_tip(scene, args.finger_tip)
     variant = Variant(friction_scale=args.friction_scale, thickness=args.thickness, equal_digits=args.equal_digits)
 
     if args.plan is not None:

@@ -300,14 +300,7 @@ class Scene:
         contact mode that velocity makes (sliding contacts push along the edge
         opposing their sliding); without it every contact sticks.
         """
-        q = _states(q, "q")
-        if dq is None:
-            sa = sb = np.zeros(len(q), dtype=np.int8)
-        else:
-            dq = _states(dq, "dq")
-            if dq.shape != q.shape:
-                raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
-            sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+        q, sa, sb = _states_and_mode(q, dq)
         return force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
 
     def margin(self, q: ArrayLike, dq: ArrayLike | None = None) -> Margins:
@@ -318,14 +311,7 @@ class Scene:
         above the table and from the obstacles (mechanics.margin.kinematic_margins)."""
         from .mechanics.margin import Margins, friction_margin, kinematic_margins
 
-        q = _states(q, "q")
-        if dq is None:
-            sa = sb = np.zeros(len(q), dtype=np.int8)
-        else:
-            dq = _states(dq, "dq")
-            if dq.shape != q.shape:
-                raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
-            sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+        q, sa, sb = _states_and_mode(q, dq)
         l = self.object_length
         boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]]) / l
                       for b in self.obstacles)
@@ -401,6 +387,19 @@ class Scene:
     def with_options(self, **changes: Any) -> "Scene":
         """A copy of the scene with some planning options replaced."""
         return replace(self, options=replace(self.options, **changes))
+
+
+def _states_and_mode(q: ArrayLike, dq: ArrayLike | None) -> tuple[NDArray[np.float64], NDArray, NDArray]:
+    """States q (N, 3) and the sliding signs at A and B (N,) each of the contact mode velocities dq
+    (N, 3) make there (every contact sticking without dq); InputError naming q or dq when malformed."""
+    q = _states(q, "q")
+    if dq is None:
+        return q, np.zeros(len(q), dtype=np.int8), np.zeros(len(q), dtype=np.int8)
+    dq = _states(dq, "dq")
+    if dq.shape != q.shape:
+        raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
+    sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+    return q, sa, sb
 
 
 def _states(q: ArrayLike, name: str) -> NDArray[np.float64]:
