@@ -29,7 +29,8 @@ import fcl
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import DigitGeometry, aperture, digit_axis, digit_polygons, thumb_normal
+from ..mechanics.kinematics import (DigitGeometry, digit_offsets, finger_corner, housing_centre, housing_offsets,
+                                   thumb_normal, thumb_tip)
 from .solids import Solid, prism_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
@@ -222,11 +223,25 @@ class CollisionChecker:
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
+    def _frames(self, theta: NDArray, d: NDArray, psi: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
+        """Per body but the object, for states that theta, d and psi (rad, over l, rad) broadcast to:
+        its frame angle, its reference point (..., 2) (the thumb's and the finger's tips, the
+        housing's centre) and its outline relative to that point (..., 4, 2), over l."""
+        dg = self.model.digits
+        beta = theta + psi
+        thumb, finger = digit_offsets(theta, psi, dg)
+        frames = {
+            "thumb": (beta, thumb_tip(theta, d, psi, dg.alpha, dg.object_thickness, dg.finger_tip_radius), thumb),
+            "finger": (beta, finger_corner(theta, d, psi, dg.object_thickness, dg.finger_tip_radius), finger),
+        }
+        if "palm" in self._bodies:
+            frames["palm"] = (beta, housing_centre(theta, d, psi, dg), housing_offsets(theta, psi, dg))
+        return frames
+
     def _poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
         """Per body: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
         th, d, ps = q[:, 0], q[:, 1], q[:, 2]
         l = self._length
-        thumb, finger = digit_polygons(th, d, ps, self.model.digits)
         u = np.stack([np.cos(th), np.sin(th)], axis=-1)
         t = max(self.model.thickness, 1e-6) / l
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
@@ -235,20 +250,9 @@ class CollisionChecker:
         else:  # the outline's prism on the table, tilted about G: its section in the plane
             x0, x1 = (x / l for x in self._object_extent)
             obj = np.stack([x0 * u, x1 * u, x1 * u + t * nrm, x0 * u + t * nrm], axis=1)
-        beta = th + ps
-        poses = {
-            "thumb": (beta, thumb[:, 0] * l, thumb * l),
-            "finger": (beta, finger[:, 0] * l, finger * l),
-            "object": (th, np.zeros((len(q), 2)), obj * l),
-        }
-        if "palm" in self._bodies:
-            dg = self.model.digits
-            back = -digit_axis(th, ps)  # from the tips toward the palm
-            across = thumb_normal(th, ps)
-            centre = thumb[:, 0] + (dg.thumb_length + dg.palm_length / 2) * back + (aperture(d, ps, dg.object_thickness, dg.finger_tip_radius) / 2)[:, None] * across
-            a, c = dg.palm_length / 2 * back, dg.palm_width / 2 * across
-            outline = np.stack([centre - a - c, centre + a - c, centre + a + c, centre - a + c], axis=1)
-            poses["palm"] = (beta, centre * l, outline * l)
+        poses = {"object": (th, np.zeros((len(q), 2)), obj * l)}
+        for body, (angle, ref, offsets) in self._frames(th, d, ps).items():
+            poses[body] = (angle, ref * l, (ref[:, None, :] + offsets) * l)
         return poses
 
     def _pairs(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]]):
@@ -304,6 +308,46 @@ class CollisionChecker:
             hit |= self._hits({"object": self._poses(per_theta)["object"]})[which]
         rest = np.flatnonzero(~hit)
         hit[rest] = self._hits({b: v for b, v in self._poses(q[rest]).items() if b != "object"})
+        return hit
+
+    def in_collision_lattice(self, axes: tuple[ArrayLike, ArrayLike, ArrayLike],
+                             where: NDArray[np.bool_] | None = None) -> NDArray[np.bool_]:
+        """in_collision at every state of the lattice with these axes (theta rad, d over l, psi
+        rad), shape (n0, n1, n2); with where (that shape), only there (False elsewhere).
+
+        The same answers as in_collision, computed the way the lattice allows: a body's outline is
+        its reference point plus an outline that turns with theta + psi alone, so its lowest point
+        (the table) and its bounding box cost one pass over the states; only states whose boxes
+        meet an obstacle's or a solid's go through in_collision's narrow phase.
+        """
+        th, d, ps = (np.asarray(a, dtype=float).reshape(s) for a, s in zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
+        shape = (th.shape[0], d.shape[1], ps.shape[2])
+        l = self._length
+        todo = np.ones(shape, dtype=bool) if where is None else where.copy()
+        frames = self._frames(th, d, ps)
+        hit = np.zeros(shape, dtype=bool)
+        for _, ref, offsets in frames.values():
+            hit |= (ref[..., 1] + offsets[..., 1].min(axis=-1)) * l < -_TABLE_GAP
+        hit &= todo
+        if self._targets:
+            todo &= ~hit
+            per_theta = np.column_stack([th.ravel(), np.full(shape[0], d.flat[0]), np.full(shape[0], ps.flat[0])])
+            obj = np.broadcast_to(self._hits({"object": self._poses(per_theta)["object"]})[:, None, None], shape)
+            hit |= obj & todo
+            todo &= ~obj
+            near = np.zeros(shape, dtype=bool)
+            for body, (_, ref, offsets) in frames.items():
+                lo, hi = (ref + offsets.min(axis=-2)) * l, (ref + offsets.max(axis=-2)) * l
+                blo, bhi = self._y_range[body]
+                for name, (tlo, thi), _ in self._targets:
+                    tyl, tyh = self._target_y.get(name, (-np.inf, np.inf))
+                    if tyl <= bhi and tyh >= blo:
+                        near |= (lo[..., 0] <= thi[0]) & (hi[..., 0] >= tlo[0]) & (lo[..., 1] <= thi[1]) & (hi[..., 1] >= tlo[1])
+            idx = np.flatnonzero(todo & near)
+            if len(idx):
+                i, j, k = np.unravel_index(idx, shape)
+                q = np.column_stack([th.ravel()[i], d.ravel()[j], ps.ravel()[k]])
+                hit.flat[idx] = self._hits({b: v for b, v in self._poses(q).items() if b != "object"})
         return hit
 
     def _hits(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]], table_gap: float = _TABLE_GAP

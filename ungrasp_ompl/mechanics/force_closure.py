@@ -47,22 +47,21 @@ def cone_edges(normal: ArrayLike, tangent: ArrayLike, mu: float) -> tuple[NDArra
 
 
 def _slots(theta, d, psi, a_sign, b_sign, mu, model):
-    """Unit wrenches of the six slots as component arrays: a list of (m, f_x, f_z) and masks."""
+    """Wrenches of unit forces in the six slots and the masks of the slots that exist: lists of
+    (m, f_x, f_z) and of bools, each array at its own broadcast shape (G's are scalars, A's follow
+    theta and d, B's theta and psi, unless the signs vary more), so that a lattice given as three
+    orthogonal axes costs its axes here, not its states."""
     if model not in SLIDING_MODELS:
         raise ValueError(f"sliding model must be one of {SLIDING_MODELS}, not {model!r}")
-    theta, d, psi, a_sign, b_sign = np.broadcast_arrays(
-        *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign))
-    )
-    theta, d, psi, a_sign, b_sign = (np.ravel(x) for x in (theta, d, psi, a_sign, b_sign))
-    ones = np.ones(theta.shape)
+    theta, d, psi, a_sign, b_sign = (np.asarray(x, dtype=float) for x in (theta, d, psi, a_sign, b_sign))
     ct, st = np.cos(theta), np.sin(theta)
     cb, sb = np.cos(theta + psi), np.sin(theta + psi)
     slots, masks = [], []
     # G: fixed at the origin, never slides; normal (0, 1), tangent (1, 0).
     c, s = 1.0 / np.sqrt(1.0 + mu[0] ** 2), mu[0] / np.sqrt(1.0 + mu[0] ** 2)
     for sign in (1.0, -1.0):
-        slots.append((0.0 * ones, sign * s * ones, c * ones))
-        masks.append(ones > 0)
+        slots.append((np.float64(0.0), np.float64(sign * s), np.float64(c)))
+        masks.append(np.True_)
     # A at (1 - d) u: normal (sin t, -cos t), tangent u; friction along -sign(dd) u.
     # B at u: normal n_B = (-sin b, cos b), tangent e = -(cos b, sin b); friction along sign(ds_B) e.
     contacts = (
@@ -81,9 +80,19 @@ def _slots(theta, d, psi, a_sign, b_sign, mu, model):
         f2 = (nx * cn + ctn * tx, nz * cn + ctn * tz)
         for fx, fz in (f1, f2):
             slots.append((px * fz - pz * fx, fx, fz))
-        masks.append(ones > 0)
+        masks.append(np.True_)
         masks.append(stick | (model == "relaxed"))
     return slots, masks
+
+
+def _unit(slots: list, masks: list) -> list[tuple[NDArray, NDArray, NDArray]]:
+    """The slots' wrenches scaled to unit length (zero where a slot does not exist), each at its
+    own shape."""
+    out = []
+    for (m, fx, fz), mask in zip(slots, masks):
+        inv = np.where(mask, 1.0 / np.sqrt(m * m + fx * fx + fz * fz), 0.0)
+        out.append((m * inv, fx * inv, fz * inv))
+    return out
 
 
 def contact_wrenches(
@@ -104,9 +113,21 @@ def contact_wrenches(
     mu = (mu_G, mu_A, mu_B); a_sign, b_sign as in
     :func:`~ungrasp_ompl.mechanics.contact.sliding_signs`.
     """
-    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
+    slots, masks = _flat(_slots(theta, d, psi, a_sign, b_sign, mu, model), theta, d, psi, a_sign, b_sign)
     w = np.stack([np.stack(sl, axis=-1) for sl in slots], axis=1)
     return w, np.stack(masks, axis=1)
+
+
+def _flat(slots_masks: tuple[list, list], *inputs: ArrayLike) -> tuple[list, list]:
+    """The slots and masks of _slots broadcast to the inputs' common shape (at least 1-d) and
+    flattened to (N,)."""
+    slots, masks = slots_masks
+    shape = np.broadcast_shapes(*(np.shape(np.atleast_1d(x)) for x in inputs))
+
+    def flat(x):
+        return np.ravel(np.broadcast_to(x, shape))
+
+    return [tuple(flat(c) for c in sl) for sl in slots], [flat(m) for m in masks]
 
 
 def force_closure_margin(
@@ -127,12 +148,11 @@ def force_closure_margin(
     force closure; exactly zero without force closure. States with fewer than
     two independent wrenches get -1.
     """
-    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
-    n_state = slots[0][0].shape[0]
+    unit = _unit(*_flat(_slots(theta, d, psi, a_sign, b_sign, mu, model), theta, d, psi, a_sign, b_sign))
+    n_state = unit[0][0].shape[0]
     comp = np.empty((6, 3, n_state))
-    for k, ((m, fx, fz), mask) in enumerate(zip(slots, masks)):
-        inv = np.where(mask, 1.0 / np.sqrt(m * m + fx * fx + fz * fz), 0.0)
-        comp[k, 0], comp[k, 1], comp[k, 2] = m * inv, fx * inv, fz * inv
+    for k, w in enumerate(unit):
+        comp[k, 0], comp[k, 1], comp[k, 2] = w
     out = np.empty(n_state)
     for lo in range(0, n_state, _CHUNK):  # chunks that stay in cache
         out[lo : lo + _CHUNK] = _pair_margin(comp[:, :, lo : lo + _CHUNK])
@@ -177,5 +197,66 @@ def force_closure(
     mu: tuple[float, float, float] = REFERENCE_MU,
     model: str = "relaxed",
 ) -> NDArray[np.bool_]:
-    """True where the contacts are in force closure in the given contact mode, shape (N,)."""
-    return force_closure_margin(theta, d, psi, a_sign, b_sign, mu, model) > FC_TOLERANCE
+    """True where the contacts are in force closure in the given contact mode: where
+    force_closure_margin exceeds FC_TOLERANCE. The arguments broadcast together; the result has
+    their common shape (at least 1-d).
+
+    The same test without the margin's value. Every triple product det(w_i, w_j, w_k) of the unit
+    wrenches is computed once, from the cross product of lower dimension, so that every array
+    keeps the shape of what it depends on: a lattice given as three orthogonal axes (theta
+    (n0, 1, 1), d (1, n1, 1), psi (1, 1, n2)) costs full-size work only where A's and B's wrenches
+    meet. Where every triple product is farther than twice FC_TOLERANCE from 0, every pair spans a
+    plane (|w_i x w_j| >= |det(w_i, w_j, w_k)|) and the margin's test for a pair (some wrench on
+    each open side of its plane, beyond FC_TOLERANCE |w_i x w_j| <= FC_TOLERANCE) reads the
+    products' signs; the few other states (contacts aligned to within about 1e-9) are decided
+    by force_closure_margin itself.
+    """
+    args = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign)))
+    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
+    unit = [w for w, m in zip(_unit(slots, masks), masks) if np.any(m)]  # an absent slot spans nothing
+    ok, unsure = _spans(unit, args[0].shape)
+    if unsure.any():
+        ok[unsure] = force_closure_margin(*(x[unsure] for x in args), mu, model) > FC_TOLERANCE
+    return ok
+
+
+def _spans(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]
+           ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """force_closure's test on the signs of the triple products of unit wrenches given as
+    broadcastable components (m, f_x, f_z): the answer, and where a product is too near 0 for
+    its sign to decide (within twice FC_TOLERANCE). Each product is taken through the cross
+    product of the two wrenches that vary least."""
+    n = len(unit)
+    cross: dict[tuple[int, int], tuple] = {}
+
+    def crossed(i: int, j: int) -> tuple:
+        if (i, j) not in cross:
+            a, b = unit[i], unit[j]
+            cross[i, j] = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        return cross[i, j]
+
+    def size(*arrays) -> int:
+        return int(np.prod(np.broadcast_shapes(*(np.shape(x) for x in arrays))))
+
+    positive, negative = {}, {}
+    unsure = np.zeros(shape, dtype=bool)
+    band = 2.0 * FC_TOLERANCE
+    for i, j, k in combinations(range(n), 3):  # det(w_i, w_j, w_k) = (w_i x w_j) . w_k = -(w_i x w_k) . w_j = ...
+        options = (((i, j), k, False), ((i, k), j, True), ((j, k), i, False))
+        (a, b), other, odd = min(options, key=lambda o: size(*unit[o[0][0]], *unit[o[0][1]]))
+        c, w = crossed(a, b), unit[other]
+        v = c[0] * w[0] + c[1] * w[1] + c[2] * w[2]
+        above, below = v > 0.0, v < 0.0
+        positive[i, j, k], negative[i, j, k] = (below, above) if odd else (above, below)
+        unsure |= np.abs(v) <= band
+    ok = np.ones(shape, dtype=bool)
+    for i, j in combinations(range(n), 2):
+        pos = neg = False
+        for k in range(n):
+            if k != i and k != j:
+                key = tuple(sorted((i, j, k)))
+                odd = i < k < j  # (i, j, k) is an odd permutation of its sorted order
+                pos = pos | (negative[key] if odd else positive[key])
+                neg = neg | (positive[key] if odd else negative[key])
+        ok &= pos & neg
+    return ok, unsure

@@ -139,23 +139,45 @@ def digit_polygons(
 
     Vertices in order: tip on the contact face, base on the contact face, base
     back corner, tip back corner. The thumb's body lies behind its face
-    (against n_B), the finger's behind its own face (along n_B).
+    (against n_B), the finger's behind its own face (along n_B). Each outline is
+    its tip (thumb_tip, finger_corner) plus digit_offsets.
     """
-    theta, d, psi = _arrays(theta, d, psi)
-    e = digit_axis(theta, psi)
-    n = thumb_normal(theta, psi)
+    thumb, finger = digit_offsets(theta, psi, digits)
     t_tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
     a_tip = finger_corner(theta, d, psi, digits.object_thickness, digits.finger_tip_radius)
+    return t_tip[..., None, :] + thumb, a_tip[..., None, :] + finger
 
-    def outline(tip, length, t_tip_k, t_base, side):
-        base = tip - length * e
-        return np.stack(
-            [tip, base, base + side * t_base * n, tip + side * t_tip_k * n], axis=-2
-        )
 
-    thumb = outline(t_tip, digits.thumb_length, digits.thumb_tip_thickness, digits.thumb_base_thickness, -1.0)
-    finger = outline(a_tip, digits.finger_length, digits.finger_tip_thickness, digits.finger_base_thickness, 1.0)
-    return thumb, finger
+def digit_offsets(theta: ArrayLike, psi: ArrayLike, digits: DigitGeometry
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The thumb's and the finger's outlines (digit_polygons' vertex order) relative to their
+    tips, each shape (..., 4, 2), over l: they turn with the digits (theta + psi) and nothing else."""
+    e = digit_axis(theta, psi)
+    n = thumb_normal(theta, psi)
+
+    def outline(length, t_tip, t_base, side):
+        base = -length * e
+        return np.stack([np.zeros_like(e), base, base + side * t_base * n, side * t_tip * n], axis=-2)
+
+    return (outline(digits.thumb_length, digits.thumb_tip_thickness, digits.thumb_base_thickness, -1.0),
+            outline(digits.finger_length, digits.finger_tip_thickness, digits.finger_base_thickness, 1.0))
+
+
+def housing_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """The centre of the gripper's housing (behind the digit bases, centred between the digit
+    faces), shape (..., 2), over l."""
+    tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+    w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
+    return tip - (digits.thumb_length + digits.palm_length / 2) * digit_axis(theta, psi) \
+        + (w / 2)[..., None] * thumb_normal(theta, psi)
+
+
+def housing_offsets(theta: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """The housing's outline relative to its centre, shape (..., 4, 2), over l: -a - c, a - c,
+    a + c, -a + c, with a half its length toward the palm and c half its width along n_B."""
+    a = digits.palm_length / 2 * -digit_axis(theta, psi)
+    c = digits.palm_width / 2 * thumb_normal(theta, psi)
+    return np.stack([-a - c, a - c, a + c, -a + c], axis=-2)
 
 
 def kinematic_checks(
@@ -184,8 +206,10 @@ def kinematic_checks(
 
 def kinematic_validity(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.bool_]:
     """True where every kinematic condition of :func:`kinematic_checks` holds."""
-    checks = kinematic_checks(theta, d, psi, digits)
-    return np.logical_and.reduce(list(checks.values()))
+    ok = np.bool_(True)
+    for holds in kinematic_checks(theta, d, psi, digits).values():
+        ok = ok & holds
+    return ok
 
 
 def digit_bodies(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> list[NDArray[np.float64]]:
@@ -196,12 +220,7 @@ def digit_bodies(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGe
     thumb, finger = digit_polygons(theta, d, psi, digits)
     out = [_ccw(thumb), _ccw(finger)]
     if digits.palm_width > 0 and digits.palm_length > 0:
-        back = -digit_axis(theta, psi)
-        across = thumb_normal(theta, psi)
-        w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
-        centre = thumb[:, 0] + (digits.thumb_length + digits.palm_length / 2) * back + (w / 2)[:, None] * across
-        a, c = digits.palm_length / 2 * back, digits.palm_width / 2 * across
-        out.append(_ccw(np.stack([centre - a - c, centre + a - c, centre + a + c, centre - a + c], axis=1)))
+        out.append(_ccw(housing_centre(theta, d, psi, digits)[:, None, :] + housing_offsets(theta, psi, digits)))
     return out
 
 

@@ -71,19 +71,14 @@ class SecurityAtlas:
         self.shape = tuple(len(ax) for ax in self.axes)
         if min(self.shape) < 1:
             raise ValueError("the box holds no lattice state")
-        grid = np.stack(np.meshgrid(*self.axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        self._grid = grid
-        th, d, ps = grid.T
-        self.kinematic = kinematic_validity(th, d, ps, scene.digits).reshape(self.shape)
-        fc = self._fc(0, 0, self.kinematic.ravel())
-        check = self.kinematic.ravel() & fc
-        self.collision = np.zeros(len(grid), dtype=bool)
+        th, d, ps = self._lattice = tuple(np.reshape(ax, s) for ax, s in zip(self.axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
+        self.kinematic = np.broadcast_to(kinematic_validity(th, d, ps, scene.digits), self.shape).copy()
+        check = self.kinematic & self._fc(0, 0)
         self._checker = CollisionChecker(scene.collision_model())
         self._releasable: dict[tuple, NDArray[np.bool_]] = {}
-        self.collision[check] = self._checker.in_collision(grid[check])
-        self.collision = self.collision.reshape(self.shape)
+        self.collision = self._checker.in_collision_lattice(self.axes, where=check)
         #: States that can be held with all contacts sticking.
-        self.holdable = (check & ~self.collision.ravel()).reshape(self.shape)
+        self.holdable = check & ~self.collision
         self._mode_ok: dict[tuple[int, int], NDArray[np.bool_]] = {(0, 0): self.holdable}
         self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
         self._reverse = scene.options.reverse_primitives
@@ -150,14 +145,17 @@ class SecurityAtlas:
         """For flat lattice indices: the scene's termination maneuver would collide."""
         r = self.scene.robot
         amount = r.termination_opening if r.termination == "open" else r.termination_angle
-        return self._checker.termination_collides(self._grid[idx], r.termination, amount)
+        q = np.column_stack([ax[i] for ax, i in zip(self.axes, np.unravel_index(idx, self.shape))])
+        return self._checker.termination_collides(q, r.termination, amount)
 
     # -- per-mode security -------------------------------------------------------
-    def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:
-        out = np.zeros(len(self._grid), dtype=bool)
-        q = self._grid[where]
+    def _fc(self, sa: int, sb: int, psi_from: int = 0) -> NDArray[np.bool_]:
+        """Force closure in contact mode (sa, sb) at every lattice state (shape of the lattice),
+        computed from the psi index psi_from on (False below it)."""
+        th, d, ps = self._lattice
         s = self.scene
-        out[where] = force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, s.mu, s.options.sliding_model)
+        out = np.zeros(self.shape, dtype=bool)
+        out[:, :, psi_from:] = force_closure(th, d, ps[:, :, psi_from:], sa, sb, s.mu, s.options.sliding_model)
         return out
 
     def mode_ok(self, sa: int, sb: int) -> NDArray[np.bool_]:
@@ -168,10 +166,10 @@ class SecurityAtlas:
         """
         key = (sa, sb)
         if key not in self._mode_ok:
-            where = self.holdable.ravel()
+            first = 0
             if sa != 0 and sb != sa:
-                where = where & (self._grid[:, PSI] >= math.pi / 2 - 1e-9)
-            self._mode_ok[key] = self._fc(sa, sb, where).reshape(self.shape)
+                first = int(np.searchsorted(self.axes[PSI], math.pi / 2 - 1e-9))
+            self._mode_ok[key] = self.holdable & self._fc(sa, sb, first)
         return self._mode_ok[key]
 
     def leg_ok(self, kind: str, direction: int) -> NDArray[np.bool_]:
