@@ -235,15 +235,14 @@ def _spans(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]
             cross[i, j] = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         return cross[i, j]
 
-    def size(*arrays) -> int:
-        return int(np.prod(np.broadcast_shapes(*(np.shape(x) for x in arrays))))
+    shapes = [np.broadcast_shapes(*(np.shape(c) for c in w)) for w in unit]
 
     positive, negative = {}, {}
     unsure = np.zeros(shape, dtype=bool)
     band = 2.0 * FC_TOLERANCE
     for i, j, k in combinations(range(n), 3):  # det(w_i, w_j, w_k) = (w_i x w_j) . w_k = -(w_i x w_k) . w_j = ...
         options = (((i, j), k, False), ((i, k), j, True), ((j, k), i, False))
-        (a, b), other, odd = min(options, key=lambda o: size(*unit[o[0][0]], *unit[o[0][1]]))
+        (a, b), other, odd = min(options, key=lambda o: np.prod(np.broadcast_shapes(shapes[o[0][0]], shapes[o[0][1]])))
         c, w = crossed(a, b), unit[other]
         v = c[0] * w[0] + c[1] * w[1] + c[2] * w[2]
         above, below = v > 0.0, v < 0.0

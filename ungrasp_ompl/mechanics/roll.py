@@ -66,14 +66,20 @@ class RollResult:
         return True
 
 
+def _cross(a: NDArray, b: NDArray) -> NDArray:
+    """a x b for 3-vectors (..., 3) that broadcast (np.cross without its per-call cost, which
+    dominates here: the roll turns a handful of points at a time, hundreds of times)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
 def _rotate(points: NDArray, origin: NDArray, axis: NDArray, angles: NDArray) -> NDArray:
     """Rotate points (V, 3) about the line (origin, unit axis) by each angle: (K, V, 3) (Rodrigues)."""
     p = points - origin
     c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
     k = axis[None, None, :]
-    cross = np.cross(np.broadcast_to(k, p[None].shape), p[None])
     dot = (p @ axis)[None, :, None]
-    return origin + p[None] * c + cross * s + k * dot * (1 - c)
+    return origin + p[None] * c + _cross(k, p[None]) * s + k * dot * (1 - c)
 
 
 def _cone_rays(axis: NDArray, half_angle: float, rays: int) -> NDArray:
@@ -163,7 +169,7 @@ def roll_simulation(
                 continue
             axis = contacts[1] - contacts[0]
             axis /= np.linalg.norm(axis)
-            moments = np.cross(a_pt - contacts[0], forces) @ (sign * axis)
+            moments = _cross(a_pt - contacts[0], forces) @ (sign * axis)
             restoring.append(bool(np.min(moments) < -1e-12 * length))
         directions.append(RollDirection(sign, tilts.copy(), np.array(restoring), events))
     return RollResult(directions, float(tilts[-1]), onset)
@@ -177,7 +183,7 @@ def _touch_fraction(pts, origin, axis, angle, k, plane) -> float:
     p = pts[k] - origin
     along = float(p @ axis)
     cos_part = float((p - axis * along) @ up)
-    sin_part = float(np.cross(axis, p) @ up)
+    sin_part = float(_cross(axis, p) @ up)
     rest = float((origin + axis * along - point) @ up)
     lo, hi = 0.0, 1.0
     for _ in range(24):

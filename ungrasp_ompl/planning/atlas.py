@@ -99,14 +99,11 @@ class SecurityAtlas:
     # -- lattice coordinates -----------------------------------------------------
     def index(self, q: ArrayLike) -> tuple[int, int, int] | None:
         """Lattice index of the state nearest q, or None outside the lattice."""
-        o, r, lo, n = self._index_consts
-        out = []
-        for k in range(3):
-            i = round((q[k] - o[k]) / r[k]) - lo[k]
-            if i < 0 or i >= n[k]:
-                return None
-            out.append(i)
-        return tuple(out)
+        (o0, o1, o2), (r0, r1, r2), (l0, l1, l2), (n0, n1, n2) = self._index_consts  # unrolled: a planner hot path
+        i, j, k = round((q[0] - o0) / r0) - l0, round((q[1] - o1) / r1) - l1, round((q[2] - o2) / r2) - l2
+        if 0 <= i < n0 and 0 <= j < n1 and 0 <= k < n2:
+            return i, j, k
+        return None
 
     def state(self, idx: ArrayLike) -> NDArray[np.float64]:
         """The state (theta, d, psi) of a lattice index."""
