@@ -9,11 +9,15 @@ ungrasp_ompl``). The commands are the ones of the speed table in the README:
 Names: import (``python -c "import ungrasp_ompl.cli"``), help (``ungrasp-ompl --help``),
 bad_input (a scene that does not exist: exit 2), plan (reference_asymmetric, 1 s of RRT*,
 pictures), export (guitar_pick planned, timed and exported), tile (the tangram, RRT*).
+Two rows follow from inside a fresh process each: setup (UngraspSetup.setup_time on
+reference_asymmetric: the secure lattice and the planner) and cost (RRT*'s cost after its seeded
+budget for seeds 1-5, median, against the exact lattice optimum): what the speed work must keep.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import statistics
 import subprocess
@@ -43,6 +47,24 @@ COMMANDS: dict[str, tuple[list[str], tuple[int, ...], float]] = {
 }
 
 
+#: In-process figures, each printed by a fresh interpreter as one JSON number (or list).
+_SETUP = ("from ungrasp_ompl import Scene; from ungrasp_ompl.planning.setup import UngraspSetup, PlannerOptions; "
+          f"s = Scene.from_file({str(SCENES / 'reference_asymmetric.yaml')!r}); "
+          "print(UngraspSetup(s, PlannerOptions(seed=1)).setup_time)")
+_COSTS = ("import json; from ungrasp_ompl import Scene, plan; "
+          f"s = Scene.from_file({str(SCENES / 'reference_asymmetric.yaml')!r}); "
+          "print(json.dumps([plan(s, seed=k, time=1.0).cost for k in range(1, 6)] + "
+          "[plan(s, planner='lattice').cost]))")
+
+
+def _python(code: str) -> object:
+    proc = subprocess.run([sys.executable, "-c", code + "; import sys, os; sys.stdout.flush(); os._exit(0)"],
+                          capture_output=True, text=True)
+    if proc.returncode != 0 or not proc.stdout.strip():
+        raise SystemExit(f"bench_cli: {code[:60]}... failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
 def _time_once(argv: list[str], ok: tuple[int, ...]) -> float:
     out = tempfile.mkdtemp(prefix="bench_cli_")
     try:
@@ -61,6 +83,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--repeat", type=int, default=5, help="runs per command (default 5)")
     p.add_argument("--only", default=",".join(COMMANDS), help="comma-separated names (default: all)")
+    p.add_argument("--no-inside", action="store_true", help="leave out the setup and cost rows")
     args = p.parse_args()
     names = [n.strip() for n in args.only.split(",") if n.strip()]
     unknown = [n for n in names if n not in COMMANDS]
@@ -71,6 +94,13 @@ def main() -> None:
         argv, ok, aim = COMMANDS[name]
         walls = [_time_once(argv, ok) for _ in range(args.repeat)]
         print(f"{name:<10} {min(walls):7.2f} {statistics.median(walls):7.2f} {aim:6.1f}", flush=True)
+    if not args.no_inside:
+        setups = [float(_python(_SETUP)) for _ in range(args.repeat)]
+        print(f"{'setup':<10} {min(setups):7.3f} {statistics.median(setups):7.3f} {0.1:6.1f}   "
+              "(reference_asymmetric's lattice and planner, inside the process)", flush=True)
+        *costs, optimum = _python(_COSTS)
+        print(f"RRT* cost on reference_asymmetric after its seeded budget, seeds 1-5: median "
+              f"{statistics.median(costs):.1f} (each: {', '.join(f'{c:.1f}' for c in costs)}); lattice optimum {optimum:.1f}")
 
 
 if __name__ == "__main__":
