@@ -25,6 +25,7 @@ atlas tries every order and takes the one with fewest legs.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -238,24 +239,16 @@ class SecurityAtlas:
 
     def realisations(self, a: tuple[int, int, int], b: tuple[int, int, int]):
         """Candidate leg sequences (lists of Leg) from lattice index a to b, fewest legs first."""
-        step = tuple(b[k] - a[k] for k in range(3))
-        groups: list[list[str]] = []
-        kinds = ["T"] if step[THETA] else []
-        if step[D] and step[PSI] and step[D] * step[PSI] < 0:
-            groups.append(kinds + ["X"])
-        groups.append(kinds + (["D"] if step[D] else []) + (["P"] if step[PSI] else []))
-        groups.sort(key=len)
-        for group in groups:
-            for order in itertools.permutations(group):
-                legs, cur = [], a
-                for kind in order:
-                    nxt = list(cur)
-                    for axis in LEG_AXES[kind]:
-                        nxt[axis] = b[axis]
-                    nxt = tuple(nxt)
-                    legs.append(Leg(kind, cur, nxt))
-                    cur = nxt
-                yield legs
+        for order in _orders(*_signs(a, b)):
+            legs, cur = [], a
+            for kind in order:
+                nxt = list(cur)
+                for axis in LEG_AXES[kind]:
+                    nxt[axis] = b[axis]
+                nxt = tuple(nxt)
+                legs.append(Leg(kind, cur, nxt))
+                cur = nxt
+            yield legs
 
     def realise(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> list[list[Leg]]:
         """Every secure leg sequence from a to b ([] if none). A motion that stays put gives [[]] when a is holdable."""
@@ -271,10 +264,36 @@ class SecurityAtlas:
             return False
         if a == b:
             return bool(self.holdable[a])
-        for legs in self.realisations(a, b):
-            if all(self.leg_secure(l.kind, l.start, l.end) for l in legs):
+        for order in _orders(*_signs(a, b)):  # realisations' orders, without Leg objects
+            cur = a
+            for kind in order:
+                nxt = list(cur)
+                for axis in LEG_AXES[kind]:
+                    nxt[axis] = b[axis]
+                nxt = tuple(nxt)
+                if not self.leg_secure(kind, cur, nxt):
+                    break
+                cur = nxt
+            else:
                 return True
         return False
+
+
+def _signs(a: tuple[int, int, int], b: tuple[int, int, int]) -> tuple[int, int, int]:
+    """The sign of each coordinate's change from lattice index a to b."""
+    return tuple((y > x) - (y < x) for x, y in zip(a, b))
+
+
+@functools.lru_cache(maxsize=None)
+def _orders(dtheta: int, dd: int, dpsi: int) -> tuple[tuple[str, ...], ...]:
+    """The leg kinds of every staircase of a step with these coordinate signs, in every order,
+    fewest legs first: T if theta moves, then D and P, or one X where d and psi move oppositely."""
+    kinds = ("T",) if dtheta else ()
+    groups = [kinds + (("D",) if dd else ()) + (("P",) if dpsi else ())]
+    if dd and dpsi and dd * dpsi < 0:
+        groups.append(kinds + ("X",))
+    groups.sort(key=len)
+    return tuple(order for group in groups for order in itertools.permutations(group))
 
 
 def lattice_axes(origin: NDArray, res: NDArray, box: ArrayLike) -> tuple[NDArray[np.int_], list[NDArray]]:
