@@ -141,3 +141,93 @@ def _wire_box(ax, lo: np.ndarray, hi: np.ndarray) -> None:
                 points += [p0, p1, np.full(3, np.nan)]  # NaN breaks the line between edges
     x, y, z = np.array(points).T
     ax.plot(x, y, z, color="r", lw=0.8, alpha=0.6)
+
+
+def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
+    """Top view of a layout after tiling (world x, y in mm): the frame's walls, every piece at its
+    target numbered in placement order, its G (dot) and B (square), the ungrasp direction G -> B
+    (the B end is the one put down last), and the thumb's width at B. A piece that could not be
+    placed is hatched red; pieces not reached are outlined only."""
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    fig, ax = plt.subplots(figsize=(8, 8), constrained_layout=True)
+    for wall in layout.frame.walls():
+        ax.add_patch(PolygonPatch(wall.vertices[:4, :2] * 1000, closed=True, color="#969696"))
+    placed = {p.index: p for p in tiling.placements}
+    cmap = plt.get_cmap("viridis")
+    n = len(layout.pieces)
+    for i, piece in enumerate(layout.pieces):
+        pts = layout.footprint(i) * 1000
+        centre = pts.mean(axis=0)
+        if i in placed:
+            p = placed[i]
+            ax.add_patch(PolygonPatch(pts, closed=True, facecolor=cmap(0.15 + 0.7 * (p.order - 1) / max(n - 1, 1)),
+                                      edgecolor="k", alpha=0.55))
+            frame = p.scene.plane.frame
+            g, b = frame[:2, 3] * 1000, (frame[:2, 3] + frame[:2, 0] * p.scene.object_length) * 1000
+            ax.annotate("", xy=b, xytext=g, arrowprops={"arrowstyle": "->", "color": "#d7301f", "lw": 1.6})
+            ax.plot(*g, "o", color="#08519c", ms=6)
+            ax.plot(*b, "s", color="#d7301f", ms=6)
+            half = p.scene.digits.width * p.scene.object_length / 2 * 1000
+            side = frame[:2, 1] * half
+            ax.plot(*np.array([b - side, b + side]).T, color="#d7301f", lw=3, alpha=0.6)
+            ax.text(*centre, f"{p.order}\n{piece.name}", ha="center", va="center", fontsize=7)
+        else:
+            failed = piece.name == tiling.failed_piece
+            ax.add_patch(PolygonPatch(pts, closed=True, fill=False, edgecolor="#d7301f" if failed else "k",
+                                      hatch="///" if failed else None, lw=1.5 if failed else 0.8))
+            ax.text(*centre, f"{piece.name}\n{'cannot be placed' if failed else 'not placed'}", ha="center",
+                    va="center", fontsize=7, color="#d7301f" if failed else "k")
+    handles = [plt.Line2D([], [], marker="o", ls="", color="#08519c", label="G (on the table)"),
+               plt.Line2D([], [], marker="s", ls="", color="#d7301f", label="B (thumb), its width as a bar"),
+               plt.Line2D([], [], color="#d7301f", label="ungrasp direction G -> B")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8)
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xlabel("world x (mm)")
+    ax.set_ylabel("world y (mm)")
+    status = "all pieces placed" if tiling.solved else f"{tiling.failed_piece} cannot be placed"
+    ax.set_title(f"{layout.name}: top view, {len(tiling.placements)} of {n} pieces ({status})")
+    _save(fig, path)
+
+
+def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.PathLike[str]) -> None:
+    """Simulated trials: (left) each trial's final object outline over the target outline, top
+    view in mm about the target's centroid, green for success and red for failure; (right) success
+    against each perturbation the trials drew. report: a sim SimulationReport; outline: the
+    object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4)."""
+    def placed(pose: np.ndarray) -> np.ndarray:
+        pts = np.column_stack([outline, np.zeros(len(outline))]) @ np.asarray(pose)[:3, :3].T + np.asarray(pose)[:3, 3]
+        return pts[:, :2]
+
+    want = placed(target)
+    centre = want.mean(axis=0)
+    keys = [k for k in report.trials[0].params if len({round(t.params[k], 9) for t in report.trials}) > 1]
+    cols = max(1, math.ceil(len(keys) / 2))
+    fig = plt.figure(figsize=(4.6 + 2.6 * cols, 4.6))
+    grid = fig.add_gridspec(2, 1 + cols, width_ratios=[1.8] + [1] * cols)
+    axes = [fig.add_subplot(grid[:, 0])] + [fig.add_subplot(grid[k % 2, 1 + k // 2]) for k in range(max(1, len(keys)))]
+    ax = axes[0]
+    ax.fill(*((want - centre) * 1000).T, color="0.85", label="target")
+    for t in report.trials:
+        got = (placed(t.final_pose) - centre) * 1000
+        ax.plot(*np.vstack([got, got[:1]]).T, color="tab:green" if t.success else "tab:red", lw=0.8, alpha=0.7)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"{report.scene}: {report.successes}/{len(report.trials)} placed", fontsize=10)
+    if not keys:
+        axes[1].text(0.5, 0.5, f"perturbation '{report.perturbation.name}':\nno random error drawn",
+                     ha="center", va="center")
+        axes[1].set_axis_off()
+    for ax, key in zip(axes[1:], keys):
+        x = np.array([t.params[key] for t in report.trials])
+        y = np.array([1.0 if t.success else 0.0 for t in report.trials])
+        jitter = np.random.default_rng(0).uniform(-0.06, 0.06, len(y))
+        ax.scatter(x, y + jitter, c=np.where(y > 0, "tab:green", "tab:red"), s=14)
+        ax.set_yticks([0, 1], ["failed", "placed"])
+        ax.set_ylim(-0.4, 1.4)
+        ax.set_xlabel(key, fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    _save(fig, path)
