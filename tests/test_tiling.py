@@ -21,7 +21,7 @@ from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
 from ungrasp_ompl.robot.placement import densify
-from ungrasp_ompl.tiling import approaches
+from ungrasp_ompl.tiling import GoalStates, approaches, screen
 
 TANGRAM = SCENES / "tangram.yaml"
 
@@ -245,6 +245,50 @@ def test_room_beyond_b_is_the_gap_to_the_wall(tmp_path):
                 normal = np.zeros(2)
                 normal[k] = 1.0 if point[k] < side / 2 else -1.0
                 assert math.acos(np.clip(direction @ normal, -1, 1)) < math.atan(mu) + 1e-9
+
+
+# -- what the search reuses ----------------------------------------------------------------
+
+@pytest.mark.slow
+def test_screens_reusing_what_earlier_screens_learnt_answer_as_fresh_ones():
+    """tile() keeps one GoalStates per piece and approach over every set of pieces down (the
+    goal states' kinematics and force closure, a witness state where the gripper let go, the
+    sets of solids where none could) and reads a piece's scene from the file once: each answer
+    equals a screen from scratch of the scene a freshly loaded layout builds, with the sets of
+    pieces down one order puts down (their solids only grow) and the same sets the other way."""
+    layout = Layout.from_file(TANGRAM)
+    n = len(layout.pieces)
+    order = [int(k) for k in np.random.default_rng(5).permutation(n)]
+    fresh: dict[tuple, str | None] = {}  # the answers from scratch, by piece, approach and pieces down
+    seen = {"pass by witness": 0, "pass by search": 0, "fail among fewer solids": 0, "fail by search": 0}
+    for sizes in (range(n), range(n - 1, -1, -1)):
+        goals: dict[tuple, GoalStates] = {}
+        for placed in (order[:k] for k in sizes):
+            fresh_layout = Layout.from_file(TANGRAM)
+            for i in sorted(set(range(n)) - set(placed)):
+                for a in approaches(layout, i, placed, 6):
+                    scene = layout.scene(i, (a.g, a.b), placed)
+                    key = (i, a.g.tobytes(), a.b.tobytes())
+                    if key + (len(placed),) not in fresh:
+                        other = fresh_layout.scene(i, (a.g, a.b), placed)
+                        assert [s.name for s in scene.solids] == [s.name for s in other.solids]
+                        assert all(np.array_equal(s.vertices, t.vertices) for s, t in zip(scene.solids, other.solids))
+                        fresh[key + (len(placed),)] = screen(other)
+                    if key not in goals:
+                        goals[key] = GoalStates(scene)
+                    goal = goals[key]
+                    witness, failed = goal.witness, len(goal.failed)
+                    answer = screen(scene, goal)
+                    assert answer == fresh[key + (len(placed),)], (layout.pieces[i].name, placed, a.describe())
+                    names = {s.name for s in scene.solids}
+                    if answer is None:
+                        by_witness = witness is not None and goal.witness is witness
+                        seen["pass by witness" if by_witness else "pass by search"] += 1
+                    elif any(solids <= names for solids, _ in goal.failed[:failed]):
+                        seen["fail among fewer solids"] += 1
+                    else:
+                        seen["fail by search"] += 1
+    assert min(seen.values()) >= 3, seen  # every way through screen() was taken
 
 
 # -- bad layouts ----------------------------------------------------------------------------

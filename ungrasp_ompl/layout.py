@@ -98,7 +98,10 @@ class Layout:
     pieces: list[Piece]
     shared: dict[str, Any]
     source: str | None = None
-    _own: dict[int, Scene] = field(default_factory=dict, repr=False)  # scene(i) without contacts or solids placed
+    #: scene(i, contacts) with the walls as its only solids, by (i, contacts as floats or None)
+    _parsed: dict[tuple, Scene] = field(default_factory=dict, repr=False)
+    _walls: tuple[Solid, ...] = field(default=(), repr=False)  # the frame's walls, once asked for
+    _solids: dict[int, Solid] = field(default_factory=dict, repr=False)  # solid(j), by j
 
     # -- loading -------------------------------------------------------------------
     @classmethod
@@ -190,9 +193,25 @@ class Layout:
               placed: Sequence[int] = ()) -> Scene:
         """The planning scene of piece i: the shared sections, the piece at its world target, G and B
         (own coordinates; None chooses them as for a single object), and as solids the frame's
-        walls and the pieces placed already."""
-        if contacts is None and not placed and i in self._own:
-            return self._own[i]
+        walls and the pieces placed already.
+
+        The file's sections are read once per piece and contacts: each call returns a new Scene
+        whose other fields it shares with the scenes of that piece and contacts (read them, do not
+        change them in place)."""
+        pair = None if contacts is None else tuple(tuple(float(x) for x in c) for c in contacts)
+        key = (i, pair)
+        if key not in self._parsed:
+            if not self._walls:
+                self._walls = tuple(self.frame.walls())
+            self._parsed[key] = replace(self._read_scene(i, pair), solids=self._walls)
+        for j in placed:
+            if j not in self._solids:
+                self._solids[j] = self.solid(j)
+        scene = self._parsed[key]
+        return replace(scene, solids=scene.solids + tuple(self._solids[j] for j in placed))
+
+    def _read_scene(self, i: int, contacts: tuple[tuple[float, ...], tuple[float, ...]] | None) -> Scene:
+        """Piece i's scene from the file's sections, without solids; InputError names the piece."""
         piece = self.pieces[i]
         position, yaw = self.world_pose(i)
         data = copy.deepcopy(self.shared)
@@ -200,15 +219,10 @@ class Layout:
         data["object"] = {"thickness": piece.object3d.thickness, "outline": copy.deepcopy(piece.outline_spec),
                           "target": {"position": list(position), "yaw_deg": math.degrees(yaw)}}
         if contacts is not None:
-            data["contacts"] = {"G": [float(x) for x in contacts[0]], "B": [float(x) for x in contacts[1]]}
+            data["contacts"] = {"G": list(contacts[0]), "B": list(contacts[1])}
         try:
-            scene = Scene.from_dict(data, source=self.source)
+            return Scene.from_dict(data, source=self.source)
         except InputError as exc:
             if exc.field.startswith("object") or exc.field in ("friction", "contacts"):
                 raise InputError(f"pieces[{i}]", f"{piece.name!r}: {exc.field}: {exc.reason}", self.source) from None
             raise
-        solids = tuple(self.frame.walls()) + tuple(self.solid(j) for j in placed)
-        scene = replace(scene, solids=solids)
-        if contacts is None and not placed:
-            self._own[i] = scene
-        return scene

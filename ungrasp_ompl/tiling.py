@@ -22,8 +22,12 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
    step at once. Only the best `approaches` planes of a piece are tried: the
    search is complete over orders, not over every antipodal pair.
 
-Results are memoised by (pieces down, piece), so no check is repeated. Once an
-order is found, each piece is planned with the chosen planner; should a
+Results are memoised by (pieces down, piece), so no check is repeated, and what
+a screen learns that holds with other pieces down (the goal states' kinematics
+and force closure, a goal state where the gripper let go, the sets of pieces
+down where none could) is kept per piece and approach (GoalStates): later
+screens give the same answers sooner. Once an order is found, each piece is
+planned with the chosen planner on the lattice its proof built; should a
 sampling planner find no path in its time, the lattice path (proved to exist)
 is taken and the summary says so.
 """
@@ -32,8 +36,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Callable
+from dataclasses import dataclass, field, replace
+from typing import Callable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,7 +52,7 @@ from .planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from .planning.lattice import lattice_search
 from .planning.result import Plan, PlanOutcome, describe_outcome
 from .planning.setup import LATTICE
-from .scene import Scene, StateClass
+from .scene import Scene
 
 #: Room beyond B (and behind G) counted by the ranking, m: more is not better.
 ROOM_CAP = 0.02
@@ -189,21 +193,19 @@ def _segments(layout: Layout, placed: list[int]) -> NDArray[np.float64]:
     return np.concatenate([np.stack([p, np.roll(p, -1, axis=0)], axis=1) for p in polys])
 
 
-def _room(origins: NDArray, direction: NDArray, segments: NDArray) -> float:
-    """Smallest distance from any of origins (K, 2) along direction (2,) to a segment, capped (m)."""
+def _room(origins: NDArray, direction: NDArray, segments: NDArray) -> NDArray[np.float64]:
+    """Per ray bundle k: the smallest distance from any of origins[k] (K, 2) along direction[k]
+    (2,) to a segment, capped at ROOM_CAP (m); origins (N, K, 2), direction (N, 2)."""
     a, b = segments[:, 0], segments[:, 1]
     e = b - a
-    best = ROOM_CAP
-    for o in origins:
-        denom = direction[0] * e[:, 1] - direction[1] * e[:, 0]
-        w = a - o
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / denom
-            s = (w[:, 0] * direction[1] - w[:, 1] * direction[0]) / denom
-        hit = (np.abs(denom) > 1e-12) & (t > 1e-7) & (s >= 0) & (s <= 1)
-        if hit.any():
-            best = min(best, float(t[hit].min()))
-    return best
+    d = direction[:, None, None, :]  # (N, 1, 1, 2) against (N, K, M, 2)
+    denom = d[..., 0] * e[:, 1] - d[..., 1] * e[:, 0]
+    w = a - origins[:, :, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w[..., 0] * e[:, 1] - w[..., 1] * e[:, 0]) / denom
+        s = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / denom
+    hit = (np.abs(denom) > 1e-12) & (t > 1e-7) & (s >= 0) & (s <= 1)
+    return np.where(hit, t, ROOM_CAP).min(axis=(1, 2), initial=ROOM_CAP)
 
 
 def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Approach]:
@@ -219,17 +221,24 @@ def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Ap
     rot = np.array([[c, -s], [s, c]])
     segs = _segments(layout, placed)
     half_width = own.digits.width * own.object_length / 2  # metres
-    out = []
     # only planes whose contacts hold x-moments: an edge contact at G or B, or no cusp at either
     x_stable = (cand.kind[gi] == "edge") | (cand.kind[bi] == "edge") | ((cand.radius[gi] > 0) & (cand.radius[bi] > 0))
+    pairs, ends, units = [], [], []  # per pair: (G, B, margin); G, B in the world (2, 2); GB's direction
     for g_k, b_k, margin in zip(gi[x_stable], bi[x_stable], margins[x_stable]):
         g, b = cand.points[g_k], cand.points[b_k]
         gw, bw = rot @ g + (px, py), rot @ b + (px, py)
-        u = (bw - gw) / np.linalg.norm(bw - gw)
-        side = np.array([-u[1], u[0]]) * half_width
-        room_b = _room(np.array([bw, bw + side, bw - side]), u, segs)
-        room_g = _room(np.array([gw, gw + side, gw - side]), -u, segs)
-        out.append(Approach(g, b, math.atan2(u[1], u[0]), float(margin), room_b, room_g))
+        pairs.append((g, b, float(margin)))
+        ends.append((gw, bw))
+        units.append((bw - gw) / np.linalg.norm(bw - gw))
+    if not pairs:
+        return []
+    ends, units = np.array(ends), np.array(units)
+    side = np.stack([-units[:, 1], units[:, 0]], axis=1)[:, None, :] * half_width  # (N, 1, 2)
+    rays = np.stack([np.zeros_like(units), side[:, 0], -side[:, 0]], axis=1)  # offsets across GB (N, 3, 2)
+    room_b = _room(ends[:, 1, None, :] + rays, units, segs)
+    room_g = _room(ends[:, 0, None, :] + rays, -units, segs)
+    out = [Approach(g, b, math.atan2(u[1], u[0]), margin, float(rb), float(rg))
+           for (g, b, margin), u, rb, rg in zip(pairs, units, room_b, room_g)]
     out.sort(key=lambda a: (-round(a.room_b, 4), -round(a.margin, 6), -round(a.room_g, 4)))
     chosen: list[Approach] = []
     for a in out:
@@ -261,36 +270,103 @@ def wall_contact(layout: Layout, i: int) -> float:
 
 # -- checking one approach -------------------------------------------------------------
 
-def screen(scene: Scene, chunk: int = 8192) -> str | None:
+class GoalStates:
+    """What screen() learns of one piece and approach among some solids that holds among others:
+    whether the start state is kinematically valid and force-closed, the goal's lattice states
+    (inside the planning box) that are, a chunk of the lattice at a time as they are first needed,
+    a goal state where the gripper could let go (a witness) and the solids (by name) among which
+    it and the start are known to be free, and the sets of solids among which no goal state can
+    be let go (with whether one could be held)."""
+
+    def __init__(self, scene: Scene, chunk: int = 8192):
+        """scene: the piece's scene with the approach's G and B (its solids are not used)."""
+        self._scene = scene
+        start = np.asarray(scene.start, dtype=float)[None]
+        #: Whether the start state is kinematically valid and force-closed (as in Scene.classify).
+        self.start_ok = bool(kinematic_validity(start[:, 0], start[:, 1], start[:, 2], scene.digits)[0]
+                             and scene.force_closure(start)[0])
+        box = planning_box(scene)
+        glo, ghi = scene.goal.box()
+        goal_box = np.array([np.maximum(box[0], glo), np.minimum(box[1], ghi)])
+        #: Whether the goal region misses the planning box.
+        self.outside_box = bool(np.any(goal_box[0] > goal_box[1]))
+        self._grid = np.empty((0, 3))
+        if not self.outside_box:
+            _, axes = lattice_axes(start[0], np.asarray(scene.options.resolution, dtype=float), goal_box)
+            # from the highest theta, d and psi down: where the gripper can let go, if anywhere, it
+            # mostly can at the goal's highest theta (the order does not change the answer)
+            self._grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)[::-1].copy()
+        self._chunk = chunk
+        self._held: list[NDArray[np.float64]] = []
+        #: A goal state (theta rad, d over l, psi rad) that can be held and let go, or None.
+        self.witness: NDArray[np.float64] | None = None
+        #: The solids (names) the witness and the start state are known to be free of.
+        self.free_of: frozenset[str] = frozenset()
+        #: Solids (names) among which no goal state can be let go, and whether one can be held.
+        self.failed: list[tuple[frozenset[str], bool]] = []
+
+    def chunks(self) -> Iterator[NDArray[np.float64]]:
+        """The kinematically valid, force-closed goal states (theta rad, d over l, psi rad), one
+        (K, 3) array per chunk of the lattice."""
+        scene = self._scene
+        for k in range(0, len(self._grid), self._chunk):
+            if len(self._held) <= k // self._chunk:
+                q = self._grid[k:k + self._chunk]
+                q = q[kinematic_validity(q[:, 0], q[:, 1], q[:, 2], scene.digits)]
+                self._held.append(q[scene.force_closure(q)])
+            yield self._held[k // self._chunk]
+
+
+def screen(scene: Scene, goal: GoalStates | None = None) -> str | None:
     """Why an approach cannot work, from the start grasp and the goal region alone; None if it may.
 
     The answer of planning.setup.ends_problem on the goal's lattice states, found a chunk of
-    states at a time: it stops at the first state that can be held and let go."""
-    box = planning_box(scene)
-    glo, ghi = scene.goal.box()
-    goal_box = np.array([np.maximum(box[0], glo), np.minimum(box[1], ghi)])
-    if np.any(goal_box[0] > goal_box[1]):
+    states at a time: it stops at the first state that can be held and let go. goal: what
+    earlier screens of the same piece and approach among other solids (of one layout, named
+    alike) learnt, which gives the same answer sooner. The kinematics and force closure of the
+    start and goal states do not depend on the solids; a state collides among solids exactly
+    when it collides with one of them (or the table), so a state free of some solids needs
+    checking against the others only, and where no goal state can be let go among some solids
+    none can among more; and the answer only asks whether some goal state can be held and let go."""
+    goal = goal if goal is not None else GoalStates(scene)
+    if goal.outside_box:
         return describe_outcome(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
-    checker = CollisionChecker(scene.collision_model())
-    if scene.classify(scene.start, checker)[0] != StateClass.HELD.value:
+    names = frozenset(s.name for s in scene.solids)
+    r = scene.robot
+    amount = r.termination_opening if r.termination == "open" else r.termination_angle
+    checker = None
+    if goal.witness is not None:  # the start is held and the witness let go among goal.free_of
+        new = tuple(s for s in scene.solids if s.name not in goal.free_of)
+        if not new:
+            return None
+        others = CollisionChecker(replace(scene.collision_model(), solids=new))
+        hit = others.in_collision(np.vstack([scene.start, goal.witness]))
+        if not hit.any() and not others.termination_collides(goal.witness, r.termination, amount)[0]:
+            goal.free_of |= names
+            return None
+        start_held = not hit[0]
+    else:
+        checker = CollisionChecker(scene.collision_model()) if goal.start_ok else None
+        start_held = checker is not None and not checker.in_collision(scene.start)[0]
+    if not start_held:
         start = scene.diagnose(scene.start)
         return describe_outcome(PlanOutcome.START_NOT_HELD, dict(
             state_class=start.state_class.name, failed_checks=list(start.failed_checks), contacts=list(start.contacts)))
-    _, axes = lattice_axes(np.asarray(scene.start, dtype=float), np.asarray(scene.options.resolution, dtype=float),
-                           goal_box)
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    r = scene.robot
-    amount = r.termination_opening if r.termination == "open" else r.termination_angle
-    holdable = False
-    for k in range(0, len(grid), chunk):
-        q = grid[k:k + chunk]
-        q = q[kinematic_validity(q[:, 0], q[:, 1], q[:, 2], scene.digits)]
-        q = q[scene.force_closure(q)]
-        q = q[~checker.in_collision(q)] if len(q) else q
-        holdable |= bool(len(q))
-        for j in range(0, len(q), 64):  # letting go costs most: a few states at a time
-            if not checker.termination_collides(q[j:j + 64], r.termination, amount).all():
-                return None
+    checker = checker or CollisionChecker(scene.collision_model())
+    fewer = [holdable for solids, holdable in goal.failed if solids <= names]
+    if fewer:  # no goal state can be let go among fewer solids: none can here; only holdable is asked
+        holdable = all(fewer) and any(len(q) and not checker.in_collision(q).all() for q in goal.chunks())
+    else:
+        holdable = False
+        for q in goal.chunks():
+            q = q[~checker.in_collision(q)] if len(q) else q
+            holdable |= bool(len(q))
+            for j in range(0, len(q), 64):  # letting go costs most: a few states at a time
+                free = ~checker.termination_collides(q[j:j + 64], r.termination, amount)
+                if free.any():
+                    goal.witness, goal.free_of = q[j:j + 64][free][:1], names
+                    return None
+    goal.failed.append((names, holdable))
     return describe_outcome(PlanOutcome.GOAL_EMPTY, dict(holdable=holdable, termination=r.termination))
 
 
@@ -322,6 +398,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     walls = [wall_contact(layout, i) for i in range(n)]
     screened: dict[tuple[frozenset, int], tuple[list, list[str]]] = {}
     proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
+    goals: dict[tuple[int, bytes, bytes], GoalStates] = {}  # by piece and approach, over all pieces down
     deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
 
     def out_of_checks() -> bool:
@@ -336,7 +413,10 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 result.checks += 1
                 report("search", len(placed), i)
                 scene = layout.scene(i, (a.g, a.b), placed)
-                problem = screen(scene)
+                plane = (i, a.g.tobytes(), a.b.tobytes())
+                if plane not in goals:
+                    goals[plane] = GoalStates(scene)
+                problem = screen(scene, goals[plane])
                 if problem:
                     why.append(f"{a.describe()}: {problem}")
                 else:
@@ -407,7 +487,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         note = None
         if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
             note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
-            p = plan_scene(scene, planner=LATTICE)
+            p = plan_scene(scene, planner=LATTICE, atlas=atlas)  # the proof's lattice again
         if not p.solved:
             result.failed_piece = layout.pieces[i].name
             result.reasons = [f"{a.describe()}: {p.planner} found no plan ({p.reason})"]
