@@ -51,6 +51,9 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
                          "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
+    pl.add_argument("--cage", action="store_true",
+                    help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
+                         "plan and where (takes seconds; in plan.json under cage)")
 
     bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
     bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")
@@ -116,6 +119,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
     cg.add_argument("--start-psi-offset-deg", type=float, default=None,
                     help="start the plan with psi this much larger (the paper's deviated start, sec. 6.2.3)")
+    cg.add_argument("--refine", type=float, default=1.0, metavar="FACTOR",
+                    help="divide the pose grid's steps (and its penetration tolerance) by FACTOR, to see whether "
+                         "the answer holds on a finer grid (default 1; 2 takes about 8 times as long)")
     cg.add_argument("--out", default=None, help="directory for cage.png and cage.json")
 
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
@@ -173,6 +179,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _plan(args: argparse.Namespace) -> int:
     path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
+    import json
+
     from .io import write_text_atomic
     from .planning import plan
     from .scene import Scene
@@ -183,13 +191,23 @@ def _plan(args: argparse.Namespace) -> int:
     for flag, path in (("--out", out), ("--export", export)):
         if path is not None and path.exists() and not path.is_dir():
             raise InputError(flag, f"{path} exists and is not a directory")
+    if args.cage and scene.object_thickness <= 0.0:
+        raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
+                         scene.source)
     result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations,
                   objective=args.objective)
     print(result.summary())
+    cage = None
+    if args.cage and result.solved:
+        from .robustness import cage_profile
+
+        cage = cage_profile(scene, result).weakest(result)
+        print(cage.describe())
     if out is not None:
         from .plotting import draw_plan
 
-        write_text_atomic(out / "plan.json", result.to_json())
+        write_text_atomic(out / "plan.json", result.to_json() if cage is None else
+                          json.dumps({**result.to_dict(), "cage": cage.to_dict()}, indent=2) + "\n")
         draw_plan(scene, result, out / "cspace.png")
         print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
     if not result.solved:
@@ -241,6 +259,7 @@ def _cage(args: argparse.Namespace) -> int:
     import math
 
     from .io import write_text_atomic
+    from .mechanics.cage import CageGrid
     from .planning import plan
     from .planning.result import read_plan
     from .robustness import cage_profile, plan_friction_margins
@@ -253,6 +272,8 @@ def _cage(args: argparse.Namespace) -> int:
     if scene.object_thickness <= 0.0:
         raise InputError("object.thickness", "the cage's potential energy needs an object with a thickness (m)",
                          scene.source)
+    if not (math.isfinite(args.refine) and args.refine > 0.0):
+        raise InputError("--refine", f"must be a positive factor, got {args.refine!r}")
     if args.plan is not None:
         result = read_plan(args.plan)
     else:
@@ -271,12 +292,12 @@ def _cage(args: argparse.Namespace) -> int:
         held = scene.diagnose(start)
         print(f"deviated start: psi {math.degrees(start[2]):.1f} deg ({held.describe('it')}; friction margin "
               f"{float(scene.margin(start).friction_deg[0]):.2f} deg with every contact sticking)")
-    profile = cage_profile(scene, result, squeeze=args.squeeze)
+    profile = cage_profile(scene, result, grid=CageGrid().refined(args.refine), squeeze=args.squeeze)
     margins = plan_friction_margins(scene, profile.samples)
     cage0 = profile.cages[0]
     print(f"cage of {scene.name} along the plan: {len(profile.cages)} states, grid {cage0.spacing[0] * 1000:.2f} mm / "
-          f"{math.degrees(cage0.spacing[2]):.2f} deg, penetration tolerance {cage0.tolerance * 1000:.2f} mm"
-          + (f", squeeze {args.squeeze:g} N" if args.squeeze else ", gravity only"))
+          f"{math.degrees(cage0.spacing[2]):.2f} deg over the whole turn, penetration tolerance "
+          f"{cage0.tolerance * 1000:.2f} mm" + (f", squeeze {args.squeeze:g} N" if args.squeeze else ", gravity only"))
     print(f"  {'state (theta deg, d, psi deg)':<34} {'primitive':<8} {'cage':<12} {'escape mJ':>10} {'margin deg':>10}")
     last = None
     for k, (q, c) in enumerate(zip(profile.samples.states, profile.cages)):
@@ -288,23 +309,18 @@ def _cage(args: argparse.Namespace) -> int:
         energy = "inf" if math.isinf(c.escape_energy) else f"{c.escape_energy_mj:.4f}"
         print(f"  ({math.degrees(q[0]):5.1f}, {q[1]:.3f}, {math.degrees(q[2]):5.1f}){'':<13} {prim:<8} "
               f"{c.outcome.value:<12} {energy:>10} {math.degrees(margins[k]):>10.2f}")
-    e_min, at = profile.minimum()
-    counts = ", ".join(f"{n} {o.replace('_', ' ')}" for o, n in profile.counts().items() if n)
-    q = profile.samples.states[at]
+    weakest = profile.weakest(result)
     start_energy = "inf" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f}"
     print(f"start: {cage0.outcome.value.replace('_', ' ')} (escape energy {start_energy} mJ)")
-    print(f"smallest escape energy {'inf' if math.isinf(e_min) else f'{e_min * 1000:.4f}'} mJ at (theta "
-          f"{math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi {math.degrees(q[2]):.1f} deg); states: {counts}; "
-          f"smallest friction margin {math.degrees(margins.min()):.2f} deg")
+    print(f"{weakest.describe()}; smallest friction margin {math.degrees(margins.min()):.2f} deg")
     if out is not None:
         from .robustness_plot import draw_cage_profile
 
-        doc = {"scene": scene.name, "squeeze_n": args.squeeze,
+        doc = {"scene": scene.name, "squeeze_n": args.squeeze, "refine": args.refine,
                "states": [[float(x) for x in q] for q in profile.samples.states],
                "primitive": [int(p) for p in profile.samples.primitive],
                "friction_margin_deg": [float(math.degrees(m)) for m in margins],
-               "cage": [c.to_dict() for c in profile.cages],
-               "min_escape_energy_mj": None if math.isinf(e_min) else e_min * 1000}
+               "cage": [c.to_dict() for c in profile.cages], "weakest": weakest.to_dict()}
         write_text_atomic(out / "cage.json", json.dumps(doc, indent=1) + "\n")
         draw_cage_profile(scene.name, result, profile, margins, out / "cage.png")
         print(f"wrote {out / 'cage.json'} and {out / 'cage.png'}")

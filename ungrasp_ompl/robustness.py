@@ -110,6 +110,49 @@ class CageProfile:
 
         return {o.value: sum(c.outcome is o for c in self.cages) for o in CageOutcome}
 
+    def weakest(self, plan: Plan) -> "CageMinimum":
+        """Where along the plan (planned as plan) the cage is weakest: its smallest escape energy,
+        at the first sample that has it."""
+        energy, k = self.minimum()
+        p = int(self.samples.primitive[k])
+        return CageMinimum(energy, self.cages[k].outcome.value, tuple(float(x) for x in self.samples.states[k]), p,
+                           plan.primitives[p].type, len(self.cages), self.counts())
+
+
+@dataclass(frozen=True)
+class CageMinimum:
+    """The smallest escape energy along a plan and where it occurs (see CageProfile.weakest)."""
+
+    escape_energy: float
+    """The smallest escape energy of the samples, J (inf: every sample fully caged)."""
+    outcome: str
+    """That sample's CageOutcome value."""
+    state: tuple[float, float, float]
+    """The first sample that has it: theta (rad), d (over l), psi (rad)."""
+    primitive: int
+    """The index of the plan's primitive it lies on."""
+    primitive_type: str
+    """That primitive's type (P_theta, P_psi or P_dpsi)."""
+    samples: int
+    """How many states of the plan were examined."""
+    counts: dict[str, int]
+    """How many samples have each outcome."""
+
+    def describe(self) -> str:
+        """One line for a person (millijoules and degrees)."""
+        theta, d, psi = self.state
+        energy = "inf" if math.isinf(self.escape_energy) else f"{self.escape_energy * 1000:.4f}"
+        counts = ", ".join(f"{n} {o.replace('_', ' ')}" for o, n in self.counts.items() if n)
+        return (f"cage: smallest escape energy {energy} mJ ({self.outcome.replace('_', ' ')}), first at (theta "
+                f"{math.degrees(theta):.1f} deg, d {d:.3f}, psi {math.degrees(psi):.1f} deg) in primitive "
+                f"{self.primitive + 1} ({self.primitive_type}); {self.samples} states: {counts}")
+
+    def to_dict(self) -> dict:
+        """For plan.json: energies in millijoules (null for inf), the state in radians and over l."""
+        return {"min_escape_energy_mj": None if math.isinf(self.escape_energy) else self.escape_energy * 1000,
+                "outcome": self.outcome, "state": list(self.state), "primitive": self.primitive,
+                "primitive_type": self.primitive_type, "samples": self.samples, "counts": dict(self.counts)}
+
 
 def cage_profile(scene: Scene, plan: Plan, grid: CageGrid | None = None, squeeze: float = 0.0,
                  resolution: ArrayLike = PROFILE_RESOLUTION) -> CageProfile:
@@ -118,5 +161,5 @@ def cage_profile(scene: Scene, plan: Plan, grid: CageGrid | None = None, squeeze
     return CageProfile(samples, scene.cage(samples.states, grid, squeeze))
 
 
-__all__ = ["CageProfile", "PROFILE_RESOLUTION", "PlanSamples", "cage_profile", "path_margin", "plan_friction_margins",
-           "plan_samples"]
+__all__ = ["CageMinimum", "CageProfile", "PROFILE_RESOLUTION", "PlanSamples", "cage_profile", "path_margin",
+           "plan_friction_margins", "plan_samples"]

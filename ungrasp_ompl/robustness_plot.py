@@ -22,9 +22,10 @@ _COLOURS = {CageOutcome.NOT_CAGED: "#d62728", CageOutcome.CAGED: "#ff7f0e", Cage
 
 def draw_cage_profile(name: str, plan: Plan, profile: CageProfile, margins: NDArray[np.float64],
                       path: str | os.PathLike[str]) -> None:
-    """Two panels over the samples of a plan: the escape energy (mJ; fully caged drawn at the top
-    of the axis, not caged at 0, coloured by outcome) and the friction margin in each leg's
-    contact mode (deg), with the primitives' extents shaded and named."""
+    """Two panels over the samples of a plan: the escape energy (mJ; fully caged drawn on a dotted
+    line at the top of the axis, which no line joins, not caged at 0, coloured by outcome) and the
+    friction margin in each leg's contact mode (deg), with the primitives' extents shaded and
+    named."""
     samples = profile.samples
     k = np.arange(len(samples.states))
     energy = profile.escape_energy * 1000.0
@@ -44,9 +45,10 @@ def draw_cage_profile(name: str, plan: Plan, profile: CageProfile, margins: NDAr
         sel = np.array([c.outcome is outcome for c in profile.cages])
         if sel.any():
             ax_e.scatter(k[sel], shown[sel], s=18, color=colour, label=outcome.value.replace("_", " "), zorder=3)
-    ax_e.plot(k, shown, color="0.5", lw=0.8, zorder=2)
+    ax_e.plot(k, np.where(np.isfinite(energy), energy, np.nan), color="0.5", lw=0.8, zorder=2)
+    ax_e.axhline(top, color="#2ca02c", lw=0.8, ls=":", zorder=1)  # infinity: no line joins it
     ax_e.set_ylim(-0.05 * top, top * 1.08)
-    ax_e.set_ylabel("escape energy (mJ)\n(fully caged at the top)")
+    ax_e.set_ylabel("escape energy (mJ)\n(fully caged: the dotted line)")
     ax_e.legend(loc="upper right", fontsize=8)
     e_min, at = profile.minimum()
     ax_e.set_title(f"{name}: cage and friction margin along the plan (smallest escape energy "

@@ -4,12 +4,14 @@
 The digits and the table are held where the state puts them; the object is free to move in the
 manipulation plane (x along the table, z up; metres). Its planar poses are a grid over the
 displacement of its centre of mass (x, z, metres) and its rotation about it (rad, turning x
-toward z), centred on its pose in the state. A pose is *free* when the object penetrates neither
-the table nor any digit (nor an obstacle) by more than a tolerance: the exact signed distances of
-convex shapes (:mod:`~ungrasp_ompl.mechanics.convex`), evaluated for all poses at once by the
-separating-axis form of the configuration obstacles. The tolerance (default half the largest
-distance a point of the object moves in one grid step) lets the contacts the state makes, and
-the motions that leave them, be resolved on the grid; it shrinks with the grid.
+toward z), centred on its pose in the state; the rotations make the whole turn, the last layer
+joined to the first. A pose is *free* when the object penetrates neither the table nor any digit
+(nor an obstacle) by more than a tolerance: exact for convex shapes, one vertical line of the grid
+at a time, since for each rotation a shape's configuration obstacle is a convex polygon
+(:func:`~ungrasp_ompl.mechanics.convex.minkowski_difference`) that meets the line in one
+interval. The tolerance (default half the largest distance a point of the object moves in one
+grid step) lets the contacts the state makes, and the motions that leave them, be resolved on the
+grid; it shrinks with the grid.
 
 The potential energy of a pose (J, relative to the state's pose) is the object's weight times the
 rise of its centre of mass, optionally minus the work of a constant squeeze (a constant force on
@@ -17,20 +19,24 @@ the object's material point under the finger). The *escape energy* is the least,
 free poses (26-connected on the grid) from the state's pose to the border of the grid's
 translation box, of the highest potential on the path, minus the potential now. The box reaches
 until the object lies wholly outside the bounding box of the digits and of its own pose now, so
-its border is "far away": no digit can cage the object there. The escape energy is
-0 when the object can leave without gaining energy (not caged), infinite when no free path leaves
-at all (fully caged). Rotations beyond the grid's range are walls, so a cage on a narrower range
-is an upper bound of the cage on a wider one.
+its border is "far away": no digit can cage the object there. The escape energy is 0 when the
+object can leave without gaining energy (not caged), infinite when no free path leaves at all
+(fully caged).
 
-The minimax path is computed exactly on the grid by a watershed: every free cell descends to its
-lowest neighbour (ties by index) and so belongs to the basin of a local minimum; two basins are
-joined at the lowest pass between them (the smallest, over adjacent cells of the two, of the
-higher cell's potential), a basin reaches far away at its lowest border cell, and the lowest
-pass from the start's basin to far away is a bottleneck path in the minimum spanning tree of that
-small graph. Any path from the start crosses a chain of basins through passes at least that high,
-and descending into each basin and climbing to its next pass never goes higher, so the value is
-exact. :func:`escape_level_bisection`, a bisection on the energy level with connected components
-(scipy.ndimage.label), is the reference the tests compare it with.
+The minimax path is found exactly on the grid. Under gravity alone the potential depends on the
+row of the grid alone, and the answer is the lowest row such that the free cells up to it join the
+start to the border: connected components (scipy.ndimage.label) of the rows up to a candidate,
+searched upward from the start's row in doubling steps, then by bisection; each labelling covers
+a window about the start that grows only while the start's component touches its faces, so a cage
+costs what its pocket holds. Under a squeeze, a watershed: every free cell descends to its lowest
+neighbour (ties by index) and so belongs to the basin of a local minimum; two basins are joined at
+the lowest pass between them (the smallest, over adjacent cells of the two, of the higher cell's
+potential), a basin reaches far away at its lowest border cell, and the lowest pass from the
+start's basin to far away is a bottleneck path in the minimum spanning tree of that small graph.
+Any path from the start crosses a chain of basins through passes at least that high, and
+descending into each basin and climbing to its next pass never goes higher, so the value is exact.
+:func:`escape_level_bisection`, a bisection on the energy level with connected components of the
+whole grid, is the reference the tests compare both with.
 """
 
 from __future__ import annotations
@@ -43,10 +49,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
-from .convex import ConvexShape, edges, signed_distance
-from .kinematics import DigitGeometry, digit_axis, digit_bodies, finger_corner, thumb_normal
+from .convex import ConvexShape, minkowski_difference
+from .kinematics import DigitGeometry, digit_axis, digit_bodies, digit_polygons, thumb_normal
 
 #: Standard gravity, m/s^2.
 GRAVITY = 9.81
@@ -62,15 +68,16 @@ class CageGrid:
     """The grid over the object's planar poses: steps over the object length l (so one grid fits
     every object alike), angles in radians. The translation box is where the object can still
     touch the digits: its centre of mass ranges until the object lies wholly outside the bounding
-    box of the digits and its own pose now (CageProblem.near); that border is "far away"."""
+    box of the digits and its own pose now (CageProblem.near); that border is "far away". The
+    rotations cover the whole turn by default, joined end to end."""
 
     step: float = 1.0 / 48.0
-    """Translation step of the centre of mass along x and z, over l (the default resolves a pick
-    0.96 mm thick: its cages agree with a grid twice as fine on the states of a plan)."""
+    """Translation step of the centre of mass along x and z, over l."""
     rotation_step: float = math.radians(1.5)
-    """Rotation step about the centre of mass, rad."""
-    max_rotation: float = math.radians(45.0)
-    """The rotations range over +-max_rotation, rad (walls beyond)."""
+    """Rotation step about the centre of mass, rad (rounded down to divide the turn evenly)."""
+    max_rotation: float = math.pi
+    """The rotations range over +-max_rotation, rad: pi (the default) is the whole turn, with no
+    end; below pi, walls beyond (a cage on a narrower range is an upper bound)."""
     tolerance: float | None = None
     """Penetration allowed, m; None: half the largest distance a point of the object moves in one
     grid step."""
@@ -97,9 +104,10 @@ class Cage:
     """The cage of one state: the outcome with its evidence.
 
     escape_energy: J (0 not caged, inf fully caged); pass_pose: the object's displacement (x, z,
-    m) and rotation (rad) at the highest pose of the best escape path, None unless CAGED;
-    spacing: the grid's steps (m, m, rad); shape: its cells (x, z, rotation); tolerance: the
-    penetration allowed (m); free_fraction: the share of free cells.
+    m) and rotation (rad) at a highest pose of a best escape path, None unless CAGED; spacing:
+    the grid's steps (m, m, rad); shape: its cells (x, z, rotation; a whole turn repeats its
+    first layer at the end); tolerance: the penetration allowed (m); free_fraction: the share of
+    free poses.
     """
 
     outcome: CageOutcome
@@ -151,12 +159,14 @@ class CageProblem:
 @dataclass(frozen=True)
 class PoseGrid:
     """Grid axes: displacements x (nx,), z (nz,) in metres and rotations (nr,) in rad; the state's
-    pose is the cell start."""
+    pose is the cell start. periodic: the rotations make the whole turn, the last layer being the
+    first turned by 2 pi (the same poses), which joins the two ends."""
 
     x: NDArray[np.float64]
     z: NDArray[np.float64]
     rotation: NDArray[np.float64]
     start: tuple[int, int, int]
+    periodic: bool = False
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -167,7 +177,8 @@ def pose_grid(problem: CageProblem, grid: CageGrid, length: float) -> PoseGrid:
     """The axes of the grid for an object of length l = length (m), steps grid.step l and
     grid.rotation_step: displacements of the centre of mass until the object (its radius about the
     centre) lies outside the box problem.near, and down until the centre of mass would lie below
-    the table; rotations over +-grid.max_rotation. The state's pose is a grid cell."""
+    the table; rotations over +-grid.max_rotation, or the whole turn in steps that divide it
+    (periodic) when that is pi or more. The state's pose is a grid cell."""
     h = grid.step * length
     reach = problem.radius()
     lo = np.asarray(problem.near[0], dtype=float) - reach - problem.centre
@@ -176,11 +187,17 @@ def pose_grid(problem: CageProblem, grid: CageGrid, length: float) -> PoseGrid:
         lo[1] = -problem.centre[1]
     n_lo = np.maximum(1, np.ceil(-lo / h - 1e-9).astype(int) + 1)
     n_hi = np.maximum(1, np.ceil(hi / h - 1e-9).astype(int))
-    n_rot = int(math.floor(grid.max_rotation / grid.rotation_step + 1e-9)) if grid.rotation_step > 0 else 0
     x = h * np.arange(-n_lo[0], n_hi[0] + 1)
     z = h * np.arange(-n_lo[1], n_hi[1] + 1)
-    rotation = grid.rotation_step * np.arange(-n_rot, n_rot + 1)
-    return PoseGrid(x, z, rotation, (int(n_lo[0]), int(n_lo[1]), n_rot))
+    periodic = grid.rotation_step > 0 and grid.max_rotation >= math.pi
+    if periodic:
+        turn = int(math.ceil(2.0 * math.pi / grid.rotation_step - 1e-9))
+        n_rot = turn // 2
+        rotation = 2.0 * math.pi / turn * np.arange(-n_rot, turn - n_rot + 1)
+    else:
+        n_rot = int(math.floor(grid.max_rotation / grid.rotation_step + 1e-9)) if grid.rotation_step > 0 else 0
+        rotation = grid.rotation_step * np.arange(-n_rot, n_rot + 1)
+    return PoseGrid(x, z, rotation, (int(n_lo[0]), int(n_lo[1]), n_rot), periodic)
 
 
 def _turned(points: NDArray, centre: NDArray, rotation: NDArray) -> NDArray:
@@ -192,62 +209,100 @@ def _turned(points: NDArray, centre: NDArray, rotation: NDArray) -> NDArray:
 
 def free_space(problem: CageProblem, axes: PoseGrid, tolerance: float) -> NDArray[np.bool_]:
     """Free poses (nx, nz, nr): the object penetrates no obstacle and not the table by more than
-    tolerance (m). Exact for convex shapes: the configuration obstacle of a shape S for the object
-    turned by r is S (+) (-object(r)), whose edge normals are those of S and of the turned object;
-    the largest offset of the displacement beyond those edges is minus the penetration depth
-    inside it, and where it is positive but below the radii the exact gap decides."""
+    tolerance (m). Exact for convex shapes, column by column: for the object turned by r, a shape's
+    configuration obstacle (the displacements where the two meet) is the convex polygon
+    shape (+) (-object(r)) (convex.minkowski_difference); the poses it blocks are those closer to
+    it than the two radii less the tolerance, or deeper inside it than the tolerance when the radii
+    are smaller, and that set, being convex, meets each vertical line of the grid in one open
+    interval of z."""
     body = problem.body
     moving = _turned(body.vertices, problem.centre, axes.rotation)  # (nr, k, 2) at zero displacement
+    nz = len(axes.z)
     free = np.ones(axes.shape, dtype=bool)
-    if problem.table:
+    if problem.table:  # the lowest point of the object at most tolerance below the table
         lowest = moving[:, :, 1].min(axis=1) - body.radius  # (nr,)
-        free &= axes.z[None, :, None] + lowest[None, None, :] >= -tolerance
-    _, own_normal, _ = edges(body.vertices)  # the object's edge normals at rotation 0
-    turned_normal = _turned(own_normal, np.zeros(2), axes.rotation) if len(own_normal) else np.empty((len(axes.rotation), 0, 2))
-    reach = problem.radius()
+        first = np.searchsorted(axes.z, -tolerance - lowest, side="left")
+        free &= np.arange(nz)[:, None] >= first
     for shape in problem.obstacles:
-        verts = shape.vertices
-        # only displacements that bring the object within reach of the shape's bounding box
-        lo_c = verts.min(axis=0) - shape.radius - reach - problem.centre
-        hi_c = verts.max(axis=0) + shape.radius + reach - problem.centre
-        i0, i1 = int(np.searchsorted(axes.x, lo_c[0], side="left")), int(np.searchsorted(axes.x, hi_c[0], side="right"))
-        j0, j1 = int(np.searchsorted(axes.z, lo_c[1], side="left")), int(np.searchsorted(axes.z, hi_c[1], side="right"))
-        if i1 <= i0 or j1 <= j0:
+        cobstacle = minkowski_difference(shape.vertices, moving)
+        reach = shape.radius + body.radius - tolerance
+        grow = max(reach, 0.0)  # only columns strictly inside the (grown) polygon's x-range can be blocked
+        i0 = int(np.searchsorted(axes.x, cobstacle[..., 0].min() - grow, side="right"))
+        i1 = int(np.searchsorted(axes.x, cobstacle[..., 0].max() + grow, side="left"))
+        if i1 <= i0:
             continue
-        x, z = axes.x[i0:i1, None, None], axes.z[None, j0:j1, None]
-        _, normal, offset = edges(verts)
-        worst = np.full((i1 - i0, j1 - j0, len(axes.rotation)), -np.inf)
-        for n, h in zip(normal, offset):  # the shape's own edges
-            lo = (moving @ n).min(axis=1) - h  # (nr,)
-            np.maximum(worst, (n[0] * x + n[1] * z) + lo[None, None, :], out=worst)
-        for j in range(turned_normal.shape[1]):  # the turned object's edges
-            nr = turned_normal[:, j]  # (nr, 2)
-            gap = (verts @ nr.T).min(axis=0) - np.einsum("rkc,rc->rk", moving, nr).max(axis=1)  # (nr,)
-            np.maximum(worst, gap[None, None, :] - nr[:, 0][None, None, :] * x - nr[:, 1][None, None, :] * z, out=worst)
-        if not np.isfinite(worst).all():  # two points: no edge at all
-            worst = np.where(np.isfinite(worst), worst, 0.0)
-        need = shape.radius + body.radius - tolerance
-        ok = worst >= need
-        block = free[i0:i1, j0:j1]
-        if need > 0:  # a gap below the radii: the exact distance of the polygons decides
-            band = np.flatnonzero(((worst >= 0) & ~ok & block).ravel())
-            if len(band):
-                i, j, k = np.unravel_index(band, worst.shape)
-                placed = moving[k] + np.stack([axes.x[i0 + i], axes.z[j0 + j]], axis=-1)[:, None, :]
-                ok.flat[band] = signed_distance(placed, verts) >= need
-        block &= ok
+        lo, hi = _blocked_interval(cobstacle, axes.x[i0:i1], reach)
+        index = np.min_scalar_type(nz)  # the smallest integers for the row comparisons below
+        j_lo = np.searchsorted(axes.z, lo.T, side="right").astype(index)  # (columns, nr): rows j_lo <= j < j_hi
+        j_hi = np.searchsorted(axes.z, hi.T, side="left").astype(index)
+        hit = j_hi > j_lo
+        if not hit.any():
+            continue
+        ja, jb = int(j_lo[hit].min()), int(j_hi[hit].max())
+        rows = np.arange(ja, jb, dtype=index)[None, :, None]
+        free[i0:i1, ja:jb] &= (rows < j_lo[:, None, :]) | (rows >= j_hi[:, None, :])
     return free
 
 
+def _blocked_interval(cobstacle: NDArray, x: NDArray, reach: float) -> tuple[NDArray, NDArray]:
+    """The open interval (lo, hi) of z, (nr, nx) each (lo >= hi: none), of the points (x, z) closer
+    than reach (m) to the convex polygon cobstacle[r] (K, 2), CCW, when reach > 0; of its interior
+    shrunk by -reach when reach <= 0. The grown polygon's boundary is made of its edges pushed
+    outward by reach and of arcs of the discs about its vertices, all inside it, so on a vertical
+    line its ends are the extremes of those edges and discs there."""
+    v = np.moveaxis(cobstacle, 1, 0)  # (K, nr, 2): reductions over the vertices run on the first axis
+    step = np.roll(v, -1, axis=0) - v
+    length = np.linalg.norm(step, axis=-1, keepdims=True)
+    normal = np.stack([step[..., 1], -step[..., 0]], axis=-1) / np.where(length > 0, length, 1.0)  # outward
+    if reach <= 0:
+        if len(v) < 3:  # a point or a segment has no interior
+            empty = np.zeros((v.shape[1], len(x)))
+            return empty, empty
+        return _cut(normal, np.einsum("krc,krc->kr", normal, v) + reach, x)
+    a = v + reach * normal  # the edges pushed outward, from a to b
+    b = np.roll(v, -1, axis=0) + reach * normal
+    span = (b[..., 0] - a[..., 0])[..., None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (x - a[..., 0, None]) / span  # (K, nr, nx)
+    on = (span != 0) & (s >= 0) & (s <= 1)
+    z = a[..., 1, None] + s * (b[..., 1] - a[..., 1])[..., None]
+    dx = x - v[..., 0, None]  # the vertices' discs
+    half = np.sqrt(np.maximum(reach * reach - dx * dx, 0.0))
+    inside = np.abs(dx) < reach
+    centre = v[..., 1, None]
+    lo = np.minimum(np.where(on, z, np.inf), np.where(inside, centre - half, np.inf)).min(axis=0)
+    hi = np.maximum(np.where(on, z, -np.inf), np.where(inside, centre + half, -np.inf)).max(axis=0)
+    return lo, hi
+
+
+def _cut(normal: NDArray, offset: NDArray, x: NDArray) -> tuple[NDArray, NDArray]:
+    """The interval [lo, hi] of z (lo > hi: empty) where normal . (x, z) <= offset holds for every
+    row of normal (m, nr, 2) and offset (m, nr), on each vertical line x (nx,): (nr, nx) each. A
+    row with n_z > 0 bounds z from above by the line (offset - n_x x) / n_z, one with n_z < 0 from
+    below; one with n_z = 0 bounds x alone."""
+    nx, nz = normal[..., 0], normal[..., 1]
+    up, down, flat = nz > 0, nz < 0, nz == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = offset / nz, nx / nz
+    lo = (np.where(down, a, -np.inf)[..., None] - np.where(down, b, 0.0)[..., None] * x).max(axis=0)
+    hi = (np.where(up, a, np.inf)[..., None] - np.where(up, b, 0.0)[..., None] * x).min(axis=0)
+    if flat.any():  # n_x x <= offset: outside that range of x, nothing
+        hi = np.where(np.any(flat[..., None] & (offset[..., None] - nx[..., None] * x < 0), axis=0), -np.inf, hi)
+    return lo, hi
+
+
 def potential(problem: CageProblem, axes: PoseGrid) -> NDArray[np.float64]:
-    """Potential energy of every pose (nx, nz, nr), J, relative to the state's pose: the weight
-    times the rise of the centre of mass, minus the work of the constant force on its point."""
-    u = np.broadcast_to(problem.weight * axes.z[None, :, None], axes.shape).copy()
+    """Potential energy of the poses, J, relative to the state's pose: the weight times the rise of
+    the centre of mass, minus the work of the constant force on its point. Shape (nx, nz, nr), or
+    (1, nz, 1) without a force (it depends on the height alone; it broadcasts to the grid)."""
+    u = problem.weight * axes.z[None, :, None]
     if problem.force is not None and problem.force_point is not None:
         f = np.asarray(problem.force, dtype=float)
         moved = _turned(np.asarray(problem.force_point, dtype=float)[None, :], problem.centre, axes.rotation)[:, 0]
         turn = (moved - problem.force_point) @ f  # (nr,)
-        u -= f[0] * axes.x[:, None, None] + f[1] * axes.z[None, :, None] + turn[None, None, :]
+        if axes.periodic:
+            turn[-1] = turn[0]
+        u = u - (f[0] * axes.x[:, None, None] + f[1] * axes.z[None, :, None] + turn[None, None, :])
     return u
 
 
@@ -262,43 +317,131 @@ def grid_border(shape: tuple[int, int, int]) -> NDArray[np.bool_]:
 
 
 def escape_level(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
-                 border: NDArray[np.bool_]) -> tuple[float, int | None]:
+                 border: NDArray[np.bool_], periodic: bool = False) -> tuple[float, int | None]:
     """The least, over 26-connected paths of free cells from start to a border cell, of the
     highest energy on the path (inf when none), and the flat index of a cell where a best path
-    is highest (None when it never rises above the start or there is no path). Exact (watershed,
-    see the module docstring). Two cheap cases first, by connected components: a path that never
-    rises above the start, and no path at all; the watershed then runs on the start's component."""
+    is highest (None when it never rises above the start or there is no path). energy broadcasts
+    to free's shape; periodic: the last rotation layer is the first (PoseGrid.periodic). Exact.
+    An energy that depends on the height alone and grows with it (gravity) is searched row by row
+    (:func:`_row_level`). Otherwise two cheap cases come first, by connected components: a path
+    that never rises above the start, and no path at all; then the watershed on the start's
+    component (see the module docstring)."""
     if not free[start]:
         raise ValueError("the start cell is not free")
-    u0 = energy[start]
-    below = (energy <= u0).any(axis=(0, 2))
+    rows = energy.ravel() if energy.shape[0] == energy.shape[2] == 1 else None
+    if rows is not None and np.all(np.diff(rows) > 0):
+        return _row_level(free, rows, start, border, periodic)
+    u0 = float(np.broadcast_to(energy, free.shape)[start])
+    low = energy <= u0
+    below = low.any(axis=(0, 2))
     j0, j1 = int(np.argmax(below)), len(below) - int(np.argmax(below[::-1]))
-    lab, _ = ndimage.label(free[:, j0:j1] & (energy[:, j0:j1] <= u0), _STRUCTURE)
-    if np.any(lab[border[:, j0:j1]] == lab[start[0], start[1] - j0, start[2]]):
-        return float(u0), None
-    lab, _ = ndimage.label(free, _STRUCTURE)
-    comp = lab == lab[start]
-    if not np.any(comp[border]):
+    shifted = (start[0], start[1] - j0, start[2])
+    if _reaches(free[:, j0:j1] & low[:, j0:j1], shifted, border[:, j0:j1], periodic):
+        return u0, None
+    if not _reaches(free, start, border, periodic):
         return math.inf, None
+    comp = np.isin(*_component(free, start, periodic))
     box = ndimage.find_objects(comp.astype(np.int8))[0]
-    level, cell = _watershed(comp[box], energy[box], tuple(start[k] - box[k].start for k in range(3)), border[box])
+    level, cell = _watershed(comp[box], np.broadcast_to(energy, free.shape)[box],
+                             tuple(start[k] - box[k].start for k in range(3)), border[box],
+                             periodic and box[2] == slice(0, free.shape[2]))
     if cell is not None:
         sub = np.unravel_index(cell, comp[box].shape)
         cell = int(np.ravel_multi_index(tuple(sub[k] + box[k].start for k in range(3)), free.shape))
     return level, cell
 
 
+def _component(mask: NDArray[np.bool_], start: tuple[int, int, int], periodic: bool
+               ) -> tuple[NDArray[np.int32], NDArray[np.int64]]:
+    """The 26-connected labels of mask and the labels of start's component (none: empty), the
+    labels of the first and the last rotation layer joined when periodic."""
+    lab, n = ndimage.label(mask, _STRUCTURE)
+    s = int(lab[start])
+    if s == 0:
+        return lab, np.empty(0, dtype=np.int64)
+    if not periodic:
+        return lab, np.array([s])
+    a, b = lab[..., 0].ravel(), lab[..., -1].ravel()
+    keep = (a > 0) & (a != b)
+    _, joined = connected_components(coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(n + 1, n + 1)),
+                                     directed=False)
+    return lab, np.flatnonzero(joined == joined[s])
+
+
+def _reaches(mask: NDArray[np.bool_], start: tuple[int, int, int], border: NDArray[np.bool_], periodic: bool) -> bool:
+    """Whether start's 26-connected component of mask has a border cell. Labels a window about
+    start whose faces move out, each doubling its distance from start, wherever the component
+    touches them, until the component lies inside the window or reaches the border: where the
+    object is caged its component is a small part of the grid."""
+    shape, origin = np.array(mask.shape), np.array(start)
+    reach = np.full((3, 2), 8)  # each face's distance from start, below and above
+    while True:
+        lo, hi = np.maximum(0, origin - reach[:, 0]), np.minimum(shape, origin + reach[:, 1] + 1)
+        whole_turn = periodic and (lo[2] == 0 or hi[2] == shape[2])  # the window joins the ends of the turn
+        if whole_turn:
+            lo[2], hi[2] = 0, shape[2]
+        window = tuple(slice(int(a), int(b)) for a, b in zip(lo, hi))
+        lab, ids = _component(mask[window], tuple(int(k) for k in origin - lo), whole_turn)
+        if not len(ids):
+            return False
+        comp = np.isin(lab, ids)
+        if (comp & border[window]).any():
+            return True
+        grown = False
+        for axis in range(3 if not whole_turn else 2):
+            for side, (inside, face) in enumerate(((lo[axis] > 0, 0), (hi[axis] < shape[axis], -1))):
+                if inside and comp[(slice(None),) * axis + (face,)].any():
+                    reach[axis, side] *= 2
+                    grown = True
+        if not grown:
+            return False
+
+
+def _row_level(free: NDArray[np.bool_], rows: NDArray[np.float64], start: tuple[int, int, int],
+               border: NDArray[np.bool_], periodic: bool) -> tuple[float, int | None]:
+    """escape_level for an energy rows[j] that grows with the row j: the lowest row j such that
+    the free cells of rows 0 to j connect start to the border, searched upward from start's row in
+    doubling steps, then by bisection; and a cell of that row next to start's component below it,
+    preferably one that also touches another component below it (the saddle between the two)."""
+    def reaches(j: int) -> bool:
+        return _reaches(free[:, :j + 1], start, border[:, :j + 1], periodic)
+
+    lo = start[1]
+    if reaches(lo):
+        return float(rows[lo]), None
+    step = 1
+    while True:
+        hi = min(lo + step, len(rows) - 1)
+        if reaches(hi):
+            break
+        if hi == len(rows) - 1:
+            return math.inf, None
+        lo, step = hi, 2 * step
+    while hi - lo > 1:  # start's row and lo do not connect, hi does
+        mid = (lo + hi) // 2
+        if reaches(mid):
+            hi = mid
+        else:
+            lo = mid
+    lab, ids = _component(free[:, :hi], start, periodic)
+    mine = np.isin(lab[:, -1], ids)
+    row = free[:, hi]
+    near = row & ndimage.maximum_filter(mine, size=3, mode="constant", cval=False)
+    saddle = near & ndimage.maximum_filter(free[:, hi - 1] & ~mine, size=3, mode="constant", cval=False)
+    i, k = np.argwhere(saddle if saddle.any() else near)[0]
+    return float(rows[hi]), int(np.ravel_multi_index((i, hi, k), free.shape))
+
+
 def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
-               border: NDArray[np.bool_]) -> tuple[float, int | None]:
-    """escape_level's watershed on one grid (see the module docstring)."""
+               border: NDArray[np.bool_], periodic: bool = False) -> tuple[float, int | None]:
+    """escape_level's watershed on one grid (see the module docstring); periodic: the last
+    rotation layer is the first, so each of its cells is joined to its twin."""
     shape = free.shape
     n = free.size
     flat_free = free.ravel()
     start_flat = int(np.ravel_multi_index(start, shape))
-    if not flat_free[start_flat]:
-        raise ValueError("the start cell is not free")
-    u = energy.ravel()
-    order = _order(energy)
+    u = np.ascontiguousarray(energy).ravel()
+    order = np.argsort(u).astype(np.int32)  # by energy (any order of ties will do)
     rank = np.empty(n, dtype=np.int32)
     rank[order] = np.arange(n, dtype=np.int32)
     rank[~flat_free] = n
@@ -320,13 +463,22 @@ def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tupl
     hi = ndimage.maximum_filter(lab3, size=3, mode="constant", cval=-1)
     lo = ndimage.minimum_filter(np.where(lab3 >= 0, lab3, n_basin), size=3, mode="constant", cval=n_basin)
     edge_cells = np.flatnonzero(flat_free & ((hi.ravel() > label) | (lo.ravel() < label)))
-    ci = np.array(np.unravel_index(edge_cells, shape))  # (3, m)
+    ci = np.unravel_index(edge_cells, shape)
+    room = [(ci[k] > 0, ci[k] < shape[k] - 1) for k in range(3)]  # a neighbour below, above along each axis
+    strides = np.array([shape[1] * shape[2], shape[2], 1])
     a_list, b_list, w_list, c_list = [], [], [], []
+    pairs = []
     for off in _HALF:
-        nb = ci + np.array(off)[:, None]
-        inside = np.all((nb >= 0) & (nb < np.array(shape)[:, None]), axis=0)
+        inside = np.ones(len(edge_cells), dtype=bool)
+        for k, o in enumerate(off):
+            if o:
+                inside &= room[k][o > 0]
         src = edge_cells[inside]
-        dst = np.ravel_multi_index(tuple(nb[:, inside]), shape)
+        pairs.append((src, src + int(np.dot(off, strides))))
+    if periodic:  # a cell of the last layer and its twin in the first
+        twin = np.flatnonzero(free[..., -1].ravel()) * shape[2] + shape[2] - 1
+        pairs.append((twin, twin - (shape[2] - 1)))
+    for src, dst in pairs:
         keep = flat_free[dst] & (label[dst] != label[src])
         src, dst = src[keep], dst[keep]
         higher = np.where(u[dst] > u[src], dst, src)
@@ -342,15 +494,25 @@ def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tupl
     c_list.append(bcells)
     a, b = np.concatenate(a_list), np.concatenate(b_list)
     w, cell = np.concatenate(w_list), np.concatenate(c_list)
-    a, b = np.minimum(a, b), np.maximum(a, b)
     if not len(a):
         return math.inf, None
-    pair = a * (n_basin + 1) + b
-    sel = np.lexsort((w, pair))
-    first = np.ones(len(sel), dtype=bool)
-    first[1:] = pair[sel][1:] != pair[sel][:-1]
-    sel = sel[first]  # the lowest pass of each pair of basins
-    a, b, w, cell = a[sel], b[sel], w[sel], cell[sel]
+    m = n_basin + 1
+    pair = np.minimum(a, b).astype(np.int64) * m + np.maximum(a, b)
+    if m * m <= 1 << 22:  # the lowest pass of each pair of basins, on a table of all pairs
+        lowest = np.full(m * m, np.inf)
+        np.minimum.at(lowest, pair, w)
+        at = np.empty(m * m, dtype=np.int64)
+        hit = w == lowest[pair]
+        at[pair[hit]] = cell[hit]
+        keys = np.flatnonzero(np.isfinite(lowest))
+        w, cell = lowest[keys], at[keys]
+    else:  # too many basins for the table: sort the passes by pair, then height
+        sel = np.lexsort((w, pair))
+        first = np.ones(len(sel), dtype=bool)
+        first[1:] = pair[sel][1:] != pair[sel][:-1]
+        sel = sel[first]
+        keys, w, cell = pair[sel], w[sel], cell[sel]
+    a, b = keys // m, keys % m
     base = float(w.min())
     graph = coo_matrix((w - base + 1.0, (a, b)), shape=(n_basin + 1, n_basin + 1)).tocsr()
     tree = minimum_spanning_tree(graph)
@@ -360,11 +522,10 @@ def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tupl
     if n_basin not in set(reached.tolist()):
         return math.inf, None
     best, best_cell = -math.inf, None
-    keys = pair[sel]  # sorted
     node = n_basin
     while node != source:  # walk the tree path back to the start's basin: its highest pass
         prev = int(pred[node])
-        k = int(np.searchsorted(keys, min(prev, node) * (n_basin + 1) + max(prev, node)))
+        k = int(np.searchsorted(keys, min(prev, node) * m + max(prev, node)))  # keys are sorted
         if w[k] > best:
             best, best_cell = float(w[k]), int(cell[k])
         node = prev
@@ -373,28 +534,15 @@ def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tupl
     return best, best_cell
 
 
-def _order(energy: NDArray[np.float64]) -> NDArray[np.int32]:
-    """Flat indices of the cells sorted by (energy, flat index). When the energy depends on the
-    second axis alone and grows along it (gravity without squeeze) the order is built directly,
-    layer by layer, without a sort."""
-    layer = energy[0, :, 0]
-    if energy.shape[1] > 1 and np.all(np.diff(layer) > 0) and np.array_equal(energy, np.broadcast_to(layer[None, :, None], energy.shape)):
-        nx, nz, nr = energy.shape
-        i = np.arange(nx, dtype=np.int32)[None, :, None]
-        k = np.arange(nr, dtype=np.int32)[None, None, :]
-        j = np.arange(nz, dtype=np.int32)[:, None, None]
-        return ((i * nz + j) * nr + k).ravel()
-    return np.argsort(energy.ravel(), kind="stable").astype(np.int32)
-
-
 def escape_level_bisection(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
-                           border: NDArray[np.bool_]) -> float:
+                           border: NDArray[np.bool_], periodic: bool = False) -> float:
     """The same minimax level as :func:`escape_level`, by brute force: bisection over the sorted
     energies of the free cells, connectivity by scipy.ndimage.label (26-connected). The reference."""
+    energy = np.broadcast_to(energy, free.shape)
+
     def connected(level: float) -> bool:
-        lab, _ = ndimage.label(free & (energy <= level), _STRUCTURE)
-        s = lab[start]
-        return bool(s > 0 and np.any(lab[border] == s))
+        lab, ids = _component(free & (energy <= level), start, periodic)
+        return bool(np.isin(lab[border], ids).any())
 
     levels = np.unique(energy[free])
     levels = levels[levels >= energy[start]]
@@ -415,14 +563,17 @@ def escape_energy(problem: CageProblem, grid: CageGrid, length: float) -> Cage:
     """The cage of the problem on the grid (its steps over l = length, m): outcome, escape energy
     (J) and the pass."""
     axes = pose_grid(problem, grid, length)
-    spacing = (float(grid.step * length), float(grid.step * length), float(grid.rotation_step))
+    rotation_step = float(axes.rotation[1] - axes.rotation[0]) if len(axes.rotation) > 1 else 0.0
+    spacing = (float(grid.step * length), float(grid.step * length), rotation_step)
     tol = grid.tolerance
     if tol is None:
-        tol = 0.5 * max(spacing[0], problem.radius() * spacing[2] if len(axes.rotation) > 1 else 0.0)
+        tol = 0.5 * max(spacing[0], problem.radius() * spacing[2])
     free = free_space(problem, axes, tol)
+    if axes.periodic:
+        free[..., -1] = free[..., 0]
     u = potential(problem, axes)
-    level, cell = escape_level(free, u, axes.start, grid_border(axes.shape))
-    energy = level - float(u[axes.start])
+    level, cell = escape_level(free, u, axes.start, grid_border(axes.shape), axes.periodic)
+    energy = level - float(np.broadcast_to(u, axes.shape)[axes.start])
     if math.isinf(level):
         outcome = CageOutcome.FULLY_CAGED
     elif energy <= 0.0:
@@ -433,7 +584,8 @@ def escape_energy(problem: CageProblem, grid: CageGrid, length: float) -> Cage:
     if cell is not None and outcome is CageOutcome.CAGED:
         i, j, k = np.unravel_index(cell, axes.shape)
         pose = (float(axes.x[i]), float(axes.z[j]), float(axes.rotation[k]))
-    return Cage(outcome, float(energy), pose, spacing, axes.shape, float(tol), float(free.mean()))
+    kept = free[..., :-1] if axes.periodic else free
+    return Cage(outcome, float(energy), pose, spacing, axes.shape, float(tol), np.count_nonzero(kept) / kept.size)
 
 
 def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, length: float, thickness: float,
@@ -442,9 +594,11 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     """The cage problem of a state (theta rad, d over l, psi rad): the object's section by the
     manipulation plane (the chord GB, thickness thick; metres) at its pose, its centre of mass
     centre_x (m from G along GB, half the thickness up), its weight (N); the thumb, the finger
-    (its tip rounded with digits.finger_tip_radius: the corner cut and a disc) and the housing
-    where the state puts them; the obstacles (CCW polygons (k, 2), m); the table. squeeze (N):
-    a constant force pressing the object where the finger does (at A, along the finger's normal)."""
+    and the housing where the state puts them, a rounded finger (digits.finger_tip_radius r > 0)
+    as the robot model and the simulator build it: r shorter, its tip's corner on the face
+    replaced by a disc of radius r touching the face and the shortened end; the obstacles (CCW
+    polygons (k, 2), m); the table. squeeze (N): a constant force pressing the object where the
+    finger does (at A, along the finger's normal)."""
     c, s = math.cos(theta), math.sin(theta)
     u, top = np.array([c, s]), np.array([-s, c])
     corners = np.array([[0.0, 0.0], [length, 0.0], [length, thickness], [0.0, thickness]]) if thickness > 0 else \
@@ -454,14 +608,11 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     shapes = []
     bodies = [b[0] * length for b in digit_bodies(theta, d, psi, digits)]
     r = digits.finger_tip_radius * length
-    if r > 0:  # the finger's tip corner (vertex 0) rounded: the corner cut off, and the dome
-        e = digit_axis(theta, psi)
-        n_b = thumb_normal(theta, psi)
-        finger = bodies[1]
-        corner = finger[np.argmin(np.linalg.norm(finger - finger_corner(theta, d, psi, digits.object_thickness, digits.finger_tip_radius) * length, axis=1))]
-        cut = np.vstack([finger[np.any(finger != corner, axis=1)], [corner - r * e, corner + r * n_b]])
-        bodies[1] = cut
-        shapes.append(ConvexShape.disc(corner + r * (n_b - e), r))
+    if r > 0:  # as the robot model and the simulator build it: the finger r shorter, and a dome of radius r
+        tip, base, base_back, tip_back = digit_polygons(theta, d, psi, digits)[1] * length
+        cut = r / (digits.finger_length * length)  # r along the face, the back edge's share alike
+        bodies[1] = np.array([tip + cut * (base - tip), base, base_back, tip_back + cut * (base_back - tip_back)])
+        shapes.append(ConvexShape.disc(tip + r * (thumb_normal(theta, psi) - digit_axis(theta, psi)), r))
     near = np.vstack([bodies[0], bodies[1], body.vertices])
     near = np.array([near.min(axis=0), near.max(axis=0)])  # the digits and the object now
     shapes = [ConvexShape(b) for b in bodies] + shapes + [ConvexShape(np.asarray(o, dtype=float)) for o in obstacles]

@@ -1,14 +1,16 @@
 """Convex shapes of the manipulation plane: a convex polygon dilated by a disc (pure numpy).
 
 A :class:`ConvexShape` is the convex hull of its vertices (one vertex: a point, two: a segment)
-grown by ``radius``: a disc is one vertex with a radius, a rounded finger tip a polygon with one.
+grown by ``radius``: a disc is one vertex with a radius (a rounded finger tip's dome).
 Coordinates are plane coordinates (x along the table, z up) in whatever length unit the caller
 uses (metres in :mod:`~ungrasp_ompl.mechanics.cage`); angles in radians, turning x toward z.
 
 Signed distance between two shapes: positive = the gap between them, negative = minus the
 penetration depth (the shortest translation that separates them). For convex polygons it is
 exact: the separating-axis test over both polygons' edge normals gives the penetration depth,
-the vertex-to-edge distances the gap, and radii subtract.
+the vertex-to-edge distances the gap, and radii subtract. The configuration obstacle of a moving
+polygon against a fixed one (the displacements where they meet) is their Minkowski difference,
+built for many placements at once by merging the two polygons' edges by direction.
 """
 
 from __future__ import annotations
@@ -63,66 +65,29 @@ class ConvexShape:
     def disc(cls, centre: ArrayLike, radius: float) -> "ConvexShape":
         return cls(np.asarray(centre, dtype=float).reshape(1, 2), radius)
 
-    @property
-    def reach(self) -> float:
-        """The largest distance of a point of the shape from the origin of its coordinates."""
-        return float(np.linalg.norm(self.vertices, axis=1).max()) + self.radius
 
-    def turned(self, angle: float) -> NDArray[np.float64]:
-        """The vertices turned by angle (rad) about the origin, x toward z."""
-        c, s = np.cos(angle), np.sin(angle)
-        v = self.vertices
-        return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
-
-
-def edges(vertices: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """Edges of a CCW convex polygon (k, 2): start points (k, 2), unit outward normals (k, 2) and
-    offsets (k,) (n . p <= offset inside). A segment has its two sides; a point none."""
-    if len(vertices) == 1:
-        return np.empty((0, 2)), np.empty((0, 2)), np.empty(0)
-    start = vertices
-    step = np.roll(vertices, -1, axis=0) - vertices
-    length = np.linalg.norm(step, axis=1)
-    keep = length > 0
-    start, step, length = start[keep], step[keep], length[keep]
-    normal = np.column_stack([step[:, 1], -step[:, 0]]) / length[:, None]
-    return start, normal, np.einsum("ij,ij->i", normal, start)
-
-
-def minkowski_difference(obstacle: NDArray, moving: NDArray) -> NDArray[np.float64]:
-    """CCW vertices of obstacle (+) (-moving): the reference points at which the moving polygon
-    meets the obstacle polygon (its configuration obstacle for a fixed rotation)."""
-    return convex_hull((obstacle[:, None, :] - moving[None, :, :]).reshape(-1, 2))
-
-
-def point_polygon_distance(x: NDArray, z: NDArray, polygon: NDArray) -> NDArray[np.float64]:
-    """Signed distance of points (x, z broadcast together) from a CCW convex polygon (k, 2):
-    negative inside (minus the distance to the boundary), the Euclidean distance outside."""
-    start, normal, offset = edges(polygon)
-    x, z = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(z, dtype=float))
-    if len(start) == 0:  # a point
-        return np.hypot(x - polygon[0, 0], z - polygon[0, 1])
-    most = np.full(x.shape, -np.inf)
-    for n, c in zip(normal, offset):
-        most = np.maximum(most, n[0] * x + n[1] * z - c)
-    out = most.copy()
-    outside = most > 0
-    if outside.any():
-        out[outside] = _segments_distance(x[outside], z[outside], polygon)
-    return out
-
-
-def _segments_distance(x: NDArray, z: NDArray, polygon: NDArray) -> NDArray:
-    """Distance of points from the boundary of a polygon (k >= 2 vertices, closed)."""
-    best = np.full(x.shape, np.inf)
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0)):
-        ab = b - a
-        den = float(ab @ ab)
-        if den == 0.0:
-            continue
-        s = np.clip(((x - a[0]) * ab[0] + (z - a[1]) * ab[1]) / den, 0.0, 1.0)
-        best = np.minimum(best, np.hypot(x - a[0] - s * ab[0], z - a[1] - s * ab[1]))
-    return best
+def minkowski_difference(obstacle: ArrayLike, moving: ArrayLike) -> NDArray[np.float64]:
+    """Vertices (N, K, 2), counter-clockwise, of obstacle (+) (-moving[n]) for N placements of a
+    moving polygon: the displacements at which the moving polygon meets the obstacle (its
+    configuration obstacle). obstacle (m, 2) and each moving[n] (k, 2) are convex polygons in CCW
+    order (one vertex: a point; two: a segment, whose two edges run both ways). The sum's edges are
+    those of both polygons merged by direction, so K is their number of edges (K = 1 for two
+    points); its lowest x and z are the sums of theirs, which places it."""
+    obstacle = np.asarray(obstacle, dtype=float)
+    neg = -np.asarray(moving, dtype=float)
+    low = obstacle.min(axis=0) + neg.min(axis=1)  # (N, 2)
+    parts = []
+    if len(obstacle) > 1:
+        parts.append(np.broadcast_to(np.roll(obstacle, -1, axis=0) - obstacle, (len(neg),) + obstacle.shape))
+    if neg.shape[1] > 1:
+        parts.append(np.roll(neg, -1, axis=1) - neg)
+    if not parts:
+        return low[:, None, :]
+    step = np.concatenate(parts, axis=1)
+    angle = np.mod(np.arctan2(step[..., 1], step[..., 0]), 2.0 * np.pi)
+    step = np.take_along_axis(step, np.argsort(angle, axis=1)[..., None], axis=1)
+    verts = np.cumsum(step, axis=1) - step
+    return verts + (low - verts.min(axis=1))[:, None, :]
 
 
 def signed_distance(p: ArrayLike, q: ArrayLike, p_radius: float = 0.0, q_radius: float = 0.0
