@@ -40,8 +40,8 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
     pl.add_argument("--objective", default="cost", choices=("cost", "margin", "balanced"),
                     help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
-                         "primitive changes, then cost) or balanced (cost plus planning.margin_weight times a "
-                         "penalty growing as the margin shrinks)")
+                         "primitive changes, then the least length spent near that margin, then cost) or balanced "
+                         "(cost plus planning.margin_weight times a penalty growing as the margin shrinks)")
     pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
     pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
     pl.add_argument("--iterations", type=int, default=None,

@@ -73,19 +73,6 @@ def plan_friction_margins(scene: Scene, samples: PlanSamples) -> NDArray[np.floa
                            scene.options.sliding_model)
 
 
-def path_margin(scene: Scene, plan: Plan, resolution: ArrayLike) -> float:
-    """The smallest friction margin (rad) along a solved plan's motion: every state its legs pass
-    at the resolution (rad, over l, rad), each in its leg's contact mode, the start state left out
-    (every plan leaves it; planning.margins); +inf for a plan that does not move."""
-    samples = plan_samples(plan, resolution, both_modes=True)
-    start = np.asarray(plan.states[0], dtype=float)
-    away = np.any(np.abs(samples.states - start) > 1e-12, axis=1)
-    if not away.any():
-        return math.inf
-    kept = PlanSamples(samples.states[away], samples.primitive[away], samples.a_sign[away], samples.b_sign[away])
-    return float(plan_friction_margins(scene, kept).min())
-
-
 @dataclass(frozen=True)
 class CageProfile:
     """The cage at each sample of a plan (see mechanics.cage.Cage)."""
@@ -161,5 +148,5 @@ def cage_profile(scene: Scene, plan: Plan, grid: CageGrid | None = None, squeeze
     return CageProfile(samples, scene.cage(samples.states, grid, squeeze))
 
 
-__all__ = ["CageMinimum", "CageProfile", "PROFILE_RESOLUTION", "PlanSamples", "cage_profile", "path_margin",
+__all__ = ["CageMinimum", "CageProfile", "PROFILE_RESOLUTION", "PlanSamples", "cage_profile",
            "plan_friction_margins", "plan_samples"]

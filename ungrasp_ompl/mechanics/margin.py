@@ -220,10 +220,15 @@ def friction_margin(
     gives force closure. Arguments as for force_closure (a_sign, b_sign in {-1, 0, 1}).
     """
     w, v, mask, fc0, monotone = _prepared(theta, d, psi, a_sign, b_sign, mu, model)
-    out = np.empty(len(w))
-    for lo in range(0, len(w), _CHUNK):
-        sl = slice(lo, lo + _CHUNK)
-        out[sl] = _margin_chunk(w[sl], v[sl], mask[sl], fc0[sl], monotone[sl], mu)
+    out = np.full(len(w), _limits(mu)[1])
+    # where closure is monotone and still holds with the narrowest cone shrunk to a ray, the margin
+    # is that cap (what the candidates' bisection ends with): no event is needed there
+    capped = monotone & fc0
+    capped[capped] = ~_fails(w[capped], v[capped], mask[capped], np.full(int(capped.sum()), out[0]))
+    rest = np.flatnonzero(~capped)
+    for lo in range(0, len(rest), _CHUNK):
+        k = rest[lo:lo + _CHUNK]
+        out[k] = _margin_chunk(w[k], v[k], mask[k], fc0[k], monotone[k], mu)
     return out
 
 

@@ -6,7 +6,11 @@ alone or with psi one step the other way, for P_dpsi), secure in that leg's
 contact mode at both ends, costing its weighted L1 length plus the mode-change
 penalty when the primitive (or its direction) changes. The search uses
 scipy's compiled Dijkstra, so it is the yardstick for the sampling planners
-and the proof that no secure path exists at a resolution.
+and the proof that no secure path exists at a resolution. The robust
+objectives (docs/model.md, section 6.1) search the same graph: balanced with
+the margin penalty added to the cost, margin over the edges as wide as the
+lattice's bottleneck with one Dijkstra per criterion in turn (primitive
+changes, tie-break, cost).
 """
 
 from __future__ import annotations
@@ -19,19 +23,22 @@ from numpy.typing import NDArray
 
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
-from .margins import MARGIN_FLOOR_DEG, LatticeMargins
+from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins
 
 
 @dataclass
 class LatticeResult:
     """The optimum on the lattice: cost (reference units), its legs, or None when unreachable;
-    with a robust objective, the path's smallest friction margin (rad)."""
+    with a robust objective, the path's smallest friction margin (rad) and its penalty (the sum
+    over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
+    for balanced, reference units)."""
 
     cost: float | None
     legs: list[Leg]
     nodes: int
     edges: int
     min_margin: float | None = None
+    penalty: float | None = None
 
     @property
     def reachable(self) -> bool:
@@ -68,25 +75,6 @@ def _move_ok(atlas: SecurityAtlas, kind: str, step: list[int]) -> NDArray[np.boo
     return out
 
 
-def moves_graph(atlas: SecurityAtlas) -> tuple[NDArray[np.int_], NDArray[np.int_]]:
-    """The lattice's secure moves as edges between flat cell indices (src, dst): one lattice step of
-    a primitive secure in its mode at both ends (what lattice_search searches, without the last
-    primitive)."""
-    opts = atlas.scene.options
-    shape = atlas.shape
-    cell = np.arange(int(np.prod(shape))).reshape(shape)
-    rows, cols = [], []
-    for kind, _, step in _moves(opts.reverse_primitives):
-        if opts.forbid_partial and kind in "DX":
-            continue
-        ok = _move_ok(atlas, kind, step)
-        src, dst = _shifted(shape, step)
-        good = ok[src] & ok[dst]
-        rows.append(cell[src][good])
-        cols.append(cell[dst][good])
-    return np.concatenate(rows), np.concatenate(cols)
-
-
 def _shifted(shape: tuple[int, ...], step: list[int]) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
     """Slices of the lattice for the sources and destinations of a move by step."""
     src = [slice(None)] * 3
@@ -99,122 +87,155 @@ def _shifted(shape: tuple[int, ...], step: list[int]) -> tuple[tuple[slice, ...]
     return tuple(src), tuple(dst)
 
 
+@dataclass(frozen=True)
+class LatticeEdges:
+    """The lattice's secure moves: an edge per lattice step of a primitive that is secure in its
+    contact mode at both ends, grouped by move (edges offsets[k]:offsets[k + 1] are moves[k])."""
+
+    moves: list[tuple[str, int, list[int]]]  #: (leg kind, primitive slot, index step) of each move
+    offsets: NDArray[np.int_]  #: where each move's edges begin, and the end (len(moves) + 1)
+    src: NDArray[np.int_]  #: flat lattice index of each edge's start
+    dst: NDArray[np.int_]  #: flat lattice index of each edge's end
+    length: NDArray[np.float64]  #: weighted L1 length of each edge (reference units)
+
+
+def lattice_edges(atlas: SecurityAtlas) -> LatticeEdges:
+    """The secure moves of the atlas's lattice (what lattice_search searches, without the last
+    primitive): every allowed move (forward, or either way with reverse primitives; no P_dpsi when
+    partial stability is forbidden) from every state where it is secure at both ends."""
+    opts = atlas.scene.options
+    shape = atlas.shape
+    cell = np.arange(int(np.prod(shape))).reshape(shape)
+    moves = [m for m in _moves(opts.reverse_primitives) if not (opts.forbid_partial and m[0] in "DX")]
+    srcs, dsts, lengths = [], [], []
+    for kind, _, step in moves:
+        ok = _move_ok(atlas, kind, step)
+        src, dst = _shifted(shape, step)
+        good = ok[src] & ok[dst]
+        srcs.append(cell[src][good])
+        dsts.append(cell[dst][good])
+        lengths.append(np.full(len(srcs[-1]), float(reference_cost(np.asarray(step) * atlas.res, opts.d_weight))))
+    offsets = np.concatenate([[0], np.cumsum([len(x) for x in srcs])])
+    return LatticeEdges(moves, offsets, np.concatenate(srcs), np.concatenate(dsts), np.concatenate(lengths))
+
+
 def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objective: str = "cost",
                    margins: LatticeMargins | None = None) -> LatticeResult:
-    """Best secure primitive path on the atlas's lattice from the start to any holdable
-    lattice state inside goal_box ((2, 3) corners), for an objective (docs/model.md, section 6):
+    """Best secure primitive path on the atlas's lattice from the start to any releasable lattice
+    state inside goal_box ((2, 3) corners), for an objective (docs/model.md, sections 6 and 6.1):
 
     - ``cost``: the cheapest, with the scene's cost weights;
-    - ``margin``: the largest smallest friction margin along the path (a bottleneck search over
-      the edges' margins, the smaller of their ends' in the edge's mode), then the fewest
-      primitive changes, then the cheapest;
+    - ``margin``: the largest smallest friction margin along the path (the bottleneck), then, over
+      the edges no narrower than it, the fewest primitive changes, then the smallest tie-break
+      penalty (LatticeMargins.penalty), then the cheapest;
     - ``balanced``: the cheapest with every edge also charged planning.margin_weight times its
       weighted L1 length over its margin in degrees.
 
-    margins (a LatticeMargins of this atlas) is needed for the last two; the result's min_margin
-    (rad) is the path's smallest margin then, the start state left out (LatticeMargins)."""
-    if objective not in ("cost", "margin", "balanced"):
-        raise ValueError(f"objective must be cost, margin or balanced, not {objective!r}")
-    if objective != "cost" and margins is None:
-        raise ValueError(f"the {objective} objective needs the lattice's margins")
+    An edge's margin is the smaller of its ends' in the edge's mode, the start's +inf. margins (the
+    LatticeMargins of this atlas, objective and goal_box) is needed for the last two; the
+    result's min_margin (rad) and penalty are the path's then."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+    if objective != "cost" and (margins is None or margins.objective != objective or margins.atlas is not atlas
+                                or not np.array_equal(margins.goal_box, goal_box)):
+        raise ValueError(f"the {objective} objective needs the margins of this lattice, objective and goal box")
     scene = atlas.scene
     opts = scene.options
     shape = atlas.shape
     n_cells = int(np.prod(shape))
-    moves = [m for m in _moves(opts.reverse_primitives) if not (opts.forbid_partial and m[0] in "DX")]
+    edges = margins.edges if margins is not None else lattice_edges(atlas)
     n_prim = 6 if opts.reverse_primitives else 3
     start_node = n_cells * n_prim
-    cell = np.arange(n_cells).reshape(shape)
-    rows, cols, costs = [], [], []
-    lengths, edge_margins, changed = [], [], []  # per edge, for the robust objectives
     start_cell = atlas.index(scene.start)
-    for kind, prim, step in moves:
-        ok = _move_ok(atlas, kind, step)
-        src = [slice(None)] * 3
-        dst = [slice(None)] * 3
-        for a in range(3):
-            if step[a] > 0:
-                src[a], dst[a] = slice(0, shape[a] - step[a]), slice(step[a], None)
-            elif step[a] < 0:
-                src[a], dst[a] = slice(-step[a], None), slice(0, shape[a] + step[a])
-        good = ok[tuple(src)] & ok[tuple(dst)]
-        a_cell = cell[tuple(src)][good]
-        b_cell = cell[tuple(dst)][good]
-        w = float(reference_cost(np.asarray(step) * atlas.res, opts.d_weight))
-        if objective != "cost":  # an edge's margin: the smaller of its ends' (the start left out)
-            em = margins.move(kind, tuple(step))
-            em_src = em[tuple(src)][good]
-            if start_cell is not None:
-                em_src = np.where(a_cell == cell[start_cell], np.inf, em_src)
-            em = np.minimum(em_src, em[tuple(dst)][good])
+    in_goal = atlas.releasable_in(goal_box).ravel()
+    keep = np.ones(len(edges.src), dtype=bool)
+    if objective == "margin":  # only edges as wide as the bottleneck
+        bottleneck = margins.bottleneck
+        keep = margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
+    # the graph over (lattice state, last primitive): per edge its cell edge and whether it changes
+    rows, cols, of_edge, changed = [], [], [], []
+    for k, (_, prim, _) in enumerate(edges.moves):
+        sel = np.flatnonzero(keep[edges.offsets[k]:edges.offsets[k + 1]]) + edges.offsets[k]
         for prev in range(n_prim):
-            rows.append(a_cell * n_prim + prev)
-            cols.append(b_cell * n_prim + prim)
-            costs.append(np.full(a_cell.shape, w + (opts.mode_change_penalty if prev != prim else 0.0)))
-            if objective != "cost":
-                lengths.append(np.full(a_cell.shape, w))
-                edge_margins.append(em)
-                changed.append(np.full(a_cell.shape, prev != prim))
+            rows.append(edges.src[sel] * n_prim + prev)
+            cols.append(edges.dst[sel] * n_prim + prim)
+            of_edge.append(sel)
+            changed.append(np.full(len(sel), prev != prim))
     if start_cell is not None:  # the start enters with any primitive, at no cost
+        start_flat = int(np.ravel_multi_index(start_cell, shape))
         rows.append(np.full(n_prim, start_node))
-        cols.append(cell[start_cell] * n_prim + np.arange(n_prim))
-        costs.append(np.zeros(n_prim))
-        if objective != "cost":
-            lengths.append(np.zeros(n_prim))
-            edge_margins.append(np.full(n_prim, np.inf))
-            changed.append(np.zeros(n_prim, dtype=bool))
-    rows_a, cols_a, costs_a = (np.concatenate(x) for x in (rows, cols, costs))
-    n_nodes = start_node + 1
+        cols.append(start_flat * n_prim + np.arange(n_prim))
+        of_edge.append(np.full(n_prim, -1))
+        changed.append(np.zeros(n_prim, dtype=bool))
+    rows, cols, of_edge, changed = (np.concatenate(x) for x in (rows, cols, of_edge, changed))
+    on_lattice = of_edge >= 0
+
+    def per_edge(values: NDArray[np.float64]) -> NDArray[np.float64]:  # cell-edge values, 0 from the start
+        return np.where(on_lattice, values[of_edge], 0.0)
+
+    cost = per_edge(edges.length) + opts.mode_change_penalty * changed
+    if objective == "balanced":
+        criteria = [cost + opts.margin_weight * per_edge(edges.length * margins.penalty(margins.edge_margin()))]
+    elif objective == "margin":
+        criteria = [changed.astype(float), per_edge(edges.length * margins.penalty(margins.edge_margin())), cost]
+    else:
+        criteria = [cost]
+    goal_nodes = (np.flatnonzero(in_goal)[:, None] * n_prim + np.arange(n_prim)).ravel()
+    goal, pred, n_edges = _lexicographic_dijkstra(rows, cols, criteria, start_node, goal_nodes)
+
+    best_cost = None
+    legs: list[Leg] = []
+    if start_cell is not None and in_goal[start_flat]:
+        best_cost = 0.0
+    elif goal is not None:
+        chain = []
+        node = goal
+        while node != start_node and node >= 0:
+            chain.append(node)
+            node = pred[node]
+        chain.reverse()
+        kinds = {prim: kind for kind, prim, _ in edges.moves if kind != "X"}
+        prev_idx = start_cell
+        for node in chain[1:]:  # chain[0] is the start state itself
+            c, prim = divmod(int(node), n_prim)
+            idx = tuple(int(x) for x in np.unravel_index(c, shape))
+            kind = "X" if idx[D] != prev_idx[D] and idx[PSI] != prev_idx[PSI] else kinds[prim]
+            legs.append(Leg(kind, prev_idx, idx))
+            prev_idx = idx
+        best_cost = _path_cost(atlas, legs)
+    min_margin = penalty = None
+    if objective != "cost" and best_cost is not None:  # the path's smallest margin and penalty
+        min_margin = min((margins.leg_margin(leg) for leg in legs), default=math.inf)
+        penalty = sum(margins.leg_penalty(leg) for leg in legs)
+    return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty)
+
+
+def _lexicographic_dijkstra(rows: NDArray[np.int_], cols: NDArray[np.int_], criteria: list[NDArray[np.float64]],
+                            source: int, goals: NDArray[np.int_]) -> tuple[int | None, NDArray[np.int_], int]:
+    """A path from source to the best of goals over the directed edges rows -> cols, minimising the
+    criteria (per-edge weights, >= 0) in order: Dijkstra on the first; then, on the edges of least
+    paths (dist[u] + w <= dist[v], within TIE_TOLERANCE) toward the goals least by it, on the next.
+    Returns the goal reached (None when none is), the predecessors of the last search and the
+    edges of the first graph."""
     from scipy.sparse import coo_matrix  # here, not at import: only the lattice search needs scipy
     from scipy.sparse.csgraph import dijkstra
 
-    in_goal = atlas.releasable_in(goal_box).ravel()
-    bottleneck = None
-    if objective == "balanced":
-        length_a, margin_a = np.concatenate(lengths), np.concatenate(edge_margins)
-        costs_a = costs_a + opts.margin_weight * length_a / np.maximum(np.degrees(margin_a), MARGIN_FLOOR_DEG)
-    elif objective == "margin":
-        margin_a = np.concatenate(edge_margins)
-        bottleneck = _bottleneck(rows_a, cols_a, margin_a, n_prim, n_cells, start_node, in_goal)
-        if bottleneck is not None:  # then the fewest changes, then the cost, on the edges as wide
-            keep = margin_a >= bottleneck
-            rows_a, cols_a = rows_a[keep], cols_a[keep]
-            costs_a = costs_a[keep] + CHANGE_WEIGHT * np.concatenate(changed)[keep]
-    graph = coo_matrix((costs_a, (rows_a, cols_a)), shape=(n_nodes, n_nodes)).tocsr()
-    dist, pred = dijkstra(graph, indices=start_node, return_predecessors=True)
-
-    goal_nodes = (np.flatnonzero(in_goal)[:, None] * n_prim + np.arange(n_prim)).ravel()
-    best_cost = None
-    legs: list[Leg] = []
-    if start_cell is not None and in_goal[cell[start_cell]]:
-        best_cost = 0.0
-    elif len(goal_nodes):
-        g = goal_nodes[np.argmin(dist[goal_nodes])]
-        if np.isfinite(dist[g]):
-            best_cost = float(dist[g])
-            chain = []
-            node = g
-            while node != start_node and node >= 0:
-                chain.append(node)
-                node = pred[node]
-            chain.reverse()
-            kinds = {prim: kind for kind, prim, _ in moves if kind != "X"}
-            prev_idx = start_cell
-            for node in chain[1:]:  # chain[0] is the start state itself
-                c, prim = divmod(int(node), n_prim)
-                idx = tuple(int(x) for x in np.unravel_index(c, shape))
-                kind = "X" if idx[D] != prev_idx[D] and idx[PSI] != prev_idx[PSI] else kinds[prim]
-                legs.append(Leg(kind, prev_idx, idx))
-                prev_idx = idx
-    min_margin = None
-    if objective != "cost" and best_cost is not None:  # the path's own cost and smallest margin
-        best_cost = _path_cost(atlas, legs)
-        min_margin = min((margins.leg_margin(leg) for leg in legs), default=math.inf)
-    return LatticeResult(best_cost, legs, n_nodes, int(graph.nnz), min_margin)
-
-
-#: The margin objective's weight of a primitive change against the cost: larger than any cost.
-CHANGE_WEIGHT = 1e7
+    n = source + 1
+    n_edges = len(rows)
+    for k in range(len(criteria)):
+        weight = criteria[k]
+        graph = coo_matrix((weight, (rows, cols)), shape=(n, n)).tocsr()
+        dist, pred = dijkstra(graph, indices=source, return_predecessors=True)
+        best = np.min(dist[goals], initial=np.inf)
+        if not np.isfinite(best):
+            return None, pred, n_edges
+        if k == len(criteria) - 1:
+            return int(goals[np.argmin(dist[goals])]), pred, n_edges
+        slack = TIE_TOLERANCE * np.abs(dist)
+        goals = goals[dist[goals] <= best + slack[goals]]
+        tight = dist[rows] + weight <= dist[cols] + slack[cols]
+        rows, cols, criteria = rows[tight], cols[tight], [c[tight] for c in criteria]
+    raise ValueError("no criterion to minimise")
 
 
 def _path_cost(atlas: SecurityAtlas, legs: list[Leg]) -> float:
@@ -230,42 +251,3 @@ def _path_cost(atlas: SecurityAtlas, legs: list[Leg]) -> float:
             total += opts.mode_change_penalty
         last = slot
     return total
-
-
-def _bottleneck(rows: NDArray, cols: NDArray, margin: NDArray, n_prim: int, n_cells: int, start_node: int,
-                in_goal: NDArray[np.bool_]) -> float | None:
-    """The largest m such that the start reaches a goal cell over edges of margin >= m (None when
-    no goal cell is reachable at all): a bisection over the edges' margins, reachability on the
-    graph of cells (the last primitive does not change which edges exist)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import breadth_first_order
-
-    src = np.where(rows == start_node, n_cells, rows // n_prim)
-    dst = cols // n_prim
-    first = np.ones(len(src), dtype=bool)  # one copy of each cell edge (the n_prim copies share a margin)
-    key = src.astype(np.int64) * (n_cells + 1) + dst
-    _, first_idx = np.unique(key, return_index=True)
-    first[:] = False
-    first[first_idx] = True
-    src, dst, margin = src[first], dst[first], margin[first]
-    goal = np.flatnonzero(in_goal)
-
-    def reaches(m: float) -> bool:
-        keep = margin >= m
-        g = coo_matrix((np.ones(int(keep.sum())), (src[keep], dst[keep])), shape=(n_cells + 1, n_cells + 1)).tocsr()
-        seen = breadth_first_order(g, n_cells, directed=True, return_predecessors=False)
-        return bool(np.isin(goal, seen).any())
-
-    levels = np.unique(margin[np.isfinite(margin)])
-    if not len(levels) or not reaches(-np.inf):
-        return None
-    lo, hi = 0, len(levels) - 1  # reaches at levels[lo] (every finite edge), maybe not above
-    if reaches(levels[hi]):
-        return float(levels[hi])
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if reaches(levels[mid]):
-            lo = mid
-        else:
-            hi = mid
-    return float(levels[lo])

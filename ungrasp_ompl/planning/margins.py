@@ -1,36 +1,58 @@
-"""Friction margins on the secure lattice, per state and contact mode, for the robust objectives
-(docs/model.md, sections 4.4 and 6).
+"""Friction margins on the secure lattice, per state and contact mode, and the robust objectives'
+values built from them (docs/model.md, sections 4.4 and 6.1).
 
 :class:`LatticeMargins` keeps, beside a :class:`~ungrasp_ompl.planning.atlas.SecurityAtlas`, the
-friction margin (rad, :func:`~ungrasp_ompl.mechanics.margin.friction_margin`) of every lattice
-state in every contact mode a primitive leg makes there, computed the first time a mode is
-needed and only where the atlas finds that mode secure (-inf elsewhere). From them:
+friction margin (rad, :func:`~ungrasp_ompl.mechanics.margin.friction_margin`) of the lattice
+states in every contact mode a primitive leg makes there, computed the first time a mode is
+needed and only where the atlas finds that mode secure and the state lies on some secure lattice
+path from the start to the goal region (-inf elsewhere). The start state counts +inf in every mode
+it is secure in: every plan leaves it, and its margin, the grasp as handed over, is the same for
+all of them (it is reported on its own). From them:
 
-* the margin of a leg: the smallest margin of the lattice states it passes, each in the leg's
-  own contact mode (the states the atlas checks for its security), the start state left out:
-  every plan leaves the start, whose margin is the grasp as handed over, so a path's margin is
-  that of the states its motion reaches (the start's is reported on its own);
-* the margin penalty of a leg: the sum over its lattice steps of the step's weighted L1 length
-  (reference units, docs/model.md section 6) divided by the step's margin in degrees (the smaller
-  of its two ends), an integral of 1 / margin along the path like OMPL's clearance objectives;
-* the same for a motion: over the secure staircases that realise it, the best one.
+* a lattice step's margin: the smaller of its two ends', each in the step's contact mode;
+* a leg's margin: the smallest of its steps' (the lattice states it passes, in its mode);
+* the lattice's bottleneck: the largest margin a secure lattice path from the start to a
+  releasable goal state can keep all the way (no secure path passes more);
+* a step's penalty, its weighted L1 length (reference units, docs/model.md section 6) times a
+  function of its margin m (deg) that falls as m grows: for ``balanced`` 1 / max(m, 1e-6), for
+  ``margin`` exp(-(m - m*) / TIE_SCALE_DEG) with m* the bottleneck (deg), BELOW_BOTTLENECK times
+  more below it, a steep stand-in for the lexicographic max-min that breaks the ties of the
+  smallest margin; a leg's or a motion's penalty is the sum over its steps.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics import primitive_sliding_signs
 from ..mechanics.margin import friction_margin
 from .atlas import D, LEG_AXES, PSI, Leg, SecurityAtlas, reference_cost
 
-#: Margins below this (deg) count as this in the penalty, so that it stays finite.
+if TYPE_CHECKING:  # pragma: no cover
+    from .lattice import LatticeEdges
+
+#: Margins below this (deg) count as this in the balanced penalty, so that it stays finite.
 MARGIN_FLOOR_DEG = 1e-6
 
-#: Motions whose (margin, penalty) is remembered before the memory is cleared.
+#: The margin objective's tie-break scale (deg): a step's penalty weight falls by e for every
+#: TIE_SCALE_DEG its margin lies above the bottleneck (5 deg wider: 0.0067 times). As steep as
+#: keeps margins 20 deg above the bottleneck (a cone's whole half-angle) weighing more than
+#: TIE_TOLERANCE (exp(-20) = 2e-9), so that the tie-break still tells them apart.
+TIE_SCALE_DEG = 1.0
+
+#: The margin objective's penalty factor for a step narrower than the bottleneck: more than any
+#: path's tie-break can add up to (at most its weighted L1 length, a few hundred), so that a planner
+#: ranks every path that keeps the bottleneck above every path that does not.
+BELOW_BOTTLENECK = 1e6
+
+#: Tie-break values closer than this (relative) count as equal; the cost decides between them.
+TIE_TOLERANCE = 1e-9
+
+#: Motions whose penalty is remembered before the memory is cleared.
 MOTION_CACHE = 200_000
 
 #: The objectives a plan can optimise (docs/model.md, section 6).
@@ -38,19 +60,46 @@ OBJECTIVES = ("cost", "margin", "balanced")
 
 
 class LatticeMargins:
-    """Friction margins (rad) of an atlas's lattice states per contact mode (see the module
-    docstring). ``computed_states`` counts the margins evaluated so far."""
+    """Friction margins (rad) of an atlas's lattice states per contact mode, and the penalties of
+    a robust objective (``margin`` or ``balanced``; see the module docstring).
+    ``computed_states`` counts the margins evaluated so far."""
 
-    def __init__(self, atlas: SecurityAtlas):
+    def __init__(self, atlas: SecurityAtlas, objective: str = "margin", goal_box: ArrayLike | None = None):
+        """goal_box: the goal region's (2, 3) corners (theta rad, d over l, psi rad), the scene's by
+        default: margins are computed only on secure paths from the start into it."""
+        if objective not in OBJECTIVES[1:]:
+            raise ValueError(f"the margins serve the objectives {OBJECTIVES[1:]}, not {objective!r}")
         self.atlas = atlas
-        #: The start's lattice index: every plan leaves it, so its margin (the grasp as handed
-        #: over, the same for every plan) is left out of a path's margin and reported on its own.
+        self.objective = objective
+        self.goal_box = np.asarray(atlas.scene.goal.box() if goal_box is None else goal_box, dtype=float)
+        #: The start's lattice index (None outside the lattice): its margin counts +inf.
         self.start = atlas.index(atlas.scene.start)
         self._mode: dict[tuple[int, int], NDArray[np.float64]] = {}
         self._move: dict[tuple, NDArray[np.float64]] = {}
+        self._steps: dict[tuple, NDArray[np.float64]] = {}
+        self._edges: LatticeEdges | None = None
+        self._edge_margin: NDArray[np.float64] | None = None
         self._relevant: NDArray[np.bool_] | None = None
-        self._motions: dict[tuple, tuple[float, float]] = {}
+        self._bottleneck: float | None | bool = False  # False: not searched yet
+        self._motions: dict[tuple, float] = {}
+        self._unit_lengths = np.array([reference_cost(np.eye(3)[k] * atlas.res, atlas.scene.options.d_weight)
+                                       for k in range(3)])  # of one lattice step along each axis
         self.computed_states = 0
+
+    # -- the lattice's secure paths --------------------------------------------------------------
+    @property
+    def edges(self) -> "LatticeEdges":
+        """The lattice's secure moves, built once."""
+        if self._edges is None:
+            from .lattice import lattice_edges  # lattice.py imports this module
+
+            self._edges = lattice_edges(self.atlas)
+        return self._edges
+
+    @property
+    def goal(self) -> NDArray[np.bool_]:
+        """The releasable goal states in goal_box (flat, the lattice's size)."""
+        return self.atlas.releasable_in(self.goal_box).ravel()
 
     @property
     def relevant(self) -> NDArray[np.bool_]:
@@ -58,45 +107,30 @@ class LatticeMargins:
         others lie on no plan, so their margins are never needed): reachable from the start and
         reaching a releasable goal state, by breadth-first search over the lattice's secure moves."""
         if self._relevant is None:
-            from scipy.sparse import coo_matrix
-            from scipy.sparse.csgraph import breadth_first_order
-
-            from .lattice import moves_graph
-
-            atlas = self.atlas
-            n = int(np.prod(atlas.shape))
-            src, dst = moves_graph(atlas)
-            goal = np.flatnonzero(atlas.releasable_in(atlas.scene.goal.box()).ravel())
+            n = int(np.prod(self.atlas.shape))
+            e = self.edges
             out = np.zeros(n, dtype=bool)
+            goal = np.flatnonzero(self.goal)
             if self.start is not None and len(goal):
-                fw = coo_matrix((np.ones(len(src)), (src, dst)), shape=(n, n)).tocsr()
-                ahead = breadth_first_order(fw, int(np.ravel_multi_index(self.start, atlas.shape)), directed=True,
-                                            return_predecessors=False)
-                # backward from every goal state at once: a virtual node n leads to each of them
-                bw = coo_matrix((np.ones(len(src) + len(goal)), (np.concatenate([dst, np.full(len(goal), n)]),
-                                                                 np.concatenate([src, goal]))), shape=(n + 1, n + 1)).tocsr()
-                behind = breadth_first_order(bw, n, directed=True, return_predecessors=False)
-                out[ahead] = True
-                keep = np.zeros(n + 1, dtype=bool)
-                keep[behind] = True
-                out &= keep[:n]
-            self._relevant = out.reshape(atlas.shape)
+                start = int(np.ravel_multi_index(self.start, self.atlas.shape))
+                out[_reached(e.src, e.dst, n, [start])] = True
+                back = np.zeros(n, dtype=bool)
+                back[_reached(e.dst, e.src, n, goal)] = True
+                out &= back
+            self._relevant = out.reshape(self.atlas.shape)
         return self._relevant
 
     def prepare(self) -> None:
-        """Compute the margins of every contact mode the lattice's moves make now (so that none is
-        computed while a planner runs)."""
-        from .lattice import _moves
-
-        opts = self.atlas.scene.options
-        for kind, _, step in _moves(opts.reverse_primitives):
-            if not (opts.forbid_partial and kind in "DX"):
-                self.move(kind, tuple(step))
+        """Compute now every margin, and the bottleneck, that planning and its report may need (so
+        that none is computed while a planner runs)."""
+        self.edge_margin()
+        _ = self.bottleneck
 
     # -- per state -------------------------------------------------------------------------------
     def mode(self, sa: int, sb: int) -> NDArray[np.float64]:
         """Friction margin (rad) in contact mode (sa, sb) of every lattice state, -inf where the
-        atlas finds the mode insecure or the state lies on no plan (relevant); shape of the lattice."""
+        atlas finds the mode insecure or the state lies on no plan (relevant), +inf at the start
+        where it is secure; shape of the lattice."""
         key = (int(sa), int(sb))
         if key not in self._mode:
             ok = self.atlas.mode_ok(*key) & self.relevant
@@ -107,14 +141,16 @@ class LatticeMargins:
                 s = self.atlas.scene
                 out[idx] = friction_margin(th, d, ps, key[0], key[1], s.mu, s.options.sliding_model)
                 self.computed_states += len(idx[0])
+            if self.start is not None and out[self.start] > -np.inf:
+                out[self.start] = np.inf
             self._mode[key] = out
         return self._mode[key]
 
     def move(self, kind: str, step: tuple[int, int, int]) -> NDArray[np.float64]:
         """The margin (rad) at every lattice state in the contact mode of a leg of this kind moving
-        by the index step (T, P, D along one axis; X along d and psi), -inf where insecure: the
-        mode the atlas's leg_ok (and the lattice search) checks there."""
-        key = (kind,) + tuple(int(np.sign(x)) for x in step)
+        by the index step (T, P, D along one axis; X along d and psi, one step each), -inf where
+        insecure: the mode the atlas's leg_ok (and the lattice search) checks there."""
+        key = (kind,) + tuple(int(x > 0) - int(x < 0) for x in step)
         if key not in self._move:
             atlas = self.atlas
             if kind == "T":
@@ -128,24 +164,105 @@ class LatticeMargins:
                 sa, sb = primitive_sliding_signs("P_dpsi", d, psi, step[D] * atlas.res[D], dpsi)
                 out = np.full(atlas.shape, -np.inf)
                 for b in np.unique(sb):
-                    sel = (sb == b)[None]
-                    out = np.where(sel, self.mode(int(sa.flat[0]), int(b)), out)
+                    out = np.where((sb == b)[None], self.mode(int(sa.flat[0]), int(b)), out)
             self._move[key] = out
         return self._move[key]
 
+    # -- edges, the bottleneck and the penalty ---------------------------------------------------
+    def edge_margin(self) -> NDArray[np.float64]:
+        """The margin (rad) of every edge of the lattice (``edges``): the smaller of its ends',
+        each in the edge's contact mode; -inf for an edge off every plan."""
+        if self._edge_margin is None:
+            e = self.edges
+            out = np.empty(len(e.src))
+            for k, (kind, _, step) in enumerate(e.moves):
+                sel = slice(e.offsets[k], e.offsets[k + 1])
+                m = self.move(kind, tuple(step)).ravel()
+                out[sel] = np.minimum(m[e.src[sel]], m[e.dst[sel]])
+            self._edge_margin = out
+        return self._edge_margin
+
+    @property
+    def bottleneck(self) -> float | None:
+        """The largest margin (rad) a secure lattice path from the start to a releasable goal
+        state keeps all the way, +inf when the start is a goal state, None when no secure path
+        exists: a bisection over the edges' distinct margins, reachability by breadth-first search."""
+        if self._bottleneck is False:
+            self._bottleneck = self._search_bottleneck()
+        return self._bottleneck
+
+    def _search_bottleneck(self) -> float | None:
+        n = int(np.prod(self.atlas.shape))
+        goal = self.goal
+        if self.start is None or not goal.any():
+            return None
+        start = int(np.ravel_multi_index(self.start, self.atlas.shape))
+        if goal[start]:
+            return math.inf
+        e, m = self.edges, self.edge_margin()
+
+        def reaches(level: float) -> bool:
+            keep = m >= level
+            return bool(goal[_reached(e.src[keep], e.dst[keep], n, [start])].any())
+
+        levels = np.unique(m[np.isfinite(m)])
+        if not len(levels) or not reaches(levels[0]):
+            return None
+        lo, hi = 0, len(levels)  # reaches at levels[lo]; levels[hi] (past the end) fails
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if reaches(levels[mid]):
+                lo = mid
+            else:
+                hi = mid
+        return float(levels[lo])
+
+    def penalty(self, margin: NDArray[np.float64] | float) -> NDArray[np.float64]:
+        """The objective's penalty per unit of weighted L1 length of a step with this margin
+        (rad): 1 / max(m, 1e-6) (balanced) or exp(-(m - m*) / TIE_SCALE_DEG) (margin), m and the
+        bottleneck m* in degrees; inf for an insecure step (-inf margin)."""
+        deg = np.degrees(np.asarray(margin, dtype=float))
+        with np.errstate(over="ignore"):
+            if self.objective == "balanced":
+                out = 1.0 / np.maximum(deg, MARGIN_FLOOR_DEG)
+            else:  # below the bottleneck, BELOW_BOTTLENECK times more: worse than any path above it
+                ref = self.bottleneck
+                ref = math.degrees(ref) if ref is not None and math.isfinite(ref) else 0.0
+                out = np.exp(-(deg - ref) / TIE_SCALE_DEG)
+                out = np.where(deg < ref, BELOW_BOTTLENECK * out, out)
+        return np.where(deg == -np.inf, np.inf, out)
+
+    def _step_penalties(self, kind: str, direction: int) -> NDArray[np.float64]:
+        """For an axis leg (T, P, D) run in a direction (+1 or -1 along its axis): the penalty of
+        the lattice step from each state to the next, shape of the lattice (inf where insecure,
+        nan at the lattice's end)."""
+        key = (kind, direction)
+        if key not in self._steps:
+            axis = LEG_AXES[kind][0]
+            step = [0, 0, 0]
+            step[axis] = direction
+            m = np.moveaxis(self.move(kind, tuple(step)), axis, -1)
+            if direction < 0:
+                m = m[..., ::-1]
+            pair = np.minimum(m[..., :-1], m[..., 1:])
+            length = reference_cost(np.asarray(step) * self.atlas.res, self.atlas.scene.options.d_weight)
+            out = np.concatenate([length * self.penalty(pair), np.full(m.shape[:-1] + (1,), np.nan)], axis=-1)
+            if direction < 0:
+                out = out[..., ::-1]
+            self._steps[key] = np.ascontiguousarray(np.moveaxis(out, -1, axis))
+        return self._steps[key]
+
     # -- legs and motions ------------------------------------------------------------------------
     def leg_states(self, leg: Leg) -> tuple[NDArray[np.int_], NDArray[np.float64]]:
-        """The lattice indices a leg passes (n, 3), ends included, and the margin (rad) of each in
-        the leg's mode there (n,)."""
+        """The lattice indices a leg passes (n, 3), in travel order, ends included, and the margin
+        (rad) of each in the leg's mode there (n,)."""
         a, b = np.asarray(leg.start), np.asarray(leg.end)
         diff = b - a
         n = int(np.max(np.abs(diff)))
         if n == 0:
-            idx = a[None]
-            return idx, np.array([self.mode(0, 0)[tuple(a)]])
+            return a[None], np.array([self.mode(0, 0)[tuple(a)]])
         t = np.arange(n + 1) / n
         idx = a[None] + np.rint(t[:, None] * diff[None]).astype(int)
-        step = np.sign(diff).astype(int)
         if leg.kind == "X":  # B's mode from the diagonal's own direction, as the atlas checks it
             d = self.atlas.axes[D][idx[:, D]]
             psi = self.atlas.axes[PSI][idx[:, PSI]]
@@ -155,92 +272,78 @@ class LatticeMargins:
                 sel = sb == bsign
                 m[sel] = self.mode(int(sa.flat[0]), int(bsign))[tuple(idx[sel].T)]
             return idx, m
-        return idx, self.move(leg.kind, tuple(step))[tuple(idx.T)]
-
-    def _skip_start(self, idx: NDArray[np.int_], m: NDArray[np.float64]) -> NDArray[np.float64]:
-        """m with the start state's entries left out (+inf)."""
-        if self.start is None:
-            return m
-        at = np.all(idx == np.asarray(self.start), axis=1)
-        return np.where(at, np.inf, m) if at.any() else m
-
-    def _axis_margins(self, leg: Leg) -> NDArray[np.float64] | None:
-        """For a leg along one axis (T, P, D): the margins of the states it passes in travel order,
-        the start state's +inf, by slicing (what leg_states gives, faster); None for X."""
-        if leg.kind == "X":
-            return None
-        axis = LEG_AXES[leg.kind][0]
-        a, b = leg.start, leg.end
-        if a == b:
-            return None
-        step = [0, 0, 0]
-        forward = b[axis] > a[axis]
-        step[axis] = 1 if forward else -1
-        index: list = list(a)
-        index[axis] = slice(a[axis], b[axis] + 1) if forward else slice(b[axis], a[axis] + 1)
-        vals = self.move(leg.kind, tuple(step))[tuple(index)]
-        if not forward:
-            vals = vals[::-1]
-        if a == self.start:
-            vals = vals.copy()
-            vals[0] = np.inf
-        return vals
+        return idx, self.move(leg.kind, tuple(np.sign(diff).astype(int)))[tuple(idx.T)]
 
     def leg_margin(self, leg: Leg) -> float:
-        """The smallest margin (rad) along a leg, in its mode, the start state left out (+inf for
-        a leg that passes nothing else)."""
-        vals = self._axis_margins(leg)
-        if vals is not None:
-            return float(vals.min())
-        idx, m = self.leg_states(leg)
-        return float(self._skip_start(idx, m).min())
+        """The smallest margin (rad) along a leg, in its mode (+inf for a leg that passes only the
+        start)."""
+        if leg.kind == "X" or leg.start == leg.end:
+            return float(self.leg_states(leg)[1].min())
+        axis = LEG_AXES[leg.kind][0]  # a slice of the lattice along the leg's axis
+        a, b = leg.start[axis], leg.end[axis]
+        index: list = list(leg.start)
+        index[axis] = slice(min(a, b), max(a, b) + 1)
+        step = [0, 0, 0]
+        step[axis] = 1 if b > a else -1
+        return float(self.move(leg.kind, tuple(step))[tuple(index)].min())
 
     def leg_penalty(self, leg: Leg) -> float:
-        """Sum over the leg's lattice steps of the step's weighted L1 length over its margin in
-        degrees (reference units per degree), a step's margin being the smaller of its ends' (the
-        start left out); inf on an insecure step."""
-        m = self._axis_margins(leg)
-        if m is not None:
-            unit = np.zeros(3)
+        """The sum over the leg's lattice steps of the step's weighted L1 length times the
+        objective's penalty of its margin; inf on an insecure step."""
+        if leg.start == leg.end:
+            return 0.0
+        if leg.kind != "X":  # a slice of the precomputed steps
             axis = LEG_AXES[leg.kind][0]
-            unit[axis] = 1
-        else:
-            idx, m = self.leg_states(leg)
-            if len(idx) < 2:
-                return 0.0
-            m = self._skip_start(idx, m)
-            unit = idx[1] - idx[0]
-        edge = np.minimum(m[:-1], m[1:])
-        if not np.all(np.isfinite(edge) | (edge == np.inf)) or np.any(edge == -np.inf):
-            return math.inf
-        length = reference_cost(unit * self.atlas.res, self.atlas.scene.options.d_weight)
-        return float(np.sum(length / np.maximum(np.degrees(edge), MARGIN_FLOOR_DEG)))
+            a, b = leg.start[axis], leg.end[axis]
+            index: list = list(leg.start)
+            index[axis] = slice(a, b) if b > a else slice(b + 1, a + 1)
+            return float(self._step_penalties(leg.kind, 1 if b > a else -1)[tuple(index)].sum())
+        idx, m = self.leg_states(leg)  # an X leg's steps move d, psi or both by one lattice step
+        length = np.abs(np.diff(idx, axis=0)) @ self._unit_lengths
+        return float(np.sum(length * self.penalty(np.minimum(m[:-1], m[1:]))))
 
-    def motion(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> tuple[float, float]:
-        """(margin rad, penalty) of the motion from lattice index a to b: over its secure
-        realisations, the largest smallest margin and the smallest penalty; (-inf, inf) when no
-        secure staircase realises it."""
+    def score(self, legs: list[Leg]) -> tuple[float, ...]:
+        """How the objective ranks a secure leg sequence realising one motion, smaller first:
+        (minus its smallest margin, its penalty) for ``margin``, (its penalty,) for ``balanced``."""
+        total = sum(self.leg_penalty(leg) for leg in legs)
+        if self.objective == "margin":
+            return (-min((self.leg_margin(leg) for leg in legs), default=math.inf), total)
+        return (total,)
+
+    def best(self, found: list[list[Leg]]) -> list[list[Leg]]:
+        """The realisations of one motion that rank first (score; penalties within TIE_TOLERANCE
+        count as equal)."""
+        scores = [self.score(r) for r in found]
+        top = min(scores)
+        return [r for r, s in zip(found, scores)
+                if s[:-1] == top[:-1] and s[-1] <= top[-1] + TIE_TOLERANCE * abs(top[-1])]
+
+    def motion(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> float:
+        """The penalty of the motion from lattice index a to b: that of its best secure staircase
+        (score); inf when none realises it (or it runs against the allowed directions)."""
         key = (a, b)
         if key in self._motions:
             return self._motions[key]
         if len(self._motions) > MOTION_CACHE:
             self._motions.clear()
-        out = self._motion(a, b)
+        found = self.atlas.realise(a, b)
+        out = self.score(self.best(found)[0])[-1] if found else math.inf
         self._motions[key] = out
         return out
 
-    def _motion(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> tuple[float, float]:
-        atlas = self.atlas
-        if not atlas.allowed(tuple(b[k] - a[k] for k in range(3))):
-            return -math.inf, math.inf
-        if a == b:
-            return (float(self.mode(0, 0)[a]), 0.0) if atlas.holdable[a] else (-math.inf, math.inf)
-        best_m, best_p = -math.inf, math.inf
-        for legs in atlas.realisations(a, b):
-            if all(atlas.leg_secure(l.kind, l.start, l.end) for l in legs):
-                best_m = max(best_m, min(self.leg_margin(l) for l in legs))
-                best_p = min(best_p, sum(self.leg_penalty(l) for l in legs))
-        return best_m, best_p
+
+def _reached(src: NDArray[np.int_], dst: NDArray[np.int_], n: int, seeds) -> NDArray[np.int_]:
+    """The nodes (of n) reached from any of the seeds along the directed edges src -> dst, the seeds
+    included: breadth-first search from a virtual node n that leads to each seed."""
+    from scipy.sparse import coo_matrix  # here, not at import: only the margins need scipy
+    from scipy.sparse.csgraph import breadth_first_order
+
+    seeds = np.asarray(seeds, dtype=np.int64)
+    rows = np.concatenate([src, np.full(len(seeds), n)])
+    cols = np.concatenate([dst, seeds])
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
+    order = breadth_first_order(graph, n, directed=True, return_predecessors=False)
+    return order[order < n]
 
 
-__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES"]
+__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "TIE_SCALE_DEG", "TIE_TOLERANCE"]

@@ -138,6 +138,9 @@ class Plan:
     stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
     objective: str = "cost"  # what the planner optimised: cost, margin or balanced (docs/model.md, section 6)
     min_margin_deg: float | None = None  # smallest friction margin along the path's motion, each leg in its mode
+    margin_profile_deg: list[float] = field(default_factory=list)  # the smallest of each primitive, in order
+    margin_bottleneck_deg: float | None = None  # the most any secure lattice path keeps (robust objectives)
+    margin_forced: bool | None = None  # min_margin_deg is the bottleneck: no secure lattice path passes more
     start_margin_deg: float | None = None  # the start's friction margin with every contact sticking
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
@@ -235,7 +238,10 @@ class Plan:
                          f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
             if self.min_margin_deg is not None:
                 lines.append(f"  objective {self.objective}: smallest friction margin along the path "
-                             f"{self.min_margin_deg:.3f} deg (the start, held: {self.start_margin_deg:.3f} deg)")
+                             f"{self.min_margin_deg:.3f} deg{self._forced()} (the start, held: "
+                             f"{self.start_margin_deg:.3f} deg)")
+                lines.append("  smallest friction margin of each primitive: "
+                             + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
             first = self.time_to_first_solution_s
             lines.append(f"  first solution {first:.3f} s, planning {self.planning_time_s:.2f} s "
                          f"({self.iterations} iterations, stopped by {self.stopped_by}), setup {self.setup_time_s:.2f} s")
@@ -255,6 +261,14 @@ class Plan:
         else:
             lines.append(f"no solution for {self.scene} with {self.planner}: {self.reason}")
         return "\n".join(lines)
+
+    def _forced(self) -> str:
+        """How the smallest margin compares with the lattice's bottleneck, when known."""
+        if self.margin_forced is None:
+            return ""
+        if self.margin_forced:
+            return ", forced (no secure lattice path passes more)"
+        return f", below the {self.margin_bottleneck_deg:.3f} deg some secure lattice path keeps"
 
 
 def read_plan(path: str) -> Plan:

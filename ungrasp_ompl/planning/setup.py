@@ -32,7 +32,7 @@ from .goal import LatticeGoalRegion
 from .lattice import lattice_search
 from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins
-from .objective import BalancedObjective, MarginObjective, PrimitiveCostObjective
+from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
 from .result import HoldableMap, Plan, PlanOutcome, merge_legs, sequence_cost
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
@@ -81,6 +81,12 @@ class Limitation(Enum):
 #: Planners that cannot solve these problems, and why (see Limitation).
 KNOWN_LIMITATIONS: dict[str, Limitation] = {"FMT": Limitation.LAZY_ROADMAP, "BFMT": Limitation.BACKWARD_GOAL_TREE}
 
+#: The planner's longest motion by objective (state units): the margin objective's steep penalty
+#: needs a finely grown tree to bend around narrow stretches (measured on reference_asymmetric and
+#: the four object scenes, seeds 1-5: with 0.3, 9 of 25 RRT* plans reach the lattice's bottleneck and
+#: 2 stay narrower than the cost plan; with 0.05, 21 and none).
+DEFAULT_RANGE = {"cost": 0.3, "balanced": 0.3, "margin": 0.05}
+
 #: Iterations per second of --time that a seeded run is given (measured: RRT* runs
 #: 8,000-11,000 iterations per second on the reference scenes and 4,000-5,000 on the
 #: shipped 3D scenes on 2 cores, so a seeded run takes about --time seconds).
@@ -104,8 +110,9 @@ class PlannerOptions:
     iterations: int | None = None
     """Planner iterations (termination-condition calls); None: ITERATIONS_PER_SECOND (PRM, PRM*:
     PLANNER_ITERATIONS_PER_SECOND) times time when seeded, unbounded otherwise."""
-    range: float = 0.3
-    """The planner's longest motion, in state units (theta and psi in rad, d over l)."""
+    range: float | None = None
+    """The planner's longest motion, in state units (theta and psi in rad, d over l); None: the
+    objective's DEFAULT_RANGE (set when the options are made)."""
     goal_bias: float = 0.1
     """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
@@ -113,6 +120,10 @@ class PlannerOptions:
     objective: str = "cost"
     """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
     the path) or balanced (cost plus planning.margin_weight times a penalty growing as it shrinks)."""
+
+    def __post_init__(self) -> None:
+        if self.range is None:
+            object.__setattr__(self, "range", DEFAULT_RANGE.get(self.objective, DEFAULT_RANGE["cost"]))
 
     def validated(self) -> "PlannerOptions":
         if self.planner in UNUSABLE_PLANNERS:
@@ -163,13 +174,10 @@ class UngraspSetup:
         self.si.setStateValidityChecker(self.validity_checker)
         self.si.setMotionValidator(self.motion_validator)
         self.si.setup()
-        self.margins = LatticeMargins(self.atlas) if self.options.objective != "cost" else None
+        self.margins = LatticeMargins(self.atlas, self.options.objective) if self.options.objective != "cost" else None
         if self.margins is not None:
             self.margins.prepare()
-        if self.options.objective == "margin":
-            self.objective = MarginObjective(self.si, self.atlas, self.margins)
-        elif self.options.objective == "balanced":
-            self.objective = BalancedObjective(self.si, self.atlas, self.margins)
+            self.objective = RobustObjective(self.si, self.atlas, self.margins)
         else:
             self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
         self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
@@ -247,7 +255,9 @@ class UngraspSetup:
         if not exact:
             return self._no_path(plan)
         path = self.pdef.getSolutionPath()
-        if opts.simplify:
+        if opts.simplify and self.margins is not None:  # OMPL's reduceVertices ignores the objective
+            path = reduce_vertices(self.si, self.objective, path)
+        elif opts.simplify:
             simplifier = og.PathSimplifier(self.si, self.goal, self.objective)
             simplifier.reduceVertices(path)
         legs, problem = self.path_legs(path_states(path))
@@ -255,7 +265,7 @@ class UngraspSetup:
             return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
         if plan.time_to_first_solution_s is None:
             plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
-        fill_solution(plan, self.atlas, legs)
+        fill_solution(plan, self.atlas, legs, self.margins)
         return plan
 
     def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
@@ -275,10 +285,8 @@ class UngraspSetup:
             found = atlas.realise(a, b)
             if not found:
                 return [], f"edge {k} has no secure primitive legs in its travel direction"
-            if self.margins is not None:  # the realisations the objective counted: widest, or least penalised
-                score = [(-min(self.margins.leg_margin(l) for l in r) if self.options.objective == "margin"
-                          else sum(self.margins.leg_penalty(l) for l in r)) for r in found]
-                found = [r for r, v in zip(found, score) if v == min(score)]
+            if self.margins is not None:  # the realisations the objective ranks first
+                found = self.margins.best(found)
             options.append(found)
         legs = _fewest_changes(options)
         return legs, verify_legs(self.scene, atlas, legs)
@@ -324,11 +332,17 @@ def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | No
     return None
 
 
-def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg]) -> None:
+#: A path's smallest margin this close (deg) to the lattice's bottleneck is the bottleneck (the
+#: plan's states are recomputed from its corners, a rounding away from the lattice's).
+FORCED_TOLERANCE_DEG = 1e-9
+
+
+def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: LatticeMargins | None = None) -> None:
     """Record verified legs in a plan: merged primitives, corner states, cost, the friction margins
-    (the path's smallest, the start's); marks it solved."""
+    (the smallest of each primitive and of the path, the start's; with the lattice's margins, its
+    bottleneck and whether the path's smallest margin is forced by it); marks it solved."""
     from ..mechanics.margin import friction_margin
-    from ..robustness import path_margin
+    from ..robustness import plan_friction_margins, plan_samples
 
     steps = merge_legs(atlas, legs)
     plan.primitives = steps
@@ -336,9 +350,18 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg]) -> None:
     plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
     plan.outcome, plan.evidence = PlanOutcome.SOLVED, {}
     scene = atlas.scene
-    if steps:
-        plan.min_margin_deg = math.degrees(path_margin(scene, plan, atlas.res))
+    if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start left out
+        samples = plan_samples(plan, atlas.res, both_modes=True)
+        m = np.degrees(plan_friction_margins(scene, samples))
+        m[np.all(np.abs(samples.states - np.asarray(scene.start)) <= 1e-12, axis=1)] = np.inf
+        plan.margin_profile_deg = [float(m[samples.primitive == k].min()) for k in range(len(steps))]
+        plan.min_margin_deg = min(plan.margin_profile_deg)
     plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.mu, scene.options.sliding_model)[0]))
+    bottleneck = margins.bottleneck if margins is not None else None
+    if bottleneck is not None:
+        plan.margin_bottleneck_deg = math.degrees(bottleneck)
+        if plan.min_margin_deg is not None:
+            plan.margin_forced = plan.min_margin_deg >= plan.margin_bottleneck_deg - FORCED_TOLERANCE_DEG
 
 
 def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | None = None,
@@ -349,7 +372,7 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     check_objective(objective, LATTICE)
     t0 = perf_counter()
     atlas = atlas if atlas is not None else SecurityAtlas(scene, planning_box(scene))
-    margins = LatticeMargins(atlas) if objective != "cost" else None
+    margins = LatticeMargins(atlas, objective) if objective != "cost" else None
     t1 = perf_counter()
     result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
@@ -364,7 +387,7 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     if problem:
         return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
     plan.time_to_first_solution_s = t2 - t1
-    fill_solution(plan, atlas, result.legs)
+    fill_solution(plan, atlas, result.legs, margins)
     return plan
 
 
