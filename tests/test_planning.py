@@ -15,7 +15,7 @@ from ungrasp_ompl.planning.lattice import lattice_search
 from ungrasp_ompl.planning.setup import PlannerOptions, UngraspSetup
 from ungrasp_ompl.planning.verify import verify_leg
 
-COARSE = (math.radians(2), 0.02, math.radians(2))
+BRUTE_FORCE = (math.radians(1.5), 0.015, math.radians(1.5))  # the brute-force search's lattice
 GOLDEN = ROOT / "tests" / "golden"
 
 
@@ -100,12 +100,16 @@ def brute_force_optimum(atlas, goal_box):
     return None
 
 
-@pytest.mark.parametrize("name", ["reference_asymmetric", "reference_equal_digits", "reference_upper_obstacle"])
-def test_lattice_search_equals_brute_force(scenes, name):
+@pytest.mark.parametrize("name, reachable", [("reference_asymmetric", True), ("reference_equal_digits", False),
+                                             ("reference_upper_obstacle", True)])
+def test_lattice_search_equals_brute_force(scenes, name, reachable):
+    """On a lattice of 1.5 deg / 0.015 / 1.5 deg (coarser has no secure path at all, so the
+    comparison would be empty), with and without a secure path."""
     scene = scenes[name]
-    atlas = SecurityAtlas(scene, planning_box(scene), resolution=COARSE)
+    atlas = SecurityAtlas(scene, planning_box(scene), resolution=BRUTE_FORCE)
     result = lattice_search(atlas, scene.goal.box())
     expected = brute_force_optimum(atlas, scene.goal.box())
+    assert (expected is not None) == reachable
     assert (result.cost is None) == (expected is None)
     if expected is not None:
         assert result.cost == pytest.approx(expected, abs=1e-9)
