@@ -77,6 +77,33 @@ def test_no_planner_beats_the_lattice_optimum(bench):
 
 
 @pytest.mark.slow
+def test_margin_objective_bench_keeps_no_planner_above_the_lattice_bottleneck(tmp_path):
+    """bench --objective margin: the lattice yardstick finds the widest path, and no planner's run,
+    every one re-validated on the same lattice, keeps a larger smallest margin than it."""
+    guitar = SCENES / "guitar_pick.yaml"
+    options = BenchmarkOptions(planners=("RRTstar", LATTICE), runs=2, time=0.3, jobs=2, iterations=1500,
+                               objective="margin", out=tmp_path / "b")
+    result = run_benchmark([guitar], options)
+    rows = {r.planner: r for r in result.summary}
+    widest = rows[LATTICE].lattice_margin
+    assert widest is not None and widest > 0
+    solved = [r for r in result.runs if r.solved]
+    assert {r.planner for r in solved} == {"RRTstar", LATTICE}
+    assert all(r.min_margin_deg <= widest + 1e-9 for r in solved)
+    assert all(r.min_margin_deg == pytest.approx(widest) for r in solved if r.planner == LATTICE)
+    with open(tmp_path / "b" / "runs.csv") as f:
+        assert {row["objective"] for row in csv.DictReader(f)} == {"margin"}
+
+
+def test_a_cost_only_planner_is_refused_a_robust_objective(tmp_path):
+    options = BenchmarkOptions(planners=("PRM",), runs=1, time=0.3, jobs=2, objective="margin", out=tmp_path / "o")
+    with pytest.raises(InputError) as err:
+        run_benchmark([SCENE], options)
+    assert err.value.field == "objective" and "PRM" in err.value.reason
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
 def test_plots_are_png(bench):
     out, _ = bench
     for name in ("success_vs_time.png", "cost_vs_time.png"):

@@ -69,6 +69,8 @@ def _parser() -> argparse.ArgumentParser:
     bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
     bn.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
     bn.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
+    bn.add_argument("--objective", default="cost", choices=("cost", "margin", "balanced"),
+                    help="what every planner (and the lattice yardstick) optimises, as for plan (default cost)")
 
     sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
     sw.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
@@ -333,7 +335,8 @@ def _bench(args: argparse.Namespace) -> int:
     planners = tuple(p.strip() for p in args.planners.split(",") if p.strip())
     scenes = [resolve(s, "scene") for s in args.scenes]
     options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
-                               out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume)
+                               out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume,
+                               objective=args.objective)
     result = run_benchmark(scenes, options, progress=_bar)
     print(result.table)
     print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")

@@ -80,8 +80,9 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     with ``resume`` the runs already there are kept, not run again.
 
     ``lattice`` among the planners is the exact search; the optimum it finds (reference cost
-    units) is also the yardstick of the gap column, computed once per scene when ``lattice``
-    is not benchmarked. Writes the files (see the module) and returns the result. Raises
+    units, and its path's smallest friction margin) is also the yardstick of the gap column,
+    computed once per scene when ``lattice`` is not benchmarked. Every planner, the yardstick
+    included, optimises the options' objective. Writes the files (see the module) and returns the result. Raises
     InputError naming the option (``--planners``, ``--runs``, ...) or the scene, before
     anything runs.
     """
@@ -96,19 +97,21 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
         scenes[scene_key(scene.name, taken)] = scene
     names = list(options.planners)
     limit, its = float(options.time), options.iterations
-    tasks = [Task(key, scene, name, k, options.seed + k, limit, its)
+    objective = options.objective
+    tasks = [Task(key, scene, name, k, options.seed + k, limit, its, objective)
              for key, scene in scenes.items() for name in names for k in range(options.runs)]
     if LATTICE not in names:
-        tasks += [Task(key, scene, LATTICE, -1, options.seed, limit) for key, scene in scenes.items()]
+        tasks += [Task(key, scene, LATTICE, -1, options.seed, limit, objective=objective) for key, scene in scenes.items()]
     started = datetime.now()
     with open_runner(options.jobs, options.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])
 
-    experiments = []
+    experiments, margins = [], {}
     for key, scene in scenes.items():
         lattice = lattice_yardstick(results, key)
+        margins[key] = lattice.min_margin_deg
         by_planner = {name: [r for r in results if r.group == key and r.planner == name and r.run >= 0]
                       for name in names}
         experiments.append(Experiment(key, scene, names, by_planner, lattice.cost, lattice.status, options.seed,
@@ -120,7 +123,8 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     files["db"] = out / "benchmark.db"
     logs_to_database([p for k, p in files.items() if k.startswith("log:")], files["db"])
 
-    summary = [summarise(exp.key, name, exp.runs[name], exp.optimum) for exp in experiments for name in names]
+    summary = [summarise(exp.key, name, exp.runs[name], exp.optimum, margins[exp.key])
+               for exp in experiments for name in names]
     files["summary"] = out / "summary.csv"
     write_csv(files["summary"], SUMMARY_COLUMNS, summary)
     files["success_plot"] = out / "success_vs_time.png"

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
-from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions
+from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
 
 
 @dataclass(frozen=True)
@@ -40,12 +40,18 @@ class BenchmarkOptions:
     """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     resume: bool = False
     """Keep the runs already in out/runs.csv (an interrupted benchmark) and run only the others."""
+    objective: str = "cost"
+    """What every planner optimises, the lattice yardstick included (docs/model.md, section 6):
+    cost, margin or balanced."""
 
     def validated(self) -> "BenchmarkOptions":
         """These options with the planner names checked and duplicates dropped; InputError otherwise."""
         check_runs(self.runs, self.time, self.jobs, self.seed, self.out)
         check_iterations(self.iterations)
-        return replace(self, planners=tuple(validate_planners(self.planners)))
+        planners = tuple(validate_planners(self.planners))
+        for planner in planners:
+            check_objective(self.objective, planner)
+        return replace(self, planners=planners)
 
 
 @dataclass(frozen=True)

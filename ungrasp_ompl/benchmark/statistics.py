@@ -64,12 +64,19 @@ class SummaryRow:
     """Median count of primitive changes over the solved runs."""
     lattice_optimum: float | None
     """The exact optimum on the scene's lattice (reference units); None: no secure path."""
+    margin_median: float | None = None
+    """Median over the solved runs of the path's smallest friction margin (deg)."""
+    lattice_margin: float | None = None
+    """The smallest friction margin of the lattice optimum's path (deg): with the margin
+    objective, the most any secure lattice path keeps."""
     limitation: str | None = None
     """0% success where a path exists: the code of the planner's known limitation."""
 
 
-def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: float | None) -> SummaryRow:
-    """The summary row of one planner's runs on one scene."""
+def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: float | None,
+              optimum_margin: float | None = None) -> SummaryRow:
+    """The summary row of one planner's runs on one scene; optimum_margin: the smallest friction
+    margin (deg) of the lattice optimum's path."""
     solved = [r for r in runs if r.solved]
     cost = median([r.cost for r in solved])
     return SummaryRow(
@@ -84,6 +91,8 @@ def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: floa
         cost_median=cost, gap_percent=gap_percent(cost, optimum),
         mode_changes_median=median([r.mode_switches for r in solved]),
         lattice_optimum=optimum,
+        margin_median=median([r.min_margin_deg for r in solved if r.min_margin_deg is not None]),
+        lattice_margin=optimum_margin,
         limitation=KNOWN_LIMITATIONS[planner].code
         if planner in KNOWN_LIMITATIONS and not solved and optimum is not None else None)
 
@@ -110,6 +119,8 @@ SUMMARY_COLUMNS = (
     Column("gap %", "gap_to_optimum_percent", lambda r: r.gap_percent, ".2f"),
     Column("mode changes", "mode_changes_median", lambda r: r.mode_changes_median, "g"),
     Column("lattice optimum", "lattice_optimum", lambda r: r.lattice_optimum, ".2f"),
+    Column("margin median deg", "smallest_margin_median_deg", lambda r: r.margin_median, ".3f"),
+    Column("lattice margin deg", "lattice_smallest_margin_deg", lambda r: r.lattice_margin, ".3f"),
     Column("known limitation", "known_limitation", lambda r: r.limitation),
 )
 

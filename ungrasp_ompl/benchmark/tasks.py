@@ -73,6 +73,8 @@ class Task:
     """Planning time (s): wall time, or with iterations the cap of 5 times it."""
     iterations: int | None = None
     """Planner iterations (count), making the run reproducible; None: stop on wall time."""
+    objective: str = "cost"
+    """What the planner optimises (docs/model.md, section 6): cost, margin or balanced."""
 
     @property
     def deadline(self) -> float:
@@ -101,6 +103,8 @@ class RunResult:
     setup_time_s: float
     iterations: int | None
     wall_time_s: float
+    min_margin_deg: float | None = None
+    """The path's smallest friction margin (deg), each leg in its contact mode; None: no path."""
 
     @property
     def solved(self) -> bool:
@@ -125,29 +129,30 @@ def _ompl_run(task: Task) -> dict:
     seed_ompl(task.seed)
     seeded = task.iterations is not None
     options = PlannerOptions(planner=task.planner, time=task.time_limit, seed=task.seed if seeded else None,
-                             iterations=task.iterations)
+                             iterations=task.iterations, objective=task.objective)
     plan = UngraspSetup(task.scene, options).solve()
     return dict(status=run_status(plan), cost=plan.cost, mode_switches=plan.mode_switches,
                 time_to_first_solution_s=plan.time_to_first_solution_s, planning_time_s=plan.planning_time_s,
-                setup_time_s=plan.setup_time_s, iterations=plan.iterations)
+                setup_time_s=plan.setup_time_s, iterations=plan.iterations, min_margin_deg=plan.min_margin_deg)
 
 
-def _lattice_run(scene: Scene) -> dict:
-    """The exact optimum on the scene's lattice; its time is building the lattice plus the search.
-    Its cost is the optimum even when the optimum's legs fail re-validation (status invalid)."""
+def _lattice_run(scene: Scene, objective: str = "cost") -> dict:
+    """The exact optimum on the scene's lattice for an objective; its time is building the lattice
+    plus the search. Its cost is the optimum even when the optimum's legs fail re-validation
+    (status invalid)."""
     from ..planning.setup import lattice_plan
 
-    plan = lattice_plan(scene)
+    plan = lattice_plan(scene, objective=objective)
     elapsed = plan.setup_time_s + plan.planning_time_s
     return dict(status=run_status(plan), cost=plan.lattice_optimum, mode_switches=plan.mode_switches,
                 time_to_first_solution_s=elapsed if plan.solved else None, planning_time_s=elapsed,
-                setup_time_s=0.0, iterations=None)
+                setup_time_s=0.0, iterations=None, min_margin_deg=plan.min_margin_deg)
 
 
 def run_task(task: Task) -> RunResult:
     """Run one task (OMPL's random numbers seeded here for it)."""
     t0 = time.perf_counter()
-    measured = _lattice_run(task.scene) if task.planner == LATTICE else _ompl_run(task)
+    measured = _lattice_run(task.scene, task.objective) if task.planner == LATTICE else _ompl_run(task)
     return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed,
                      wall_time_s=time.perf_counter() - t0, **measured)
 
@@ -195,23 +200,23 @@ def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None =
 
 
 #: runs.csv's columns: a task's key (the first six), then what it measured.
-RUN_COLUMNS = ("group", "planner", "run", "seed", "time_limit_s", "iteration_budget", "status", "cost",
+RUN_COLUMNS = ("group", "planner", "run", "seed", "time_limit_s", "iteration_budget", "objective", "status", "cost",
                "mode_switches", "time_to_first_solution_s", "planning_time_s", "setup_time_s", "iterations",
-               "wall_time_s")
+               "wall_time_s", "min_margin_deg")
 #: How many leading RUN_COLUMNS identify a task.
-RUN_KEY_COLUMNS = 6
+RUN_KEY_COLUMNS = 7
 
 
 def task_key(task: Task) -> tuple[str, ...]:
     """A task's key in runs.csv: what decides its result."""
     return (task.group, task.planner, str(task.run), str(task.seed), repr(float(task.time_limit)),
-            "" if task.iterations is None else str(task.iterations))
+            "" if task.iterations is None else str(task.iterations), task.objective)
 
 
 def run_row(task: Task, r: RunResult) -> list[object]:
     """A run's row of runs.csv (RUN_COLUMNS)."""
     return [*task_key(task), r.status.value, r.cost, r.mode_switches, r.time_to_first_solution_s, r.planning_time_s,
-            r.setup_time_s, r.iterations, r.wall_time_s]
+            r.setup_time_s, r.iterations, r.wall_time_s, r.min_margin_deg]
 
 
 def result_from_row(row: Sequence[str]) -> RunResult:
@@ -225,7 +230,8 @@ def result_from_row(row: Sequence[str]) -> RunResult:
                      status=RunStatus(named["status"]), cost=number("cost"), mode_switches=number("mode_switches", int),
                      time_to_first_solution_s=number("time_to_first_solution_s"),
                      planning_time_s=float(named["planning_time_s"]), setup_time_s=float(named["setup_time_s"]),
-                     iterations=number("iterations", int), wall_time_s=float(named["wall_time_s"]))
+                     iterations=number("iterations", int), wall_time_s=float(named["wall_time_s"]),
+                     min_margin_deg=number("min_margin_deg"))
 
 
 def hung_result(task: Task, wall: float) -> RunResult:
