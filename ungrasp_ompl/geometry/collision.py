@@ -235,14 +235,14 @@ class CollisionChecker:
             "finger": (beta, finger_corner(theta, d, psi, dg.object_thickness, dg.finger_tip_radius), finger),
         }
         if "palm" in self._bodies:
-            frames["palm"] = (beta, housing_centre(theta, d, psi, dg), housing_offsets(theta, psi, dg))
+            frames["palm"] = (beta, housing_centre(theta, d, psi, dg, frames["thumb"][1]), housing_offsets(theta, psi, dg))
         return frames
 
-    def _poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
-        """Per body: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
-        th, d, ps = q[:, 0], q[:, 1], q[:, 2]
+    def _object_pose(self, theta: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """The object's frame angle (N,), frame origin (N, 2) and outline (N, 4, 2), metres, at the
+        tilts theta (N,) rad: its pose depends on theta alone."""
         l = self._length
-        u = np.stack([np.cos(th), np.sin(th)], axis=-1)
+        u = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
         t = max(self.model.thickness, 1e-6) / l
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
         if self._object_extent is None:  # the slab along GB, centred on it
@@ -250,10 +250,17 @@ class CollisionChecker:
         else:  # the outline's prism on the table, tilted about G: its section in the plane
             x0, x1 = (x / l for x in self._object_extent)
             obj = np.stack([x0 * u, x1 * u, x1 * u + t * nrm, x0 * u + t * nrm], axis=1)
-        poses = {"object": (th, np.zeros((len(q), 2)), obj * l)}
-        for body, (angle, ref, offsets) in self._frames(th, d, ps).items():
-            poses[body] = (angle, ref * l, (ref[:, None, :] + offsets) * l)
-        return poses
+        return theta, np.zeros((len(theta), 2)), obj * l
+
+    def _digit_poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
+        """Per body but the object: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
+        l = self._length
+        return {body: (angle, ref * l, (ref[:, None, :] + offsets) * l)
+                for body, (angle, ref, offsets) in self._frames(q[:, 0], q[:, 1], q[:, 2]).items()}
+
+    def _poses(self, q: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
+        """Per body: frame angle (N,), frame origin (N, 2), world outline (N, 4, 2); metres."""
+        return {"object": self._object_pose(q[:, 0]), **self._digit_poses(q)}
 
     def _pairs(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]]):
         """Broad phase over the bodies of poses: yields (body, target name, state indices that may
@@ -304,10 +311,9 @@ class CollisionChecker:
             return hit
         if self._targets:
             thetas, which = np.unique(q[:, 0], return_inverse=True)
-            per_theta = np.column_stack([thetas, np.full(len(thetas), q[0, 1]), np.full(len(thetas), q[0, 2])])
-            hit |= self._hits({"object": self._poses(per_theta)["object"]})[which]
+            hit |= self._hits({"object": self._object_pose(thetas)})[which]
         rest = np.flatnonzero(~hit)
-        hit[rest] = self._hits({b: v for b, v in self._poses(q[rest]).items() if b != "object"})
+        hit[rest] = self._hits(self._digit_poses(q[rest]))
         return hit
 
     def in_collision_lattice(self, axes: tuple[ArrayLike, ArrayLike, ArrayLike],
@@ -331,8 +337,7 @@ class CollisionChecker:
         hit &= todo
         if self._targets:
             todo &= ~hit
-            per_theta = np.column_stack([th.ravel(), np.full(shape[0], d.flat[0]), np.full(shape[0], ps.flat[0])])
-            obj = np.broadcast_to(self._hits({"object": self._poses(per_theta)["object"]})[:, None, None], shape)
+            obj = np.broadcast_to(self._hits({"object": self._object_pose(th.ravel())})[:, None, None], shape)
             hit |= obj & todo
             todo &= ~obj
             near = np.zeros(shape, dtype=bool)
@@ -347,7 +352,7 @@ class CollisionChecker:
             if len(idx):
                 i, j, k = np.unravel_index(idx, shape)
                 q = np.column_stack([th.ravel()[i], d.ravel()[j], ps.ravel()[k]])
-                hit.flat[idx] = self._hits({b: v for b, v in self._poses(q).items() if b != "object"})
+                hit.flat[idx] = self._hits(self._digit_poses(q))
         return hit
 
     def _hits(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]], table_gap: float = _TABLE_GAP
@@ -373,7 +378,7 @@ class CollisionChecker:
         digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        poses = {b: v for b, v in self._poses(q).items() if b != "object"}
+        poses = self._digit_poses(q)
         pivot = poses["thumb"][1]  # the thumb tip
         lift = np.where(poses["finger"][1][:, 0] < pivot[:, 0], -1.0, 1.0)  # turning sign that raises the finger
         n_b = thumb_normal(q[:, 0], q[:, 2])

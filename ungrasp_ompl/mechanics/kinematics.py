@@ -163,10 +163,12 @@ def digit_offsets(theta: ArrayLike, psi: ArrayLike, digits: DigitGeometry
             outline(digits.finger_length, digits.finger_tip_thickness, digits.finger_base_thickness, 1.0))
 
 
-def housing_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+def housing_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry,
+                   tip: ArrayLike | None = None) -> NDArray[np.float64]:
     """The centre of the gripper's housing (behind the digit bases, centred between the digit
-    faces), shape (..., 2), over l."""
-    tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+    faces), shape (..., 2), over l. tip: the thumb's tip (thumb_tip) when already computed."""
+    if tip is None:
+        tip = thumb_tip(theta, d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
     w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
     return tip - (digits.thumb_length + digits.palm_length / 2) * digit_axis(theta, psi) \
         + (w / 2)[..., None] * thumb_normal(theta, psi)
@@ -220,7 +222,8 @@ def digit_bodies(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGe
     thumb, finger = digit_polygons(theta, d, psi, digits)
     out = [_ccw(thumb), _ccw(finger)]
     if digits.palm_width > 0 and digits.palm_length > 0:
-        out.append(_ccw(housing_centre(theta, d, psi, digits)[:, None, :] + housing_offsets(theta, psi, digits)))
+        centre = housing_centre(theta, d, psi, digits, thumb[:, 0])
+        out.append(_ccw(centre[:, None, :] + housing_offsets(theta, psi, digits)))
     return out
 
 

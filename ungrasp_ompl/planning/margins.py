@@ -22,6 +22,7 @@ all of them (it is reported on its own). From them:
 
 from __future__ import annotations
 
+import bisect
 import math
 from typing import TYPE_CHECKING
 
@@ -208,14 +209,9 @@ class LatticeMargins:
         levels = np.unique(m[np.isfinite(m)])
         if not len(levels) or not reaches(levels[0]):
             return None
-        lo, hi = 0, len(levels)  # reaches at levels[lo]; levels[hi] (past the end) fails
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            if reaches(levels[mid]):
-                lo = mid
-            else:
-                hi = mid
-        return float(levels[lo])
+        # reaching fails from some level on: the level before the first that fails
+        first_fail = bisect.bisect_left(range(len(levels)), True, lo=1, key=lambda k: not reaches(levels[k]))
+        return float(levels[first_fail - 1])
 
     def penalty(self, margin: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """The objective's penalty per unit of weighted L1 length of a step with this margin
