@@ -96,6 +96,27 @@ def test_start_not_held_exits_3(tmp_path):
     assert "start state" in proc.stdout
 
 
+@pytest.mark.parametrize("planner", ["RRTstar", "lattice"])
+@pytest.mark.parametrize("start,axis", [({"theta_deg": 30, "d": 0.5, "psi_deg": 0}, "d"),
+                                        ({"theta_deg": 30, "d": 0.8, "psi_deg": 50}, "psi")])
+def test_goal_behind_the_start_exits_3_naming_the_coordinate(tmp_path, planner, start, axis):
+    """d only falls and psi only rises: a start below the goal's d, or beyond its psi, cannot reach it."""
+    path = write_scene(tmp_path, lambda d: d.update(start=start))
+    proc = run_cli("plan", str(path), "--planner", planner, "--time", "0.2", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert f"goal region lies behind the start along {axis}," in proc.stdout
+    plan = json.loads((tmp_path / "out" / "plan.json").read_text())
+    assert plan["outcome"] == "goal_empty" and plan["evidence"]["behind_start"] == [axis]
+
+
+def test_start_on_the_table_with_no_secure_move_exits_3(tmp_path):
+    """theta 0: the lattice holds one theta value and no secure move; the exact search says why."""
+    path = write_scene(tmp_path, lambda d: d.update(start={"theta_deg": 0, "d": 0.8, "psi_deg": 0}))
+    proc = run_cli("plan", str(path), "--planner", "lattice", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert "start state" in proc.stdout and "Warning" not in proc.stderr
+
+
 def test_regions_map(tmp_path):
     out = tmp_path / "map.png"
     proc = run_cli("regions", str(SCENES / "reference_upper_obstacle.yaml"), "--out", str(out))

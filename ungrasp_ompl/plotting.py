@@ -79,8 +79,7 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
         share = lattice.holdable.mean(axis=hidden)
         if x > y:
             share = share.T
-        ext = [lattice.axes[x][0] * conv[x], lattice.axes[x][-1] * conv[x],
-               lattice.axes[y][0] * conv[y], lattice.axes[y][-1] * conv[y]]
+        ext = [*_cell_span(lattice.axes[x], conv[x]), *_cell_span(lattice.axes[y], conv[y])]
         im = ax.imshow(share.T if x < y else share.T, origin="lower", aspect="auto", cmap="Greens",
                        vmin=0, vmax=1, extent=ext)
         ax.add_patch(plt.Rectangle((glo[x] * conv[x], glo[y] * conv[y]), (ghi[x] - glo[x]) * conv[x],
@@ -116,6 +115,13 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
     title += f", cost {plan.cost:.1f} ({plan.mode_switches} changes)" if plan.solved else f": {plan.reason}"
     fig.suptitle(title)
     _save(fig, path)
+
+
+def _cell_span(values: np.ndarray, unit: float) -> tuple[float, float]:
+    """The plotted span of a lattice axis's cells (each centred on its value), in plotted units;
+    an axis of one value spans a unit cell about it."""
+    half = (values[-1] - values[0]) / (len(values) - 1) / 2 if len(values) > 1 else 0.5 / unit
+    return (values[0] - half) * unit, (values[-1] + half) * unit
 
 
 def _holdable_map(scene: Scene) -> HoldableMap:

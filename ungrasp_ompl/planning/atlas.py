@@ -42,6 +42,8 @@ LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi"}
 LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI)}
 #: Forward (paper) direction of each coordinate: theta down, d down, psi up.
 FORWARD = np.array([-1, -1, 1])
+#: The coordinates' names, in index order.
+AXIS_NAMES = ("theta", "d", "psi")
 
 
 @dataclass(frozen=True)
@@ -308,7 +310,24 @@ def lattice_axes(origin: NDArray, res: NDArray, box: ArrayLike) -> tuple[NDArray
 
 def planning_box(scene: Scene) -> NDArray[np.float64]:
     """The states a plan can visit: the scene bounds, cut down to the box between start
-    and goal when only forward primitives run (each coordinate then moves one way)."""
+    and goal when only forward primitives run (each coordinate then moves one way). Along a
+    coordinate where the goal lies wholly behind the start (goal_behind_start) the box keeps the
+    start's value alone."""
+    box = _forward_box(scene)
+    behind = box[0] > box[1]
+    box[:, behind] = scene.start[behind]
+    return box
+
+
+def goal_behind_start(scene: Scene) -> list[str]:
+    """The coordinates (names as in AXIS_NAMES) along which the goal region lies wholly behind the
+    start, so that primitives moving only forward (theta and d down, psi up) never reach it."""
+    box = _forward_box(scene)
+    return [AXIS_NAMES[a] for a in range(3) if box[0, a] > box[1, a]]
+
+
+def _forward_box(scene: Scene) -> NDArray[np.float64]:
+    """planning_box before an empty coordinate range is replaced by the start's value."""
     box = scene.bounds.copy()
     if scene.options.reverse_primitives:
         return box

@@ -171,7 +171,9 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     on_lattice = of_edge >= 0
 
     def per_edge(values: NDArray[np.float64]) -> NDArray[np.float64]:  # cell-edge values, 0 from the start
-        return np.where(on_lattice, values[of_edge], 0.0)
+        out = np.zeros(len(of_edge))
+        out[on_lattice] = values[of_edge[on_lattice]]  # (a lattice may have no secure edge at all)
+        return out
 
     cost = per_edge(edges.length) + opts.mode_change_penalty * changed
     if objective == "balanced":

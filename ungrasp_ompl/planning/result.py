@@ -50,8 +50,9 @@ class PlanOutcome(Enum):
     #: The start state cannot be held: state_class, failed_checks, contacts (Scene.diagnose).
     START_NOT_HELD = "start_not_held"
     #: No lattice state of the goal region can be held with room to let go: outside_box (the region
-    #: lies outside the planning box), holdable (some state can be held), termination (how the
-    #: gripper lets go).
+    #: lies outside the planning box), behind_start (the coordinates along which it lies wholly
+    #: behind the start, out of the forward primitives' reach), holdable (some state can be held),
+    #: termination (how the gripper lets go).
     GOAL_EMPTY = "goal_empty"
     #: The exact search over the primitive lattice reaches no goal state: resolution.
     NO_SECURE_PATH = "no_secure_path"
@@ -72,6 +73,10 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
         return StateDiagnosis(StateClass[e["state_class"]], tuple(e.get("failed_checks", ())),
                               tuple(e.get("contacts", ()))).describe("start state")
     if outcome is PlanOutcome.GOAL_EMPTY:
+        if e.get("behind_start"):
+            axes = " and ".join(e["behind_start"])
+            return (f"goal region lies behind the start along {axes}, which the forward primitives move one way only "
+                    "(theta and d down, psi up; planning.reverse_primitives allows both)")
         if e.get("outside_box"):
             return "goal region lies outside the planning box"
         if e.get("holdable"):

@@ -27,7 +27,7 @@ from ..errors import InputError, ToolError
 from ..geometry.collision import CollisionChecker
 from ..runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
-from .atlas import Leg, SecurityAtlas, planning_box
+from .atlas import Leg, SecurityAtlas, goal_behind_start, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search
 from .names import LATTICE, PLANNERS
@@ -312,6 +312,9 @@ def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None
     if start.state_class is not StateClass.HELD:
         return dict(outcome=PlanOutcome.START_NOT_HELD, state_class=start.state_class.name,
                     failed_checks=list(start.failed_checks), contacts=list(start.contacts))
+    behind = goal_behind_start(scene)
+    if behind:
+        return dict(outcome=PlanOutcome.GOAL_EMPTY, outside_box=True, behind_start=behind)
     box = scene.goal.box()
     if goal_reachable is None:
         goal_reachable = atlas.can_let_go_in(box)
