@@ -365,3 +365,34 @@ def test_scene_cage_needs_a_weight():
     scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
     with pytest.raises(InputError, match="object.thickness"):
         scene.cage(scene.start)
+
+
+def test_a_grid_too_fine_to_hold_is_refused_naming_it():
+    """A pose grid beyond MAX_GRID_CELLS is refused before anything is allocated."""
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    with pytest.raises(InputError, match="^grid: a pose grid of .* cells is more than"):
+        scene.cage(scene.start, grid=CageGrid().refined(40.0))
+
+
+@pytest.mark.parametrize("args,field", [
+    (("--refine", "40"), "--refine"),
+    (("--refine", "nan"), "--refine"),
+    (("--squeeze", "-1"), "--squeeze"),
+    (("--start-psi-offset-deg", "nan"), "--start-psi-offset-deg"),
+    (("--start-psi-offset-deg", "400"), "--start-psi-offset-deg"),
+])
+def test_cage_options_out_of_range_exit_2_naming_them(tmp_path, args, field):
+    out = tmp_path / "out"
+    proc = run_cli("cage", "guitar_pick", "--planner", "lattice", *args, "--out", str(out))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()] and f"error: {field}:" in proc.stderr
+    assert not out.exists()
+
+
+def test_cage_warns_of_a_plan_the_scene_rejects(tmp_path):
+    """A plan made for another object runs, with the legs this scene's model rejects named."""
+    plan_dir = tmp_path / "puzzle"
+    assert run_cli("plan", "puzzle_piece", "--planner", "lattice", "--out", str(plan_dir)).returncode == 0
+    proc = run_cli("cage", "guitar_pick", "--plan", str(plan_dir / "plan.json"))
+    assert proc.returncode == 0, proc.stderr
+    assert "warning: the model rejects this plan for guitar_pick: primitive" in proc.stdout

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, run_cli
+from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.planning.atlas import FORWARD, SecurityAtlas, planning_box, reference_cost
 from ungrasp_ompl.planning.lattice import lattice_search
 from ungrasp_ompl.planning.setup import PlannerOptions, UngraspSetup
@@ -182,6 +183,14 @@ def test_python_api_queries(scenes):
     assert scene.is_valid(scene.start)[0]
     with pytest.raises(ValueError, match="shape"):
         scene.force_closure(np.zeros((3, 2)))
+    for bad, why in (([[0.5, np.nan, 0.2]], r"^q: must be finite, got \[0.5, nan, 0.2\] in row 0"),
+                     ([[0.1, 0.8, 0.0], [0.2, 0.8, np.inf]], r"^q: must be finite, .* in row 1"),
+                     ("theta", r"^q: must be numbers")):
+        for query in (scene.force_closure, scene.margin, scene.is_valid):
+            with pytest.raises(InputError, match=why):
+                query(bad)
+    with pytest.raises(InputError, match=r"^dq: must be finite"):
+        scene.margin(q[:1], [[0.0, np.nan, 0.1]])
 
 
 def test_plan_api_is_reproducible_in_process(scenes):

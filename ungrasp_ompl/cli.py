@@ -266,6 +266,7 @@ def _cage(args: argparse.Namespace) -> int:
     from .planning.result import read_plan
     from .robustness import cage_profile, plan_friction_margins
     from .scene import Scene
+    from .sim.campaign import check_psi_offset, deviated_plan, plan_problems
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     out = Path(args.out) if args.out else None
@@ -276,8 +277,14 @@ def _cage(args: argparse.Namespace) -> int:
                          scene.source)
     if not (math.isfinite(args.refine) and args.refine > 0.0):
         raise InputError("--refine", f"must be a positive factor, got {args.refine!r}")
+    if not (math.isfinite(args.squeeze) and args.squeeze >= 0.0):
+        raise InputError("--squeeze", f"must be a force in newtons >= 0, got {args.squeeze!r}")
+    if args.start_psi_offset_deg is not None:
+        check_psi_offset(math.radians(args.start_psi_offset_deg))
     if args.plan is not None:
         result = read_plan(args.plan)
+        for p in plan_problems(scene, result):
+            print(f"warning: the model rejects this plan for {scene.name}: {p}")
     else:
         result = plan(scene, planner=args.planner, time=args.time, seed=args.seed)
         if not result.solved:
@@ -287,14 +294,17 @@ def _cage(args: argparse.Namespace) -> int:
     if args.finger_tip is not None:
         scene = _with_finger_tip(scene, args.finger_tip)
     if args.start_psi_offset_deg is not None:
-        from .sim.campaign import deviated_plan
-
         result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
         start = result.states[0]
         held = scene.diagnose(start)
         print(f"deviated start: psi {math.degrees(start[2]):.1f} deg ({held.describe('it')}; friction margin "
               f"{float(scene.margin(start).friction_deg[0]):.2f} deg with every contact sticking)")
-    profile = cage_profile(scene, result, grid=CageGrid().refined(args.refine), squeeze=args.squeeze)
+    try:
+        profile = cage_profile(scene, result, grid=CageGrid().refined(args.refine), squeeze=args.squeeze)
+    except InputError as exc:
+        if exc.field != "grid":
+            raise
+        raise InputError("--refine", exc.reason) from None
     margins = plan_friction_margins(scene, profile.samples)
     cage0 = profile.cages[0]
     print(f"cage of {scene.name} along the plan: {len(profile.cages)} states, grid {cage0.spacing[0] * 1000:.2f} mm / "
@@ -501,7 +511,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from .robot.export import export_all
     from .robot.pipeline import execute
     from .scene import Scene, read_yaml
-    from .sim.campaign import default_jobs, deviated_plan, plan_problems, simulate
+    from .sim.campaign import check_psi_offset, default_jobs, deviated_plan, plan_problems, simulate
     from .sim.perturb import preset
     from .sim.setup import Variant, object_outline, trial_setup
 
@@ -525,6 +535,8 @@ def _simulate(args: argparse.Namespace) -> int:
     jobs = default_jobs() if args.jobs is None else args.jobs
     if args.trials < 1 or jobs < 1:
         raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
+    if args.start_psi_offset_deg is not None:
+        check_psi_offset(math.radians(args.start_psi_offset_deg))
     if args.finger_tip is not None:
         scene = _with_finger_tip(scene, args.finger_tip)
     variant = Variant(friction_scale=args.friction_scale, thickness=args.thickness, equal_digits=args.equal_digits)

@@ -323,8 +323,8 @@ class Scene:
         digits and the table where the state puts them, the energy (J) the object (its section by
         the manipulation plane, its weight from sim.density and its volume) must gain to escape.
         squeeze: a constant force (N) pressing it where the finger does. Raises InputError for an
-        object without thickness (it has no weight)."""
-        from .mechanics.cage import CageGrid, escape_energy, pinch_problem, weight_of
+        object without thickness (it has no weight) and for a grid too fine to hold in memory."""
+        from .mechanics.cage import CageGrid, GridTooLarge, escape_energy, pinch_problem, weight_of
 
         q = _states(q, "q")
         if self.object_thickness <= 0.0:
@@ -344,8 +344,11 @@ class Scene:
         boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]])
                       for b in self.obstacles)
         grid = grid or CageGrid()
-        return [escape_energy(pinch_problem(*state, self.digits, l, self.object_thickness, centre_x, weight, boxes,
-                                            squeeze), grid, l) for state in q]
+        try:
+            return [escape_energy(pinch_problem(*state, self.digits, l, self.object_thickness, centre_x, weight,
+                                                boxes, squeeze), grid, l) for state in q]
+        except GridTooLarge as exc:
+            raise InputError("grid", f"{exc}; choose coarser steps") from None
 
     def collision_model(self) -> CollisionModel:
         """What collision checking needs of this scene, in plane coordinates (metres)."""
@@ -403,9 +406,17 @@ def _states_and_mode(q: ArrayLike, dq: ArrayLike | None) -> tuple[NDArray[np.flo
 
 
 def _states(q: ArrayLike, name: str) -> NDArray[np.float64]:
-    a = np.asarray(q, dtype=float)
+    """q as an (N, 3) float array; InputError naming it when it is not numbers of that shape, or
+    not finite."""
+    try:
+        a = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(name, f"must be numbers of shape (N, 3) as (theta, d, psi), got {q!r:.60}") from None
     if a.ndim == 1:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 3:
         raise InputError(name, f"must have shape (N, 3) as (theta, d, psi), got {np.shape(q)}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        raise InputError(name, f"must be finite, got {a[bad][0].tolist()} in row {int(np.argmax(bad))}")
     return a

@@ -63,6 +63,19 @@ _HALF = [o for o in _OFFSETS if o > (0, 0, 0)]
 _STRUCTURE = np.ones((3, 3, 3), dtype=bool)
 
 
+#: The most poses a cage's grid may hold (its free-space array alone takes a byte per pose).
+MAX_GRID_CELLS = 600_000_000
+
+
+class GridTooLarge(ValueError):
+    """A cage's pose grid would hold more than MAX_GRID_CELLS poses."""
+
+    def __init__(self, shape: tuple[int, int, int]):
+        self.shape = shape
+        super().__init__(f"a pose grid of {shape[0]} x {shape[1]} x {shape[2]} cells is more than the "
+                         f"{MAX_GRID_CELLS:.0e} a cage holds in memory")
+
+
 @dataclass(frozen=True)
 class CageGrid:
     """The grid over the object's planar poses: steps over the object length l (so one grid fits
@@ -561,8 +574,10 @@ def escape_level_bisection(free: NDArray[np.bool_], energy: NDArray[np.float64],
 # -- a cage ----------------------------------------------------------------------------------------
 def escape_energy(problem: CageProblem, grid: CageGrid, length: float) -> Cage:
     """The cage of the problem on the grid (its steps over l = length, m): outcome, escape energy
-    (J) and the pass."""
+    (J) and the pass. Raises GridTooLarge for a grid of more than MAX_GRID_CELLS poses."""
     axes = pose_grid(problem, grid, length)
+    if math.prod(axes.shape) > MAX_GRID_CELLS:
+        raise GridTooLarge(axes.shape)
     rotation_step = float(axes.rotation[1] - axes.rotation[0]) if len(axes.rotation) > 1 else 0.0
     spacing = (float(grid.step * length), float(grid.step * length), rotation_step)
     tol = grid.tolerance

@@ -122,13 +122,18 @@ def default_jobs() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+def check_psi_offset(psi_offset: float) -> None:
+    """Raises InputError unless psi_offset (rad) is a deviation of the start's psi in (0, 90) deg."""
+    if not (math.isfinite(psi_offset) and 0.0 < psi_offset < math.pi / 2):
+        raise InputError("--start-psi-offset-deg", f"must lie in (0, 90) deg, got {math.degrees(psi_offset):g}")
+
+
 def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
     """The plan started with psi larger by psi_offset (rad): its states keep at least the
     deviated start's psi (the forward primitives only raise psi), and primitives that
     shrink to nothing are dropped. The paper's caging experiment (sec. 6.2.3) runs such a
     plan: the start lies outside force closure."""
-    if psi_offset <= 0:
-        raise InputError("--start-psi-offset-deg", f"must be positive, got {math.degrees(psi_offset):g}")
+    check_psi_offset(psi_offset)
     floor = plan.states[0][2] + psi_offset
 
     def lifted(q: list[float]) -> list[float]:
