@@ -1,7 +1,8 @@
 """Every command answers bad input with one line and exit 2, and writes nothing then.
 
 Property: take a shipped scene or layout, replace one of its values (a leaf or a whole section)
-by nan, -1, an absurd number, a string, null, a list or an arbitrary number, and run each
+by nan, -1, an absurd number, a string, null, a list or an arbitrary number, or a number by a
+plausible one near it, and run each
 command that reads such a file. The command ends with exit 0 (done), 2 (bad input: one line on
 stderr, naming a field, and nothing in the output directory) or 3 (no solution), and never
 with a traceback. Commands run in this process through ``cli.run`` with small budgets, so an
@@ -43,6 +44,7 @@ SCENE_COMMANDS = {
               "--out", "{out}"),
     "simulate": ("--trials", "1", "--perturb", "none", "--jobs", "1", "--time", "0.2", "--out", "{out}"),
     "map": ("--alpha", "0.4", "--time", "0.2", "--jobs", "1", "--seed", "1", "--out", "{out}"),
+    "cage": ("--planner", "lattice", "--out", "{out}"),
 }
 LAYOUT_COMMANDS = {
     "tile": ("--planner", "lattice", "--approaches", "1", "--out", "{out}"),
@@ -75,14 +77,37 @@ def replaced(doc, path, value):
     return doc
 
 
+def leaf(doc, path):
+    """The node at path."""
+    for k in path:
+        doc = doc[k]
+    return doc
+
+
+#: A plausible edit of a number: scaled by up to 2, or moved by up to its own size or one unit.
+NEARBY = st.tuples(st.sampled_from(["scale", "shift"]), st.floats(min_value=-1.0, max_value=1.0))
+
+
+def nearby(value, how):
+    kind, u = how
+    return value * (1.0 + u) if kind == "scale" else value + u * max(abs(value), 1.0)
+
+
 @st.composite
 def mutation(draw, files, commands):
-    """(command, its arguments' template, mutated document, the path changed)."""
+    """(command, its arguments' template, mutated document, the path changed): one value replaced by
+    a bad one or, for a number, by a plausible one nearby (which reaches the planners and the
+    simulator with scenes no test wrote)."""
     source = draw(st.sampled_from(files))
     doc = yaml.safe_load(source.read_text())
     path = draw(st.sampled_from(list(paths(doc))))
     command = draw(st.sampled_from(sorted(commands)))
-    return command, commands[command], replaced(doc, path, draw(BAD_VALUES)), path
+    old = leaf(doc, path)
+    if isinstance(old, (int, float)) and not isinstance(old, bool) and draw(st.booleans()):
+        value = nearby(old, draw(NEARBY))
+    else:
+        value = draw(BAD_VALUES)
+    return command, commands[command], replaced(doc, path, value), path
 
 
 def run_mutated(command, template, doc):
@@ -103,7 +128,7 @@ def check(code, stderr, written, path):
     assert code in (EXIT_OK, EXIT_BAD_INPUT, EXIT_NO_SOLUTION), (path, code, stderr)
     assert "Traceback" not in stderr, (path, stderr)
     if code == EXIT_BAD_INPUT:
-        lines = stderr.strip().splitlines()
+        lines = stderr.rsplit("\r", 1)[-1].strip().splitlines()  # what a terminal shows: a progress line is wiped
         assert len(lines) == 1 and lines[0].startswith("ungrasp-ompl: error: "), (path, stderr)
         assert written == [], (path, stderr, written)
 

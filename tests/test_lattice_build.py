@@ -15,7 +15,7 @@ from ungrasp_ompl.geometry.collision import CollisionChecker
 from ungrasp_ompl.layout import Layout
 from ungrasp_ompl.mechanics import force_closure, force_closure_margin, kinematic_validity
 from ungrasp_ompl.mechanics.force_closure import FC_TOLERANCE
-from ungrasp_ompl.planning.atlas import PSI, SecurityAtlas, planning_box
+from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
 from ungrasp_ompl.shipped import shipped_scenes
 
 SCENES = [s for s in shipped_scenes() if s.kind == "scene"]

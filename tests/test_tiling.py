@@ -21,7 +21,8 @@ from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
 from ungrasp_ompl.robot.placement import densify
-from ungrasp_ompl.tiling import GoalStates, approaches, screen
+from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.tiling import GoalStates, approach_scene, approaches, screen
 
 TANGRAM = SCENES / "tangram.yaml"
 
@@ -217,6 +218,22 @@ def test_the_same_square_with_room_is_placed(tmp_path):
 
 
 # -- the approaches -------------------------------------------------------------------------
+def test_an_approach_whose_plane_the_digits_do_not_fit_is_a_reason_not_an_error():
+    """With a grippy thumb (friction B 1.2) some pairs G, B are so short that the finger's extra
+    length over |GB| (digits.alpha) leaves (-1, 1): such an approach is ruled out with the scene's
+    own words, and every other one still gives the scene."""
+    doc = yaml.safe_load(TANGRAM.read_text())
+    doc["friction"]["B"] = 1.2
+    layout = Layout.from_dict(doc)
+    names = [p.name for p in layout.pieces]
+    i, placed = names.index("small_triangle_1"), [names.index("large_triangle_1")]
+    answers = [approach_scene(layout, i, a, placed) for a in approaches(layout, i, placed, 6)]
+    reasons = [a for a in answers if isinstance(a, str)]
+    assert reasons and all(r.startswith("the digits do not fit this plane (digits.alpha: must lie in (-1, 1)")
+                           for r in reasons)
+    assert any(isinstance(a, Scene) for a in answers)
+
+
 
 def test_room_beyond_b_is_the_gap_to_the_wall(tmp_path):
     """A square 4 mm from every wall: an approach whose GB points straight at a wall measures

@@ -408,7 +408,8 @@ def _map_progress(p) -> str:
 
 
 class _Line:
-    """One line on stderr, overwritten in place (\\r) and ended with a newline."""
+    """One line on stderr, overwritten in place (\\r) and ended with a newline; wiped instead when
+    the command ends with an error, so that the error's line is the one left."""
 
     def __init__(self) -> None:
         self.width = 0
@@ -421,9 +422,9 @@ class _Line:
     def __enter__(self) -> "_Line":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind, *_) -> None:
         if self.width:
-            sys.stderr.write("\n")
+            sys.stderr.write("\n" if kind is None else "\r" + " " * self.width + "\r")
             sys.stderr.flush()
 
 

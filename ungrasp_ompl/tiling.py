@@ -269,6 +269,15 @@ def wall_contact(layout: Layout, i: int) -> float:
 
 
 # -- checking one approach -------------------------------------------------------------
+def approach_scene(layout: Layout, i: int, approach: Approach, placed: list[int]) -> Scene | str:
+    """Piece i's scene in the approach's manipulation plane among the pieces placed, or why there
+    is none: the digits' asymmetry (digits.alpha, over the plane's length |GB|) out of range for a
+    plane that short or long."""
+    try:
+        return layout.scene(i, (approach.g, approach.b), placed)
+    except InputError as exc:
+        return f"the digits do not fit this plane ({exc.field}: {exc.reason})"
+
 
 class GoalStates:
     """What screen() learns of one piece and approach among some solids that holds among others:
@@ -412,7 +421,10 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             for a in approaches(layout, i, placed, opts.approaches):
                 result.checks += 1
                 report("search", len(placed), i)
-                scene = layout.scene(i, (a.g, a.b), placed)
+                scene = approach_scene(layout, i, a, placed)
+                if isinstance(scene, str):
+                    why.append(f"{a.describe()}: {scene}")
+                    continue
                 plane = (i, a.g.tobytes(), a.b.tobytes())
                 if plane not in goals:
                     goals[plane] = GoalStates(scene)
