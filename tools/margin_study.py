@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -61,7 +62,7 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=None, help="simulation workers (default: all cores)")
     ap.add_argument("--scenes", default=",".join(OBJECTS), help="comma-separated shipped object scenes")
     args = ap.parse_args()
-    jobs = args.jobs or max(1, __import__("os").cpu_count() or 1)
+    jobs = args.jobs or max(1, os.cpu_count() or 1)
     print("| scene | planner | seed | objective | cost | " + " | ".join(FEATURES) + " | placed |")
     print("|---|---|---|---|---|" + "---|" * len(FEATURES) + "---|")
     rows: dict[str, list[tuple[dict[str, float], int]]] = {}
