@@ -241,8 +241,7 @@ class LatticeMargins:
             if direction < 0:
                 m = m[..., ::-1]
             pair = np.minimum(m[..., :-1], m[..., 1:])
-            length = reference_cost(np.asarray(step) * self.atlas.res, self.atlas.scene.options.d_weight)
-            out = np.concatenate([length * self.penalty(pair), np.full(m.shape[:-1] + (1,), np.nan)], axis=-1)
+            out = np.concatenate([self._unit_lengths[axis] * self.penalty(pair), np.full(m.shape[:-1] + (1,), np.nan)], axis=-1)
             if direction < 0:
                 out = out[..., ::-1]
             self._steps[key] = np.ascontiguousarray(np.moveaxis(out, -1, axis))
@@ -309,10 +308,13 @@ class LatticeMargins:
     def best(self, found: list[list[Leg]]) -> list[list[Leg]]:
         """The realisations of one motion that rank first (score; penalties within TIE_TOLERANCE
         count as equal)."""
-        scores = [self.score(r) for r in found]
-        top = min(scores)
-        return [r for r, s in zip(found, scores)
-                if s[:-1] == top[:-1] and s[-1] <= top[-1] + TIE_TOLERANCE * abs(top[-1])]
+        return [r for r, _ in self._ranked_first(found)]
+
+    def _ranked_first(self, found: list[list[Leg]]) -> list[tuple[list[Leg], tuple[float, ...]]]:
+        """best's realisations, each with its score."""
+        scored = [(r, self.score(r)) for r in found]
+        top = min(s for _, s in scored)
+        return [(r, s) for r, s in scored if s[:-1] == top[:-1] and s[-1] <= top[-1] + TIE_TOLERANCE * abs(top[-1])]
 
     def motion(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> float:
         """The penalty of the motion from lattice index a to b: that of its best secure staircase
@@ -323,7 +325,7 @@ class LatticeMargins:
         if len(self._motions) > MOTION_CACHE:
             self._motions.clear()
         found = self.atlas.realise(a, b)
-        out = self.score(self.best(found)[0])[-1] if found else math.inf
+        out = self._ranked_first(found)[0][1][-1] if found else math.inf  # the first best's penalty
         self._motions[key] = out
         return out
 
