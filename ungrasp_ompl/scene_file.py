@@ -231,8 +231,8 @@ class SceneReader:
             self.fail("sim.timestep", f"must be at most 0.002 s (the control period), got {out['timestep']:g}")
         if out.get("grip_force", d.grip_force) > 170:
             self.fail("sim.grip_force", f"must be at most 170 N (the gripper's rating), got {out['grip_force']:g}")
-        for k in ("squeeze", "settle_time", "rest_time"):
-            if out.get(k, 0.0) > (0.01 if k == "squeeze" else 10.0):
+        for k in ("squeeze", "settle_time", "rest_time", "max_error"):
+            if out.get(k, 0.0) > (0.01 if k == "squeeze" else 0.05 if k == "max_error" else 10.0):
                 self.fail(f"sim.{k}", f"is absurdly large ({out[k]:g})")
         return SimOptions(**{**{k: getattr(d, k) for k in d.__dataclass_fields__}, **out})
 

@@ -20,6 +20,10 @@ finger-object mu_A, thumb-object mu_B; walls and pieces already down mu_G), neve
 object's own geom has friction 0, so MuJoCo's rule (the larger of the two geoms' values)
 gives each pair the value of the other geom. Contacts use elliptic (Coulomb) cones with
 sliding friction only (condim 3).
+
+Contact stiffness, the timestep and the fingertip's shape are chosen from the materials
+(PLA digits, celluloid, wood, chalk, a laminate table); docs/model.md section 11.2 gives
+the reasons and the figures they come from.
 """
 
 from __future__ import annotations
@@ -30,17 +34,39 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-#: Contact softness: a time constant (s) and damping ratio, and the impedance curve. Small
-#: time constants keep a squeezed thin object from sinking into the digits (the steady
-#: penetration scales with the time constant squared); 4 ms is eight simulation steps at the
-#: default 0.5 ms step, inside MuJoCo's advice of at least two.
-SOLREF = (0.004, 1.0)
-SOLIMP = (0.95, 0.995, 0.0002, 0.5, 2.0)
+#: Contact softness: MuJoCo's reference time constant (s) and damping ratio. 0.2 ms is the
+#: contact's own time scale between stiff solids (a gram-heavy object on a PLA dome of Hertz
+#: stiffness ~2.5e5 N/m at 5 N rings at ~0.1-0.4 ms), twice the 0.1 ms step as MuJoCo asks;
+#: critically damped (no bounce between stiff plastics). Steady sinking scales with its square.
+SOLREF = (0.0002, 1.0)
+#: Impedance: 0.95 at first touch rising to 0.99 over 0.02 mm, the Hertz deformation of a 1 mm
+#: PLA dome on celluloid at 5 N (docs/model.md 11.2), with MuJoCo's default sigmoid shape.
+SOLIMP = (0.95, 0.99, 0.00002, 0.5, 2.0)
 #: Ratio of frictional to normal constraint impedance: > 1 makes sticking contacts stiffer
 #: (less creep), as MuJoCo advises with elliptic cones. It does not change the friction coefficient.
 IMPRATIO = 10.0
-#: Mass of each jaw (kg), as the robot model's digits.
+#: Mass of each jaw (kg): the gripper's moving finger carriage the digit is fixed to.
 JAW_MASS = 0.05
+#: The 3D-printed digits' material, PLA as printed (docs/model.md 11.2): Young's modulus (Pa),
+#: density (kg/m^3) and damping ratio (half the loss factor of about 0.1 of printed PLA).
+PLA_MODULUS = 3.0e9
+PLA_DENSITY = 1240.0
+PLA_DAMPING_RATIO = 0.05
+
+
+def digit_bending(length: float, t_tip: float, t_base: float, width: float,
+                  modulus: float = PLA_MODULUS, density: float = PLA_DENSITY) -> tuple[float, float]:
+    """A tapered digit as a rigid link on a torsion spring at its base: (stiffness N m/rad, damping
+    N m s/rad) that give its tip the deflection of the cantilever (Euler-Bernoulli, second moment
+    w h(z)^3 / 12 with the thickness h tapering from t_base at the palm to t_tip) and the
+    vibration's damping ratio PLA_DAMPING_RATIO. Tip deflection under a tip force F:
+    F * integral (L - z)^2 / (E I(z)) dz, so the spring is L^2 / that integral."""
+    z = np.linspace(0.0, length, 401)
+    h = t_base + (t_tip - t_base) * z / length
+    compliance = np.trapezoid((length - z) ** 2 / (modulus * width * h ** 3 / 12), z)
+    stiffness = length ** 2 / compliance
+    inertia = np.trapezoid(density * width * h * z ** 2, z)  # about the base, kg m^2
+    return float(stiffness), float(2 * PLA_DAMPING_RATIO * math.sqrt(stiffness * inertia))
 
 
 @dataclass(frozen=True)
@@ -97,7 +123,8 @@ class SimModelSpec:
     friction: Friction
     solids: tuple[tuple[str, NDArray[np.float64]], ...] = ()  #: (name, world vertices (N, 3)) convex bodies
     placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()  #: free objects already down: name, object, 4x4 pose
-    timestep: float = 0.0005  #: s
+    timestep: float = 0.0001  #: s
+    table_height: float = 0.0  #: m, where the table's top really is (a calibration error moves it)
     grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object)
     servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit
 
@@ -109,14 +136,17 @@ class ModelIds:
     object_body: int
     palm_mocap: int
     finger_geoms: set[int]
+    finger_dome: int  #: the rounded tip's dome geom; -1 for a flat tip
     thumb_geoms: set[int]
     table_geom: int
     solid_geoms: set[int]
     palm_geom: int
     object_geom: int
     actuator: int
-    thumb_body: int
-    finger_body: int
+    thumb_body: int  #: the thumb itself (it bends on its jaw)
+    finger_body: int  #: the finger itself
+    thumb_jaw: int  #: the thumb's carriage, sliding on the palm
+    finger_jaw: int
     placed_bodies: list[int] = field(default_factory=list)
 
 
@@ -139,28 +169,46 @@ def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
     return np.vstack([lo, hi])
 
 
-def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0) -> NDArray[np.float64]:
-    """A tapered digit's outline (x, z) in its jaw frame: the contact face on x = 0 from z = 0 to
-    length - tip_cut, the body on the side of x given by side (extruded along y by _extrude_y)."""
+def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0,
+           relief: float = 0.0) -> NDArray[np.float64]:
+    """A tapered digit's outline (x, z) in its jaw frame, on the side of x given by side (extruded
+    along y by _extrude_y): the contact face on x = side * relief from z = 0 to length - tip_cut,
+    the thickness measured from x = 0. relief > 0 stands the face back behind x = 0, where a
+    rounded tip's dome touches."""
     end = length - tip_cut
     t_end = t_base + (t_tip - t_base) * end / length
-    xz = np.array([[0.0, 0.0], [0.0, end], [side * t_end, end], [side * t_base, 0.0]])
-    return xz
+    return np.array([[side * relief, 0.0], [side * relief, end], [side * t_end, end], [side * t_base, 0.0]])
 
 
 def _extrude_y(xz: NDArray, width: float) -> NDArray[np.float64]:
     return np.vstack([np.column_stack([xz[:, 0], np.full(len(xz), s * width / 2), xz[:, 1]]) for s in (-1, 1)])
 
 
-def build_mjcf(spec: SimModelSpec) -> str:
-    """The MJCF text of the trial's world (see the module docstring for what moves how)."""
+@dataclass(frozen=True)
+class Keyframe:
+    """A state of the compiled model, as MuJoCo's <key> holds it (the model's own orders)."""
+
+    name: str
+    qpos: NDArray[np.float64]
+    ctrl: NDArray[np.float64]
+    mocap_pos: NDArray[np.float64]  #: (nmocap, 3) m
+    mocap_quat: NDArray[np.float64]  #: (nmocap, 4) w, x, y, z
+
+
+def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
+    """The MJCF text of the trial's world (see the module docstring for what moves how), with
+    key as a <keyframe> when given."""
     g, f, obj = spec.gripper, spec.friction, spec.obj
     solref, solimp = _floats(SOLREF), _floats(SOLIMP)
     half = g.max_opening / 2
     flat = g.finger_tip_radius <= 0.0
     thumb = _extrude_y(_digit(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
-    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0,
-                               0.0 if flat else g.finger_tip_radius), g.width)
+    # a rounded finger is a ball-nosed digit: its body ends at the dome's centre and its face
+    # stands back by the dome's radius, so nothing but the dome reaches the object's side
+    r = 0.0 if flat else g.finger_tip_radius
+    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r, r), g.width)
+    thumb_k, thumb_c = digit_bending(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, g.width)
+    finger_k, finger_c = digit_bending(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, g.width)
     assets = [f'<mesh name="object" vertex="{_floats(_prism(obj.outline, 0.0, obj.thickness))}"/>',
               f'<mesh name="thumb" vertex="{_floats(thumb)}"/>',
               f'<mesh name="finger" vertex="{_floats(finger)}"/>']
@@ -180,7 +228,7 @@ def build_mjcf(spec: SimModelSpec) -> str:
     tip = "" if flat else (
         f'<geom name="finger_tip" type="sphere" size="{g.finger_tip_radius:.9g}" '
         f'pos="{g.finger_tip_radius:.9g} 0 {g.finger_length - g.finger_tip_radius:.9g}" '
-        f'friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
+        f'density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{spec.timestep:.9g}" cone="elliptic" impratio="{IMPRATIO:g}" integrator="implicitfast">
@@ -193,19 +241,28 @@ def build_mjcf(spec: SimModelSpec) -> str:
     {chr(10).join('    ' + a for a in assets).strip()}
   </asset>
   <worldbody>
-    <geom name="table" type="plane" size="0 0 1" friction="{f.table} 0 0" rgba=".8 .8 .8 1"/>
+    <geom name="table" type="plane" size="0 0 1" pos="0 0 {spec.table_height:.9g}" friction="{f.table} 0 0"
+          rgba=".8 .8 .8 1"/>
     {chr(10).join('    ' + s for s in solids).strip()}
     <body name="palm" mocap="true">
       <geom name="palm" type="box" size="{g.palm_width / 2:.9g} {g.palm_thickness / 2:.9g} {g.palm_depth / 2:.9g}"
             pos="0 0 {-g.palm_depth / 2:.9g}" rgba=".3 .3 .3 1"/>
-      <body name="thumb">
+      <body name="thumb_jaw">
         <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
-        <geom name="thumb" type="mesh" mesh="thumb" mass="{JAW_MASS}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
+        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <body name="thumb">
+          <joint name="thumb_bend" type="hinge" axis="0 1 0" stiffness="{thumb_k:.9g}" damping="{thumb_c:.9g}"/>
+          <geom name="thumb" type="mesh" mesh="thumb" density="{PLA_DENSITY:g}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
+        </body>
       </body>
-      <body name="finger">
+      <body name="finger_jaw">
         <joint name="finger_slide" type="slide" axis="1 0 0" range="0 {half:.9g}" damping="0"/>
-        <geom name="finger" type="mesh" mesh="finger" mass="{JAW_MASS}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
-        {tip}
+        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <body name="finger">
+          <joint name="finger_bend" type="hinge" axis="0 1 0" stiffness="{finger_k:.9g}" damping="{finger_c:.9g}"/>
+          <geom name="finger" type="mesh" mesh="finger" density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
+          {tip}
+        </body>
       </body>
     </body>
     <body name="object">
@@ -216,6 +273,9 @@ def build_mjcf(spec: SimModelSpec) -> str:
   </worldbody>
   <contact>
     <exclude body1="thumb" body2="finger"/>
+    <exclude body1="thumb_jaw" body2="finger_jaw"/>
+    <exclude body1="palm" body2="thumb"/>
+    <exclude body1="palm" body2="finger"/>
   </contact>
   <equality>
     <joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>
@@ -224,9 +284,16 @@ def build_mjcf(spec: SimModelSpec) -> str:
     <position name="opening" joint="finger_slide" gear="2" kp="{spec.servo_stiffness:.9g}"
               kv="{2 * math.sqrt(spec.servo_stiffness * JAW_MASS):.9g}" forcelimited="true"
               forcerange="{-spec.grip_force:.9g} {spec.grip_force:.9g}" ctrllimited="true" ctrlrange="0 {g.max_opening:.9g}"/>
-  </actuator>
+  </actuator>{_keyframe(key)}
 </mujoco>
 """
+
+
+def _keyframe(key: Keyframe | None) -> str:
+    if key is None:
+        return ""
+    return (f'\n  <keyframe>\n    <key name="{key.name}" qpos="{_floats(key.qpos)}" ctrl="{_floats(key.ctrl)}"\n'
+            f'         mocap_pos="{_floats(key.mocap_pos)}" mocap_quat="{_floats(key.mocap_quat)}"/>\n  </keyframe>')
 
 
 def model_ids(model) -> ModelIds:
@@ -243,8 +310,9 @@ def model_ids(model) -> ModelIds:
     names = {i: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)}
     solids = {i for i, n in names.items() if n.startswith(("solid", "placed"))}
     return ModelIds(object_body=body("object"), palm_mocap=int(model.body_mocapid[body("palm")]),
-                    finger_geoms=finger, thumb_geoms={geom("thumb")}, table_geom=geom("table"),
+                    finger_geoms=finger, finger_dome=geom("finger_tip"), thumb_geoms={geom("thumb")}, table_geom=geom("table"),
                     solid_geoms=solids, palm_geom=geom("palm"), object_geom=geom("object"),
                     actuator=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "opening"),
-                    thumb_body=body("thumb"), finger_body=body("finger"),
+                    thumb_body=body("thumb"), finger_body=body("finger"), thumb_jaw=body("thumb_jaw"),
+                    finger_jaw=body("finger_jaw"),
                     placed_bodies=[body(f"placed{k}") for k in range(model.nbody) if body(f"placed{k}") >= 0])

@@ -9,7 +9,8 @@ from dataclasses import asdict, dataclass, field
 
 class Outcome(enum.Enum):
     """How a trial ended. Success: A and B kept until the termination begins, then after the
-    retreat the object lies flat (tilt below FLAT_TILT_DEG) with no digit touching it."""
+    retreat the object lies flat (tilt below FLAT_TILT_DEG) with no digit touching it (the
+    paper's criterion), within the scene's sim.max_error of its target."""
 
     SUCCESS = "success"
     GRIP_LOST = "grip lost"  #: A or B let go of the object before the termination
@@ -18,10 +19,37 @@ class Outcome(enum.Enum):
     HIT_SOLID = "hit a wall or piece"  #: it was pushed off by a wall or a piece already down
     NOT_FLAT = "not flat after the retreat"  #: it was let go but does not lie flat
     DIGIT_TOUCHING = "a digit still touches it"  #: after the retreat
+    OFF_TARGET = "placed off target"  #: the paper's criterion holds, but farther than max_error from the target
 
     @property
     def success(self) -> bool:
         return self is Outcome.SUCCESS
+
+    @property
+    def placed(self) -> bool:
+        """The paper's criterion holds (precision aside)."""
+        return self in (Outcome.SUCCESS, Outcome.OFF_TARGET)
+
+
+@dataclass(frozen=True)
+class ContactTravel:
+    """How far the contacts A and B moved over one primitive (mm), executed beside planned.
+
+    Each figure is the net displacement of the contact point between the primitive's first and
+    last control ticks at which both A and B touch, measured in the frame of the body named
+    (the object, or the digit it touches); a contact the plan keeps sticking has a planned 0 on
+    both. nan where the contact was not held at two ticks of the primitive.
+    """
+
+    primitive: str  #: the primitive's type (P_psi, P_theta, P_dpsi)
+    a_on_object: float
+    a_on_object_plan: float
+    a_on_finger: float
+    a_on_finger_plan: float
+    b_on_object: float
+    b_on_object_plan: float
+    b_on_thumb: float
+    b_on_thumb_plan: float
 
 
 #: Largest tilt (deg) of an object that lies flat at the end (the paper's visual criterion).
@@ -38,6 +66,10 @@ class TrialResult:
     centroid and its target's; yaw_error_deg: its turn about the vertical against the target;
     tilt_deg: its final tilt from the table; roll_deg: the largest turn of the object out of the
     manipulation plane while held (deg). params: the perturbation drawn for the trial.
+    max_penetration_mm: the deepest the object sank into a digit or the table at any control
+    tick of the primitives; a_off_dome_share: the share of A's normal impulse over the
+    primitives carried by finger geoms other than a rounded tip's dome (None for a flat tip);
+    contacts: per primitive, how far A and B moved against the plan.
     """
 
     outcome: Outcome
@@ -55,7 +87,9 @@ class TrialResult:
     wall_time_s: float = 0.0
     final_pose: list = field(default_factory=list)  #: 4x4 world pose of the object's body at the end
     placed_poses: list = field(default_factory=list)  #: 4x4 poses of the objects already down, at the end
-
+    max_penetration_mm: float = 0.0
+    a_off_dome_share: float | None = None
+    contacts: list[ContactTravel] = field(default_factory=list)
 
     @property
     def success(self) -> bool:
@@ -65,6 +99,8 @@ class TrialResult:
         """The outcome for a person: 'grip lost in primitive 3 (P_dpsi) at 4.21 s'."""
         if self.success:
             return "success"
+        if self.outcome is Outcome.OFF_TARGET:
+            return f"{self.outcome.value} by {self.position_error_mm:.1f} mm"
         if self.phase is None:
             return self.outcome.value
         where = (f"primitive {self.phase_index + 1} ({self.phase})" if self.phase.startswith("P_")
@@ -79,5 +115,8 @@ class TrialResult:
         params = row.pop("params")
         row.pop("final_pose")
         row.pop("placed_poses")
+        for k, travel in enumerate(row.pop("contacts"), 1):
+            kind = travel.pop("primitive")
+            row.update({f"prim{k}_{kind}_{name}_mm": v for name, v in travel.items()})
         row.update({f"p_{k}": v for k, v in params.items()})
         return {k: (round(v, 6) if isinstance(v, float) and math.isfinite(v) else v) for k, v in row.items()}

@@ -25,11 +25,23 @@ class TrialParams:
     friction_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  #: factors on mu at G, A, B (at most 1)
     mass_scale: float = 1.0  #: factor on the object's mass
     thickness_scale: float = 1.0  #: factor on the object's thickness (its mass stays as mass_scale sets it)
+    palm_shift_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: the arm's calibration: palm offset along palm x, y, z (mm)
+    palm_turn_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: ... and turn about palm x, y, z (deg)
+    table_height_mm: float = 0.0  #: the table's top above where the plan believes it (mm)
+
+    @property
+    def calibrated(self) -> bool:
+        """No calibration error: the commanded trajectory and the table are where the plan has them."""
+        return not any(self.palm_shift_mm) and not any(self.palm_turn_deg) and self.table_height_mm == 0.0
 
     def to_dict(self) -> dict:
         d = asdict(self)
         fg, fa, fb = d.pop("friction_scale")
         d.update(friction_scale_G=fg, friction_scale_A=fa, friction_scale_B=fb)
+        for key in ("palm_shift_mm", "palm_turn_deg"):
+            x, y, z = d.pop(key)
+            stem, unit = key.rsplit("_", 1)
+            d.update({f"{stem}_x_{unit}": x, f"{stem}_y_{unit}": y, f"{stem}_z_{unit}": z})
         return d
 
 
@@ -44,27 +56,39 @@ class Perturbation:
     friction: float = 0.0  #: fraction by which each contact's friction may fall short of the scene's
     mass: float = 0.0  #: fraction of mass either way
     thickness: float = 0.0  #: fraction of thickness either way
+    palm_shift_mm: float = 0.0  #: the arm's calibration: palm position, along each palm axis (mm)
+    palm_turn_deg: float = 0.0  #: the arm's calibration: palm orientation, about each palm axis (deg)
+    table_mm: float = 0.0  #: the table's height (mm)
 
     def sample(self, rng: np.random.Generator) -> TrialParams:
-        """One trial's deviations."""
+        """One trial's deviations (the calibration's drawn after the others, so that adding it
+        left each trial's grasp, friction, mass and thickness draws as they were)."""
         u = rng.uniform(-1.0, 1.0, size=5)
         fr = rng.uniform(1.0 - self.friction, 1.0, size=3) if self.friction else np.ones(3)
+        c = rng.uniform(-1.0, 1.0, size=7)
         return TrialParams(shift_along_mm=self.shift_mm * u[0], shift_across_mm=self.shift_mm * u[1],
                            yaw_deg=self.yaw_deg * u[2], friction_scale=tuple(float(x) for x in fr),
-                           mass_scale=1.0 + self.mass * u[3], thickness_scale=1.0 + self.thickness * u[4])
+                           mass_scale=1.0 + self.mass * u[3], thickness_scale=1.0 + self.thickness * u[4],
+                           palm_shift_mm=tuple(float(x) for x in self.palm_shift_mm * c[:3]),
+                           palm_turn_deg=tuple(float(x) for x in self.palm_turn_deg * c[3:6]),
+                           table_height_mm=float(self.table_mm * c[6]))
 
 
-#: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves:
-#: about 1 mm and 2 deg of object pose in the grasp (a hand-over and a camera a few pixels off),
-#: friction up to 20% below the scene's (surfaces vary, dust), mass +-20% and thickness +-5%
-#: (printing and cutting tolerances). The others draw one kind of error at the paper's size.
+#: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves
+#: (docs/model.md 11.3 gives the source of each bound): about 1 mm and 2 deg of object pose in
+#: the grasp (a hand-over and a camera a few pixels off), friction up to 20% below the scene's
+#: (surfaces vary, dust), mass +-20% and thickness +-5% (printing and cutting tolerances), and
+#: the arm's calibration: the palm's pose +-1 mm and +-0.5 deg about each axis, the table's
+#: height +-0.5 mm. The others draw one kind of error at the paper's size.
 PRESETS: dict[str, Perturbation] = {p.name: p for p in (
     Perturbation("none"),
-    Perturbation("paper", shift_mm=1.0, yaw_deg=2.0, friction=0.2, mass=0.2, thickness=0.05),
+    Perturbation("paper", shift_mm=1.0, yaw_deg=2.0, friction=0.2, mass=0.2, thickness=0.05,
+                 palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5),
     Perturbation("grasp", shift_mm=1.0, yaw_deg=2.0),
     Perturbation("friction", friction=0.2),
     Perturbation("mass", mass=0.2),
     Perturbation("thickness", thickness=0.05),
+    Perturbation("calibration", palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5),
 )}
 
 

@@ -15,11 +15,12 @@ from numpy.typing import NDArray
 from ..planning.result import Plan
 from ..robot.model import RobotModel
 from ..robot.pipeline import plane_frame
+from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from .drive import drive_from_trajectory
 from .model import Friction, GripperGeometry, SimModelSpec, SimObject
-from .trial import TrialSetup
+from .trial import PlannedTravel, TrialSetup
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,26 @@ def gripper_geometry(scene: Scene, robot: RobotModel, equal_digits: bool = False
                            palm_width=g.palm_width, palm_thickness=g.palm_thickness, palm_depth=g.palm_depth)
 
 
+def planned_travel(scene: Scene, plan: Plan) -> tuple[PlannedTravel, ...]:
+    """How far each primitive of the plan moves A and B (m): on the object (in its plane's frame:
+    along GB and across it) and on the digits (along the digit axis and across the gap), net
+    between the primitive's first and last states, where the export puts the digits."""
+    out = []
+    for prim in plan.primitives:
+        p = plane_points(scene, [prim.start, prim.end])
+        u = np.column_stack([np.cos([prim.start[0], prim.end[0]]), np.sin([prim.start[0], prim.end[0]])])
+        top = np.column_stack([-u[:, 1], u[:, 0]])
+
+        def moved(point: NDArray, origin: NDArray | None, x: NDArray, y: NDArray) -> float:
+            rel = point - (origin if origin is not None else 0.0)
+            local = np.column_stack([np.sum(rel * x, axis=1), np.sum(rel * y, axis=1)])
+            return float(np.linalg.norm(local[1] - local[0]))
+
+        out.append(PlannedTravel(prim.type, moved(p["a"], None, u, top), moved(p["a"], p["finger"], p["e"], p["n"]),
+                                 moved(p["b"], None, u, top), moved(p["b"], p["thumb"], p["e"], p["n"])))
+    return tuple(out)
+
+
 def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: RobotModel,
                 variant: Variant = Variant(), prefix: str = "",
                 placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()) -> TrialSetup:
@@ -86,4 +107,5 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     return TrialSetup(spec=spec, drive=drive_from_trajectory(trajectory, robot, prefix),
                       start_pose=tilted(frame, theta0), target_pose=frame.copy(),
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
-                      squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time)
+                      squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
+                      max_error=opts.max_error, planned=planned_travel(scene, plan))

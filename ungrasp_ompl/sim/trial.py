@@ -4,7 +4,9 @@ Sequence: the object is put at the plan's start pose (plus the trial's perturbat
 clear of the table if it would reach into it), the jaws at the planned opening; the world
 settles with the palm still (gravity, the servo squeezing); then every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
-the squeeze; after the retreat the world rests, and the outcome is read off.
+the squeeze; after the retreat the world rests, and the outcome is read off. A calibration
+error offsets the whole commanded trajectory (and the object the hand holds at the start) by
+one rigid transform, and moves the table, as a miscalibrated arm and table would.
 """
 
 from __future__ import annotations
@@ -17,14 +19,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .drive import GripperDrive
-from .model import ModelIds, SimModelSpec, build_mjcf, model_ids
-from .outcome import FLAT_TILT_DEG, Outcome, TrialResult
+from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
+from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from .perturb import TrialParams
 
 #: A contact at A or B absent this long (s) before the termination is a loss of grip.
 LOSS_WINDOW = 0.05
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
+
+
+@dataclass(frozen=True)
+class PlannedTravel:
+    """How far the plan moves A and B over one primitive (m): net displacements on the object
+    and on the digits between the primitive's first and last states (sim.setup computes them)."""
+
+    primitive: str  #: the primitive's type
+    a_on_object: float
+    a_on_finger: float
+    b_on_object: float
+    b_on_thumb: float
 
 
 @dataclass(frozen=True)
@@ -35,7 +49,8 @@ class TrialSetup:
     target_pose: the same when the object lies at its target; grasp_point: the body-frame point
     (m) about which a perturbed grasp turns (A at the start); b_point: B in the body frame (m);
     squeeze: how far inside the planned opening the servo is commanded (m); settle_time and
-    rest_time: s of stillness before the drive and after it.
+    rest_time: s of stillness before the drive and after it; max_error: the largest placement
+    error (m) that counts as placed; planned: per primitive, how far the plan moves A and B.
     """
 
     spec: SimModelSpec
@@ -47,6 +62,8 @@ class TrialSetup:
     squeeze: float = 0.001
     settle_time: float = 0.3
     rest_time: float = 0.5
+    max_error: float = 0.003
+    planned: tuple[PlannedTravel, ...] = ()
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
@@ -54,54 +71,189 @@ def _rot_z(angle: float) -> NDArray[np.float64]:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def calibration_offset(drive: GripperDrive, params: TrialParams) -> NDArray[np.float64]:
+    """The world transform (4x4) a miscalibrated arm applies to everything it is told: the
+    trial's palm error (a turn about and a shift along the palm's own axes at the first tick)."""
+    delta = np.eye(4)
+    rx, ry, rz = np.radians(params.palm_turn_deg)
+    cx, sx, cy, sy = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry)
+    delta[:3, :3] = _rot_z(rz) @ np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]]) \
+        @ np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    delta[:3, 3] = np.asarray(params.palm_shift_mm) / 1000
+    palm0 = drive.palm[0]
+    return palm0 @ delta @ np.linalg.inv(palm0)
+
+
 def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) -> NDArray[np.float64]:
-    """The object's start pose with the trial's grasp error: a turn by yaw_deg about the normal
-    through the grasp point and a shift in the object's own plane (along GB and across it),
-    then lifted straight up if any corner of the prism would reach into the table."""
+    """The object's start pose with the trial's errors: the calibration offset (the object is in
+    the hand, which is not quite where it is told), then the grasp error (a turn by yaw_deg
+    about the normal through the grasp point and a shift in the object's own plane, along GB and
+    across it), then lifted straight up if any corner of the prism would reach into the table."""
     local = np.eye(4)
     turn = _rot_z(math.radians(params.yaw_deg))
     p = setup.grasp_point
     local[:3, :3] = turn
     local[:3, 3] = p - turn @ p + np.array([params.shift_along_mm, params.shift_across_mm, 0.0]) / 1000
-    pose = setup.start_pose @ local
+    pose = calibration_offset(setup.drive, params) @ setup.start_pose @ local
     outline = setup.spec.obj.outline
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     lowest = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2]))
-    if lowest < 0.0:
-        pose[2, 3] -= lowest
+    table = params.table_height_mm / 1000
+    if lowest < table:
+        pose[2, 3] += table - lowest
     return pose
 
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
-    """The nominal model with the trial's friction, mass and thickness."""
+    """The nominal model with the trial's friction, mass, thickness and table height."""
     spec = setup.spec
     fg, fa, fb = params.friction_scale
     fr = spec.friction
     obj = replace(spec.obj, thickness=spec.obj.thickness * params.thickness_scale,
                   density=spec.obj.density * params.mass_scale / params.thickness_scale)
-    return replace(spec, obj=obj, friction=replace(fr, table=fr.table * fg, finger=fr.finger * fa,
-                                                   thumb=fr.thumb * fb, solids=fr.solids * fg))
+    return replace(spec, obj=obj, table_height=params.table_height_mm / 1000,
+                   friction=replace(fr, table=fr.table * fg, finger=fr.finger * fa, thumb=fr.thumb * fb,
+                                    solids=fr.solids * fg))
 
 
 class _Watch:
-    """Contacts of the object per control tick."""
+    """The object's contacts per control tick: who touches it, how deep, with what force, where."""
 
-    def __init__(self, ids: ModelIds):
+    def __init__(self, model, ids: ModelIds):
         self.ids = ids
+        n = model.ngeom
+        self.finger = np.zeros(n, bool)
+        self.finger[list(ids.finger_geoms)] = True
+        self.thumb = np.zeros(n, bool)
+        self.thumb[list(ids.thumb_geoms)] = True
+        self.solid = np.zeros(n, bool)
+        self.solid[list(ids.solid_geoms)] = True
+        self.sinks = self.finger | self.thumb
+        self.sinks[ids.table_geom] = True
+
+    def _mine(self, data) -> tuple[NDArray, NDArray] | None:
+        """(indices of the object's contacts, the other geom of each), None without any."""
+        n = data.ncon
+        if n == 0:
+            return None
+        geoms = data.contact.geom[:n]
+        obj = self.ids.object_geom
+        mine = np.flatnonzero((geoms[:, 0] == obj) | (geoms[:, 1] == obj))
+        if not len(mine):
+            return None
+        g = geoms[mine]
+        return mine, np.where(g[:, 0] == obj, g[:, 1], g[:, 0])
 
     def flags(self, data) -> tuple[bool, bool, bool, bool]:
         """(A, B, solid, any digit) touching the object now."""
-        n = data.ncon
-        if n == 0:
+        found = self._mine(data)
+        if found is None:
             return False, False, False, False
-        geoms = data.contact.geom[:n]
-        ids = self.ids
-        other = np.where(geoms[:, 0] == ids.object_geom, geoms[:, 1],
-                         np.where(geoms[:, 1] == ids.object_geom, geoms[:, 0], -1))
-        touching = set(other[other >= 0].tolist())
-        a = bool(touching & ids.finger_geoms)
-        b = bool(touching & ids.thumb_geoms)
-        return a, b, bool(touching & ids.solid_geoms), a or b
+        other = found[1]
+        a, b = bool(self.finger[other].any()), bool(self.thumb[other].any())
+        return a, b, bool(self.solid[other].any()), a or b
+
+    def measure(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick | None:
+        """What the object's contacts are now (None: no contact at all). A is the finger's contact
+        nearest its tip; B is where the thumb's contact region (the hull of its contact points)
+        comes nearest the object's end: where a face lies along the object (psi near 0) MuJoCo
+        spreads the contact over the corners of the overlap, and the plan's B is the end."""
+        found = self._mine(data)
+        if found is None:
+            return None
+        mine, other = found
+        depth = -data.contact.dist[mine]
+        adr = data.contact.efc_address[mine]
+        force = np.where(adr >= 0, data.efc_force[np.maximum(adr, 0)], 0.0)  # elliptic cones: row 0 is normal
+        pos = data.contact.pos[mine]
+        on_a, on_b = self.finger[other], self.thumb[other]
+        dome = other == self.ids.finger_dome
+        tick = _Tick(bool(on_a.any()), bool(on_b.any()), bool(self.solid[other].any()),
+                     float(np.max(depth[self.sinks[other]], initial=0.0)),
+                     float(force[dome].sum()), float(force[on_a & ~dome].sum()))
+        on_a &= force > 0
+        on_b &= force > 0
+        if on_a.any() and on_b.any():
+            along = (pos[on_a] - data.xpos[finger_body]) @ data.xmat[finger_body].reshape(3, 3)[:, 2]
+            tick.a_point = pos[on_a][int(np.argmax(along))]
+            tick.b_points = pos[on_b]
+            tick.b_end = data.xmat[object_body].reshape(3, 3) @ b_point + data.xpos[object_body]
+        return tick
+
+
+@dataclass
+class _Tick:
+    """The object's contacts at one control tick."""
+
+    a: bool  #: the finger touches it
+    b: bool  #: the thumb touches it
+    solid: bool  #: a wall or a piece touches it
+    sinking: float  #: deepest into a digit or the table (m)
+    on_dome: float  #: A's normal force on a rounded tip's dome (N)
+    off_dome: float  #: A's normal force on the rest of the finger (N)
+    a_point: NDArray | None = None  #: A (world, m), where both A and B press
+    b_points: NDArray | None = None  #: the thumb's contact points (world, m)
+    b_end: NDArray | None = None  #: the object's end B (world, m)
+
+
+class _Travel:
+    """Where A and B were on the object and on their digits at a primitive's first and last
+    ticks with both contacts held (body-frame points, m; B on the object as the thumb's
+    contact points, reduced to one point at the end)."""
+
+    def __init__(self, b_end: NDArray):
+        self.b_end = b_end  #: the object's end B in its body frame (m)
+        self.first: dict[int, tuple[NDArray, NDArray]] = {}
+        self.last: dict[int, tuple[NDArray, NDArray]] = {}
+
+    def note(self, k: int, points: NDArray, b_on_object: NDArray) -> None:
+        self.first.setdefault(k, (points, b_on_object))
+        self.last[k] = (points, b_on_object)
+
+    def _b(self, contacts: NDArray) -> NDArray:
+        return np.append(_nearest_in_hull(contacts[:, :2], self.b_end[:2]), 0.0)
+
+    def travels(self, planned: tuple[PlannedTravel, ...]) -> list[ContactTravel]:
+        out = []
+        for k, plan in enumerate(planned):
+            if k in self.first:
+                (p0, b0), (p1, b1) = self.first[k], self.last[k]
+                p0, p1 = p0.copy(), p1.copy()
+                p0[2], p1[2] = self._b(b0), self._b(b1)
+                moved = np.linalg.norm(p1 - p0, axis=1) * 1000
+            else:
+                moved = np.full(4, math.nan)
+            out.append(ContactTravel(plan.primitive, float(moved[0]), plan.a_on_object * 1000, float(moved[1]),
+                                     plan.a_on_finger * 1000, float(moved[2]), plan.b_on_object * 1000,
+                                     float(moved[3]), plan.b_on_thumb * 1000))
+        return out
+
+
+def _nearest_in_hull(points: NDArray, q: NDArray) -> NDArray[np.float64]:
+    """The point of the convex hull of 2D points nearest q (q itself when inside)."""
+    pts = sorted(map(tuple, np.round(points, 12)))
+    if len(pts) > 2:  # Andrew's monotone chain
+        def half(seq):
+            h: list = []
+            for p in seq:
+                while len(h) >= 2 and (h[-1][0] - h[-2][0]) * (p[1] - h[-2][1]) - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0]) <= 0:
+                    h.pop()
+                h.append(p)
+            return h[:-1]
+        pts = half(pts) + half(pts[::-1])
+    hull = np.array(pts)
+    if len(hull) > 2:
+        edges = np.roll(hull, -1, axis=0) - hull
+        if np.all(edges[:, 0] * (q[1] - hull[:, 1]) - edges[:, 1] * (q[0] - hull[:, 0]) >= 0):
+            return np.asarray(q, dtype=float)
+    if len(hull) == 1:
+        return hull[0]
+    ends = np.roll(hull, -1, axis=0) if len(hull) > 2 else hull[1:]
+    starts = hull if len(hull) > 2 else hull[:1]
+    seg = ends - starts
+    s = np.clip(np.sum((q - starts) * seg, axis=1) / np.maximum(np.sum(seg * seg, axis=1), 1e-30), 0.0, 1.0)
+    near = starts + s[:, None] * seg
+    return near[int(np.argmin(np.sum((near - q) ** 2, axis=1)))]
 
 
 def _pose(data, body: int) -> NDArray[np.float64]:
@@ -109,6 +261,11 @@ def _pose(data, body: int) -> NDArray[np.float64]:
     pose[:3, :3] = data.xmat[body].reshape(3, 3)
     pose[:3, 3] = data.xpos[body]
     return pose
+
+
+def _in_body(data, body: int, point: NDArray) -> NDArray[np.float64]:
+    """A world point in a body's frame (m)."""
+    return data.xmat[body].reshape(3, 3).T @ (point - data.xpos[body])
 
 
 def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
@@ -119,6 +276,39 @@ def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
     data.mocap_quat[ids.palm_mocap] = quat
 
 
+def _start(setup: TrialSetup, params: TrialParams):
+    """The trial's compiled world at its first state (before the settling): model, data, ids,
+    the commanded palm poses (K, 4, 4) with the calibration error applied."""
+    import mujoco
+
+    spec = trial_spec(setup, params)
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    data = mujoco.MjData(model)
+    ids = model_ids(model)
+    drive = setup.drive
+    palm = calibration_offset(drive, params) @ drive.palm if not params.calibrated else drive.palm
+    quat = np.zeros(4)
+    _set_palm(data, ids, palm[0], quat)
+    thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_jaw]]
+    finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]
+    obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
+    data.qpos[thumb_q], data.qpos[finger_q] = -drive.opening[0] / 2, drive.opening[0] / 2
+    start = perturbed_start(setup, params, spec.obj.thickness)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
+    data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
+    data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
+    mujoco.mj_forward(model, data)
+    return spec, model, data, ids, palm
+
+
+def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:
+    """The MJCF of a trial's world with a keyframe 'start' holding its first state and controls
+    (the object's pose, the jaws, the palm and the servo's command), for MuJoCo's viewer."""
+    spec, model, data, ids, _ = _start(setup, params)
+    key = Keyframe("start", data.qpos.copy(), data.ctrl.copy(), data.mocap_pos.copy(), data.mocap_quat.copy())
+    return build_mjcf(spec, key)
+
+
 def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
               record: list | None = None) -> TrialResult:
     """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
@@ -127,48 +317,44 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     import mujoco
 
     wall = time.perf_counter()
-    spec = trial_spec(setup, params)
-    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
-    data = mujoco.MjData(model)
-    ids = model_ids(model)
+    spec, model, data, ids, palm = _start(setup, params)
     drive = setup.drive
     quat = np.zeros(4)
-
-    # the start: palm, jaws at the planned opening, the object in the pinch
-    _set_palm(data, ids, drive.palm[0], quat)
-    thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_body]]
-    finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_body]]
-    obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    data.qpos[thumb_q], data.qpos[finger_q] = -drive.opening[0] / 2, drive.opening[0] / 2
-    start = perturbed_start(setup, params, spec.obj.thickness)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
-    data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
-    mujoco.mj_forward(model, data)
-
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / spec.timestep))
-    data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
     mujoco.mj_step(model, data, nstep=max(1, round(setup.settle_time / spec.timestep)))
     if record is not None:
         record.append((0.0, _pose(data, ids.object_body)))
 
-    watch = _Watch(ids)
+    watch = _Watch(model, ids)
+    travel = _Travel(setup.b_point)
+    primitive = _primitive_of_ticks(drive)
     plane_y = setup.target_pose[:3, 1]
     release = drive.phase_start("termination")
     missing_since: float | None = None
     solid_seen_at = -math.inf
-    roll = 0.0
+    roll = sinking = dome = off_dome = 0.0
     failure: tuple[Outcome, float] | None = None
     for k in range(1, len(drive.times)):
-        _set_palm(data, ids, drive.palm[k], quat)
+        _set_palm(data, ids, palm[k], quat)
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
         mujoco.mj_step(model, data, nstep=substeps)
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
-        if t >= release or failure is not None:
+        if t >= release:
             continue
-        a, b, solid, _ = watch.flags(data)
+        now = watch.measure(data, ids.object_body, ids.finger_body, setup.b_point)
+        if now is not None:
+            sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
+        if failure is not None:
+            continue
+        if now is not None and now.a_point is not None and primitive[k] >= 0:
+            rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
+            travel.note(int(primitive[k]), np.array([
+                _in_body(data, ids.object_body, now.a_point), _in_body(data, ids.finger_body, now.a_point),
+                np.zeros(3), _in_body(data, ids.thumb_body, now.b_end)]), (now.b_points - origin) @ rot)
+        a, b, solid = (now.a, now.b, now.solid) if now is not None else (False, False, False)
         if solid:
             solid_seen_at = t
         obj = _pose(data, ids.object_body)
@@ -197,10 +383,26 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
             failure = (Outcome.HIT_SOLID if solid else Outcome.NOT_FLAT, float(drive.times[-1]))
         elif digit:
             failure = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
+        elif pos_err > setup.max_error * 1000:
+            failure = (Outcome.OFF_TARGET, None)
     outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
     phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
+    share = off_dome / (dome + off_dome) if ids.finger_dome >= 0 and dome + off_dome > 0 else None
     return TrialResult(outcome, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
-                       trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others)
+                       trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others,
+                       sinking * 1000, share, travel.travels(setup.planned))
+
+
+def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
+    """Per control tick, the index of the primitive running (counting primitives only), -1
+    in the termination and the retreat."""
+    out = np.full(len(drive.times), -1)
+    k = 0
+    for name, a, b in drive.phases:
+        if name.startswith("P_"):
+            out[(drive.times > a) & (drive.times <= b)] = k
+            k += 1
+    return out
 
 
 def _loss_cause(data, ids: ModelIds, setup: TrialSetup, obj: NDArray, plane_y: NDArray, solid: bool) -> Outcome:
