@@ -40,16 +40,23 @@ class SimulationReport:
 
     @property
     def successes(self) -> int:
+        """Trials placed within the scene's sim.max_error of the target."""
         return sum(t.success for t in self.trials)
+
+    @property
+    def placed(self) -> int:
+        """Trials placed by the paper's criterion, however far from the target."""
+        return sum(t.outcome.placed for t in self.trials)
 
     def causes(self) -> dict[str, int]:
         """Failures counted by outcome and phase ('grip lost in P_dpsi': 3)."""
-        counter = collections.Counter(f"{t.outcome.value} in {t.phase}" for t in self.trials if not t.success)
+        counter = collections.Counter(t.outcome.value if t.phase is None else f"{t.outcome.value} in {t.phase}"
+                                      for t in self.trials if not t.success)
         return dict(counter.most_common())
 
-    def errors_mm(self) -> np.ndarray:
-        """Placement errors (mm) of the successful trials."""
-        return np.array([t.position_error_mm for t in self.trials if t.success])
+    def errors_mm(self, placed: bool = False) -> np.ndarray:
+        """Placement errors (mm) of the successful trials (of every placed trial, with placed)."""
+        return np.array([t.position_error_mm for t in self.trials if (t.outcome.placed if placed else t.success)])
 
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second, over all trials (per worker)."""
@@ -57,17 +64,32 @@ class SimulationReport:
         return sum(t.sim_time_s for t in self.trials) / wall if wall else math.nan
 
     def to_dict(self) -> dict:
-        errs = self.errors_mm()
+        errs, placed = self.errors_mm(), self.errors_mm(placed=True)
         yaw = np.array([t.yaw_error_deg for t in self.trials if t.success])
+        sink = np.array([t.max_penetration_mm for t in self.trials])
+        off_dome = np.array([t.a_off_dome_share for t in self.trials if t.a_off_dome_share is not None])
         return {
             "scene": self.scene, "trials": len(self.trials), "successes": self.successes,
             "success_rate": self.successes / len(self.trials) if self.trials else None,
+            "success_interval_95": list(wilson_interval(self.successes, len(self.trials))),
+            "placed_paper_criterion": self.placed,
             "position_error_mm": {"mean": _stat(errs, np.mean), "max": _stat(errs, np.max)},
+            "placed_position_error_mm": {"mean": _stat(placed, np.mean), "max": _stat(placed, np.max)},
+            "max_penetration_mm": _stat(sink, np.max),
+            "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
             "seed": self.seed, "plan_problems": self.plan_problems,
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
         }
+
+
+def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
+    """Wilson's 95 % score interval of a success rate: (low, high) in [0, 1] (scipy's)."""
+    from scipy.stats import binomtest
+
+    ci = binomtest(successes, trials).proportion_ci(confidence_level=0.95, method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def _stat(values: np.ndarray, f: Callable) -> float | None:

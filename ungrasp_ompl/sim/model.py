@@ -39,12 +39,14 @@ from numpy.typing import NDArray
 #: stiffness ~2.5e5 N/m at 5 N rings at ~0.1-0.4 ms), twice the 0.1 ms step as MuJoCo asks;
 #: critically damped (no bounce between stiff plastics). Steady sinking scales with its square.
 SOLREF = (0.0002, 1.0)
-#: Impedance: 0.95 at first touch rising to 0.99 over 0.02 mm, the Hertz deformation of a 1 mm
+#: Impedance: 0.95 at first touch rising to 0.995 over 0.02 mm, the Hertz deformation of a 1 mm
 #: PLA dome on celluloid at 5 N (docs/model.md 11.2), with MuJoCo's default sigmoid shape.
-SOLIMP = (0.95, 0.99, 0.00002, 0.5, 2.0)
+SOLIMP = (0.95, 0.995, 0.00002, 0.5, 2.0)
 #: Ratio of frictional to normal constraint impedance: > 1 makes sticking contacts stiffer
 #: (less creep), as MuJoCo advises with elliptic cones. It does not change the friction coefficient.
 IMPRATIO = 10.0
+#: How far a rounded finger's face leans back from its dome toward the palm (rad).
+FACE_DRAFT = math.radians(3.0)
 #: Mass of each jaw (kg): the gripper's moving finger carriage the digit is fixed to.
 JAW_MASS = 0.05
 #: The 3D-printed digits' material, PLA as printed (docs/model.md 11.2): Young's modulus (Pa),
@@ -170,14 +172,15 @@ def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
 
 
 def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0,
-           relief: float = 0.0) -> NDArray[np.float64]:
+           relief: float = 0.0, draft: float = 0.0) -> NDArray[np.float64]:
     """A tapered digit's outline (x, z) in its jaw frame, on the side of x given by side (extruded
-    along y by _extrude_y): the contact face on x = side * relief from z = 0 to length - tip_cut,
-    the thickness measured from x = 0. relief > 0 stands the face back behind x = 0, where a
-    rounded tip's dome touches."""
+    along y by _extrude_y), the thickness measured from x = 0. The contact face runs from z = 0
+    to length - tip_cut; relief > 0 stands it back behind x = 0 (where a rounded tip's dome
+    touches) at its tip end, and draft (rad) tilts it further back toward the palm."""
     end = length - tip_cut
     t_end = t_base + (t_tip - t_base) * end / length
-    return np.array([[side * relief, 0.0], [side * relief, end], [side * t_end, end], [side * t_base, 0.0]])
+    return np.array([[side * (relief + end * math.tan(draft)), 0.0], [side * relief, end], [side * t_end, end],
+                     [side * t_base, 0.0]])
 
 
 def _extrude_y(xz: NDArray, width: float) -> NDArray[np.float64]:
@@ -204,9 +207,11 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     flat = g.finger_tip_radius <= 0.0
     thumb = _extrude_y(_digit(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
     # a rounded finger is a ball-nosed digit: its body ends at the dome's centre and its face
-    # stands back by the dome's radius, so nothing but the dome reaches the object's side
+    # stands back by the dome's radius there, and further toward the palm (FACE_DRAFT), so that
+    # nothing but the dome reaches the object, even where it turns a little in the grasp (psi < 0)
     r = 0.0 if flat else g.finger_tip_radius
-    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r, r), g.width)
+    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r, r,
+                               0.0 if flat else FACE_DRAFT), g.width)
     thumb_k, thumb_c = digit_bending(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, g.width)
     finger_k, finger_c = digit_bending(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, g.width)
     assets = [f'<mesh name="object" vertex="{_floats(_prism(obj.outline, 0.0, obj.thickness))}"/>',
@@ -293,7 +298,7 @@ def _keyframe(key: Keyframe | None) -> str:
     if key is None:
         return ""
     return (f'\n  <keyframe>\n    <key name="{key.name}" qpos="{_floats(key.qpos)}" ctrl="{_floats(key.ctrl)}"\n'
-            f'         mocap_pos="{_floats(key.mocap_pos)}" mocap_quat="{_floats(key.mocap_quat)}"/>\n  </keyframe>')
+            f'         mpos="{_floats(key.mocap_pos)}" mquat="{_floats(key.mocap_quat)}"/>\n  </keyframe>')
 
 
 def model_ids(model) -> ModelIds:

@@ -67,7 +67,7 @@ class TrialResult:
     tilt_deg: its final tilt from the table; roll_deg: the largest turn of the object out of the
     manipulation plane while held (deg). params: the perturbation drawn for the trial.
     max_penetration_mm: the deepest the object sank into a digit or the table at any control
-    tick of the primitives; a_off_dome_share: the share of A's normal impulse over the
+    tick of the primitives (until a failure); a_off_dome_share: the share of A's normal impulse over the
     primitives carried by finger geoms other than a rounded tip's dome (None for a flat tip);
     contacts: per primitive, how far A and B moved against the plan.
     """

@@ -74,11 +74,15 @@ def _inside(layout: Layout, outline: NDArray, pose: NDArray, tol: float = 5e-4) 
 
 def run_attempt(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation, seed: int,
                 attempt: int) -> TilingAttempt:
-    """Attempt k: piece j draws its errors from a Generator seeded (seed, k, j)."""
+    """Attempt k: piece j draws its errors from a Generator seeded (seed, k, j); the arm's
+    calibration is one per attempt (piece 0's draw), as it is one per set-up."""
     out = TilingAttempt(attempt, names=[n for n, _ in setups])
     placed: tuple = ()
+    calibration = perturbation.sample(np.random.default_rng([seed, attempt, 0]))
     for j, (name, setup) in enumerate(setups):
-        params = perturbation.sample(np.random.default_rng([seed, attempt, j]))
+        params = replace(perturbation.sample(np.random.default_rng([seed, attempt, j])),
+                         palm_shift_mm=calibration.palm_shift_mm, palm_turn_deg=calibration.palm_turn_deg,
+                         table_height_mm=calibration.table_height_mm)
         result = run_trial(replace(setup, spec=replace(setup.spec, placed=placed)), params, attempt, seed)
         out.pieces.append(result)
         if not result.success:

@@ -342,13 +342,11 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
-        if t >= release:
+        if t >= release or failure is not None:  # after a failure (a crushed or falling object) nothing is measured
             continue
         now = watch.measure(data, ids.object_body, ids.finger_body, setup.b_point)
         if now is not None:
             sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
-        if failure is not None:
-            continue
         if now is not None and now.a_point is not None and primitive[k] >= 0:
             rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
             travel.note(int(primitive[k]), np.array([
