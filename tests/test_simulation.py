@@ -22,7 +22,7 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import Plan
 from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
-from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate
+from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate, steeper_start, wilson_interval
 from ungrasp_ompl.sim.outcome import Outcome
 from ungrasp_ompl.sim.perturb import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
@@ -246,6 +246,33 @@ def test_a_deviated_start_is_executed_and_flagged_when_the_model_rejects_it(pick
     # 60 deg more: B lies beyond the thumb's tip at the start, which the model refuses
     problems = plan_problems(scene, deviated_plan(result, math.radians(60)))
     assert problems and "primitive 1" in problems[0] and "s_B >= 0" in problems[0]
+
+
+def test_a_steeper_start_pivots_into_the_plan_and_can_leave_force_closure():
+    """The caging experiment's start: theta larger, a pivot down to the plan's start first; far
+    enough up, the model finds the start not force-closed and says so for the first leg."""
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    result = plan(scene, planner="lattice")
+    steep = steeper_start(result, math.radians(5))
+    assert steep.primitives[0].type == "P_theta" and steep.primitives[0].end == list(result.states[0])
+    assert steep.states[0][0] == pytest.approx(result.states[0][0] + math.radians(5))
+    assert [p.type for p in steep.primitives[1:]] == [p.type for p in result.primitives]
+    assert plan_problems(scene, steep) == []  # 5 deg steeper is still held
+    q = [result.states[0][0] + math.radians(25), *result.states[0][1:]]
+    assert scene.margin([q]).friction[0] < 0  # 25 deg steeper is not
+    problems = plan_problems(scene, steeper_start(result, math.radians(25)))
+    assert problems and problems[0].startswith("primitive 1 (P_theta)") and "force-closed" in problems[0]
+
+
+@pytest.mark.parametrize("k, n", [(0, 10), (9, 10), (109, 120), (40, 40), (17, 40)])
+def test_wilson_interval_agrees_with_its_closed_form(k, n):
+    z = 1.959963984540054
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    low, high = wilson_interval(k, n)
+    assert low == pytest.approx(max(0.0, centre - half), abs=1e-9) and high == pytest.approx(min(1.0, centre + half), abs=1e-9)
+    assert low <= p <= high
 
 
 def test_plan_json_round_trips(pick):

@@ -1,22 +1,37 @@
 """The paper's experiments (sec. 6.2) as simulation campaigns, with the paper's figures beside ours.
 
     python tools/sim_campaigns.py [--trials N] [--jobs N] [--seed S] [--only base,edge,...]
+                                  [--figure docs/figures/campaigns.png]
 
-Campaigns: base (three objects, rounded fingertip), edge (the same, flat fingertip), subset
-(the 1.5 mm pick run with the 0.96 mm pick's motion), caging (the plan started with psi
-larger, rounded against flat fingertip), and the negative controls (equal digits; a fifth of
-the friction). Every plan is RRT*'s with the seed; every trial draws the `paper` perturbation
-unless the campaign says otherwise. Prints one markdown table.
+Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the seed):
+
+* base: the three objects with a rounded (point-contact) finger tip;
+* edge: the same with a flat (edge-contact) tip;
+* subset: the 1.5 mm pick run with the 0.96 mm pick's motion;
+* caging: the pick's plan started steeper, by the smallest theta offset (whole degrees) that
+  puts the start outside force closure in the model, rounded against flat tip; the row prints
+  the deviation and the friction margin at the deviated start (negative);
+* controls: equal digits as the paper means it (the scene planned with the thumb as long as
+  the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
+  that thumb, and what stops it), and a fifth of the friction;
+* tangram: the shipped layout tiled with lattice plans and simulated attempt by attempt.
+
+Every row has a Wilson 95 % interval on its success rate; success is placed within the scene's
+sim.max_error of the target, and the paper's own criterion (placed, any error) is given beside
+it. Prints one markdown table and draws ours beside the paper's into the figure.
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
 import math
 import sys
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -24,14 +39,32 @@ sys.path.insert(0, str(ROOT))
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
-from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate  # noqa: E402
+from ungrasp_ompl.sim.campaign import plan_problems, simulate, steeper_start, wilson_interval  # noqa: E402
 from ungrasp_ompl.sim.perturb import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant, trial_setup  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
-#: Extra psi at the start of the caging campaign (deg).
-CAGING_PSI_DEG = 15.0
+
+
+@dataclass
+class Row:
+    """One campaign row: our count with its interval, and the paper's figure."""
+
+    label: str
+    successes: int
+    trials: int
+    placed: int  #: by the paper's criterion, any error
+    errors: str  #: mean / max placement error of the successes (mm), or "-"
+    paper: str
+    paper_rate: tuple[int, int] | None  #: the paper's successes and trials, where it gives them
+    model: str  #: what the model says of the plan that ran
+    causes: str
+
+    def line(self) -> str:
+        low, high = wilson_interval(self.successes, self.trials)
+        return (f"| {self.label} | {self.successes}/{self.trials} ({100 * low:.0f}-{100 * high:.0f} %) | "
+                f"{self.placed}/{self.trials} | {self.errors} | {self.paper} | {self.model} | {self.causes} |")
 
 
 def _scene(name: str, tip: str | None = None) -> Scene:
@@ -43,26 +76,44 @@ def _scene(name: str, tip: str | None = None) -> Scene:
     return scene
 
 
-def run(name: str, trials: int, jobs: int, seed: int, tip: str | None = None, variant: Variant = Variant(),
-        psi_offset_deg: float | None = None, perturb: str = "paper"):
-    """One campaign row: plan, execute, simulate; returns (report, the model's verdict on the plan)."""
-    scene = _scene(name, tip)
+def _plan(scene: Scene, seed: int):
     result = plan(scene, planner="RRTstar", time=1.0, seed=seed)
     if not result.solved:
-        raise SystemExit(f"{name}: {result.reason}")
-    if psi_offset_deg:
-        result = deviated_plan(result, math.radians(psi_offset_deg))
+        raise SystemExit(f"{scene.name}: {result.reason}")
+    return result
+
+
+def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, paper: str,
+        paper_rate: tuple[int, int] | None = None, variant: Variant = Variant(), model: str | None = None) -> Row:
+    """Execute and simulate one plan; the row of the table."""
     problems = plan_problems(scene, result)
     ex = execute(scene, result)
-    setup = trial_setup(scene, result, ex.trajectory, ex.robot, variant)
-    report = simulate(setup, PRESETS[perturb], trials, seed, jobs, scene=name, variant=variant)
-    return report, problems
+    report = simulate(trial_setup(scene, result, ex.trajectory, ex.robot, variant), PRESETS["paper"], trials, seed,
+                      jobs, scene=scene.name, variant=variant)
+    s = report.to_dict()
+    err = s["position_error_mm"]
+    errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"
+    causes = "; ".join(f"{n} {c}" for c, n in report.causes().items()) or "-"
+    verdict = model or ("secure" if not problems else "rejected: " + problems[0].split(": ", 1)[1][:70])
+    return Row(label, report.successes, trials, report.placed, errs, paper, paper_rate, verdict, causes)
 
 
-def tangram(attempts: int, jobs: int, seed: int, tip: str) -> tuple[int, int, str]:
+def caging_deviation(scene: Scene, result) -> tuple[float, float]:
+    """The smallest theta offset (rad, whole degrees) that puts the plan's start outside force
+    closure in the scene's model while kinematics and collision still hold, and the friction
+    margin there (rad, negative)."""
+    from ungrasp_ompl.scene import StateClass
+
+    theta, d, psi = result.states[0]
+    for deg in range(1, 60):
+        q = [theta + math.radians(deg), d, psi]
+        if StateClass(int(scene.classify([q])[0])) is StateClass.NOT_FORCE_CLOSED:
+            return math.radians(deg), float(scene.margin([q]).friction[0])
+    raise SystemExit(f"{scene.name}: no steeper start within 60 deg leaves force closure")
+
+
+def tangram(attempts: int, jobs: int, seed: int, tip: str) -> Row:
     """The shipped tangram tiled (exact lattice plans), then simulated attempt by attempt."""
-    import collections
-
     import yaml
 
     from ungrasp_ompl.layout import Layout
@@ -78,16 +129,43 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str) -> tuple[int, int, st
     results = simulate_tiling(layout, tiling_setups(layout, tiling, ex.trajectory, ex.robot), PRESETS["paper"],
                               attempts, seed, jobs)
     causes = collections.Counter(a.cause().split(" at ")[0] for a in results if not a.success)
-    return sum(a.success for a in results), attempts, "; ".join(f"{n} {c}" for c, n in causes.most_common()) or "-"
+    ok = sum(a.success for a in results)
+    return Row(f"tangram, {tip} tip (lattice plans)", ok, attempts, ok, "-", "9/10", (9, 10), "secure",
+               "; ".join(f"{n} {c}" for c, n in causes.most_common()) or "-")
 
 
-def _row(label: str, report, paper: str, problems: list[str]) -> str:
-    s = report.to_dict()
-    err = s["position_error_mm"]
-    errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"
-    causes = "; ".join(f"{n} {c}" for c, n in report.causes().items()) or "-"
-    model = "secure" if not problems else "rejected: " + problems[0].split(": ", 1)[1][:60]
-    return f"| {label} | {report.successes}/{len(report.trials)} | {errs} | {paper} | {model} | {causes} |"
+def draw(rows: list[Row], path: Path) -> None:
+    """Ours (bars with Wilson 95 % intervals) beside the paper's (diamonds with theirs)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10, 0.45 * len(rows) + 1.8))
+    y = np.arange(len(rows))[::-1]
+    rate = np.array([r.successes / r.trials for r in rows])
+    ci = np.array([wilson_interval(r.successes, r.trials) for r in rows])
+    ax.barh(y, rate * 100, color="#4c72b0", height=0.6, label="simulated here (placed within max_error)")
+    ax.errorbar(rate * 100, y, xerr=[(rate - ci[:, 0]) * 100, (ci[:, 1] - rate) * 100], fmt="none", ecolor="black",
+                capsize=3, label="Wilson 95 % interval")
+    marked = False
+    for yy, r in zip(y, rows):
+        if r.paper_rate is None:
+            continue
+        k, n = r.paper_rate
+        lo, hi = wilson_interval(k, n)
+        ax.errorbar([100 * k / n], [yy], xerr=[[100 * (k / n - lo)], [100 * (hi - k / n)]], fmt="D", color="#dd8452",
+                    capsize=3, label=None if marked else "the paper (physical), with its interval")
+        marked = True
+    ax.set_yticks(y, [r.label for r in rows], fontsize=8)
+    ax.set_xlim(0, 100)
+    ax.set_xlabel("success rate (%)")
+    ax.set_title("The paper's experiments: simulated here beside the paper's physical results", fontsize=10)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.35, -0.6 / len(rows) - 0.12), ncol=3, fontsize=7, frameon=False)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def main() -> None:
@@ -97,39 +175,64 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only", default="base,edge,subset,caging,controls,tangram")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
+    ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
     only = set(args.only.split(","))
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
-    print("| campaign | ours: placed | error mm (mean / max) | paper | the model on the plan | failures |")
-    print("|---|---|---|---|---|---|")
-    if "base" in only:
+    rows: list[Row] = []
+
+    def show(row: Row) -> None:
+        rows.append(row)
+        print(row.line(), flush=True)
+
+    print("| campaign | ours: success (95 % interval) | placed, any error | error mm (mean / max) | paper "
+          "| the model on the plan | failures |")
+    print("|---|---|---|---|---|---|---|")
+    for tip, key, paper in (("rounded", "base", "109/120 over the objects, mean < 2.6 mm"),
+                            ("flat", "edge", "better than point contact")):
+        if key not in only:
+            continue
         for name in OBJECTS:
-            rep, pr = run(name, n, j, s, tip="rounded")
-            print(_row(f"base: {name}, rounded tip", rep, "109/120 over the objects, mean < 2.6 mm", pr), flush=True)
-    if "edge" in only:
-        for name in OBJECTS:
-            rep, pr = run(name, n, j, s, tip="flat")
-            print(_row(f"edge contact: {name}, flat tip", rep, "better than point contact", pr), flush=True)
+            scene = _scene(name, tip)
+            show(run(f"{key}: {name}, {tip} tip", scene, _plan(scene, s), n, j, s, paper))
+        if key == "base":
+            ok = sum(r.successes for r in rows[-3:])
+            show(Row("base: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "109/120",
+                            (109, 120), "secure", "-"))
     if "subset" in only:
+        scene = _scene("guitar_pick")
         thick = Scene.from_file(SCENES / "guitar_pick_1_5mm.yaml").object_thickness
-        rep, pr = run("guitar_pick", n, j, s, variant=Variant(thickness=thick))
-        print(_row("subset: 1.5 mm pick, 0.96 mm pick's motion", rep, "placed", pr), flush=True)
+        show(run("subset: 1.5 mm pick, 0.96 mm pick's motion", scene, _plan(scene, s), n, j, s, "placed",
+                 variant=Variant(thickness=thick)))
     if "caging" in only:
-        for tip, paper in (("rounded", "4/40"), ("flat", "34/40")):
-            rep, pr = run("guitar_pick", n, j, s, tip=tip, psi_offset_deg=CAGING_PSI_DEG)
-            print(_row(f"caging: pick, start psi +{CAGING_PSI_DEG:g} deg, {tip} tip", rep, paper, pr), flush=True)
+        for tip, paper, rate in (("rounded", "4/40", (4, 40)), ("flat", "34/40", (34, 40))):
+            scene = _scene("guitar_pick", tip)
+            result = _plan(scene, s)
+            offset, margin = caging_deviation(scene, result)
+            print(f"  caging, {tip} tip: start theta +{math.degrees(offset):.0f} deg, friction margin there "
+                  f"{math.degrees(margin):.2f} deg (outside force closure)", file=sys.stderr, flush=True)
+            show(run(f"caging: pick, start theta +{math.degrees(offset):.0f} deg "
+                     f"(margin {math.degrees(margin):.1f} deg), {tip} tip", scene, steeper_start(result, offset),
+                     n, j, s, paper, rate))
     if "controls" in only:
-        rep, pr = run("guitar_pick", n, j, s, variant=Variant(equal_digits=True))
-        print(_row("control: pick, equal digits", rep, "not placeable", pr), flush=True)
-        rep, pr = run("guitar_pick", n, j, s, variant=Variant(friction_scale=0.2))
-        print(_row("control: pick, a fifth of the friction", rep, "(must fail)", pr), flush=True)
+        scene = _scene("guitar_pick")
+        dg = scene.digits  # equal digits: the thumb as long as the finger, the finger unchanged
+        equal = plan(replace(scene, digits=replace(dg, alpha=0.0, thumb_length=dg.thumb_length + dg.alpha)),
+                     planner="lattice")
+        verdict = f"planned with equal digits: {equal.reason}" if not equal.solved else "equal digits: solved"
+        print(f"  control, equal digits planned: {verdict}", file=sys.stderr)
+        show(run("control: pick, the asymmetric plan run with equal digits", scene, _plan(scene, s), n, j, s,
+                 "not placeable", variant=Variant(equal_digits=True), model=verdict))
+        show(run("control: pick, a fifth of the friction", scene, _plan(scene, s), n, j, s, "(must fail)",
+                 variant=Variant(friction_scale=0.2)))
     if "tangram" in only:
         for tip in ("rounded", "flat"):
-            ok, total, causes = tangram(args.attempts, j, s, tip)
-            print(f"| tangram, {tip} tip (lattice plans) | {ok}/{total} attempts | - | 9/10 | secure | {causes} |",
-                  flush=True)
+            show(tangram(args.attempts, j, s, tip))
     print(f"\n{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs")
+    if rows:
+        draw(rows, args.figure)
+        print(f"wrote {args.figure}")
 
 
 if __name__ == "__main__":

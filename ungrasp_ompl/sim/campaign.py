@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError
-from ..planning.result import Plan
+from ..planning.result import Plan, PrimitiveStep
 from ..runner import InlineRunner, LocalRunner, Runner, open_runner
 from ..scene import Scene
 from .outcome import Outcome, TrialResult
@@ -172,6 +172,19 @@ def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
     return replace(plan, states=[lifted(plan.states[0])] + [lifted(q) for q in plan.states[1:]], primitives=steps)
 
 
+def steeper_start(plan: Plan, theta_offset: float) -> Plan:
+    """The plan started with theta larger by theta_offset (rad): a pivot (P_theta, all contacts
+    sticking) from the steeper start down to the plan's own start comes first. Where the
+    steeper start lies outside force closure, this is the paper's caging experiment (sec.
+    6.2.3) in scenes whose larger psi stays inside it."""
+    if not (math.isfinite(theta_offset) and 0.0 < theta_offset < math.pi / 2):
+        raise InputError("theta_offset", f"must lie in (0, 90) deg, got {math.degrees(theta_offset):g}")
+    start = list(plan.states[0])
+    steep = [start[0] + theta_offset, start[1], start[2]]
+    pivot = PrimitiveStep("P_theta", "forward", steep, start, {}, "full", [steep, start])
+    return replace(plan, states=[steep] + list(plan.states), primitives=[pivot] + list(plan.primitives))
+
+
 def plan_problems(scene: Scene, plan: Plan) -> list[str]:
     """Why the scene's model would reject the plan, leg by leg (empty: every leg is secure):
     kinematics, collision and force closure in each leg's contact mode (planning.verify)."""
@@ -190,4 +203,5 @@ def plan_problems(scene: Scene, plan: Plan) -> list[str]:
     return out
 
 
-__all__ = ["Outcome", "SimulationReport", "deviated_plan", "plan_problems", "simulate"]
+__all__ = ["Outcome", "SimulationReport", "deviated_plan", "plan_problems", "simulate", "steeper_start",
+           "wilson_interval"]

@@ -17,6 +17,7 @@ class Outcome(enum.Enum):
     B_PAST_THUMB_TIP = "B past the thumb tip"  #: the object's end slid off the thumb
     LEFT_PLANE = "object left the plane"  #: it turned out of the manipulation plane and escaped
     HIT_SOLID = "hit a wall or piece"  #: it was pushed off by a wall or a piece already down
+    DIGIT_HIT_TABLE = "a digit hit the table"  #: a digit touched the table before the termination (a collision)
     NOT_FLAT = "not flat after the retreat"  #: it was let go but does not lie flat
     DIGIT_TOUCHING = "a digit still touches it"  #: after the retreat
     OFF_TARGET = "placed off target"  #: the paper's criterion holds, but farther than max_error from the target

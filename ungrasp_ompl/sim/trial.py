@@ -131,6 +131,17 @@ class _Watch:
         self.sinks = self.finger | self.thumb
         self.sinks[ids.table_geom] = True
 
+    def digit_on_table(self, data) -> bool:
+        """A digit touches the table now."""
+        n = data.ncon
+        if n == 0:
+            return False
+        geoms = data.contact.geom[:n]
+        table = self.ids.table_geom
+        other = np.where(geoms[:, 0] == table, geoms[:, 1], np.where(geoms[:, 1] == table, geoms[:, 0], -1))
+        other = other[other >= 0]
+        return bool(len(other) and (self.finger[other] | self.thumb[other]).any())
+
     def _mine(self, data) -> tuple[NDArray, NDArray] | None:
         """(indices of the object's contacts, the other geom of each), None without any."""
         n = data.ncon
@@ -355,6 +366,9 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         a, b, solid = (now.a, now.b, now.solid) if now is not None else (False, False, False)
         if solid:
             solid_seen_at = t
+        if watch.digit_on_table(data):  # a collision: a real arm stops (or the plan's clearance was not there)
+            failure = (Outcome.DIGIT_HIT_TABLE, t)
+            continue
         obj = _pose(data, ids.object_body)
         roll = max(roll, _roll(obj, plane_y))
         if roll > LEFT_PLANE_DEG:  # held still, but turned out of the plane: the contact modes are lost
