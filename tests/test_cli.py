@@ -176,7 +176,7 @@ def test_scene_not_a_mapping(tmp_path):
     (("--time", "-1"), "time"),
     (("--seed", "-3"), "seed"),
     (("--iterations", "0"), "iterations"),
-    (("--time", "soon"), "invalid float"),
+    (("--time", "soon"), "--time: must be a number"),
 ])
 def test_bad_options_exit_2(args, word):
     assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
@@ -190,7 +190,20 @@ def test_out_must_be_a_directory(tmp_path):
 
 
 def test_unknown_command_exits_2():
-    assert_one_line_error(run_cli("fly"), "invalid choice")
+    assert_one_line_error(run_cli("fly"), "command: must be one of plan, ")
+
+
+@pytest.mark.parametrize("args,line", [
+    (("plan", "guitar_pick", "--time", "-1"), "--time: must be > 0, got -1"),
+    (("bench", "guitar_pick", "--runs", "x"), "--runs: must be an integer, got 'x'"),
+    (("plan", "guitar_pick", "--objective", "fast"), "--objective: must be one of cost, margin, balanced, got 'fast'"),
+    (("plan",), "scene: is required"),
+    (("plan", "guitar_pick", "--bogus"), "--bogus: is not an argument of this command (see --help)"),
+])
+def test_argument_errors_name_the_argument(args, line):
+    """argparse's complaints read like every other bad input: the argument, then the reason."""
+    proc = run_cli(*args)
+    assert proc.returncode == 2 and proc.stderr == f"ungrasp-ompl: error: {line}\n", proc.stderr
 
 
 @pytest.mark.slow

@@ -19,8 +19,40 @@ from .shipped import resolve, shipped_scenes
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2, no usage dump
-        raise InputError("arguments", message)
+    def error(self, message: str) -> None:  # one line naming the argument, exit 2, no usage dump
+        raise _argument_error(message)
+
+
+def _argument_error(message: str) -> InputError:
+    """argparse's complaint as an InputError naming the argument, e.g. "argument --time: invalid float
+    value: 'x'" as "--time: must be a number, got 'x'"."""
+    import re
+
+    if m := re.fullmatch(r"argument (\S+): (.*)", message, re.S):
+        name, reason = m[1].split("/")[-1], m[2]
+        if kind := re.fullmatch(r"invalid (int|float) value: (.*)", reason):
+            reason = f"must be {'an integer' if kind[1] == 'int' else 'a number'}, got {kind[2]}"
+        elif choice := re.fullmatch(r"invalid choice: (.*) \(choose from (.*)\)", reason):
+            reason = f"must be one of {choice[2].replace(chr(39), '')}, got {choice[1]}"
+        return InputError(name, reason)
+    if m := re.fullmatch(r"the following arguments are required: (.*)", message):
+        return InputError(m[1], "is required")
+    if m := re.fullmatch(r"unrecognized arguments: (.*)", message):
+        return InputError(m[1].split()[0], "is not an argument of this command (see --help)")
+    return InputError("arguments", message)
+
+
+def _seconds(text: str) -> float:
+    """A --time value: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    if value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds, got {text}")
+    return value
 
 
 #: Planners `bench` runs by default: OMPL's asymptotically optimal and feasibility planners
@@ -42,15 +74,17 @@ def _parser() -> argparse.ArgumentParser:
                     help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
                          "primitive changes, then the least length spent near that margin, then cost) or balanced "
                          "(cost plus planning.margin_weight times a penalty growing as the margin shrinks)")
-    pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
-    pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
+    pl.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
+    pl.add_argument("--seed", type=int, default=None,
+                    help="seed: the same seed gives the same plan (default: one drawn at random, printed and "
+                         "stored in plan.json)")
     pl.add_argument("--iterations", type=int, default=None,
                     help="planner iterations (default with a seed: 6000 per second of --time; "
                          "1000 for PRM and PRMstar)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
-                         "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
+                         "(CSV, JSON, ROS 2 YAML, URScript) and plan.json to DIR")
     pl.add_argument("--cage", action="store_true",
                     help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
                          "plan and where (takes seconds; in plan.json under cage)")
@@ -60,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
     bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
                     help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
     bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
-    bn.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    bn.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
     bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
     bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     bn.add_argument("--iterations", type=int, default=None,
@@ -77,7 +111,7 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
     sw.add_argument("--planner", default="RRTstar")
     sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
-    sw.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    sw.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
     sw.add_argument("--jobs", type=int, default=2)
     sw.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     sw.add_argument("--iterations", type=int, default=None,
@@ -95,7 +129,7 @@ def _parser() -> argparse.ArgumentParser:
     mp.add_argument("--start-theta", type=float, default=None, metavar="DEG",
                     help="the start pinch's theta in degrees in every cell (default the scene's)")
     mp.add_argument("--planner", default="RRTstar", help="planner per cell (an OMPL planner, or lattice)")
-    mp.add_argument("--time", type=float, default=0.5,
+    mp.add_argument("--time", type=_seconds, default=0.5,
                     help="planning time per cell in seconds, as a seeded iteration budget (default 0.5)")
     mp.add_argument("--seed", type=int, default=1, help="seed of the planner and the simulated trials (default 1)")
     mp.add_argument("--simulate", type=int, default=0, metavar="N",
@@ -111,9 +145,10 @@ def _parser() -> argparse.ArgumentParser:
 
     cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
     cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
-    cg.add_argument("--plan", default=None, help="plan.json to examine (default: plan the scene, as plan does)")
+    cg.add_argument("--plan", default=None, help="plan.json to examine, or a directory holding one (plan --export "
+                    "DIR); default: plan the scene, as plan does")
     cg.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
-    cg.add_argument("--time", type=float, default=1.0, help="planning time in seconds when planning (default 1)")
+    cg.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds when planning (default 1)")
     cg.add_argument("--seed", type=int, default=1, help="seed when planning (default 1)")
     cg.add_argument("--squeeze", type=float, default=0.0,
                     help="a constant force (N) pressing the object where the finger does (default 0: gravity only)")
@@ -129,8 +164,9 @@ def _parser() -> argparse.ArgumentParser:
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
     tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
     tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
-    tl.add_argument("--time", type=float, default=1.0, help="planning time per piece in seconds (default 1)")
-    tl.add_argument("--seed", type=int, default=None, help="seed: piece k is planned with seed + k")
+    tl.add_argument("--time", type=_seconds, default=1.0, help="planning time per piece in seconds (default 1)")
+    tl.add_argument("--seed", type=int, default=None,
+                    help="seed: piece k is planned with seed + k (default: one drawn at random and printed)")
     tl.add_argument("--range", type=float, default=1.0,
                     help="the planner's longest motion per piece, state units (default 1.0)")
     tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
@@ -141,10 +177,10 @@ def _parser() -> argparse.ArgumentParser:
                         "perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
                     "turn), or the name of a shipped one")
-    sm.add_argument("--plan", default=None, help="plan.json to execute instead of planning (may be one the "
+    sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of planning (may be one the "
                     "model rejects for this scene: a warning says why)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
-    sm.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
+    sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
     sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
@@ -196,7 +232,8 @@ def _plan(args: argparse.Namespace) -> int:
     if args.cage and scene.object_thickness <= 0.0:
         raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
                          scene.source)
-    result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations,
+    seed = _seed(args.seed)
+    result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
                   objective=args.objective)
     print(result.summary())
     cage = None
@@ -224,9 +261,23 @@ def _plan(args: argparse.Namespace) -> int:
         from .view import write_view_record
 
         paths["view"] = write_view_record(export, [(scene, result)], execution)
+        paths["plan"] = export / "plan.json"
+        write_text_atomic(paths["plan"], result.to_json())
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
+
+
+def _seed(given: int | None) -> int:
+    """The seed to plan with: the one given, else one drawn at random and printed, so that every run
+    can be repeated."""
+    if given is not None:
+        return given
+    import secrets
+
+    seed = 1 + secrets.randbelow(9999)
+    print(f"seed {seed} (pass --seed {seed} to repeat)")
+    return seed
 
 
 def _stability(args: argparse.Namespace) -> int:
@@ -464,8 +515,9 @@ def _tile(args: argparse.Namespace) -> int:
         raise InputError("--out", f"{out} exists and is not a directory")
     if args.planner != "lattice":
         PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
+    seed = _seed(args.seed)
     with _Line() as line:
-        result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
+        result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=seed, range=args.range,
                                             approaches=args.approaches), _tile_progress(line))
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")

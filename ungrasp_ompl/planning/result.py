@@ -277,15 +277,25 @@ class Plan:
 
 
 def read_plan(path: str) -> Plan:
-    """Read a plan.json; InputError naming the field (or the file) when it cannot be used."""
+    """Read a plan.json, or the plan.json of a directory (what plan --out DIR or --export DIR
+    wrote); InputError naming the field (or the file) when it cannot be used."""
     from pathlib import Path
 
+    path = Path(path)
+    if path.is_dir():
+        if not (path / "plan.json").is_file():
+            raise InputError("--plan", "holds no plan.json (plan --out DIR or plan --export DIR writes one)",
+                             str(path))
+        path = path / "plan.json"
     try:
-        doc = json.loads(Path(path).read_text())
+        doc = json.loads(path.read_text())
     except FileNotFoundError:
         raise InputError("--plan", "no such file", str(path)) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError("--plan", f"not a readable JSON file ({exc.__class__.__name__})", str(path)) from None
+    except json.JSONDecodeError as exc:
+        raise InputError("--plan", f"is not valid JSON (cut short or mistyped?) at line {exc.lineno}, column "
+                         f"{exc.colno}", str(path)) from None
+    except (OSError, UnicodeDecodeError):
+        raise InputError("--plan", "cannot be read as text (not a plan.json)", str(path)) from None
     return Plan.from_dict(doc, source=str(path))
 
 
