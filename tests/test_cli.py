@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 import yaml
@@ -221,3 +222,43 @@ def test_bench_and_sweep_commands(tmp_path):
     assert_one_line_error(run_cli("bench", str(SCENES / "reference_asymmetric.yaml"), "--planners", "RRTfast"),
                           "--planners")
     assert_one_line_error(run_cli("sweep", str(SCENES / "reference_asymmetric.yaml"), "--alpha", "x"), "--alpha")
+
+
+def test_errors_name_a_shipped_scene_by_its_name():
+    """A shipped scene's error names it as the user typed it, not by its path inside the package."""
+    proc = run_cli("simulate", "reference_asymmetric")
+    assert proc.returncode == 2
+    assert proc.stderr == ("ungrasp-ompl: error: reference_asymmetric: object.thickness: the simulator needs an "
+                           "object with a thickness (m)\n")
+
+
+@pytest.mark.slow
+def test_progress_in_a_pipe_is_a_line_per_tenth(tmp_path):
+    """stderr to a pipe or a log: plain lines, no carriage returns (one endless line otherwise)."""
+    proc = run_cli("bench", "reference_asymmetric", "--planners", "lattice", "--runs", "2", "--time", "0.1",
+                   "--jobs", "1", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert "\r" not in proc.stderr and "\r" not in proc.stdout
+    assert proc.stderr.splitlines()[-1].startswith("bench: 2/2 runs after "), proc.stderr
+
+
+def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
+    import io
+
+    from ungrasp_ompl.cli import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    err = Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    bar = _Progress("trials", "simulate")
+    for k in range(4):
+        bar.show(k, 4, f"trial {k}")
+    assert bar.bar is not None and _Progress.open == [bar]
+    bar.show(4, 4)
+    assert _Progress.open == [] and err.getvalue().endswith("\n")
+    last = err.getvalue().rstrip("\n").rsplit("\r", 1)[-1]
+    assert last.startswith("simulate: 100%") and "4/4 [" in last and "trials/s" in last, last
+    assert re.search(r"\[\d\d:\d\d<\d\d:\d\d, ", last), last  # time spent < time left

@@ -11,11 +11,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 
 from . import __version__
 from .errors import EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
-from .shipped import resolve, shipped_scenes
+from .shipped import resolve, shipped_names, shipped_scenes
 
 
 class _Parser(argparse.ArgumentParser):
@@ -398,7 +399,7 @@ def _bench(args: argparse.Namespace) -> int:
     options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
                                out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume,
                                objective=args.objective)
-    result = run_benchmark(scenes, options, progress=_bar)
+    result = run_benchmark(scenes, options, progress=_Progress("runs", "bench").show)
     print(result.table)
     print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")
     return EXIT_OK
@@ -410,7 +411,7 @@ def _sweep(args: argparse.Namespace) -> int:
     options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
                            time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
                            cluster=_cluster(args), resume=args.resume)
-    result = run_sweep(resolve(args.scene, "scene"), options, progress=_bar)
+    result = run_sweep(resolve(args.scene, "scene"), options, progress=_Progress("runs", "sweep").show)
     o = result.options
     print(f"{result.scene}: {o.planner}, {o.runs} run(s) of {o.time:g} s per alpha; costs in {result.units}")
     print(result.table)
@@ -428,8 +429,8 @@ def _map(args: argparse.Namespace) -> int:
                          start_theta_deg=args.start_theta, planner=args.planner, time=args.time, seed=args.seed,
                          simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
                          resume=args.resume, out=args.out)
-    with _Line() as line:
-        result = run_map(resolve(args.scene, "scene"), options, progress=lambda p: line(_map_progress(p)))
+    bar = _Progress("cells", "map")
+    result = run_map(resolve(args.scene, "scene"), options, progress=lambda p: bar.show(p.done, p.total, _map_progress(p)))
     o, cells = result.options, result.cells
     exists = sum(bool(c.secure_path) for c in cells)
     solved = sum(bool(c.planner_solved) for c in cells)
@@ -445,38 +446,70 @@ def _map(args: argparse.Namespace) -> int:
 
 
 def _map_progress(p) -> str:
-    """One progress line of a map (p: benchmark.map.MapProgress)."""
-    line = f"map: {p.done}/{p.total} cells"
+    """How a map stands, beside its count (p: benchmark.map.MapProgress)."""
+    words = []
     if p.resumed:
-        line += f" ({p.resumed} from an earlier run)"
+        words.append(f"{p.resumed} from an earlier run")
     if p.failed:
-        line += f", {p.failed} failed"
+        words.append(f"{p.failed} failed")
     if p.last is not None:
         verdict = ("failed" if p.last.secure_path is None else
                    "secure path" if p.last.secure_path else "no secure path")
-        line += f"; last alpha {p.last.alpha:g}, friction x{p.last.friction_scale:g}: {verdict}"
-    return line
+        words.append(f"last alpha {p.last.alpha:g}, friction x{p.last.friction_scale:g}: {verdict}")
+    return "; ".join(words)
 
 
-class _Line:
-    """One line on stderr, overwritten in place (\\r) and ended with a newline; wiped instead when
-    the command ends with an error, so that the error's line is the one left."""
+class _Progress:
+    """How far a long command has got, on stderr: on a terminal a tqdm bar (count, rate, time left)
+    redrawn in place; in a pipe or a log a plain line at each tenth (never a carriage return). A
+    new stage starts a new bar. A bar ends when done reaches total, and is wiped when the command
+    ends with an error (run() closes it), so that the error's line is the one left."""
 
-    def __init__(self) -> None:
-        self.width = 0
+    open: list["_Progress"] = []  #: bars on the terminal now
 
-    def __call__(self, text: str) -> None:
-        self.width = max(self.width, len(text))
-        sys.stderr.write("\r" + text.ljust(self.width))
-        sys.stderr.flush()
+    def __init__(self, unit: str, stage: str = "") -> None:
+        self.unit = unit
+        """What is counted (runs, trials, cells, pieces)."""
+        self.stage = stage
+        """What is being done, shown before the count."""
+        self.bar = None
+        self.tenth = -1
+        self.started = time.monotonic()
 
-    def __enter__(self) -> "_Line":
-        return self
+    def show(self, done: int, total: int, status: str = "", stage: str | None = None) -> None:
+        """done of total units so far; status: a few words on the latest one."""
+        if stage is not None and stage != self.stage:
+            self.close()
+            self.stage, self.tenth, self.started = stage, -1, time.monotonic()
+        if sys.stderr.isatty():
+            if self.bar is None:
+                import shutil
 
-    def __exit__(self, kind, *_) -> None:
-        if self.width:
-            sys.stderr.write("\n" if kind is None else "\r" + " " * self.width + "\r")
-            sys.stderr.flush()
+                from tqdm import tqdm
+
+                cols, rows = shutil.get_terminal_size()  # 80 x 24 where a terminal says 0 x 0 (tqdm would hide)
+                self.bar = tqdm(total=total, desc=self.stage or None, unit=f" {self.unit}", file=sys.stderr,
+                                ncols=cols, nrows=rows)
+                _Progress.open.append(self)
+            self.bar.total = total
+            self.bar.set_postfix_str(status, refresh=False)
+            self.bar.update(done - self.bar.n)
+        elif total and 10 * done // total > self.tenth:
+            self.tenth = 10 * done // total
+            spent = time.monotonic() - self.started
+            left = f", about {spent * (total - done) / done:.0f} s left" if 0 < done < total else ""
+            print(f"{self.stage + ': ' if self.stage else ''}{done}/{total} {self.unit} after {spent:.0f} s{left}"
+                  + (f"; {status}" if status else ""), file=sys.stderr, flush=True)
+        if done >= total:
+            self.close()
+
+    def close(self, ok: bool = True) -> None:
+        """End the bar: kept on its line (ok) or wiped (the command ends with an error)."""
+        if self.bar is not None:
+            self.bar.leave = ok
+            self.bar.close()
+            self.bar = None
+            _Progress.open.remove(self)
 
 
 def _with_finger_tip(scene, tip: str):
@@ -491,13 +524,6 @@ def _with_finger_tip(scene, tip: str):
 def _cluster(args: argparse.Namespace) -> str | None:
     """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
-
-
-def _bar(done: int, total: int, width: int = 30) -> None:
-    """A progress bar on stderr, redrawn in place; a newline when all is done."""
-    filled = width * done // total if total else width
-    sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total}" + ("\n" if done == total else ""))
-    sys.stderr.flush()
 
 
 def _tile(args: argparse.Namespace) -> int:
@@ -516,9 +542,8 @@ def _tile(args: argparse.Namespace) -> int:
     if args.planner != "lattice":
         PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
     seed = _seed(args.seed)
-    with _Line() as line:
-        result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=seed, range=args.range,
-                                            approaches=args.approaches), _tile_progress(line))
+    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=seed, range=args.range,
+                                        approaches=args.approaches), _tile_progress(_Progress("pieces")))
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
     draw_layout(layout, result, out / "layout.png")
@@ -543,11 +568,13 @@ def _tile(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _tile_progress(line: _Line):
-    """tile()'s progress (p: tiling.TilingProgress) as one line on stderr."""
+def _tile_progress(bar: _Progress):
+    """tile()'s progress (p: tiling.TilingProgress) on the bar: a stage for the search, one for the plans."""
     def show(p) -> None:
-        line(f"searching an order: {p.done}/{p.total} pieces down, {p.checks} approaches checked ({p.piece})"
-             if p.stage == "search" else f"planning: {p.done}/{p.total} pieces planned ({p.piece})")
+        if p.stage == "search":
+            bar.show(p.done, p.total, f"{p.checks} approaches checked ({p.piece})", "searching an order")
+        else:
+            bar.show(p.done, p.total, p.piece, "planning")
     return show
 
 
@@ -691,16 +718,12 @@ def _simulate_layout(args: argparse.Namespace, perturbation, out: Path) -> int:
 
 
 def _progress(total: int):
-    """A progress bar on stderr, advanced by each call."""
-    done = []
+    """A progress bar of total trials (or attempts), advanced by each call."""
+    bar, done = _Progress("trials", "simulate"), [0]
 
     def step(_) -> None:
-        done.append(1)
-        filled = round(30 * len(done) / total)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {len(done)}/{total}")
-        if len(done) == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        done[0] += 1
+        bar.show(done[0], total)
 
     return step
 
@@ -751,9 +774,13 @@ def run(argv: list[str] | None = None) -> int:
                     "map": _map, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
         return commands[args.command](args)
     except UngraspError as exc:
-        print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)
+        for bar in list(_Progress.open):
+            bar.close(ok=False)
+        print(f"ungrasp-ompl: error: {shipped_names(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
+        for bar in list(_Progress.open):
+            bar.close(ok=False)
         print("ungrasp-ompl: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader went away (e.g. piped into head)

@@ -117,9 +117,13 @@ class Scene:
     # -- loading -----------------------------------------------------------------
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
-        """Load and validate a scene file; raises InputError naming the bad field."""
+        """Load and validate a scene file, or the shipped scene of that name ("guitar_pick"; see
+        ``ungrasp-ompl scenes`` and shipped.resolve); raises InputError naming the bad field."""
+        from .shipped import resolve, shipped_names
+
+        path = resolve(path, "scene")
         data = read_yaml(path, "scene")
-        return cls.from_dict(data, source=str(path), default_name=Path(path).stem)
+        return cls.from_dict(data, source=shipped_names(str(path)), default_name=path.stem)
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "scene") -> "Scene":

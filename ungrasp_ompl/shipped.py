@@ -78,6 +78,15 @@ def shipped_scenes() -> list[ShippedScene]:
     return sorted(found, key=lambda s: s.name)
 
 
+def shipped_names(text: str) -> str:
+    """text with every path of a shipped scene or layout file replaced by its name (guitar_pick for
+    .../site-packages/ungrasp_ompl/shipped_scenes/guitar_pick.yaml): how a message names them."""
+    import re
+
+    folder = os.path.join(str(resources.files(SCENES_PACKAGE)), "")
+    return re.sub(re.escape(folder) + r"([\w.-]+?)\.ya?ml\b", r"\1", text)
+
+
 def resolve(name_or_path: str | os.PathLike[str], kind: str = "scene") -> Path:
     """Returns the file a command's scene or layout argument stands for.
 
