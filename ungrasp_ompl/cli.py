@@ -253,6 +253,8 @@ def _plan(args: argparse.Namespace) -> int:
     if not result.solved:
         return EXIT_NO_SOLUTION
     if export is not None:
+        if scene.planar_only:
+            print(f"note: {scene.name} is planar-only: {scene.planar_only}")
         from .robot.export import export_all
         from .robot.pipeline import execute
 
@@ -756,9 +758,11 @@ def _regions(args: argparse.Namespace) -> int:
 def _scenes(args: argparse.Namespace) -> int:
     shipped = shipped_scenes()
     width = max([len("name")] + [len(s.name) for s in shipped])
-    print(f"{'name':<{width}}  {'kind':<6}  description")
+    print(f"{'name':<{width}}  {'kind':<6}  {'robot':<6}  description")
     for s in shipped:
-        print(f"{s.name:<{width}}  {s.kind:<6}  {s.description}")
+        print(f"{s.name:<{width}}  {s.kind:<6}  {'planar' if s.planar_only else 'ready':<6}  {s.description}")
+        if s.planar_only:
+            print(f"{'':<{width + 18}}planar only: {s.planar_only}")
     if shipped:
         print(f"\nrun one by name (ungrasp-ompl plan guitar_pick, ungrasp-ompl tile tangram); "
               f"the files are in {shipped[0].path.parent}")
