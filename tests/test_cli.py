@@ -262,3 +262,51 @@ def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
     last = err.getvalue().rstrip("\n").rsplit("\r", 1)[-1]
     assert last.startswith("simulate: 100%") and "4/4 [" in last and "trials/s" in last, last
     assert re.search(r"\[\d\d:\d\d<\d\d:\d\d, ", last), last  # time spent < time left
+
+
+@pytest.mark.slow
+def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
+    """Without --seed a seed is drawn, printed and kept in plan.json (which --export writes too);
+    planning again with it gives the same plan, and cage takes the export directory as --plan."""
+    first = run_cli("plan", "guitar_pick", "--time", "0.3", "--export", str(tmp_path / "a"))
+    assert first.returncode == 0, first.stderr
+    m = re.search(r"^seed (\d+) \(pass --seed (\d+) to repeat\)$", first.stdout, re.M)
+    assert m and m[1] == m[2], first.stdout
+    drawn = json.loads((tmp_path / "a" / "plan.json").read_text())
+    assert drawn["seed"] == int(m[1])
+    again = run_cli("plan", "guitar_pick", "--time", "0.3", "--seed", m[1], "--out", str(tmp_path / "b"))
+    assert again.returncode == 0 and "pass --seed" not in again.stdout
+    repeated = json.loads((tmp_path / "b" / "plan.json").read_text())
+    for key in ("states", "primitives", "cost", "iterations", "seed"):
+        assert repeated[key] == drawn[key], key
+    cage = run_cli("cage", "guitar_pick", "--plan", str(tmp_path / "a"))
+    assert cage.returncode == 0 and "warning" not in cage.stdout, cage.stdout + cage.stderr
+
+
+def test_plan_read_back_is_checked_field_by_field(tmp_path):
+    """A plan.json hand-edited or cut short: one line naming the field and the reason."""
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.planning.result import read_plan
+
+    golden = json.loads((SCENES.parent / "tests" / "golden" / "reference_asymmetric.json").read_text())
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(golden))
+    assert read_plan(tmp_path).states == golden["states"]  # a directory holding one
+
+    def refused(doc, field, words):
+        path.write_text(doc if isinstance(doc, str) else json.dumps(doc))
+        with pytest.raises(InputError) as exc:
+            read_plan(path)
+        assert exc.value.field == field and words in exc.value.reason, str(exc.value)
+
+    refused(json.dumps(golden)[:500], "--plan", "is not valid JSON (cut short or mistyped?) at line 1, column 501")
+    far = json.loads(json.dumps(golden))
+    far["primitives"][1]["waypoints"][-1][1] = 1e300  # d of 1e300 object lengths
+    refused(far, "primitives[1].waypoints[1]", "must lie within theta [0, pi/2] rad, d [0, 1]")
+    broken = json.loads(json.dumps(golden))
+    broken["primitives"][2]["waypoints"][0][0] += 0.1  # no longer where primitive 1 ended
+    refused(broken, "primitives[2].waypoints[0]", "must be where the path is before it")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match="holds no plan.json"):
+        read_plan(empty)

@@ -475,14 +475,14 @@ class _Progress:
         self.stage = stage
         """What is being done, shown before the count."""
         self.bar = None
-        self.tenth = -1
+        self.tenth = 0  # tenths reported in a log (none at the start)
         self.started = time.monotonic()
 
     def show(self, done: int, total: int, status: str = "", stage: str | None = None) -> None:
         """done of total units so far; status: a few words on the latest one."""
         if stage is not None and stage != self.stage:
             self.close()
-            self.stage, self.tenth, self.started = stage, -1, time.monotonic()
+            self.stage, self.tenth, self.started = stage, 0, time.monotonic()
         if sys.stderr.isatty():
             if self.bar is None:
                 import shutil
