@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -227,8 +229,6 @@ EDITS = st.one_of(st.tuples(st.just("cut"), st.floats(0.0, 0.999)),
 
 def edit(text, change):
     """(the file's text after the change, what changed)."""
-    import json
-
     if change[0] == "cut":
         return text[:int(len(text) * change[1])], "cut short"
     doc = json.loads(text)
@@ -249,8 +249,6 @@ def edit(text, change):
 def run_edited(exported, name, template, change):
     """Run a command on a copy of the export with the file edited; (exit code, stderr, files written,
     what changed)."""
-    import shutil
-
     with tempfile.TemporaryDirectory() as tmp:
         src = Path(tmp) / "in"
         shutil.copytree(exported, src)

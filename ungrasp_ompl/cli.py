@@ -178,8 +178,8 @@ def _parser() -> argparse.ArgumentParser:
                         "perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
                     "turn), or the name of a shipped one")
-    sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of planning (may be one the "
-                    "model rejects for this scene: a warning says why)")
+    sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of "
+                    "planning (may be one the model rejects for this scene: a warning says why)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
     sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
@@ -432,7 +432,8 @@ def _map(args: argparse.Namespace) -> int:
                          simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
                          resume=args.resume, out=args.out)
     bar = _Progress("cells", "map")
-    result = run_map(resolve(args.scene, "scene"), options, progress=lambda p: bar.show(p.done, p.total, _map_progress(p)))
+    result = run_map(resolve(args.scene, "scene"), options,
+                     progress=lambda p: bar.show(p.done, p.total, _map_progress(p)))
     o, cells = result.options, result.cells
     exists = sum(bool(c.secure_path) for c in cells)
     solved = sum(bool(c.planner_solved) for c in cells)
