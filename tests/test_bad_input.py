@@ -8,6 +8,9 @@ stderr, naming a field, and nothing in the output directory) or 3 (no solution),
 with a traceback. Commands run in this process through ``cli.run`` with small budgets, so an
 uncaught exception fails the test with its own traceback.
 
+The files the commands read back (plan.json for simulate --plan and cage --plan, trajectory.json
+and view_scene.json for view) are fuzzed alike: a value replaced, or the file cut short.
+
 CI runs the small default profile; ``python tools/fuzz_inputs.py`` runs the long one.
 """
 
@@ -15,8 +18,10 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -182,3 +187,91 @@ def test_broken_files_exit_2(tmp_path, command, content):
         code = run(argv)
     assert code == EXIT_BAD_INPUT, err.getvalue()
     check(code, err.getvalue(), sorted(out.rglob("*")) if out.exists() else [], "file")
+
+
+# --- files read back: plan.json (simulate --plan, cage --plan), the exported trajectory (view) ---
+
+@pytest.fixture(scope="session")
+def exported(tmp_path_factory):
+    """What plan --export DIR writes for guitar_pick: plan.json, trajectory.json, view_scene.json."""
+    out = tmp_path_factory.mktemp("exported")
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert run(["plan", "guitar_pick", "--seed", "1", "--time", "0.2", "--export", str(out)]) == EXIT_OK
+    return out
+
+
+#: Read-back commands, with the directory holding the edited file as {dir}; small budgets.
+READ_BACK = {
+    "plan.json": {"cage": ("cage", "guitar_pick", "--plan", "{dir}", "--refine", "0.5", "--out", "{out}"),
+                  "simulate": ("simulate", "guitar_pick", "--plan", "{dir}", "--trials", "1", "--jobs", "1",
+                               "--perturb", "none", "--out", "{out}")},
+    "trajectory.json": {"view": ("view", "{dir}", "--out", "{out}/view.html")},
+    "view_scene.json": {"view": ("view", "{dir}", "--out", "{out}/view.html")},
+}
+
+
+def short_paths(node, prefix=()):
+    """paths(node), but of a long list only its first, second and last items (a trajectory's samples)."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for k, v in items:
+        if isinstance(node, list) and 1 < k < len(node) - 1:
+            continue
+        yield prefix + (k,)
+        yield from short_paths(v, prefix + (k,))
+
+
+#: An edit of a JSON file: cut short at a share of its length, or one value (the k-th of its key
+#: paths, modulo their count) replaced by a bad one or, for a number, by one nearby.
+EDITS = st.one_of(st.tuples(st.just("cut"), st.floats(0.0, 0.999)),
+                  st.tuples(st.just("replace"), st.integers(0, 10**6), BAD_VALUES),
+                  st.tuples(st.just("nearby"), st.integers(0, 10**6), NEARBY))
+
+
+def edit(text, change):
+    """(the file's text after the change, what changed)."""
+    if change[0] == "cut":
+        return text[:int(len(text) * change[1])], "cut short"
+    doc = json.loads(text)
+    keys = list(short_paths(doc))
+    path = keys[change[1] % len(keys)]
+    old = leaf(doc, path)
+    if change[0] == "nearby" and isinstance(old, (int, float)) and not isinstance(old, bool):
+        value = nearby(old, change[2])
+    else:
+        value = math.nan if change[0] == "nearby" else change[2]
+    node = doc
+    for k in path[:-1]:
+        node = node[k]
+    node[path[-1]] = value
+    return json.dumps(doc), path
+
+
+def run_edited(exported, name, template, change):
+    """Run a command on a copy of the export with the file edited; (exit code, stderr, files written,
+    what changed)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / "in"
+        shutil.copytree(exported, src)
+        text, where = edit((exported / name).read_text(), change)
+        (src / name).write_text(text)
+        out = Path(tmp) / "out"
+        argv = [a.format(dir=src, out=out) for a in template]
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            code = run(argv)
+        written = sorted(p.name for p in out.rglob("*")) if out.exists() else []
+        return code, err.getvalue(), written, where
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(READ_BACK))
+@settings(max_examples=LONG // 4 or 12, **SLOW_SETTINGS)
+@given(data=st.data())
+def test_files_read_back_answer_any_edit(exported, name, data):
+    """plan.json, trajectory.json and view_scene.json hand-edited or cut short: exit 0, 2 (one line
+    naming the field, nothing written) or 3, never a traceback or a Python exception's text."""
+    command = data.draw(st.sampled_from(sorted(READ_BACK[name])))
+    code, stderr, written, where = run_edited(exported, name, READ_BACK[name][command], data.draw(EDITS))
+    event(f"{name} {command}: exit {code}")
+    check(code, stderr, written, (name, where))
+    assert "Error" not in stderr and "Exception" not in stderr, (name, where, stderr)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 import yaml
@@ -176,7 +177,7 @@ def test_scene_not_a_mapping(tmp_path):
     (("--time", "-1"), "time"),
     (("--seed", "-3"), "seed"),
     (("--iterations", "0"), "iterations"),
-    (("--time", "soon"), "invalid float"),
+    (("--time", "soon"), "--time: must be a number"),
 ])
 def test_bad_options_exit_2(args, word):
     assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
@@ -190,7 +191,20 @@ def test_out_must_be_a_directory(tmp_path):
 
 
 def test_unknown_command_exits_2():
-    assert_one_line_error(run_cli("fly"), "invalid choice")
+    assert_one_line_error(run_cli("fly"), "command: must be one of plan, ")
+
+
+@pytest.mark.parametrize("args,line", [
+    (("plan", "guitar_pick", "--time", "-1"), "--time: must be > 0, got -1"),
+    (("bench", "guitar_pick", "--runs", "x"), "--runs: must be an integer, got 'x'"),
+    (("plan", "guitar_pick", "--objective", "fast"), "--objective: must be one of cost, margin, balanced, got 'fast'"),
+    (("plan",), "scene: is required"),
+    (("plan", "guitar_pick", "--bogus"), "--bogus: is not an argument of this command (see --help)"),
+])
+def test_argument_errors_name_the_argument(args, line):
+    """argparse's complaints read like every other bad input: the argument, then the reason."""
+    proc = run_cli(*args)
+    assert proc.returncode == 2 and proc.stderr == f"ungrasp-ompl: error: {line}\n", proc.stderr
 
 
 @pytest.mark.slow
@@ -208,3 +222,91 @@ def test_bench_and_sweep_commands(tmp_path):
     assert_one_line_error(run_cli("bench", str(SCENES / "reference_asymmetric.yaml"), "--planners", "RRTfast"),
                           "--planners")
     assert_one_line_error(run_cli("sweep", str(SCENES / "reference_asymmetric.yaml"), "--alpha", "x"), "--alpha")
+
+
+def test_errors_name_a_shipped_scene_by_its_name():
+    """A shipped scene's error names it as the user typed it, not by its path inside the package."""
+    proc = run_cli("simulate", "reference_asymmetric")
+    assert proc.returncode == 2
+    assert proc.stderr == ("ungrasp-ompl: error: reference_asymmetric: object.thickness: the simulator needs an "
+                           "object with a thickness (m)\n")
+
+
+@pytest.mark.slow
+def test_progress_in_a_pipe_is_a_line_per_tenth(tmp_path):
+    """stderr to a pipe or a log: plain lines, no carriage returns (one endless line otherwise)."""
+    proc = run_cli("bench", "reference_asymmetric", "--planners", "lattice", "--runs", "2", "--time", "0.1",
+                   "--jobs", "1", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert "\r" not in proc.stderr and "\r" not in proc.stdout
+    assert proc.stderr.splitlines()[-1].startswith("bench: 2/2 runs after "), proc.stderr
+
+
+def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
+    import io
+
+    from ungrasp_ompl.cli import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    err = Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    bar = _Progress("trials", "simulate")
+    for k in range(4):
+        bar.show(k, 4, f"trial {k}")
+    assert bar.bar is not None and _Progress.open == [bar]
+    bar.show(4, 4)
+    assert _Progress.open == [] and err.getvalue().endswith("\n")
+    last = err.getvalue().rstrip("\n").rsplit("\r", 1)[-1]
+    assert last.startswith("simulate: 100%") and "4/4 [" in last and "trials/s" in last, last
+    assert re.search(r"\[\d\d:\d\d<\d\d:\d\d, ", last), last  # time spent < time left
+
+
+@pytest.mark.slow
+def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
+    """Without --seed a seed is drawn, printed and kept in plan.json (which --export writes too);
+    planning again with it gives the same plan, and cage takes the export directory as --plan."""
+    first = run_cli("plan", "guitar_pick", "--time", "0.3", "--export", str(tmp_path / "a"))
+    assert first.returncode == 0, first.stderr
+    m = re.search(r"^seed (\d+) \(pass --seed (\d+) to repeat\)$", first.stdout, re.M)
+    assert m and m[1] == m[2], first.stdout
+    drawn = json.loads((tmp_path / "a" / "plan.json").read_text())
+    assert drawn["seed"] == int(m[1])
+    again = run_cli("plan", "guitar_pick", "--time", "0.3", "--seed", m[1], "--out", str(tmp_path / "b"))
+    assert again.returncode == 0 and "pass --seed" not in again.stdout
+    repeated = json.loads((tmp_path / "b" / "plan.json").read_text())
+    for key in ("states", "primitives", "cost", "iterations", "seed"):
+        assert repeated[key] == drawn[key], key
+    cage = run_cli("cage", "guitar_pick", "--plan", str(tmp_path / "a"))
+    assert cage.returncode == 0 and "warning" not in cage.stdout, cage.stdout + cage.stderr
+
+
+def test_plan_read_back_is_checked_field_by_field(tmp_path):
+    """A plan.json hand-edited or cut short: one line naming the field and the reason."""
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.planning.result import read_plan
+
+    golden = json.loads((SCENES.parent / "tests" / "golden" / "reference_asymmetric.json").read_text())
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(golden))
+    assert read_plan(tmp_path).states == golden["states"]  # a directory holding one
+
+    def refused(doc, field, words):
+        path.write_text(doc if isinstance(doc, str) else json.dumps(doc))
+        with pytest.raises(InputError) as exc:
+            read_plan(path)
+        assert exc.value.field == field and words in exc.value.reason, str(exc.value)
+
+    refused(json.dumps(golden)[:500], "--plan", "is not valid JSON (cut short or mistyped?) at line 1, column 501")
+    far = json.loads(json.dumps(golden))
+    far["primitives"][1]["waypoints"][-1][1] = 1e300  # d of 1e300 object lengths
+    refused(far, "primitives[1].waypoints[1]", "must lie within theta [0, pi/2] rad, d [0, 1]")
+    broken = json.loads(json.dumps(golden))
+    broken["primitives"][2]["waypoints"][0][0] += 0.1  # no longer where primitive 1 ended
+    refused(broken, "primitives[2].waypoints[0]", "must be where the path is before it")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match="holds no plan.json"):
+        read_plan(empty)

@@ -3,6 +3,7 @@ with importlib.resources (not read from the clone), and commands take a shipped 
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -90,12 +91,40 @@ def test_paths_and_existing_files_are_taken_as_given(tmp_path, monkeypatch):
 def test_scenes_command_lists_every_shipped_file():
     proc = run_cli("scenes")
     assert proc.returncode == 0, proc.stderr
-    rows = {line.split()[0]: line.split(maxsplit=2) for line in proc.stdout.splitlines()[1:] if line.strip()}
+    lines = proc.stdout.splitlines()
+    rows = {line.split()[0]: (line.split(maxsplit=3), "".join(lines[k + 2:k + 3])) for k, line in enumerate(lines[1:])
+            if line.strip() and not line.startswith(" ")}
     for source in SCENE_FILES:
         assert source.stem in rows, f"{source.stem} not listed:\n{proc.stdout}"
-        _, kind, description = rows[source.stem]
+        (_, kind, robot, description), below = rows[source.stem]
+        doc = yaml.safe_load(source.read_text())
         assert kind == _kind(source)
-        assert description == yaml.safe_load(source.read_text())["description"]
+        assert description == doc["description"]
+        assert robot == ("planar" if "planar_only" in doc else "ready")
+        if robot == "planar":  # the reason, from the file, on the line below
+            assert below.strip() == f"planar only: {doc['planar_only']}"
+
+
+def test_readme_python_example_runs_outside_the_clone(tmp_path):
+    """The README's API example, as a user pastes it: the installed package, another directory."""
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## Python API", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("Scene('reference_asymmetric', length_m=0.06, ")
+    assert "solved reference_asymmetric with RRTstar (seed 1" in proc.stdout
+    assert not any(tmp_path.iterdir())  # it writes nothing
+
+
+def test_scene_repr_is_one_line_in_si_units():
+    scene = Scene.from_file("guitar_pick")
+    text = repr(scene)
+    assert "\n" not in text and len(text) < 300, text
+    assert f"length_m={scene.object_length:.4g}," in text and "thickness_m=0.00096," in text
+    assert "thumb_m=0.06," in text and "start=(theta_deg=30, d=0.8, psi_deg=0)" in text
 
 
 def test_commands_take_a_shipped_name_from_any_directory(tmp_path):

@@ -3,8 +3,10 @@
     python tools/fuzz_inputs.py [--examples N] [--seed S]
 
 Every shipped scene and layout has one value replaced (nan, -1, an absurd number, a string,
-null, a list, ...) and every command that reads it runs; a failure prints the smallest
-mutation Hypothesis finds. Prints how many runs ended with each exit code.
+null, a list, ...) and every command that reads it runs; so do the files read back (plan.json
+through simulate --plan and cage --plan, trajectory.json and view_scene.json through view), a
+value replaced or the file cut short. A failure prints the smallest mutation Hypothesis finds.
+Prints how many runs ended with each exit code.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ def main() -> int:
     args = ap.parse_args()
     env = dict(os.environ, UNGRASP_FUZZ_EXAMPLES=str(max(args.examples, 4)))
     cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(ROOT / "tests" / "test_bad_input.py"),
-           "-k", "mutated", f"--hypothesis-seed={args.seed}", "--hypothesis-show-statistics"]
+           "-k", "mutated or read_back", f"--hypothesis-seed={args.seed}", "--hypothesis-show-statistics"]
     return subprocess.call(cmd, cwd=ROOT, env=env)
 
 

@@ -11,16 +11,49 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 
 from . import __version__
 from .errors import EXIT_NO_SOLUTION, EXIT_OK, InputError, UngraspError
-from .shipped import resolve, shipped_scenes
+from .shipped import resolve, shipped_names, shipped_scenes
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2, no usage dump
-        raise InputError("arguments", message)
+    def error(self, message: str) -> None:  # one line naming the argument, exit 2, no usage dump
+        raise _argument_error(message)
+
+
+def _argument_error(message: str) -> InputError:
+    """argparse's complaint as an InputError naming the argument, e.g. "argument --time: invalid float
+    value: 'x'" as "--time: must be a number, got 'x'"."""
+    import re
+
+    if m := re.fullmatch(r"argument (\S+): (.*)", message, re.S):
+        name, reason = m[1].split("/")[-1], m[2]
+        if kind := re.fullmatch(r"invalid (int|float) value: (.*)", reason):
+            reason = f"must be {'an integer' if kind[1] == 'int' else 'a number'}, got {kind[2]}"
+        elif choice := re.fullmatch(r"invalid choice: (.*) \(choose from (.*)\)", reason):
+            reason = f"must be one of {choice[2].replace(chr(39), '')}, got {choice[1]}"
+        return InputError(name, reason)
+    if m := re.fullmatch(r"the following arguments are required: (.*)", message):
+        return InputError(m[1], "is required")
+    if m := re.fullmatch(r"unrecognized arguments: (.*)", message):
+        return InputError(m[1].split()[0], "is not an argument of this command (see --help)")
+    return InputError("arguments", message)
+
+
+def _seconds(text: str) -> float:
+    """A --time value: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    if value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds, got {text}")
+    return value
 
 
 #: Planners `bench` runs by default: OMPL's asymptotically optimal and feasibility planners
@@ -42,15 +75,17 @@ def _parser() -> argparse.ArgumentParser:
                     help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
                          "primitive changes, then the least length spent near that margin, then cost) or balanced "
                          "(cost plus planning.margin_weight times a penalty growing as the margin shrinks)")
-    pl.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
-    pl.add_argument("--seed", type=int, default=None, help="seed: the same seed gives the same plan")
+    pl.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
+    pl.add_argument("--seed", type=int, default=None,
+                    help="seed: the same seed gives the same plan (default: one drawn at random, printed and "
+                         "stored in plan.json)")
     pl.add_argument("--iterations", type=int, default=None,
                     help="planner iterations (default with a seed: 6000 per second of --time; "
                          "1000 for PRM and PRMstar)")
     pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
-                         "(CSV, JSON, ROS 2 YAML, URScript) to DIR")
+                         "(CSV, JSON, ROS 2 YAML, URScript) and plan.json to DIR")
     pl.add_argument("--cage", action="store_true",
                     help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
                          "plan and where (takes seconds; in plan.json under cage)")
@@ -60,7 +95,7 @@ def _parser() -> argparse.ArgumentParser:
     bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
                     help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
     bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
-    bn.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    bn.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
     bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
     bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     bn.add_argument("--iterations", type=int, default=None,
@@ -77,7 +112,7 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
     sw.add_argument("--planner", default="RRTstar")
     sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
-    sw.add_argument("--time", type=float, default=1.0, help="seconds per run (default 1)")
+    sw.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
     sw.add_argument("--jobs", type=int, default=2)
     sw.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     sw.add_argument("--iterations", type=int, default=None,
@@ -95,7 +130,7 @@ def _parser() -> argparse.ArgumentParser:
     mp.add_argument("--start-theta", type=float, default=None, metavar="DEG",
                     help="the start pinch's theta in degrees in every cell (default the scene's)")
     mp.add_argument("--planner", default="RRTstar", help="planner per cell (an OMPL planner, or lattice)")
-    mp.add_argument("--time", type=float, default=0.5,
+    mp.add_argument("--time", type=_seconds, default=0.5,
                     help="planning time per cell in seconds, as a seeded iteration budget (default 0.5)")
     mp.add_argument("--seed", type=int, default=1, help="seed of the planner and the simulated trials (default 1)")
     mp.add_argument("--simulate", type=int, default=0, metavar="N",
@@ -111,9 +146,10 @@ def _parser() -> argparse.ArgumentParser:
 
     cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
     cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
-    cg.add_argument("--plan", default=None, help="plan.json to examine (default: plan the scene, as plan does)")
+    cg.add_argument("--plan", default=None, help="plan.json to examine, or a directory holding one (plan --export "
+                    "DIR); default: plan the scene, as plan does")
     cg.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
-    cg.add_argument("--time", type=float, default=1.0, help="planning time in seconds when planning (default 1)")
+    cg.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds when planning (default 1)")
     cg.add_argument("--seed", type=int, default=1, help="seed when planning (default 1)")
     cg.add_argument("--squeeze", type=float, default=0.0,
                     help="a constant force (N) pressing the object where the finger does (default 0: gravity only)")
@@ -129,8 +165,9 @@ def _parser() -> argparse.ArgumentParser:
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
     tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
     tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
-    tl.add_argument("--time", type=float, default=1.0, help="planning time per piece in seconds (default 1)")
-    tl.add_argument("--seed", type=int, default=None, help="seed: piece k is planned with seed + k")
+    tl.add_argument("--time", type=_seconds, default=1.0, help="planning time per piece in seconds (default 1)")
+    tl.add_argument("--seed", type=int, default=None,
+                    help="seed: piece k is planned with seed + k (default: one drawn at random and printed)")
     tl.add_argument("--range", type=float, default=1.0,
                     help="the planner's longest motion per piece, state units (default 1.0)")
     tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
@@ -141,10 +178,10 @@ def _parser() -> argparse.ArgumentParser:
                         "perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
                     "turn), or the name of a shipped one")
-    sm.add_argument("--plan", default=None, help="plan.json to execute instead of planning (may be one the "
-                    "model rejects for this scene: a warning says why)")
+    sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of "
+                    "planning (may be one the model rejects for this scene: a warning says why)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
-    sm.add_argument("--time", type=float, default=1.0, help="planning time in seconds (default 1)")
+    sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
     sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
@@ -196,7 +233,8 @@ def _plan(args: argparse.Namespace) -> int:
     if args.cage and scene.object_thickness <= 0.0:
         raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
                          scene.source)
-    result = plan(scene, planner=args.planner, time=args.time, seed=args.seed, iterations=args.iterations,
+    seed = _seed(args.seed)
+    result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
                   objective=args.objective)
     print(result.summary())
     cage = None
@@ -215,6 +253,8 @@ def _plan(args: argparse.Namespace) -> int:
     if not result.solved:
         return EXIT_NO_SOLUTION
     if export is not None:
+        if scene.planar_only:
+            print(f"note: {scene.name} is planar-only: {scene.planar_only}")
         from .robot.export import export_all
         from .robot.pipeline import execute
 
@@ -224,9 +264,23 @@ def _plan(args: argparse.Namespace) -> int:
         from .view import write_view_record
 
         paths["view"] = write_view_record(export, [(scene, result)], execution)
+        paths["plan"] = export / "plan.json"
+        write_text_atomic(paths["plan"], result.to_json())
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
+
+
+def _seed(given: int | None) -> int:
+    """The seed to plan with: the one given, else one drawn at random and printed, so that every run
+    can be repeated."""
+    if given is not None:
+        return given
+    import secrets
+
+    seed = 1 + secrets.randbelow(9999)
+    print(f"seed {seed} (pass --seed {seed} to repeat)")
+    return seed
 
 
 def _stability(args: argparse.Namespace) -> int:
@@ -347,7 +401,7 @@ def _bench(args: argparse.Namespace) -> int:
     options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
                                out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume,
                                objective=args.objective)
-    result = run_benchmark(scenes, options, progress=_bar)
+    result = run_benchmark(scenes, options, progress=_Progress("runs", "bench").show)
     print(result.table)
     print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")
     return EXIT_OK
@@ -359,7 +413,7 @@ def _sweep(args: argparse.Namespace) -> int:
     options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
                            time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
                            cluster=_cluster(args), resume=args.resume)
-    result = run_sweep(resolve(args.scene, "scene"), options, progress=_bar)
+    result = run_sweep(resolve(args.scene, "scene"), options, progress=_Progress("runs", "sweep").show)
     o = result.options
     print(f"{result.scene}: {o.planner}, {o.runs} run(s) of {o.time:g} s per alpha; costs in {result.units}")
     print(result.table)
@@ -377,8 +431,9 @@ def _map(args: argparse.Namespace) -> int:
                          start_theta_deg=args.start_theta, planner=args.planner, time=args.time, seed=args.seed,
                          simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
                          resume=args.resume, out=args.out)
-    with _Line() as line:
-        result = run_map(resolve(args.scene, "scene"), options, progress=lambda p: line(_map_progress(p)))
+    bar = _Progress("cells", "map")
+    result = run_map(resolve(args.scene, "scene"), options,
+                     progress=lambda p: bar.show(p.done, p.total, _map_progress(p)))
     o, cells = result.options, result.cells
     exists = sum(bool(c.secure_path) for c in cells)
     solved = sum(bool(c.planner_solved) for c in cells)
@@ -394,38 +449,70 @@ def _map(args: argparse.Namespace) -> int:
 
 
 def _map_progress(p) -> str:
-    """One progress line of a map (p: benchmark.map.MapProgress)."""
-    line = f"map: {p.done}/{p.total} cells"
+    """How a map stands, beside its count (p: benchmark.map.MapProgress)."""
+    words = []
     if p.resumed:
-        line += f" ({p.resumed} from an earlier run)"
+        words.append(f"{p.resumed} from an earlier run")
     if p.failed:
-        line += f", {p.failed} failed"
+        words.append(f"{p.failed} failed")
     if p.last is not None:
         verdict = ("failed" if p.last.secure_path is None else
                    "secure path" if p.last.secure_path else "no secure path")
-        line += f"; last alpha {p.last.alpha:g}, friction x{p.last.friction_scale:g}: {verdict}"
-    return line
+        words.append(f"last alpha {p.last.alpha:g}, friction x{p.last.friction_scale:g}: {verdict}")
+    return "; ".join(words)
 
 
-class _Line:
-    """One line on stderr, overwritten in place (\\r) and ended with a newline; wiped instead when
-    the command ends with an error, so that the error's line is the one left."""
+class _Progress:
+    """How far a long command has got, on stderr: on a terminal a tqdm bar (count, rate, time left)
+    redrawn in place; in a pipe or a log a plain line at each tenth (never a carriage return). A
+    new stage starts a new bar. A bar ends when done reaches total, and is wiped when the command
+    ends with an error (run() closes it), so that the error's line is the one left."""
 
-    def __init__(self) -> None:
-        self.width = 0
+    open: list["_Progress"] = []  #: bars on the terminal now
 
-    def __call__(self, text: str) -> None:
-        self.width = max(self.width, len(text))
-        sys.stderr.write("\r" + text.ljust(self.width))
-        sys.stderr.flush()
+    def __init__(self, unit: str, stage: str = "") -> None:
+        self.unit = unit
+        """What is counted (runs, trials, cells, pieces)."""
+        self.stage = stage
+        """What is being done, shown before the count."""
+        self.bar = None
+        self.tenth = 0  # tenths reported in a log (none at the start)
+        self.started = time.monotonic()
 
-    def __enter__(self) -> "_Line":
-        return self
+    def show(self, done: int, total: int, status: str = "", stage: str | None = None) -> None:
+        """done of total units so far; status: a few words on the latest one."""
+        if stage is not None and stage != self.stage:
+            self.close()
+            self.stage, self.tenth, self.started = stage, 0, time.monotonic()
+        if sys.stderr.isatty():
+            if self.bar is None:
+                import shutil
 
-    def __exit__(self, kind, *_) -> None:
-        if self.width:
-            sys.stderr.write("\n" if kind is None else "\r" + " " * self.width + "\r")
-            sys.stderr.flush()
+                from tqdm import tqdm
+
+                cols, rows = shutil.get_terminal_size()  # 80 x 24 where a terminal says 0 x 0 (tqdm would hide)
+                self.bar = tqdm(total=total, desc=self.stage or None, unit=f" {self.unit}", file=sys.stderr,
+                                ncols=cols, nrows=rows)
+                _Progress.open.append(self)
+            self.bar.total = total
+            self.bar.set_postfix_str(status, refresh=False)
+            self.bar.update(done - self.bar.n)
+        elif total and 10 * done // total > self.tenth:
+            self.tenth = 10 * done // total
+            spent = time.monotonic() - self.started
+            left = f", about {spent * (total - done) / done:.0f} s left" if 0 < done < total else ""
+            print(f"{self.stage + ': ' if self.stage else ''}{done}/{total} {self.unit} after {spent:.0f} s{left}"
+                  + (f"; {status}" if status else ""), file=sys.stderr, flush=True)
+        if done >= total:
+            self.close()
+
+    def close(self, ok: bool = True) -> None:
+        """End the bar: kept on its line (ok) or wiped (the command ends with an error)."""
+        if self.bar is not None:
+            self.bar.leave = ok
+            self.bar.close()
+            self.bar = None
+            _Progress.open.remove(self)
 
 
 def _with_finger_tip(scene, tip: str):
@@ -440,13 +527,6 @@ def _with_finger_tip(scene, tip: str):
 def _cluster(args: argparse.Namespace) -> str | None:
     """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
-
-
-def _bar(done: int, total: int, width: int = 30) -> None:
-    """A progress bar on stderr, redrawn in place; a newline when all is done."""
-    filled = width * done // total if total else width
-    sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total}" + ("\n" if done == total else ""))
-    sys.stderr.flush()
 
 
 def _tile(args: argparse.Namespace) -> int:
@@ -464,9 +544,9 @@ def _tile(args: argparse.Namespace) -> int:
         raise InputError("--out", f"{out} exists and is not a directory")
     if args.planner != "lattice":
         PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
-    with _Line() as line:
-        result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range,
-                                            approaches=args.approaches), _tile_progress(line))
+    seed = _seed(args.seed)
+    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=seed, range=args.range,
+                                        approaches=args.approaches), _tile_progress(_Progress("pieces")))
     print(result.summary())
     write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
     draw_layout(layout, result, out / "layout.png")
@@ -491,11 +571,13 @@ def _tile(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _tile_progress(line: _Line):
-    """tile()'s progress (p: tiling.TilingProgress) as one line on stderr."""
+def _tile_progress(bar: _Progress):
+    """tile()'s progress (p: tiling.TilingProgress) on the bar: a stage for the search, one for the plans."""
     def show(p) -> None:
-        line(f"searching an order: {p.done}/{p.total} pieces down, {p.checks} approaches checked ({p.piece})"
-             if p.stage == "search" else f"planning: {p.done}/{p.total} pieces planned ({p.piece})")
+        if p.stage == "search":
+            bar.show(p.done, p.total, f"{p.checks} approaches checked ({p.piece})", "searching an order")
+        else:
+            bar.show(p.done, p.total, p.piece, "planning")
     return show
 
 
@@ -649,16 +731,12 @@ def _simulate_layout(args: argparse.Namespace, perturbation, out: Path) -> int:
 
 
 def _progress(total: int):
-    """A progress bar on stderr, advanced by each call."""
-    done = []
+    """A progress bar of total trials (or attempts), advanced by each call."""
+    bar, done = _Progress("trials", "simulate"), [0]
 
     def step(_) -> None:
-        done.append(1)
-        filled = round(30 * len(done) / total)
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (30 - filled)}] {len(done)}/{total}")
-        if len(done) == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        done[0] += 1
+        bar.show(done[0], total)
 
     return step
 
@@ -691,9 +769,11 @@ def _regions(args: argparse.Namespace) -> int:
 def _scenes(args: argparse.Namespace) -> int:
     shipped = shipped_scenes()
     width = max([len("name")] + [len(s.name) for s in shipped])
-    print(f"{'name':<{width}}  {'kind':<6}  description")
+    print(f"{'name':<{width}}  {'kind':<6}  {'robot':<6}  description")
     for s in shipped:
-        print(f"{s.name:<{width}}  {s.kind:<6}  {s.description}")
+        print(f"{s.name:<{width}}  {s.kind:<6}  {'planar' if s.planar_only else 'ready':<6}  {s.description}")
+        if s.planar_only:
+            print(f"{'':<{width + 18}}planar only: {s.planar_only}")
     if shipped:
         print(f"\nrun one by name (ungrasp-ompl plan guitar_pick, ungrasp-ompl tile tangram); "
               f"the files are in {shipped[0].path.parent}")
@@ -709,9 +789,13 @@ def run(argv: list[str] | None = None) -> int:
                     "map": _map, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
         return commands[args.command](args)
     except UngraspError as exc:
-        print(f"ungrasp-ompl: error: {exc}", file=sys.stderr)
+        for bar in list(_Progress.open):
+            bar.close(ok=False)
+        print(f"ungrasp-ompl: error: {shipped_names(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
+        for bar in list(_Progress.open):
+            bar.close(ok=False)
         print("ungrasp-ompl: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader went away (e.g. piped into head)

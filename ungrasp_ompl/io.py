@@ -1,11 +1,16 @@
-"""Atomic file writing: a file is either its old self or completely new, never half-written."""
+"""Atomic file writing: a file is either its old self or completely new, never half-written; and
+reading back the JSON files the commands wrote."""
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+from .errors import InputError
 
 
 def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> None:
@@ -28,3 +33,18 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     """Write text to path atomically."""
     write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def read_json_file(path: str | os.PathLike[str], field: str) -> Any:
+    """The parsed JSON of a file the commands wrote; InputError naming field (the file's option or
+    name) when it is missing, unreadable, or not JSON (cut short or mistyped: the place is given)."""
+    source = str(path)
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(field, "no such file", source) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(field, f"is not valid JSON (cut short or mistyped?) at line {exc.lineno}, column "
+                         f"{exc.colno}", source) from None
+    except (OSError, UnicodeDecodeError, RecursionError):
+        raise InputError(field, "cannot be read as JSON text", source) from None

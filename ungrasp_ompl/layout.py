@@ -106,9 +106,13 @@ class Layout:
     # -- loading -------------------------------------------------------------------
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Layout":
-        """Load and validate a layout file; raises InputError naming the bad field."""
+        """Load and validate a layout file, or the shipped layout of that name ("tangram"); raises
+        InputError naming the bad field."""
+        from .shipped import resolve, shipped_names
+
+        path = resolve(path, "layout")
         data = read_yaml(path, "layout")
-        return cls.from_dict(data, source=str(path), default_name=Path(path).stem)
+        return cls.from_dict(data, source=shipped_names(str(path)), default_name=path.stem)
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":

@@ -113,13 +113,18 @@ class Scene:
     robot: RobotOptions = field(default_factory=RobotOptions)
     solids: tuple = ()  # convex Solids fixed in the world (a layout's frame walls, pieces placed already)
     sim: SimOptions = field(default_factory=SimOptions)  # how the scene is simulated
+    planar_only: str | None = None  # why the robot cannot execute this scene's plans (None: robot-ready)
 
     # -- loading -----------------------------------------------------------------
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
-        """Load and validate a scene file; raises InputError naming the bad field."""
+        """Load and validate a scene file, or the shipped scene of that name ("guitar_pick"; see
+        ``ungrasp-ompl scenes`` and shipped.resolve); raises InputError naming the bad field."""
+        from .shipped import resolve, shipped_names
+
+        path = resolve(path, "scene")
         data = read_yaml(path, "scene")
-        return cls.from_dict(data, source=str(path), default_name=Path(path).stem)
+        return cls.from_dict(data, source=shipped_names(str(path)), default_name=path.stem)
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "scene") -> "Scene":
@@ -128,7 +133,7 @@ class Scene:
         top = r.mapping(data, "scene")
         r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
                           "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot",
-                          "sim"})
+                          "sim", "planar_only"})
         name = r.name(top, "name", default_name)
 
         obj = r.mapping(r.require(top, "object"), "object")
@@ -289,8 +294,26 @@ class Scene:
                                          minimum=0.0, maximum=1e4, default=1.0),
         )
         robot = r.robot(top.get("robot", {}))
+        planar_only = top.get("planar_only")
+        if planar_only is not None and not (isinstance(planar_only, str) and planar_only.strip()):
+            raise InputError("planar_only", f"must say why the robot cannot execute the scene, got {planar_only!r}",
+                             source)
         return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
-                   object3d, plane, mu_contacts, max_tilt, robot, sim=r.sim(top.get("sim", {})))
+                   object3d, plane, mu_contacts, max_tilt, robot, sim=r.sim(top.get("sim", {})),
+                   planar_only=planar_only and planar_only.strip())
+
+    def __repr__(self) -> str:
+        """One line in SI units (metres; angles in degrees where marked _deg; d over l as in the files)."""
+        l, dg = self.object_length, self.digits
+        lo, hi = self.goal.box()
+        th, d, ps = self.start
+        return (f"Scene({self.name!r}, length_m={l:.4g}, thickness_m={self.object_thickness:.4g}, "
+                f"mu_GAB=({self.mu[0]:.3g}, {self.mu[1]:.3g}, {self.mu[2]:.3g}), "
+                f"thumb_m={dg.thumb_length * l:.4g}, finger_m={(dg.thumb_length + dg.alpha) * l:.4g}, "
+                f"start=(theta_deg={math.degrees(th):.4g}, d={d:.4g}, psi_deg={math.degrees(ps):.4g}), "
+                f"goal=(theta_deg<={math.degrees(hi[0]):.4g}, d={lo[1]:.4g}..{hi[1]:.4g}, "
+                f"psi_deg={math.degrees(lo[2]):.4g}..{math.degrees(hi[2]):.4g}), obstacles={len(self.obstacles)}"
+                + (", planar_only" if self.planar_only else "") + ")")
 
     # -- queries -----------------------------------------------------------------
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:

@@ -48,6 +48,7 @@ class ShippedScene:
     kind: str  #: "scene" or "layout" (a layout has ``pieces``)
     description: str  #: its ``description:`` field, else its first comment line
     path: Path  #: where it is on the filesystem
+    planar_only: str | None = None  #: why the robot cannot execute it (its ``planar_only:``); None: robot-ready
 
 
 def _describe(text: str, data: object) -> str:
@@ -73,9 +74,20 @@ def shipped_scenes() -> list[ShippedScene]:
         except yaml.YAMLError:
             raise InputError("scene", "not valid YAML", f"shipped {entry.name}") from None
         kind = "layout" if isinstance(data, dict) and "pieces" in data else "scene"
+        planar = data.get("planar_only") if isinstance(data, dict) else None
         found.append(ShippedScene(name=Path(entry.name).stem, kind=kind, description=_describe(text, data),
-                                  path=package_file(SCENES_PACKAGE, entry.name)))
+                                  path=package_file(SCENES_PACKAGE, entry.name),
+                                  planar_only=str(planar).strip() if planar else None))
     return sorted(found, key=lambda s: s.name)
+
+
+def shipped_names(text: str) -> str:
+    """text with every path of a shipped scene or layout file replaced by its name (guitar_pick for
+    .../site-packages/ungrasp_ompl/shipped_scenes/guitar_pick.yaml): how a message names them."""
+    import re
+
+    folder = os.path.join(str(resources.files(SCENES_PACKAGE)), "")
+    return re.sub(re.escape(folder) + r"([\w.-]+?)\.ya?ml\b", r"\1", text)
 
 
 def resolve(name_or_path: str | os.PathLike[str], kind: str = "scene") -> Path:

@@ -193,8 +193,11 @@ class Plan:
             if (not isinstance(value, list) or len(value) != 3
                     or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
                     or not all(math.isfinite(v) for v in value)):
-                raise InputError(field, f"must be a state [theta_rad, d, psi_rad] of finite numbers, got {value!r}",
+                raise InputError(field, f"must be a state [theta_rad, d, psi_rad] of finite numbers, got {value!r:.80}",
                                  source)
+            if not (0.0 <= value[0] <= math.pi / 2 and 0.0 <= value[1] <= 1.0 and 0.0 <= value[2] < math.pi):
+                raise InputError(field, "must lie within theta [0, pi/2] rad, d [0, 1], psi [0, pi) rad (the widest "
+                                 f"bounds of any scene), got {value!r:.80}", source)
             return [float(v) for v in value]
 
         states = doc.get("states")
@@ -218,6 +221,11 @@ class Plan:
             steps.append(PrimitiveStep(p["type"], str(p.get("direction", "forward")), ways[0], ways[-1],
                                        dict(sliding) if isinstance(sliding, dict) else {},
                                        str(p.get("stability", "")), ways, p.get("x_moments")))
+        ends = [state(states[0], "states[0]")] + [st.end for st in steps[:-1]]
+        for i, (st, end) in enumerate(zip(steps, ends)):
+            if max(abs(a - b) for a, b in zip(st.start, end)) > 1e-9:
+                raise InputError(f"primitives[{i}].waypoints[0]", f"must be where the path is before it, {end}, "
+                                 f"got {st.start}", source)
         known = set(cls.__dataclass_fields__) - {"states", "primitives", "outcome"}
         rest = {k: v for k, v in doc.items() if k in known}
         rest.setdefault("scene", "plan")
@@ -277,16 +285,19 @@ class Plan:
 
 
 def read_plan(path: str) -> Plan:
-    """Read a plan.json; InputError naming the field (or the file) when it cannot be used."""
+    """Read a plan.json, or the plan.json of a directory (what plan --out DIR or --export DIR
+    wrote); InputError naming the field (or the file) when it cannot be used."""
     from pathlib import Path
 
-    try:
-        doc = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise InputError("--plan", "no such file", str(path)) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError("--plan", f"not a readable JSON file ({exc.__class__.__name__})", str(path)) from None
-    return Plan.from_dict(doc, source=str(path))
+    path = Path(path)
+    if path.is_dir():
+        if not (path / "plan.json").is_file():
+            raise InputError("--plan", "holds no plan.json (plan --out DIR or plan --export DIR writes one)",
+                             str(path))
+        path = path / "plan.json"
+    from ..io import read_json_file
+
+    return Plan.from_dict(read_json_file(path, "--plan"), source=str(path))
 
 
 def _deg(q: list[float]) -> str:

@@ -23,7 +23,7 @@ import yaml
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import write_atomic, write_text_atomic
+from ..io import read_json_file, write_atomic, write_text_atomic
 from .trajectory import ARM_JOINTS, GRIPPER_JOINT, JointTrajectory
 
 #: Version of the CSV/JSON/YAML/URScript layouts written here.
@@ -92,8 +92,10 @@ def _make(times: Any, positions: Any, velocities: Any, accelerations: Any, joint
                                accelerations=np.asarray(accelerations, dtype=float).reshape(len(times), -1),
                                joint_names=tuple(str(j) for j in joint_names),
                                segments=[(str(s), int(a), int(b)) for s, a, b in segments])
-    except (TypeError, ValueError) as e:
-        raise InputError("points", f"not a numeric samples x joints table ({e})", source) from None
+    except (TypeError, ValueError):
+        raise InputError("points", f"must be a table of numbers, one row of {len(joint_names)} per sample "
+                         "(positions, velocities, accelerations), and segments names with sample indices",
+                         source) from None
     return _checked(traj, source)
 
 
@@ -183,10 +185,7 @@ def read_json(path: PathLike) -> JointTrajectory:
     """Read a file written by write_json; InputError("schema_version", ...) unless it is
     SCHEMA_VERSION, InputError naming the field for other malformed content."""
     source = str(path)
-    try:
-        doc = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as e:
-        raise InputError("json", str(e), source) from None
+    doc = read_json_file(path, "trajectory.json")
     if not isinstance(doc, dict) or "schema_version" not in doc:
         raise InputError("schema_version", f"missing; expected {SCHEMA_VERSION}", source)
     version = doc["schema_version"]

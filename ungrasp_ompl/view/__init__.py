@@ -22,6 +22,8 @@ from .trial_poses import POSES_FILE
 TRAJECTORY_FILE = "trajectory.json"
 VIEW_FILE = "view.html"
 FRAMES_FILE = "view_frames.png"
+#: The longest trajectory the view animates (s): an hour, some 100,000 frames.
+MAX_DURATION_S = 3600.0
 
 PathLike = str | os.PathLike[str]
 
@@ -53,7 +55,7 @@ def load_scene(directory: PathLike):
     if not traj_path.is_file():
         raise InputError("DIR", f"{d} holds no {TRAJECTORY_FILE} (write one with plan --export DIR, tile --out DIR "
                          "or simulate --out DIR)")
-    traj = read_json(traj_path)
+    traj = _viewable(read_json(traj_path), str(traj_path))
     sources = [traj_path]
     record_path = d / RECORD_FILE
     if record_path.is_file():
@@ -69,6 +71,38 @@ def load_scene(directory: PathLike):
     if not record_path.is_file():
         scene.notes.append(f"no {RECORD_FILE} beside the trajectory: the robot only, its base at the origin")
     return scene, sources
+
+
+def _viewable(traj, source: str):
+    """traj (robot.trajectory.JointTrajectory) once it holds what the view animates: the UR5e's six
+    joints and the gripper opening, in that order, at angles the arm can take and openings the
+    gripper can, for at most MAX_DURATION_S; InputError naming the field otherwise."""
+    import math
+
+    import numpy as np
+
+    from ..robot.trajectory import JOINT_NAMES
+
+    if tuple(traj.joint_names) != JOINT_NAMES:
+        raise InputError("joint_names", f"must be {', '.join(JOINT_NAMES)} (the UR5e and its gripper), got "
+                         f"{', '.join(traj.joint_names)}", source)
+    arm, opening = traj.positions[:, :-1], traj.positions[:, -1]
+    if np.abs(arm).max() > 2 * math.pi + 1e-9:
+        raise InputError("points.positions", f"the arm's joint angles must lie within [-2 pi, 2 pi] rad, got "
+                         f"{float(arm.flat[np.abs(arm).argmax()]):.4g}", source)
+    if not 0.0 <= opening.min() <= opening.max() <= 1.0:
+        raise InputError("points.positions", f"the gripper opening (the last joint) must lie within [0, 1] m, got "
+                         f"{float(opening.min() if opening.min() < 0 else opening.max()):.4g}", source)
+    duration = float(traj.times[-1] - traj.times[0])
+    if duration > MAX_DURATION_S:
+        raise InputError("points.time_s", f"span {duration:.4g} s; the view animates at most {MAX_DURATION_S:g} s",
+                         source)
+    n = len(traj.times)
+    for name, a, b in traj.segments:
+        if not 0 <= a <= b < n:
+            raise InputError("segments", f"{name}: start {a} and end {b} must be sample indices in order, 0..{n - 1}",
+                             source)
+    return traj
 
 
 def make_view(directory: PathLike, out: PathLike | None = None, frames: int | None = None) -> ViewFiles:

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import write_text_atomic
+from ..io import read_json_file, write_text_atomic
 from ..robot.model import GripperSpec, tcp_pose
 from ..robot.trajectory import JointTrajectory
 
@@ -222,10 +222,7 @@ def _project(points: NDArray, polyline: NDArray) -> NDArray[np.float64]:
 def read_view_record(path: PathLike) -> ViewRecord:
     """Read a view_scene.json; InputError naming the field for malformed content."""
     source = str(path)
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError("json", str(e), source) from None
+    doc = read_json_file(path, "view_scene.json")
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise InputError("format", f"expected {FORMAT!r}", source)
     if doc.get("schema_version") != SCHEMA_VERSION:
@@ -238,8 +235,12 @@ def read_view_record(path: PathLike) -> ViewRecord:
     gripper = _get(robot, "gripper", dict, source, "robot.")
     try:
         spec = GripperSpec(**{k: float(v) for k, v in gripper.items()})
-    except (TypeError, ValueError) as e:
-        raise InputError("robot.gripper", str(e), source) from None
+    except InputError as e:
+        raise InputError(f"robot.{e.field}", e.reason, source) from None
+    except (TypeError, ValueError):
+        raise InputError("robot.gripper", "needs the lengths of robot.model.GripperSpec in metres", source) from None
+    if max(spec.__dict__.values()) > 10.0:
+        raise InputError("robot.gripper", "has a length over 10 m", source)
     solids = [SolidRecord(_get(s, "name", str, source, "solids."),
                           _array(_get(s, "vertices", list, source, "solids."), (-1, 3), "solids.vertices", source),
                           s.get("kind", "solid"))
@@ -254,11 +255,12 @@ def read_view_record(path: PathLike) -> ViewRecord:
         pieces.append(PieceRecord(
             _get(p, "name", str, source, w), _get(p, "prefix", str, source, w),
             _array(_get(p, "outline", list, source, w), (-1, 2), w + "outline", source),
-            float(_get(p, "thickness", (int, float), source, w)),
-            _array(_get(p, "target", list, source, w), (4, 4), w + "target", source),
-            float(_get(p, "appear_s", (int, float), source, w)), float(_get(p, "carry_end_s", (int, float), source, w)),
-            _array(_get(p, "grip", list, source, w), (4, 4), w + "grip", source), times, tilt))
-    base = _array(_get(robot, "base", list, source, "robot."), (4, 4), "robot.base", source)
+            float(_array(_get(p, "thickness", (int, float), source, w), (), w + "thickness", source)),
+            _pose(_get(p, "target", list, source, w), w + "target", source),
+            float(_array(_get(p, "appear_s", (int, float), source, w), (), w + "appear_s", source)),
+            float(_array(_get(p, "carry_end_s", (int, float), source, w), (), w + "carry_end_s", source)),
+            _pose(_get(p, "grip", list, source, w), w + "grip", source), times, tilt))
+    base = _pose(_get(robot, "base", list, source, "robot."), "robot.base", source)
     digits = robot.get("digits")
     if digits is not None:
         if not isinstance(digits, dict) or any(not isinstance(digits.get(k), (int, float)) or isinstance(digits.get(k), bool)
@@ -277,6 +279,11 @@ def _get(doc: Any, key: str, kind: type | tuple[type, ...], source: str, where: 
     return value
 
 
+#: The largest magnitude a number of the record may have (m, rad or s): a bound far beyond any
+#: scene's, which keeps a hand-edited absurd value from overflowing the drawing.
+_LARGEST = 1e4
+
+
 def _array(value: Any, shape: tuple[int, ...], name: str, source: str) -> NDArray[np.float64]:
     """value as a float array of shape (-1: any length), InputError naming the field otherwise."""
     wanted = tuple("N" if s == -1 else s for s in shape)
@@ -287,7 +294,19 @@ def _array(value: Any, shape: tuple[int, ...], name: str, source: str) -> NDArra
     if arr is None or arr.ndim != len(shape) or any(s not in (-1, n) for s, n in zip(shape, arr.shape)) \
             or not np.all(np.isfinite(arr)):
         raise InputError(name, f"must be finite numbers of shape {wanted}", source)
+    if np.any(np.abs(arr) > _LARGEST):
+        raise InputError(name, f"must lie within +-{_LARGEST:g} (m, rad or s)", source)
     return arr
+
+
+def _pose(value: Any, name: str, source: str) -> NDArray[np.float64]:
+    """value as a 4x4 rigid transform (a rotation and a translation in m), InputError naming the field otherwise."""
+    pose = _array(value, (4, 4), name, source)
+    rot = pose[:3, :3]
+    if not (np.allclose(rot @ rot.T, np.eye(3), atol=1e-6) and np.linalg.det(rot) > 0
+            and np.allclose(pose[3], [0, 0, 0, 1])):
+        raise InputError(name, "must be a rigid transform: a rotation, a translation and the row 0 0 0 1", source)
+    return pose
 
 
 def robot_model(record: ViewRecord) -> Any:

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import write_text_atomic
+from ..io import read_json_file, write_text_atomic
 
 POSES_FILE = "trial_poses.json"
 FORMAT = "ungrasp-ompl trial poses"
@@ -95,10 +95,7 @@ def write_trial_poses(directory: PathLike, poses: TrialPoses) -> Path:
 def read_trial_poses(path: PathLike) -> TrialPoses:
     """Read a trial_poses.json; InputError naming the field for malformed content."""
     source = str(path)
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError("json", str(e), source) from None
+    doc = read_json_file(path, "trial_poses.json")
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise InputError("format", f"expected {FORMAT!r}", source)
     if doc.get("schema_version") != SCHEMA_VERSION:

@@ -1,0 +1,66 @@
+"""The shipped scenes: those `scenes` calls robot-ready are executed by the robot without a collision;
+the others say why not; every obstacle is bounded."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import SCENES, run_cli
+from ungrasp_ompl.geometry import CollisionChecker
+from ungrasp_ompl.mechanics import kinematic_validity
+from ungrasp_ompl.planning.atlas import lattice_axes
+from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.shipped import shipped_scenes
+
+SHIPPED = [s for s in shipped_scenes() if s.kind == "scene"]
+READY = [s.name for s in SHIPPED if not s.planar_only]
+
+
+def test_the_object_scenes_are_robot_ready_and_the_planar_ones_say_why():
+    assert sorted(READY) == ["fabric_chalk", "guitar_pick", "guitar_pick_1_5mm", "puzzle_piece"]
+    for s in SHIPPED:
+        assert Scene.from_file(s.name).planar_only == s.planar_only
+        assert s.planar_only is None or len(s.planar_only.split()) > 8  # a reason, not a flag
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("planner", ["RRTstar", "lattice"])
+@pytest.mark.parametrize("name", READY)
+def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
+    proc = run_cli("plan", name, "--planner", planner, "--seed", "2", "--time", "0.5", "--export", str(tmp_path))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert (tmp_path / "trajectory.json").is_file() and (tmp_path / "plan.json").is_file()
+    assert "planar-only" not in proc.stdout
+
+
+def test_every_shipped_obstacle_is_bounded():
+    """Within a metre of G: a robot's arm can pass above or beside it (the reference planner's
+    quadrants reached 100 m)."""
+    for s in SHIPPED:
+        for box in Scene.from_file(s.name).obstacles:
+            assert max(map(abs, (*box.lo, *box.hi))) < 1.0, (s.name, box)
+
+
+def _collisions(scene: Scene) -> np.ndarray:
+    """In collision, per kinematically valid state of the planning lattice over the scene's bounds."""
+    _, axes = lattice_axes(scene.start, np.asarray(scene.options.resolution), scene.bounds)
+    th, d, ps = (np.reshape(ax, s) for ax, s in zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
+    kin = np.broadcast_to(kinematic_validity(th, d, ps, scene.digits), tuple(len(a) for a in axes)).copy()
+    return CollisionChecker(scene.collision_model()).in_collision_lattice(axes, where=kin)
+
+
+@pytest.mark.slow
+def test_upper_obstacle_block_acts_as_the_reference_quadrant():
+    """The block of reference_upper_obstacle puts every lattice state in collision or not exactly as
+    the reference planner's quadrant (everything left of and above its corner) does."""
+    doc = yaml.safe_load((SCENES / "reference_upper_obstacle.yaml").read_text())
+    (block,) = doc["obstacles"]
+    corner = [block["center"][0] + block["size"][0] / 2, block["center"][1] - block["size"][1] / 2]
+    assert np.allclose(corner, [0.3 * 0.06, 0.7 * 0.06])
+    quadrant = dict(doc, obstacles=[{"name": "quadrant", "corner": corner, "extends": [-1, 1]}])
+    assert Scene.from_dict(quadrant).obstacles[0].hi[1] >= 100.0
+    blocked = _collisions(Scene.from_dict(doc))
+    assert blocked.sum() > 10**5
+    assert np.array_equal(blocked, _collisions(Scene.from_dict(quadrant)))
