@@ -86,7 +86,7 @@ class TrialResult:
     seed: int | None = None
     sim_time_s: float = 0.0
     wall_time_s: float = 0.0
-    final_pose: list = field(default_factory=list)  #: 4x4 world pose of the object's body at the end
+    final_pose: list = field(default_factory=list)  #: 4x4 world pose of the object's body at the end (at the failure, if it failed)
     placed_poses: list = field(default_factory=list)  #: 4x4 poses of the objects already down, at the end
     max_penetration_mm: float = 0.0
     a_off_dome_share: float | None = None

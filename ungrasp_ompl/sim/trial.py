@@ -324,7 +324,9 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
               record: list | None = None) -> TrialResult:
     """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
     (time s from the drive's start, 4x4 world pose of the object) is appended after the settling
-    (time 0), after every control tick, and once after the rest (the 3D view shows it)."""
+    (time 0), after every control tick, and once after the rest (the 3D view shows it). Without
+    it a trial stops at its failure, since nothing after it can change the verdict: a failed
+    trial's final pose is where the object was then."""
     import mujoco
 
     wall = time.perf_counter()
@@ -347,6 +349,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     roll = sinking = dome = off_dome = 0.0
     failure: tuple[Outcome, float] | None = None
     for k in range(1, len(drive.times)):
+        if failure is not None and record is None:  # what follows a failure cannot change the verdict
+            break
         _set_palm(data, ids, palm[k], quat)
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
         mujoco.mj_step(model, data, nstep=substeps)
@@ -381,7 +385,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if t - missing_since >= LOSS_WINDOW:
             failure = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= missing_since - 0.2),
                        missing_since)
-    mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
+    if failure is None or record is not None:
+        mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
     if record is not None:
