@@ -3,9 +3,9 @@
     python tools/bench_sim.py [--repeat N]
 
 Plans each shipped object once (RRT*, seed 1), builds its trajectory, then times N whole trials
-(poses recorded, so that a trial runs to the end even where it fails) without perturbation (model compile, settle, drive, rest) and prints the best and median wall
-time and the median CPU time of this process (on a machine shared with other work the CPU time
-is what one free core would take).
+without perturbation (model compile, settle, drive, rest; poses recorded, so that a trial runs to
+the end even where it fails) and prints the best and median wall time and the median CPU time of
+this process (on a machine shared with other work, the CPU time is what one free core takes).
 """
 
 from __future__ import annotations
