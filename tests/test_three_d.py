@@ -215,3 +215,33 @@ def test_fixed_pair_is_used(tmp_path):
     proc = run_cli("stability", str(path))
     assert proc.returncode == 0, proc.stderr
     assert "fixed by the scene" in proc.stdout and "G (25.00, 25.00) mm" in proc.stdout
+
+
+@pytest.mark.parametrize("sagitta", [2e-6, 5e-7])
+def test_refined_outline_lies_on_the_rounded_corners(sagitta):
+    """The simulator's outline fills in a rounded polygon's arcs: it keeps every sample, every
+    added point lies on its corner's circle (centre found independently from the polygon's
+    geometry), and no chord strays more than the sagitta from its arc."""
+    corners, radii = np.array([[-0.018, 0], [0.018, 0], [0, 0.036]]), np.array([0.008, 0.008, 0.003])
+    outline = rounded_polygon(corners, radii)
+    fine = outline.refined(sagitta)
+    assert len(fine) > len(outline.vertices)
+    for v in outline.vertices:  # the samples are kept
+        assert np.min(np.linalg.norm(fine - v, axis=1)) < 1e-15
+    centres = []
+    for i, (p, r) in enumerate(zip(corners, radii)):  # a corner's centre: r from both of its sides
+        u1, u2 = corners[i - 1] - p, corners[(i + 1) % 3] - p
+        u1, u2 = u1 / np.linalg.norm(u1), u2 / np.linalg.norm(u2)
+        half = math.acos(float(u1 @ u2)) / 2
+        centres.append(p + (u1 + u2) / np.linalg.norm(u1 + u2) * r / math.sin(half))
+    added = [q for q in fine if np.min(np.linalg.norm(outline.vertices - q, axis=1)) > 1e-12]
+    assert added
+    for q in added:
+        off = [abs(np.linalg.norm(q - c) - r) for c, r in zip(centres, radii)]
+        assert min(off) < 1e-12
+    for a, b in zip(fine, np.roll(fine, -1, axis=0)):  # chords of an arc stray at most the sagitta
+        mid = (a + b) / 2
+        off = [(r - np.linalg.norm(mid - c)) for c, r in zip(centres, radii)
+               if abs(np.linalg.norm(a - c) - r) < 1e-12 and abs(np.linalg.norm(b - c) - r) < 1e-12]
+        if off:
+            assert min(off) <= sagitta * (1 + 1e-9)

@@ -44,10 +44,12 @@ class Object3D:
     position: tuple[float, float] = (0.0, 0.0)
     yaw: float = 0.0
 
-    def placed_outline(self) -> NDArray[np.float64]:
-        """The outline's vertices (N, 2) turned by yaw and moved to position (the frame of position)."""
+    def placed_outline(self, max_sagitta: float | None = None) -> NDArray[np.float64]:
+        """The outline's vertices (N, 2) turned by yaw and moved to position (the frame of position);
+        with max_sagitta (m), its curves filled in that finely (Outline.refined)."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return self.outline.vertices @ np.array([[c, s], [-s, c]]) + np.asarray(self.position)
+        v = self.outline.vertices if max_sagitta is None else self.outline.refined(max_sagitta)
+        return v @ np.array([[c, s], [-s, c]]) + np.asarray(self.position)
 
     def to_dict(self) -> dict:
         return {"outline": self.outline.vertices.tolist(), "thickness_m": self.thickness,

@@ -83,6 +83,33 @@ class Outline:
     def area(self) -> float:
         return _signed_area(self.vertices)
 
+    def refined(self, max_sagitta: float) -> NDArray[np.float64]:
+        """The vertices (m) with the sampled curves filled in: each side that is a chord of a
+        smooth curve is divided along the circle through its ends and the next sample on the same
+        curve (exact for circular arcs) until no chord strays more than max_sagitta (m) from its
+        arc. The original vertices are kept, so contact points chosen among them stay vertices."""
+        v = self.vertices
+        n = len(v)
+        out = []
+        for i in range(n):
+            out.append(v[i])
+            if self.straight[i]:
+                continue
+            a, b = v[i], v[(i + 1) % n]
+            third = v[(i + 2) % n] if not self.straight[(i + 1) % n] else v[i - 1] if not self.straight[i - 1] else None
+            centre = None if third is None else _circumcentre(a, b, third)
+            if centre is None:
+                continue
+            r = float(np.linalg.norm(a - centre))
+            a0 = math.atan2(*(a - centre)[::-1])
+            turn = (math.atan2(*(b - centre)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
+            step = 2 * math.acos(max(-1.0, 1 - max_sagitta / r)) if max_sagitta < r else math.pi
+            k = math.ceil(abs(turn) / step)
+            for j in range(1, k):
+                ang = a0 + turn * j / k
+                out.append(centre + r * np.array([math.cos(ang), math.sin(ang)]))
+        return np.array(out)
+
     def candidates(self, edge_samples: int = 9) -> ContactCandidates:
         """Contact candidates: every vertex, plus edge_samples points inside each straight side."""
         v = self.vertices
@@ -120,6 +147,16 @@ def _circumradius(a: NDArray, b: NDArray, c: NDArray) -> float:
     ab, bc, ca = np.linalg.norm(b - a), np.linalg.norm(c - b), np.linalg.norm(a - c)
     cross = abs((b - a)[0] * (c - a)[1] - (b - a)[1] * (c - a)[0])
     return math.inf if cross < 1e-18 else ab * bc * ca / (2 * cross)
+
+
+def _circumcentre(a: NDArray, b: NDArray, c: NDArray) -> NDArray[np.float64] | None:
+    """Centre of the circle through three points; None when they are collinear."""
+    p, q = a - c, b - c
+    d = 2 * (p[0] * q[1] - q[0] * p[1])
+    if abs(d) < 1e-18:
+        return None
+    pp, qq = p @ p, q @ q
+    return c + np.array([q[1] * pp - p[1] * qq, p[0] * qq - q[0] * pp]) / d
 
 
 def _self_intersects(v: NDArray) -> bool:

@@ -33,13 +33,19 @@ class Variant:
     equal_digits: bool = False  #: the thumb made as long as the finger (alpha 0), the motion unchanged
 
 
+#: How far (m) the simulated object's facets may stray from its curved outline: a tenth of the
+#: 0.02 mm Hertz indentation of its contacts (docs/model.md 11.1), so that the contacts feel the
+#: curve, with its own curvature on both sides of G and B, and not the planner's samples.
+OUTLINE_SAGITTA = 2e-6
+
+
 def object_outline(scene: Scene) -> NDArray[np.float64]:
     """The object's outline (N, 2) in its body frame (the manipulation plane's frame at the
-    target: x along GB from G, y across), m. Without an outline: a strip of the object's length
-    and the digits' width."""
+    target: x along GB from G, y across), m, its curves filled in to OUTLINE_SAGITTA. Without an
+    outline: a strip of the object's length and the digits' width."""
     if scene.object3d is not None and scene.plane is not None:
         frame = scene.plane.frame
-        return (scene.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
+        return (scene.object3d.placed_outline(OUTLINE_SAGITTA) - frame[:2, 3]) @ frame[:2, :2]
     l, w = scene.object_length, scene.digits.width * scene.object_length
     return np.array([[0.0, -w / 2], [l, -w / 2], [l, w / 2], [0.0, w / 2]])
 
