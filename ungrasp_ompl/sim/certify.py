@@ -184,7 +184,8 @@ class Candidate:
         return {"index": self.index, "source": self.source.label(), "planner": self.source.planner,
                 "objective": self.source.objective, "seed": self.source.seed, "status": self.status.value,
                 "cost": self.plan.cost, "successes": self.successes, "trials": len(self.results) or None,
-                "wilson_low": low, "wilson_high": high, "same_as": self.same_as, "why": self.why}
+                "wilson_low": low, "wilson_high": high, "same_as": self.same_as, "why": self.why,
+                "planning_time_s": self.planning_time_s}
 
 
 @dataclass
@@ -218,10 +219,7 @@ class CertifyResult:
         return {"kept": self.kept, "source": kept.source.label() if kept else None,
                 "successes": kept.successes if kept else None, "trials": self.options.trials,
                 "wilson_low": kept.interval[0] if kept else None, "wilson_high": kept.interval[1] if kept else None,
-                "perturbation": self.options.perturb, "seed": self.options.seed,
-                "rule": "objectives in turn (the plan's first): planner seed s then lattice under each; then planner "
-                        "seeds s+1, s+2, ... under each; the same seeded errors in every candidate's trials; kept: "
-                        "the highest Wilson 95 % lower bound, then the lowest cost, then the first",
+                "perturbation": self.options.perturb, "seed": self.options.seed, "wall_time_s": self.wall_time_s,
                 "candidates": [c.to_dict() for c in self.candidates]}
 
 
@@ -294,10 +292,17 @@ def certify(scene: Scene, options: CertifyOptions,
         for c in candidates:
             if c.status is CandidateStatus.SAME_PATH:
                 c.results = candidates[c.same_as].results
-    kept = max((c for c in candidates if c.simulated),
-               key=lambda c: (c.interval[0], -c.plan.cost, -c.index), default=None)
-    return CertifyResult(scene.name, options, candidates, None if kept is None else kept.index,
-                         time.perf_counter() - t0)
+    kept = best_candidate([(c.successes, len(c.results), c.plan.cost) if c.simulated else None for c in candidates])
+    return CertifyResult(scene.name, options, candidates, kept, time.perf_counter() - t0)
+
+
+def best_candidate(rows: list[tuple[int, int, float] | None]) -> int | None:
+    """The index of the row (successes, trials, cost) with the highest Wilson 95 % lower bound on
+    the success rate; among equal bounds the lowest cost, then the first. Rows that are None (no
+    trials) are passed over; None when every row is."""
+    scored = [(wilson_interval(s, n)[0], -cost, -k) for k, row in enumerate(rows) if row is not None
+              for s, n, cost in [row]]
+    return -max(scored)[2] if scored else None
 
 
 def _same_path(a: Plan, b: Plan) -> bool:
@@ -313,4 +318,4 @@ def _same_path(a: Plan, b: Plan) -> bool:
 
 
 __all__ = ["Candidate", "CandidateSource", "CandidateStatus", "CertifyOptions", "CertifyProgress", "CertifyResult",
-           "candidate_sources", "certify"]
+           "best_candidate", "candidate_sources", "certify"]
