@@ -264,12 +264,12 @@ def _plan(args: argparse.Namespace) -> int:
 
         cage = cage_profile(scene, result).weakest(result)
         print(cage.describe())
+    extra = {"cage": cage.to_dict()} if cage is not None else {}
+    if certified is not None:
+        extra["certification"] = certified.to_dict()
     if out is not None:
         from .plotting import draw_plan
 
-        extra = {"cage": cage.to_dict()} if cage is not None else {}
-        if certified is not None:
-            extra["certification"] = certified.to_dict()
         write_text_atomic(out / "plan.json", json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
         draw_plan(scene, result, out / "cspace.png")
         print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
@@ -288,8 +288,7 @@ def _plan(args: argparse.Namespace) -> int:
 
         paths["view"] = write_view_record(export, [(scene, result)], execution)
         paths["plan"] = export / "plan.json"
-        write_text_atomic(paths["plan"], result.to_json() if certified is None else json.dumps(
-            {**result.to_dict(), "certification": certified.to_dict()}, indent=2) + "\n")
+        write_text_atomic(paths["plan"], json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
