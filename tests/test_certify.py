@@ -19,7 +19,8 @@ from conftest import SCENES, run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.planning import plan
-from ungrasp_ompl.sim.certify import CandidateSource, CertifyOptions, best_candidate, candidate_sources, certify
+from ungrasp_ompl.sim.certify import (CandidateSource, CandidateStatus, CertifyOptions, best_candidate,
+                                      candidate_sources, certify)
 
 
 def _wilson_low(successes: int, trials: int) -> float:
@@ -157,3 +158,16 @@ def test_plan_certify_writes_plan_json_that_simulate_replays(certified, tmp_path
     assert json.loads((sim / "summary.json").read_text())["successes"] == kept.successes
     assert json.loads((sim / "plan.json").read_text())["states"] == kept.plan.states
 
+
+
+@pytest.mark.slow
+def test_a_candidate_with_the_path_of_an_earlier_one_shares_its_trials():
+    """On the fabric chalk the lattice's margin and balanced optima are one path: the second is
+    not simulated again but counted with the first's trials."""
+    scene = Scene.from_file(SCENES / "fabric_chalk.yaml")
+    result = certify(scene, CertifyOptions(trials=1, candidates=3, planner="lattice", jobs=1))
+    cost, margin, balanced = result.candidates
+    assert [c.source.objective for c in result.candidates] == ["cost", "margin", "balanced"]
+    assert cost.status is margin.status is CandidateStatus.SIMULATED
+    assert balanced.status is CandidateStatus.SAME_PATH and balanced.same_as == 1
+    assert balanced.plan.states == margin.plan.states and balanced.results is margin.results
