@@ -315,6 +315,9 @@ def _certify(args: argparse.Namespace, scene, seed: int):
             what = f"{c.successes:>3}/{len(c.results):<4}  {100 * low:3.0f}-{100 * high:.0f} %"
             if c.same_as is not None:
                 what += f" (the path of #{c.same_as})"
+            elif c.causes:
+                cause, n = next(iter(c.causes.items()))
+                what += f"; {n} x {cause}" + (" ..." if len(c.causes) > 1 else "")
         else:
             what = f"{c.status.value.replace('_', ' ')}: {c.why}"
         print(f"  {c.index:>2}  {c.source.label():<26} {cost:>8}  {what}")

@@ -50,9 +50,7 @@ class SimulationReport:
 
     def causes(self) -> dict[str, int]:
         """Failures counted by outcome and phase ('grip lost in P_dpsi': 3)."""
-        counter = collections.Counter(t.outcome.value if t.phase is None else f"{t.outcome.value} in {t.phase}"
-                                      for t in self.trials if not t.success)
-        return dict(counter.most_common())
+        return failure_causes(self.trials)
 
     def errors_mm(self, placed: bool = False) -> np.ndarray:
         """Placement errors (mm) of the successful trials (of every placed trial, with placed)."""
@@ -82,6 +80,13 @@ class SimulationReport:
             "seed": self.seed, "plan_problems": self.plan_problems,
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
         }
+
+
+def failure_causes(trials: list[TrialResult]) -> dict[str, int]:
+    """The failed trials counted by outcome and phase ('grip lost in P_dpsi': 3), most first."""
+    counter = collections.Counter(t.outcome.value if t.phase is None else f"{t.outcome.value} in {t.phase}"
+                                  for t in trials if not t.success)
+    return dict(counter.most_common())
 
 
 def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
@@ -215,5 +220,5 @@ def plan_problems(scene: Scene, plan: Plan) -> list[str]:
     return out
 
 
-__all__ = ["Outcome", "SimulationReport", "deviated_plan", "plan_problems", "run_trials", "simulate",
-           "steeper_start", "wilson_interval"]
+__all__ = ["Outcome", "SimulationReport", "deviated_plan", "failure_causes", "plan_problems", "run_trials",
+           "simulate", "steeper_start", "wilson_interval"]

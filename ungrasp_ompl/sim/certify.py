@@ -29,7 +29,7 @@ from ..errors import InputError, UngraspError
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
 from ..scene import Scene
-from .campaign import run_trials, wilson_interval
+from .campaign import failure_causes, run_trials, wilson_interval
 from .outcome import TrialResult
 
 
@@ -178,14 +178,19 @@ class Candidate:
         """Wilson's 95 % interval of its success rate (fractions); None: no trials."""
         return wilson_interval(self.successes, len(self.results)) if self.results else None
 
+    @property
+    def causes(self) -> dict[str, int]:
+        """Its failed trials counted by outcome and phase ('B past the thumb tip in P_theta': 3)."""
+        return failure_causes(self.results)
+
     def to_dict(self) -> dict:
         """Its row of plan.json's certification.candidates."""
         low, high = self.interval or (None, None)
         return {"index": self.index, "source": self.source.label(), "planner": self.source.planner,
                 "objective": self.source.objective, "seed": self.source.seed, "status": self.status.value,
                 "cost": self.plan.cost, "successes": self.successes, "trials": len(self.results) or None,
-                "wilson_low": low, "wilson_high": high, "same_as": self.same_as, "why": self.why,
-                "planning_time_s": self.planning_time_s}
+                "wilson_low": low, "wilson_high": high, "causes": self.causes, "same_as": self.same_as,
+                "why": self.why, "planning_time_s": self.planning_time_s}
 
 
 @dataclass
@@ -261,10 +266,10 @@ def certify(scene: Scene, options: CertifyOptions,
                       else source.seed, iterations=options.iterations, atlas=atlas, objective=source.objective)
         cand = Candidate(k, source, result, CandidateStatus.NOT_SOLVED, why=result.reason or "")
         if result.solved:
-            same = next((c for c in candidates if c.plan.solved and _same_path(c.plan, result)), None)
+            same = next((c for c in candidates if c.status is CandidateStatus.SIMULATED
+                         and _same_path(c.plan, result)), None)
             if same is not None:
-                cand.status, cand.why = CandidateStatus.SAME_PATH, ""
-                cand.same_as = same.index if same.same_as is None else same.same_as
+                cand.status, cand.why, cand.same_as = CandidateStatus.SAME_PATH, "", same.index
             else:
                 try:
                     execution = execute(scene, result)
