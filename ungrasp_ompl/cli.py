@@ -89,6 +89,15 @@ def _parser() -> argparse.ArgumentParser:
     pl.add_argument("--cage", action="store_true",
                     help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
                          "plan and where (takes seconds; in plan.json under cage)")
+    pl.add_argument("--certify", type=int, default=None, metavar="N",
+                    help="plan several candidates (--candidates), simulate N trials of each with the paper "
+                         "perturbation, and keep the one with the highest Wilson 95 %% lower bound on success "
+                         "(in plan.json under certification)")
+    pl.add_argument("--candidates", type=int, default=None, metavar="K",
+                    help="candidate plans with --certify (default 4): objectives in turn (--objective first), "
+                         "for each the planner with --seed then the lattice; then the planner with seed + 1, + 2, ...")
+    pl.add_argument("--jobs", type=int, default=None,
+                    help="parallel trials with --certify (default: all cores)")
 
     bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
     bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")
@@ -234,20 +243,34 @@ def _plan(args: argparse.Namespace) -> int:
         raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
                          scene.source)
     seed = _seed(args.seed)
-    result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
-                  objective=args.objective)
+    certified = None
+    if args.certify is None:
+        for flag in ("candidates", "jobs"):
+            if getattr(args, flag) is not None:
+                raise InputError(f"--{flag}", "applies only with --certify N")
+        result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
+                      objective=args.objective)
+    else:
+        certified = _certify(args, scene, seed)
+        if not certified.certified:
+            return EXIT_NO_SOLUTION
+        result = certified.plan
     print(result.summary())
+    if certified is not None:
+        print(_certified_line(certified))
     cage = None
     if args.cage and result.solved:
         from .robustness import cage_profile
 
         cage = cage_profile(scene, result).weakest(result)
         print(cage.describe())
+    extra = {"cage": cage.to_dict()} if cage is not None else {}
+    if certified is not None:
+        extra["certification"] = certified.to_dict()
     if out is not None:
         from .plotting import draw_plan
 
-        write_text_atomic(out / "plan.json", result.to_json() if cage is None else
-                          json.dumps({**result.to_dict(), "cage": cage.to_dict()}, indent=2) + "\n")
+        write_text_atomic(out / "plan.json", json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
         draw_plan(scene, result, out / "cspace.png")
         print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
     if not result.solved:
@@ -265,10 +288,53 @@ def _plan(args: argparse.Namespace) -> int:
 
         paths["view"] = write_view_record(export, [(scene, result)], execution)
         paths["plan"] = export / "plan.json"
-        write_text_atomic(paths["plan"], result.to_json())
+        write_text_atomic(paths["plan"], json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
+
+
+def _certify(args: argparse.Namespace, scene, seed: int):
+    """plan --certify: the candidates planned and simulated, their table printed (sim.certify)."""
+    from .sim.campaign import default_jobs
+    from .sim.certify import CertifyOptions, certify
+
+    options = CertifyOptions(trials=args.certify, candidates=4 if args.candidates is None else args.candidates,
+                             planner=args.planner, objective=args.objective, time=args.time,
+                             iterations=args.iterations, seed=seed,
+                             jobs=default_jobs() if args.jobs is None else args.jobs)
+    bars = {"planning": _Progress("candidates", "planning"), "simulating": _Progress("trials", "simulate")}
+    result = certify(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
+    print(f"{len(result.candidates)} candidate plans of {scene.name}, {options.trials} trials each (perturbation "
+          f"'{options.perturb}', seed {seed}: trial k meets the same errors in every candidate), {options.jobs} jobs:")
+    print(f"  {'#':>2}  {'source':<26} {'cost':>8}  {'success':>8}  Wilson 95 %")
+    for c in result.candidates:
+        cost = "" if c.plan.cost is None else f"{c.plan.cost:.2f}"
+        if c.simulated:
+            low, high = c.interval
+            what = f"{c.successes:>3}/{len(c.results):<4}  {100 * low:3.0f}-{100 * high:.0f} %"
+            if c.same_as is not None:
+                what += f" (the path of #{c.same_as})"
+            elif c.causes:
+                cause, n = next(iter(c.causes.items()))
+                what += f"; {n} x {cause}" + (" ..." if len(c.causes) > 1 else "")
+        else:
+            what = f"{c.status.value.replace('_', ' ')}: {c.why}"
+        print(f"  {c.index:>2}  {c.source.label():<26} {cost:>8}  {what}")
+    n = len(result.candidates)
+    print(f"  {result.wall_time_s:.1f} s in all, {result.wall_time_s / n:.1f} s per candidate")
+    if not result.certified:
+        print(f"no candidate of {scene.name} could be simulated (none solved and executable)")
+    return result
+
+
+def _certified_line(result) -> str:
+    """Which candidate plan --certify kept, with its counts."""
+    kept = result.candidates[result.kept]
+    low, high = kept.interval
+    return (f"kept candidate #{kept.index} ({kept.source.label()}): success {kept.successes}/{len(kept.results)}, "
+            f"Wilson 95 % interval {100 * low:.1f}-{100 * high:.1f} % (the highest lower bound of the "
+            f"{sum(c.simulated for c in result.candidates)} simulated)")
 
 
 def _seed(given: int | None) -> int:

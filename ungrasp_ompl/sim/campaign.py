@@ -50,9 +50,7 @@ class SimulationReport:
 
     def causes(self) -> dict[str, int]:
         """Failures counted by outcome and phase ('grip lost in P_dpsi': 3)."""
-        counter = collections.Counter(t.outcome.value if t.phase is None else f"{t.outcome.value} in {t.phase}"
-                                      for t in self.trials if not t.success)
-        return dict(counter.most_common())
+        return failure_causes(self.trials)
 
     def errors_mm(self, placed: bool = False) -> np.ndarray:
         """Placement errors (mm) of the successful trials (of every placed trial, with placed)."""
@@ -84,6 +82,13 @@ class SimulationReport:
         }
 
 
+def failure_causes(trials: list[TrialResult]) -> dict[str, int]:
+    """The failed trials counted by outcome and phase ('grip lost in P_dpsi': 3), most first."""
+    counter = collections.Counter(t.outcome.value if t.phase is None else f"{t.outcome.value} in {t.phase}"
+                                  for t in trials if not t.success)
+    return dict(counter.most_common())
+
+
 def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
     """Wilson's 95 % score interval of a success rate: (low, high) in [0, 1] (scipy's)."""
     from scipy.stats import binomtest
@@ -113,17 +118,29 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: i
         raise InputError("--trials", f"must be at least 1, got {trials}")
     if jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {jobs}")
-    work = [(setup, p, k, seed) for k, p in enumerate(trial_params(perturbation, seed, trials))]
-    # spawned workers import only numpy, mujoco and this package's sim modules
-    results: list[TrialResult] = []
-    with trial_runner(jobs, trials, cluster) as runner, closing(runner.run(_one, work)) as outcomes:
-        for outcome in outcomes:
-            results.append(outcome.unwrap())
-            if progress:
-                progress(results[-1])
-    results.sort(key=lambda r: r.trial)
+    results = run_trials([setup], perturbation, trials, seed, jobs, progress, cluster)[0]
     return SimulationReport(scene, perturbation, variant, seed, results,
                             trajectory_duration_s=float(setup.drive.times[-1]))
+
+
+def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
+               progress: Callable[[TrialResult], None] | None = None,
+               cluster: str | None = None) -> list[list[TrialResult]]:
+    """Trials 0 .. trials-1 of each setup, in trial order per setup. Trial k of every setup meets
+    the same seeded perturbation (so that placements are compared on the same errors); all the
+    trials share one pool of jobs worker processes (or the Ray cluster at the address cluster).
+    A trial that raises, or whose worker dies, raises here (TaskLost for a worker that died);
+    progress is called with each result as it arrives."""
+    params = trial_params(perturbation, seed, trials)
+    # spawned workers import only numpy, mujoco and this package's sim modules
+    work = [(setup, p, k, seed) for setup in setups for k, p in enumerate(params)]
+    results: list[TrialResult | None] = [None] * len(work)
+    with trial_runner(jobs, len(work), cluster) as runner, closing(runner.run(_one, work)) as outcomes:
+        for outcome in outcomes:
+            results[outcome.index] = outcome.unwrap()
+            if progress:
+                progress(results[outcome.index])
+    return [results[i * trials:(i + 1) * trials] for i in range(len(setups))]  # type: ignore[misc]
 
 
 @contextmanager
@@ -203,5 +220,5 @@ def plan_problems(scene: Scene, plan: Plan) -> list[str]:
     return out
 
 
-__all__ = ["Outcome", "SimulationReport", "deviated_plan", "plan_problems", "simulate", "steeper_start",
-           "wilson_interval"]
+__all__ = ["Outcome", "SimulationReport", "deviated_plan", "failure_causes", "plan_problems", "run_trials",
+           "simulate", "steeper_start", "wilson_interval"]
