@@ -17,8 +17,8 @@ from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.plotting import REGION_CLASSES, TRIAL_PARAM_LABELS, plan_figure, regions_figure, trials_figure
 
 #: An axis name in words (no snake_case) ending in its unit in parentheses.
-_NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \((deg|mm|m|s|fraction of l\b[^()]*|x the scene's[^()]*|"
-                    r"reference units|share of [^()]+)\)$")
+_NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \(([^()]*\b(deg|mm|m|s|mJ)\b[^()]*|fraction of l\b[^()]*|"
+                    r"x the scene's[^()]*|reference units|share of [^()]+|index)\)$")
 
 
 def assert_named_axes(fig) -> None:
@@ -189,3 +189,82 @@ def test_stability_names_each_roll_direction():
     report = analyse(scene, [("start", scene.start)])
     (line,) = [ln for ln in report.lines() if "prism roll" in ln]
     assert re.search(r"left side up [0-9.]+\.\.[0-9.]+ deg, right side up [0-9.]+\.\.[0-9.]+ deg", line), line
+
+
+@pytest.mark.slow
+def test_cage_picture_names_every_mark():
+    from ungrasp_ompl.robustness import cage_profile, plan_friction_margins
+    from ungrasp_ompl.robustness_plot import cage_figure
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    result = plan(scene, planner="lattice", seed=1)
+    profile = cage_profile(scene, result)
+    fig = cage_figure(scene.name, result, profile, plan_friction_margins(scene, profile.samples))
+    try:
+        assert unexplained_marks(fig) == []
+        texts = legend_texts(fig)
+        assert {c.outcome.value.replace("_", " ") for c in profile.cages} <= set(texts)
+        assert "infinite energy (fully caged), drawn at the top" in texts
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def _run(planner: str, k: int, cost: float | None):
+    from ungrasp_ompl.benchmark.tasks import RunResult, RunStatus
+
+    status = RunStatus.EXACT if cost is not None else RunStatus.TIMEOUT
+    return RunResult("demo", planner, k, k, status, cost, 2 if cost else None, 0.01 * (k + 1) if cost else None,
+                     0.5, 0.1, 100, 0.7)
+
+
+def _captured(monkeypatch) -> list:
+    """The figures the benchmark's plot functions save, kept open instead of written."""
+    from ungrasp_ompl.benchmark import plots
+
+    figures: list = []
+    monkeypatch.setattr(plots, "save_png", lambda fig, path: figures.append(fig))
+    return figures
+
+
+def test_bench_pictures_name_every_mark(monkeypatch):
+    from datetime import datetime
+
+    from ungrasp_ompl.benchmark.ompl_log import Experiment
+    from ungrasp_ompl.benchmark.plots import plot_final_cost, plot_success_vs_time
+    from ungrasp_ompl.benchmark.tasks import RunStatus
+
+    scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
+    runs = {"RRTstar": [_run("RRTstar", k, c) for k, c in enumerate((86.0, 87.5, None))],
+            "lattice": [_run("lattice", 0, 85.5)]}
+    exp = Experiment("demo", scene, list(runs), runs, 85.5, RunStatus.EXACT, 1, 0.5, 3, datetime(2026, 1, 1), 1)
+    figures = _captured(monkeypatch)
+    plot_success_vs_time([exp], None)
+    plot_final_cost([exp], None)
+    assert len(figures) == 2
+    for fig in figures:
+        try:
+            assert unexplained_marks(fig) == []
+            assert_named_axes(fig)
+        finally:
+            plt.close(fig)
+
+
+def test_sweep_picture_names_every_mark(monkeypatch):
+    from ungrasp_ompl.benchmark.options import SweepOptions
+    from ungrasp_ompl.benchmark.plots import plot_sweep
+    from ungrasp_ompl.benchmark.sweep import SweepPoint, SweepResult
+
+    points = [SweepPoint(a, [_run("RRTstar", k, c) for k, c in enumerate(costs)], _run("lattice", 0, optimum))
+              for a, costs, optimum in ((0.1, (None, None), None), (0.2, (86.0, 87.0), 85.5),
+                                        (0.3, (None, None), None))]
+    result = SweepResult("demo", "RRTstar", points, "reference units", SweepOptions(alphas=(0.1, 0.2, 0.3)))
+    figures = _captured(monkeypatch)
+    plot_sweep(result, 0.5, None)
+    (fig,) = figures
+    try:
+        assert unexplained_marks(fig) == []
+        assert legend_texts(fig).count("no secure path") == 1  # two alphas blocked, named once
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)

@@ -55,7 +55,7 @@ def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
                 if planner == LATTICE else dict(label=planner)
             ax.step(t, frac, where="post", **style)
         ax.axvline(exp.time_limit, color="grey", linestyle=":", label=f"time limit {exp.time_limit:g} s")
-        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="fraction of runs solved by t",
+        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="runs solved by time t (share of runs)",
                title=f"{exp.key}: first solution by time t")
         ax.legend(fontsize=8, loc="lower right")
     save_png(fig, path)
@@ -73,11 +73,14 @@ def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
             costs = np.array([r.cost for r in runs if r.solved])
             labels.append(f"{planner}\n{len(costs)}/{len(runs)} solved")
             if len(costs):
-                ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
-                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3)
+                box = ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
+                for line in (line for lines in box.values() for line in lines):
+                    line.set_label("a planner's final costs: median, quartiles, range")
+                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3,
+                           color="tab:blue", label="one run's final cost")
         if exp.optimum is not None:
             ax.axhline(exp.optimum, color="black", linestyle="--", label=f"lattice optimum {exp.optimum:.2f}")
-            ax.legend(fontsize=8)
+        _legend_once(ax)
         ax.set_xticks(range(len(labels)), labels, fontsize=8)
         ax.set(xlim=(-0.6, len(labels) - 0.4), ylabel=f"final cost ({cost_units(exp.scene)})",
                title=f"{exp.key}: final cost after {exp.time_limit:g} s\n(cost over time is not recorded)")
@@ -91,7 +94,7 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
     alphas = [p.alpha for p in result.points]
     nan = float("nan")
     top.plot(alphas, [p.success_rate for p in result.points], "o-", label=result.planner)
-    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate ({time_limit:g} s)",
+    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate (share of runs of {time_limit:g} s)",
             title=f"{result.scene}: sweep over alpha")
     top.legend(fontsize=8)
     bottom.plot(alphas, [nan if p.median_cost is None else p.median_cost for p in result.points], "o-",
@@ -99,11 +102,20 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
     bottom.plot(alphas, [nan if p.lattice_optimum is None else p.lattice_optimum for p in result.points], "k--x",
                 label="lattice optimum")
     blocked = [p.alpha for p in result.points if not p.lattice_reachable]
-    for k, a in enumerate(blocked):
-        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path" if k == 0 else None)
-    bottom.set(xlabel="alpha (finger - thumb length, over l)", ylabel=f"cost ({result.units})")
-    bottom.legend(fontsize=8)
+    for a in blocked:
+        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path")
+    bottom.set(xlabel="alpha: finger - thumb length (fraction of l)", ylabel=f"cost ({result.units})")
+    _legend_once(bottom)
     save_png(fig, path)
+
+
+def _legend_once(ax) -> None:
+    """A legend naming each label of the axes' marks once (by its first mark), if there are any."""
+    unique: dict = {}
+    for handle, label in zip(*ax.get_legend_handles_labels()):
+        unique.setdefault(label, handle)
+    if unique:
+        ax.legend(unique.values(), unique.keys(), fontsize=8)
 
 
 def _edges(values: Sequence[float]) -> np.ndarray:
