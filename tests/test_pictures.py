@@ -268,3 +268,37 @@ def test_sweep_picture_names_every_mark(monkeypatch):
         assert_named_axes(fig)
     finally:
         plt.close(fig)
+
+
+def _square_layout(clearance: float):
+    """One tangram square alone in a square frame that leaves clearance (m) on every side."""
+    import yaml
+
+    from ungrasp_ompl.layout import Layout
+
+    doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
+    square = next(p for p in doc["pieces"] if p["name"] == "square")
+    half = float(np.max(np.abs(np.asarray(square["outline"]["polygon"])))) + clearance
+    square["target"] = {"position": [half, half], "yaw_deg": 0}
+    doc["pieces"] = [square]
+    doc["frame"]["inner_size"] = 2 * half
+    return Layout.from_dict(doc)
+
+
+@pytest.mark.parametrize("clearance, placed", [(0.015, True), (0.0005, False)])
+def test_layout_picture_names_every_mark(clearance, placed):
+    from ungrasp_ompl.plotting import layout_figure
+    from ungrasp_ompl.tiling import TilingOptions, tile
+
+    layout = _square_layout(clearance)
+    tiling = tile(layout, TilingOptions(planner="lattice", seed=1))
+    assert tiling.solved is placed
+    fig = layout_figure(layout, tiling)
+    try:
+        assert unexplained_marks(fig) == []
+        texts = legend_texts(fig)
+        assert ("piece placed (number and shade: order)" in texts) is placed
+        assert ("piece that cannot be placed" in texts) is not placed
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
