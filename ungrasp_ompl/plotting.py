@@ -26,6 +26,16 @@ AXIS_LABELS = ("theta: object-table angle at G (deg)", "d: A's distance from B (
               "psi: object-thumb angle at B (deg)")
 
 
+def legend_marks(*axes) -> dict:
+    """Each label of the axes' labelled marks once, with its first mark: label -> artist, for one
+    legend over several axes."""
+    marks: dict = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            marks.setdefault(label, handle)
+    return marks
+
+
 def _save(fig, path: str | os.PathLike[str]) -> None:
     # zlib's fastest level: a third of the time of the default for a file about a third larger
     write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110, pil_kwargs={"compress_level": 1}))
@@ -125,10 +135,7 @@ def plan_figure(scene: Scene, plan: Plan, max_points: int = 5000):
     ax.set_xlabel(names[0], fontsize=8)
     ax.set_ylabel(names[2], fontsize=8)
     ax.set_zlabel(names[1], fontsize=8)
-    marks: dict = {}
-    for a in fig.axes:
-        for handle, label in zip(*a.get_legend_handles_labels()):
-            marks.setdefault(label, handle)
+    marks = legend_marks(*fig.axes)
     sample = marks.pop(shown)  # its dots are tiny: a bigger one for the legend
     marks[shown] = plt.Line2D([], [], marker="o", ls="", color=sample.get_facecolor()[0])
     fig.legend(marks.values(), marks.keys(), loc="lower center", ncol=4, fontsize=9)
@@ -212,9 +219,7 @@ def layout_figure(layout, tiling):
                                       label="piece that cannot be placed" if failed else "piece not placed"))
             ax.text(*centre, f"{piece.name}\n{'cannot be placed' if failed else 'not placed'}", ha="center",
                     va="center", fontsize=7, color="#d7301f" if failed else "k")
-    marks: dict = {}
-    for handle, label in zip(*ax.get_legend_handles_labels()):
-        marks.setdefault(label, handle)
+    marks = legend_marks(ax)
     if placed:
         marks["ungrasp direction G -> B (arrow)"] = plt.Line2D([], [], color="#d7301f", lw=1.6)
     fig.legend(marks.values(), marks.keys(), loc="outside lower center", ncol=3, fontsize=8)
@@ -270,8 +275,7 @@ def trials_figure(report, outline: np.ndarray, target: np.ndarray):
         got = (placed(t.final_pose) - centre) * 1000
         colour, word = outcome[bool(t.success)]
         ax.plot(*np.vstack([got, got[:1]]).T, color=colour, lw=0.8, alpha=0.7, label=f"final outline, {word}")
-    handles, labels = ax.get_legend_handles_labels()
-    unique = dict(zip(labels, handles))
+    unique = legend_marks(ax)
     ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left")
     ax.set_aspect("equal")
     ax.set_xlabel("world x from the target's centre (mm)")
@@ -293,10 +297,7 @@ def trials_figure(report, outline: np.ndarray, target: np.ndarray):
         ax.set_ylim(-0.4, 1.4)
         ax.set_xlabel(TRIAL_PARAM_LABELS.get(key, key.replace("_", " ")), fontsize=8)
         ax.tick_params(labelsize=7)
-    drawn = {}
-    for ax in axes[1:]:
-        for handle, label in zip(*ax.get_legend_handles_labels()):
-            drawn.setdefault(label, handle)
+    drawn = legend_marks(*axes[1:])
     if drawn:
         fig.legend(drawn.values(), drawn.keys(), loc="lower right", ncol=2, fontsize=8,
                    title="right: each trial's error drawn", title_fontsize=8)

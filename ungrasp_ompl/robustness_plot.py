@@ -15,6 +15,7 @@ from numpy.typing import NDArray  # noqa: E402
 from .io import write_atomic  # noqa: E402
 from .mechanics.cage import CageOutcome  # noqa: E402
 from .planning.result import Plan  # noqa: E402
+from .plotting import legend_marks  # noqa: E402
 from .robustness import CageProfile  # noqa: E402
 
 _COLOURS = {CageOutcome.NOT_CAGED: "#d62728", CageOutcome.CAGED: "#ff7f0e", CageOutcome.FULLY_CAGED: "#2ca02c"}
@@ -67,9 +68,6 @@ def cage_figure(name: str, plan: Plan, profile: CageProfile, margins: NDArray[np
     ax_m.axhline(0.0, color="k", lw=0.8, label="zero margin: a contact slips")
     ax_m.set_ylabel("friction margin (deg)")
     ax_m.set_xlabel("sample along the plan (index)")
-    marks: dict = {}
-    for ax in (ax_e, ax_m):
-        for handle, label in zip(*ax.get_legend_handles_labels()):
-            marks.setdefault(label, handle)
+    marks = legend_marks(ax_e, ax_m)
     fig.legend(marks.values(), marks.keys(), loc="lower center", ncol=3, fontsize=8)
     return fig

@@ -111,9 +111,9 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
 
 def _legend_once(ax) -> None:
     """A legend naming each label of the axes' marks once (by its first mark), if there are any."""
-    unique: dict = {}
-    for handle, label in zip(*ax.get_legend_handles_labels()):
-        unique.setdefault(label, handle)
+    from ..plotting import legend_marks
+
+    unique = legend_marks(ax)
     if unique:
         ax.legend(unique.values(), unique.keys(), fontsize=8)
 
