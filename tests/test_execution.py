@@ -90,7 +90,8 @@ def test_export_command_writes_the_trajectory_files_within_limits(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "trajectory:" in proc.stdout and "% of their limits" in proc.stdout
     assert sorted(p.name for p in out.iterdir()) == ["plan.json", "trajectory.csv", "trajectory.json",
-                                                     "trajectory.urscript", "trajectory_ros2.yaml", "view_scene.json"]
+                                                     "trajectory.urscript", "trajectory_ros2_arm.yaml",
+                                                     "trajectory_ros2_gripper.yaml", "view_scene.json"]
     with open(out / "trajectory.csv") as f:
         header = next(csv.reader(f))
     assert header == ["time_s"] + [f"{j}_{k}" for j in JOINT_NAMES for k in ("pos", "vel", "acc")]
@@ -98,8 +99,15 @@ def test_export_command_writes_the_trajectory_files_within_limits(tmp_path):
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base))
     assert check_limits(traj, robot) == []
-    goal = yaml.safe_load((out / "trajectory_ros2.yaml").read_text())
-    assert goal["trajectory"]["joint_names"] == list(JOINT_NAMES)
+    from ros2_goal import controller_refusals, round_trip, typestore
+
+    store = typestore()
+    for part, joints in (("arm", JOINT_NAMES[:6]), ("gripper", JOINT_NAMES[6:])):
+        goal = round_trip(store, yaml.safe_load((out / f"trajectory_ros2_{part}.yaml").read_text()))
+        assert list(goal.trajectory.joint_names) == list(joints)
+        assert controller_refusals(goal, joints) == []  # the UR driver's controller, the gripper's
+        stamps = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in goal.trajectory.points]
+        np.testing.assert_allclose(stamps, traj.times, rtol=0, atol=1e-9)
 
 
 def test_unreachable_scene_exits_3(tmp_path):

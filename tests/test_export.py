@@ -1,4 +1,5 @@
-"""Export of joint trajectories: CSV, JSON, ROS 2 YAML and URScript round trips, atomic writes."""
+"""Export of joint trajectories: CSV, JSON, ROS 2 YAML (built and serialised as real ROS 2 messages)
+and URScript round trips, atomic writes."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import yaml
 
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.robot import export
-from ungrasp_ompl.robot.trajectory import ARM_JOINTS, JOINT_NAMES, JointTrajectory
+from ungrasp_ompl.robot.trajectory import ARM_JOINTS, GRIPPER_JOINT, JOINT_NAMES, JointTrajectory
 
 DURATION = 3.7
 
@@ -66,9 +67,15 @@ def test_csv_json_yaml_round_trip(traj, tmp_path):
     assert doc["schema_version"] == export.SCHEMA_VERSION == 1
     assert doc["units"]["time"] == "s" and doc["segments"][1] == {"name": "P_theta", "start": 50, "end": 200}
 
-    export.write_ros2_yaml(traj, tmp_path / "t.yaml")
-    back = export.read_ros2_yaml(tmp_path / "t.yaml")
-    assert_same(traj, back, time_tol=1e-9)
+    for part, cols in (("arm", slice(0, 6)), ("gripper", slice(6, 7))):
+        export.write_ros2_yaml(traj, tmp_path / "t.yaml", part)
+        assert_same(columns(traj, cols), export.read_ros2_yaml(tmp_path / "t.yaml"), time_tol=1e-9)
+
+
+def columns(traj: JointTrajectory, cols: slice) -> JointTrajectory:
+    """The trajectory of some of traj's joints."""
+    return JointTrajectory(traj.times, traj.positions[:, cols], traj.velocities[:, cols],
+                           traj.accelerations[:, cols], traj.joint_names[cols], traj.segments)
 
 
 def test_csv_header_and_yaml_message_layout(traj, tmp_path):
@@ -80,12 +87,13 @@ def test_csv_header_and_yaml_message_layout(traj, tmp_path):
     assert len(rows) == 1 + len(traj.times)
     assert float(rows[5][1 + 3 * 2 + 1]) == traj.velocities[4, 2]  # elbow velocity, exact
 
-    export.write_ros2_yaml(traj, tmp_path / "t.yaml")
+    export.write_ros2_yaml(traj, tmp_path / "t.yaml", "arm")
     text = (tmp_path / "t.yaml").read_text()
     assert text.startswith("#") and "FollowJointTrajectory" in text.splitlines()[0]
-    assert "split" in text.split("trajectory:")[0]
+    assert "scaled_joint_trajectory_controller" in text.split("trajectory:")[0]
     msg = yaml.safe_load(text)["trajectory"]
-    assert msg["header"] == {"frame_id": ""} and msg["joint_names"] == list(JOINT_NAMES)
+    assert msg["header"] == {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}
+    assert msg["joint_names"] == list(ARM_JOINTS)
     for p in msg["points"]:
         assert set(p) == {"positions", "velocities", "accelerations", "effort", "time_from_start"}
         d = p["time_from_start"]
@@ -145,9 +153,9 @@ def _no_temp_files(directory) -> bool:
 def test_export_all_writes_replaces_and_is_atomic(traj, tmp_path, monkeypatch):
     out = tmp_path / "new" / "dir"
     paths = export.export_all(traj, out)
-    assert set(paths) == {"csv", "json", "ros2_yaml", "urscript"}
-    assert {p.name for p in paths.values()} == {"trajectory.csv", "trajectory.json", "trajectory_ros2.yaml",
-                                               "trajectory.urscript"}
+    assert set(paths) == {"csv", "json", "ros2_arm", "ros2_gripper", "urscript"}
+    assert {p.name for p in paths.values()} == {"trajectory.csv", "trajectory.json", "trajectory_ros2_arm.yaml",
+                                               "trajectory_ros2_gripper.yaml", "trajectory.urscript"}
     assert all(p.parent == out and p.is_file() for p in paths.values())
 
     # A second, different (shorter) trajectory replaces every file whole.
@@ -155,12 +163,13 @@ def test_export_all_writes_replaces_and_is_atomic(traj, tmp_path, monkeypatch):
     assert export.export_all(other, out) == paths
     assert_same(other, export.read_csv(paths["csv"]))
     assert_same(other, export.read_json(paths["json"]))
-    assert_same(other, export.read_ros2_yaml(paths["ros2_yaml"]), time_tol=1e-9)
+    assert_same(columns(other, slice(0, 6)), export.read_ros2_yaml(paths["ros2_arm"]), time_tol=1e-9)
+    assert_same(columns(other, slice(6, 7)), export.read_ros2_yaml(paths["ros2_gripper"]), time_tol=1e-9)
     assert len(export.read_urscript_servo_targets(paths["urscript"])) == math.floor(1.3 / 0.002) + 1
     assert _no_temp_files(out)
 
     # A failure while writing (after the temporary file exists) leaves the old file untouched.
-    before = paths["ros2_yaml"].read_bytes()
+    before = paths["ros2_arm"].read_bytes()
 
     def broken_dump(data, stream=None, **kwargs):
         stream.write("trajectory:\n  points: [")  # half-written
@@ -169,8 +178,8 @@ def test_export_all_writes_replaces_and_is_atomic(traj, tmp_path, monkeypatch):
     monkeypatch.setattr(yaml, "dump", broken_dump)
     with pytest.raises(OSError, match="disk full"):
         export.export_all(traj, out)
-    assert paths["ros2_yaml"].read_bytes() == before
-    assert_same(other, export.read_ros2_yaml(paths["ros2_yaml"]), time_tol=1e-9)
+    assert paths["ros2_arm"].read_bytes() == before
+    assert_same(columns(other, slice(0, 6)), export.read_ros2_yaml(paths["ros2_arm"]), time_tol=1e-9)
     assert _no_temp_files(out)
 
 
@@ -213,3 +222,47 @@ def test_ros2_points_are_written_as_pyyaml_writes_them():
     parsed = yaml.safe_load("trajectory:\n" + ours)["trajectory"]["points"]
     assert [p["positions"] for p in parsed] == [p[1] for p in points]
     assert _yaml_points([]) == "  points: []\n"
+
+
+def test_ros2_goals_are_real_messages_each_controller_accepts(traj, tmp_path):
+    """Each goal file, as `ros2 action send_goal` would fill it, builds a
+    control_msgs/action/FollowJointTrajectory goal (rosbags' ROS 2 Humble type store), serialises
+    to CDR and reads back with the joint names, sizes, times (1 ns) and values written; the arm's
+    names exactly the UR driver's six joints, which its controller accepts, the gripper's its
+    one joint, which the arm's controller refuses (as it refused the mixed goal)."""
+    from ros2_goal import controller_refusals, round_trip, typestore
+
+    store = typestore()
+    traj.velocities[-1] = 0.0  # at rest at the end, as a planned trajectory is (else refused, below)
+    paths = export.export_all(traj, tmp_path)
+    goals = {}
+    for part, cols in (("ros2_arm", slice(0, 6)), ("ros2_gripper", slice(6, 7))):
+        goal = round_trip(store, yaml.safe_load(paths[part].read_text()))
+        goals[part] = goal
+        want = columns(traj, cols)
+        assert list(goal.trajectory.joint_names) == list(want.joint_names)
+        assert len(goal.trajectory.points) == len(traj.times)
+        stamps = np.array([p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in goal.trajectory.points])
+        np.testing.assert_allclose(stamps, traj.times, rtol=0, atol=1e-9)
+        for field in ("positions", "velocities", "accelerations"):
+            got = np.array([getattr(p, field) for p in goal.trajectory.points])
+            assert got.shape == (len(traj.times), len(want.joint_names))
+            np.testing.assert_array_equal(got, getattr(want, field))
+        assert all(len(p.effort) == 0 for p in goal.trajectory.points)
+        assert goal.trajectory.header.stamp.sec == 0 and goal.trajectory.header.stamp.nanosec == 0
+    assert list(goals["ros2_arm"].trajectory.joint_names) == list(ARM_JOINTS)
+    assert controller_refusals(goals["ros2_arm"], ARM_JOINTS) == []
+    assert controller_refusals(goals["ros2_gripper"], (GRIPPER_JOINT,)) == []
+    assert f"joint {GRIPPER_JOINT} is not the controller's" in controller_refusals(goals["ros2_gripper"], ARM_JOINTS)
+    moving = make_trajectory()
+    export.write_ros2_yaml(moving, tmp_path / "moving.yaml", "arm")
+    refusals = controller_refusals(round_trip(store, yaml.safe_load((tmp_path / "moving.yaml").read_text())), ARM_JOINTS)
+    assert refusals == [f"the last point's velocity of {j} is not zero" for j in ARM_JOINTS]
+
+
+def test_ros2_goal_needs_its_joints(traj, tmp_path):
+    arm_only = columns(traj, slice(0, 6))
+    with pytest.raises(InputError) as e:
+        export.write_ros2_yaml(arm_only, tmp_path / "g.yaml", "gripper")
+    assert e.value.field == "joint_names" and GRIPPER_JOINT in e.value.reason
+    assert not (tmp_path / "g.yaml").exists()

@@ -97,7 +97,8 @@ def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
         assert f"{k}. {name}: G (" in proc.stdout  # the per-piece summary
         assert (out / f"cspace_{k}_{name}.png").stat().st_size > 10_000
     assert (out / "layout.png").stat().st_size > 10_000
-    for f in ("trajectory.csv", "trajectory.json", "trajectory_ros2.yaml", "trajectory.urscript"):
+    for f in ("trajectory.csv", "trajectory.json", "trajectory_ros2_arm.yaml", "trajectory_ros2_gripper.yaml",
+              "trajectory.urscript"):
         assert (out / f).stat().st_size > 0
     for p in result["placements"]:
         plan = p["plan"]

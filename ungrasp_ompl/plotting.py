@@ -20,6 +20,20 @@ from .scene import Scene  # noqa: E402
 REGION_CLASSES = ("free (force-closed)", "not force-closed", "in collision", "kinematically invalid")
 _REGION_COLOURS = ("#7fc97f", "#fdc086", "#e7298a", "#bdbdbd")
 _PRIMITIVE_COLOURS = {"P_theta": "#1b9e77", "P_psi": "#d95f02", "P_dpsi": "#7570b3"}
+#: The state's coordinates (theta, d, psi) as axes name them: in words, with the plotted units
+#: (docs/model.md, section 2.2).
+AXIS_LABELS = ("theta: object-table angle at G (deg)", "d: A's distance from B (fraction of l = |GB|)",
+              "psi: object-thumb angle at B (deg)")
+
+
+def legend_marks(*axes) -> dict:
+    """Each label of the axes' labelled marks once, with its first mark: label -> artist, for one
+    legend over several axes."""
+    marks: dict = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            marks.setdefault(label, handle)
+    return marks
 
 
 def _save(fig, path: str | os.PathLike[str]) -> None:
@@ -29,8 +43,14 @@ def _save(fig, path: str | os.PathLike[str]) -> None:
 
 
 def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, step_deg: float = 1.0) -> None:
-    """The C-space map as theta-psi slices at several d: free, not force-closed, in collision,
-    kinematically invalid (all contacts sticking), like the reference planner's map."""
+    """Write regions_figure's picture to path (PNG)."""
+    _save(regions_figure(scene, d_values, step_deg), path)
+
+
+def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0):
+    """The C-space map as theta-psi slices at d_values values of d, sampled every step_deg (deg):
+    free, not force-closed, in collision, kinematically invalid (all contacts sticking), like the
+    reference planner's map; a legend names each class's colour. Returns the matplotlib Figure."""
     lo, hi = scene.bounds
     th = np.arange(lo[0], hi[0] + 1e-9, math.radians(step_deg))
     ps = np.arange(lo[2], hi[2] + 1e-9, math.radians(step_deg))
@@ -46,33 +66,40 @@ def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, 
         cls = scene.classify(q).reshape(T.shape)
         ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5,
                   extent=[math.degrees(th[0]), math.degrees(th[-1]), math.degrees(ps[0]), math.degrees(ps[-1])])
-        ax.set_title(f"d = {d:.2f}")
-        ax.set_xlabel("theta (deg)")
-        ax.set_ylabel("psi (deg)")
+        ax.set_title(f"d = {d:.2f} l")
+        ax.set_xlabel(AXIS_LABELS[0])
+        ax.set_ylabel(AXIS_LABELS[2])
     for ax in list(axes.flat)[len(ds):]:
         ax.axis("off")
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in _REGION_COLOURS]
     fig.legend(handles, REGION_CLASSES, loc="outside lower center", ncol=4)
     fig.suptitle(f"{scene.name}: C-space map ({scene.options.sliding_model} sliding, contacts sticking)")
-    _save(fig, path)
+    return fig
 
 
 def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 5000) -> None:
+    """Write plan_figure's picture to path (PNG)."""
+    _save(plan_figure(scene, plan, max_points), path)
+
+
+def plan_figure(scene: Scene, plan: Plan, max_points: int = 5000):
     """The force-closed free region around the path with the path's primitives drawn in it.
 
     Three projections (theta-psi, theta-d, psi-d), each shading how much of the
     hidden coordinate's range is free and force-closed with sticking
-    contacts, and a 3D view; the goal box in red.
+    contacts, and a 3D view of free, force-closed lattice states (at most max_points of them);
+    the goal box in red. One legend names every mark. Returns the matplotlib Figure.
     """
     lattice = plan.holdable_map or _holdable_map(scene)
     conv = np.array([180 / math.pi, 1.0, 180 / math.pi])  # plotted units: deg, d, deg
-    names = ("theta (deg)", "d (over l)", "psi (deg)")
+    names = AXIS_LABELS
     # a fixed layout: matplotlib's constrained layout would draw the figure twice (half the time)
-    fig = plt.figure(figsize=(12, 10))
-    fig.subplots_adjust(left=0.06, right=0.89, bottom=0.06, top=0.93, wspace=0.22, hspace=0.2)
+    fig = plt.figure(figsize=(12, 10.6))
+    fig.subplots_adjust(left=0.06, right=0.89, bottom=0.11, top=0.94, wspace=0.22, hspace=0.2)
     glo, ghi = scene.goal.box()
     segments = [(p.type, np.array(p.start) * conv, np.array(p.end) * conv) for p in plan.primitives]
     start = scene.start * conv
+    goal_label = "goal region (box)"
     for n, (x, y) in enumerate(((0, 2), (0, 1), (2, 1))):
         ax = fig.add_subplot(2, 2, n + 1)
         hidden = 3 - x - y
@@ -83,7 +110,7 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
         im = ax.imshow(share.T if x < y else share.T, origin="lower", aspect="auto", cmap="Greens",
                        vmin=0, vmax=1, extent=ext)
         ax.add_patch(plt.Rectangle((glo[x] * conv[x], glo[y] * conv[y]), (ghi[x] - glo[x]) * conv[x],
-                                   (ghi[y] - glo[y]) * conv[y], fill=False, color="r", lw=1.2))
+                                   (ghi[y] - glo[y]) * conv[y], fill=False, color="r", lw=1.2, label=goal_label))
         for kind, a, b in segments:
             ax.plot([a[x], b[x]], [a[y], b[y]], lw=3, color=_PRIMITIVE_COLOURS[kind], label=kind)
         ax.plot(start[x], start[y], "ko", label="start")
@@ -91,30 +118,31 @@ def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points
             ax.plot(plan.states[-1][x] * conv[x], plan.states[-1][y] * conv[y], "o", color="r", label="end")
         ax.set_xlabel(names[x])
         ax.set_ylabel(names[y])
-        if n == 0:
-            handles, labels = ax.get_legend_handles_labels()
-            unique = dict(zip(labels, handles))
-            ax.legend(unique.values(), unique.keys(), loc="best", fontsize=8)
     fig.colorbar(im, cax=fig.add_axes((0.915, 0.3, 0.014, 0.4)),
-                 label="share of the hidden coordinate free and force-closed")
+                 label="free and force-closed (share of the hidden coordinate's range)")
     ax = fig.add_subplot(2, 2, 4, projection="3d")
     idx = np.argwhere(lattice.holdable)
     free = np.column_stack([lattice.axes[a][idx[:, a]] for a in range(3)])
+    shown = f"free, force-closed lattice state ({min(len(free), max_points)} of {len(free)} drawn)"
     if len(free) > max_points:
         free = free[np.random.default_rng(0).choice(len(free), max_points, replace=False)]
     ax.scatter(np.degrees(free[:, 0]), np.degrees(free[:, 2]), free[:, 1], s=1, color="#a1d99b", depthshade=False,
-               rasterized=True)
-    _wire_box(ax, glo, ghi)
+               rasterized=True, label=shown)
+    _wire_box(ax, glo, ghi, goal_label)
     for kind, a, b in segments:
-        ax.plot([a[0], b[0]], [a[2], b[2]], [a[1], b[1]], lw=3, color=_PRIMITIVE_COLOURS[kind])
-    ax.scatter([start[0]], [start[2]], [start[1]], color="k", s=40)
-    ax.set_xlabel(names[0])
-    ax.set_ylabel(names[2])
-    ax.set_zlabel(names[1])
+        ax.plot([a[0], b[0]], [a[2], b[2]], [a[1], b[1]], lw=3, color=_PRIMITIVE_COLOURS[kind], label=kind)
+    ax.scatter([start[0]], [start[2]], [start[1]], color="k", s=40, label="start")
+    ax.set_xlabel(names[0], fontsize=8)
+    ax.set_ylabel(names[2], fontsize=8)
+    ax.set_zlabel(names[1], fontsize=8)
+    marks = legend_marks(*fig.axes)
+    sample = marks.pop(shown)  # its dots are tiny: a bigger one for the legend
+    marks[shown] = plt.Line2D([], [], marker="o", ls="", color=sample.get_facecolor()[0])
+    fig.legend(marks.values(), marks.keys(), loc="lower center", ncol=4, fontsize=9)
     title = f"{scene.name}: {plan.planner}"
     title += f", cost {plan.cost:.1f} ({plan.mode_switches} changes)" if plan.solved else f": {plan.reason}"
     fig.suptitle(title)
-    _save(fig, path)
+    return fig
 
 
 def _cell_span(values: np.ndarray, unit: float) -> tuple[float, float]:
@@ -131,7 +159,7 @@ def _holdable_map(scene: Scene) -> HoldableMap:
     return HoldableMap.of(SecurityAtlas(scene, planning_box(scene)))
 
 
-def _wire_box(ax, lo: np.ndarray, hi: np.ndarray) -> None:
+def _wire_box(ax, lo: np.ndarray, hi: np.ndarray, label: str) -> None:
     """The box's twelve edges in a 3D axes (theta and psi in deg, d), drawn as one line."""
     lo_p = np.array([math.degrees(lo[0]), math.degrees(lo[2]), lo[1]])
     hi_p = np.array([math.degrees(hi[0]), math.degrees(hi[2]), hi[1]])
@@ -146,19 +174,25 @@ def _wire_box(ax, lo: np.ndarray, hi: np.ndarray) -> None:
                 p0[k] = p1[k] = b[k]
                 points += [p0, p1, np.full(3, np.nan)]  # NaN breaks the line between edges
     x, y, z = np.array(points).T
-    ax.plot(x, y, z, color="r", lw=0.8, alpha=0.6)
+    ax.plot(x, y, z, color="r", lw=0.8, alpha=0.6, label=label)
 
 
 def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
+    """Write layout_figure's picture to path (PNG)."""
+    _save(layout_figure(layout, tiling), path)
+
+
+def layout_figure(layout, tiling):
     """Top view of a layout after tiling (world x, y in mm): the frame's walls, every piece at its
     target numbered in placement order, its G (dot) and B (square), the ungrasp direction G -> B
     (the B end is the one put down last), and the thumb's width at B. A piece that could not be
-    placed is hatched red; pieces not reached are outlined only."""
+    placed is hatched red; pieces not reached are outlined only. One legend names every mark.
+    Returns the matplotlib Figure."""
     from matplotlib.patches import Polygon as PolygonPatch
 
-    fig, ax = plt.subplots(figsize=(8, 8), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(8, 8.4), constrained_layout=True)
     for wall in layout.frame.walls():
-        ax.add_patch(PolygonPatch(wall.vertices[:4, :2] * 1000, closed=True, color="#969696"))
+        ax.add_patch(PolygonPatch(wall.vertices[:4, :2] * 1000, closed=True, color="#969696", label="frame wall"))
     placed = {p.index: p for p in tiling.placements}
     cmap = plt.get_cmap("viridis")
     n = len(layout.pieces)
@@ -168,59 +202,84 @@ def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
         if i in placed:
             p = placed[i]
             ax.add_patch(PolygonPatch(pts, closed=True, facecolor=cmap(0.15 + 0.7 * (p.order - 1) / max(n - 1, 1)),
-                                      edgecolor="k", alpha=0.55))
+                                      edgecolor="k", alpha=0.55, label="piece placed (number and shade: order)"))
             frame = p.scene.plane.frame
             g, b = frame[:2, 3] * 1000, (frame[:2, 3] + frame[:2, 0] * p.scene.object_length) * 1000
             ax.annotate("", xy=b, xytext=g, arrowprops={"arrowstyle": "->", "color": "#d7301f", "lw": 1.6})
-            ax.plot(*g, "o", color="#08519c", ms=6)
-            ax.plot(*b, "s", color="#d7301f", ms=6)
+            ax.plot(*g, "o", color="#08519c", ms=6, label="G (on the table)")
+            ax.plot(*b, "s", color="#d7301f", ms=6, label="B (thumb)")
             half = p.scene.digits.width * p.scene.object_length / 2 * 1000
             side = frame[:2, 1] * half
-            ax.plot(*np.array([b - side, b + side]).T, color="#d7301f", lw=3, alpha=0.6)
+            ax.plot(*np.array([b - side, b + side]).T, color="#d7301f", lw=3, alpha=0.6, label="the thumb's width at B")
             ax.text(*centre, f"{p.order}\n{piece.name}", ha="center", va="center", fontsize=7)
         else:
             failed = piece.name == tiling.failed_piece
             ax.add_patch(PolygonPatch(pts, closed=True, fill=False, edgecolor="#d7301f" if failed else "k",
-                                      hatch="///" if failed else None, lw=1.5 if failed else 0.8))
+                                      hatch="///" if failed else None, lw=1.5 if failed else 0.8,
+                                      label="piece that cannot be placed" if failed else "piece not placed"))
             ax.text(*centre, f"{piece.name}\n{'cannot be placed' if failed else 'not placed'}", ha="center",
                     va="center", fontsize=7, color="#d7301f" if failed else "k")
-    handles = [plt.Line2D([], [], marker="o", ls="", color="#08519c", label="G (on the table)"),
-               plt.Line2D([], [], marker="s", ls="", color="#d7301f", label="B (thumb), its width as a bar"),
-               plt.Line2D([], [], color="#d7301f", label="ungrasp direction G -> B")]
-    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8)
+    marks = legend_marks(ax)
+    if placed:
+        marks["ungrasp direction G -> B (arrow)"] = plt.Line2D([], [], color="#d7301f", lw=1.6)
+    fig.legend(marks.values(), marks.keys(), loc="outside lower center", ncol=3, fontsize=8)
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xlabel("world x (mm)")
     ax.set_ylabel("world y (mm)")
     status = "all pieces placed" if tiling.solved else f"{tiling.failed_piece} cannot be placed"
-    ax.set_title(f"{layout.name}: top view, {len(tiling.placements)} of {n} pieces ({status})")
-    _save(fig, path)
+    fig.suptitle(f"{layout.name}: top view, {len(tiling.placements)} of {n} pieces ({status})")
+    return fig
+
+
+#: The errors a simulated trial draws (sim.perturb.TrialParams.to_dict keys) in words, with units.
+TRIAL_PARAM_LABELS = {
+    "shift_along_mm": "object shifted in the grasp along GB (mm)",
+    "shift_across_mm": "object shifted in the grasp across GB (mm)",
+    "yaw_deg": "object turned in the grasp (deg)",
+    "mass_scale": "object mass (x the scene's)",
+    "thickness_scale": "object thickness (x the scene's)",
+    **{f"friction_scale_{c}": f"friction at {c} (x the scene's)" for c in "GAB"},
+    **{f"palm_shift_{a}_mm": f"palm offset along palm {a}, calibration (mm)" for a in "xyz"},
+    **{f"palm_turn_{a}_deg": f"palm turn about palm {a}, calibration (deg)" for a in "xyz"},
+    "table_height_mm": "table top above the planned height (mm)",
+}
 
 
 def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.PathLike[str]) -> None:
+    """Write trials_figure's picture to path (PNG)."""
+    _save(trials_figure(report, outline, target), path)
+
+
+def trials_figure(report, outline: np.ndarray, target: np.ndarray):
     """Simulated trials: (left) each trial's final object outline over the target outline, top
     view in mm about the target's centroid, green for success and red for failure; (right) success
     against each perturbation the trials drew. report: a sim SimulationReport; outline: the
-    object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4)."""
+    object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4).
+    Returns the matplotlib Figure."""
     def placed(pose: np.ndarray) -> np.ndarray:
         pts = np.column_stack([outline, np.zeros(len(outline))]) @ np.asarray(pose)[:3, :3].T + np.asarray(pose)[:3, 3]
         return pts[:, :2]
 
+    outcome = {True: ("tab:green", "placed"), False: ("tab:red", "failed")}
     want = placed(target)
     centre = want.mean(axis=0)
     keys = [k for k in report.trials[0].params if len({round(t.params[k], 9) for t in report.trials}) > 1]
     cols = max(1, math.ceil(len(keys) / 2))
-    fig = plt.figure(figsize=(4.6 + 2.6 * cols, 4.6))
+    fig = plt.figure(figsize=(4.6 + 2.6 * cols, 5.0))
     grid = fig.add_gridspec(2, 1 + cols, width_ratios=[1.8] + [1] * cols)
     axes = [fig.add_subplot(grid[:, 0])] + [fig.add_subplot(grid[k % 2, 1 + k // 2]) for k in range(max(1, len(keys)))]
     ax = axes[0]
-    ax.fill(*((want - centre) * 1000).T, color="0.85", label="target")
+    ax.fill(*((want - centre) * 1000).T, color="0.85", label="target outline")
     for t in report.trials:
         got = (placed(t.final_pose) - centre) * 1000
-        ax.plot(*np.vstack([got, got[:1]]).T, color="tab:green" if t.success else "tab:red", lw=0.8, alpha=0.7)
+        colour, word = outcome[bool(t.success)]
+        ax.plot(*np.vstack([got, got[:1]]).T, color=colour, lw=0.8, alpha=0.7, label=f"final outline, {word}")
+    unique = legend_marks(ax)
+    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left")
     ax.set_aspect("equal")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
+    ax.set_xlabel("world x from the target's centre (mm)")
+    ax.set_ylabel("world y from the target's centre (mm)")
     ax.set_title(f"{report.scene}: {report.successes}/{len(report.trials)} placed", fontsize=10)
     if not keys:
         axes[1].text(0.5, 0.5, f"perturbation '{report.perturbation.name}':\nno random error drawn",
@@ -230,10 +289,17 @@ def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.
         x = np.array([t.params[key] for t in report.trials])
         y = np.array([1.0 if t.success else 0.0 for t in report.trials])
         jitter = np.random.default_rng(0).uniform(-0.06, 0.06, len(y))
-        ax.scatter(x, y + jitter, c=np.where(y > 0, "tab:green", "tab:red"), s=14)
+        for success, (colour, word) in outcome.items():
+            sel = (y > 0) == success
+            if sel.any():
+                ax.scatter(x[sel], y[sel] + jitter[sel], color=colour, s=14, label=f"trial {word}")
         ax.set_yticks([0, 1], ["failed", "placed"])
         ax.set_ylim(-0.4, 1.4)
-        ax.set_xlabel(key, fontsize=8)
+        ax.set_xlabel(TRIAL_PARAM_LABELS.get(key, key.replace("_", " ")), fontsize=8)
         ax.tick_params(labelsize=7)
-    fig.tight_layout()
-    _save(fig, path)
+    drawn = legend_marks(*axes[1:])
+    if drawn:
+        fig.legend(drawn.values(), drawn.keys(), loc="lower right", ncol=2, fontsize=8,
+                   title="right: each trial's error drawn", title_fontsize=8)
+    fig.tight_layout(rect=(0, 0.07 if drawn else 0, 1, 1))
+    return fig

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .mechanics.roll import RollResult, roll_simulation
+from .mechanics.roll import RollResult, describe_restoring, roll_simulation
 from .scene import Scene
 
 
@@ -69,11 +69,11 @@ class StabilityReport:
         out.append(f"  x-moments: {self.x_mechanism} -> {'held' if self.x_stable else 'NOT held'}")
         for r in self.rolls:
             q = r.state
-            ranges = ", ".join("none" if x is None else f"{x[0]:.2f}..{x[1]:.2f} deg" for x in r.ranges_deg())
+            ranges = describe_restoring({d.sign: x for d, x in zip(r.result.directions, r.ranges_deg())})
             verdict = "self-restoring" if r.result.self_restoring else "NOT self-restoring"
             out.append(f"  prism roll at {r.label} (theta {math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi "
-                       f"{math.degrees(q[2]):.1f} deg): {verdict}; restores over tilts {ranges} "
-                       f"(rolled +/- up to {math.degrees(r.result.max_tilt):.0f} deg)")
+                       f"{math.degrees(q[2]):.1f} deg): {verdict}; rolled each way up to "
+                       f"{math.degrees(r.result.max_tilt):.0f} deg, restores over tilts {ranges}")
         return out
 
 

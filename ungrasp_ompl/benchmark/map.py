@@ -40,6 +40,8 @@ from .options import check_jobs, check_out, check_time, validate_planners
 SIM_TRIAL_GRACE_S = 120.0
 #: The most cells a map may have.
 MAX_CELLS = 1_000_000
+#: How MapCell.error begins when the robot cannot execute the cell's plan (so it was not simulated).
+NOT_EXECUTABLE = "not executable"
 
 
 @dataclass(frozen=True)
@@ -277,7 +279,7 @@ def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
     try:
         execution = execute(scene, plan)
     except UngraspError as exc:  # out of reach, a collision of the arm, beyond the joint limits
-        return replace(cell, error=f"not executable: {exc}")
+        return replace(cell, error=f"{NOT_EXECUTABLE}: {exc}")
     setup = trial_setup(scene, plan, execution.trajectory, execution.robot)
     params = trial_params(preset(task.perturb), task.seed, task.trials)
     return replace(cell, sim_successes=sum(run_trial(setup, p, k, task.seed).success for k, p in enumerate(params)))

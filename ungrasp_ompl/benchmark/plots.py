@@ -55,7 +55,7 @@ def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
                 if planner == LATTICE else dict(label=planner)
             ax.step(t, frac, where="post", **style)
         ax.axvline(exp.time_limit, color="grey", linestyle=":", label=f"time limit {exp.time_limit:g} s")
-        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="fraction of runs solved by t",
+        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="runs solved by time t (share of runs)",
                title=f"{exp.key}: first solution by time t")
         ax.legend(fontsize=8, loc="lower right")
     save_png(fig, path)
@@ -73,11 +73,14 @@ def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
             costs = np.array([r.cost for r in runs if r.solved])
             labels.append(f"{planner}\n{len(costs)}/{len(runs)} solved")
             if len(costs):
-                ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
-                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3)
+                box = ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
+                for line in (line for lines in box.values() for line in lines):
+                    line.set_label("a planner's final costs: median, quartiles, range")
+                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3,
+                           color="tab:blue", label="one run's final cost")
         if exp.optimum is not None:
             ax.axhline(exp.optimum, color="black", linestyle="--", label=f"lattice optimum {exp.optimum:.2f}")
-            ax.legend(fontsize=8)
+        _legend_once(ax)
         ax.set_xticks(range(len(labels)), labels, fontsize=8)
         ax.set(xlim=(-0.6, len(labels) - 0.4), ylabel=f"final cost ({cost_units(exp.scene)})",
                title=f"{exp.key}: final cost after {exp.time_limit:g} s\n(cost over time is not recorded)")
@@ -91,7 +94,7 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
     alphas = [p.alpha for p in result.points]
     nan = float("nan")
     top.plot(alphas, [p.success_rate for p in result.points], "o-", label=result.planner)
-    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate ({time_limit:g} s)",
+    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate (share of runs of {time_limit:g} s)",
             title=f"{result.scene}: sweep over alpha")
     top.legend(fontsize=8)
     bottom.plot(alphas, [nan if p.median_cost is None else p.median_cost for p in result.points], "o-",
@@ -99,11 +102,20 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
     bottom.plot(alphas, [nan if p.lattice_optimum is None else p.lattice_optimum for p in result.points], "k--x",
                 label="lattice optimum")
     blocked = [p.alpha for p in result.points if not p.lattice_reachable]
-    for k, a in enumerate(blocked):
-        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path" if k == 0 else None)
-    bottom.set(xlabel="alpha (finger - thumb length, over l)", ylabel=f"cost ({result.units})")
-    bottom.legend(fontsize=8)
+    for a in blocked:
+        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path")
+    bottom.set(xlabel="alpha: finger - thumb length (fraction of l)", ylabel=f"cost ({result.units})")
+    _legend_once(bottom)
     save_png(fig, path)
+
+
+def _legend_once(ax) -> None:
+    """A legend naming each label of the axes' marks once (by its first mark), if there are any."""
+    from ..plotting import legend_marks
+
+    unique = legend_marks(ax)
+    if unique:
+        ax.legend(unique.values(), unique.keys(), fontsize=8)
 
 
 def _edges(values: Sequence[float]) -> np.ndarray:
@@ -116,10 +128,53 @@ def _edges(values: Sequence[float]) -> np.ndarray:
 
 
 def plot_map(result: "MapResult", path: Path) -> None:
+    """Write map_figure's picture to path (PNG)."""
+    save_png(map_figure(result), path)
+
+
+def map_reasons() -> dict:
+    """Why a cell of the map shows no value, each with its label and marker: the cell's task
+    (TaskStatus), the exact lattice's verdict or the planner's outcome (PlanOutcome), or the
+    robot (the plan is not executable)."""
+    from ..planning.result import PlanOutcome
+    from ..runner import TaskStatus
+    from .map import NOT_EXECUTABLE
+
+    return {TaskStatus.FAILED: ("task raised an error", "X"), TaskStatus.HUNG: ("task hung (killed)", "H"),
+            TaskStatus.DIED: ("task's process died", "P"),
+            PlanOutcome.START_NOT_HELD: ("start not held", "v"), PlanOutcome.GOAL_EMPTY: ("goal region empty", "s"),
+            PlanOutcome.NO_SECURE_PATH: ("no secure path on the lattice", "d"),
+            PlanOutcome.NOT_FOUND: ("planner found none in its budget", "o"),
+            PlanOutcome.INVALID_PATH: ("planner's path failed re-validation", ">"),
+            PlanOutcome.HUNG: ("planner hung (killed)", "<"),
+            NOT_EXECUTABLE: ("robot cannot execute the plan", "^")}
+
+
+def map_reason(cell, panel: int):
+    """Why the cell has no value in a panel of the map (0: the lattice's optimum, 1: the planner's
+    cost, 2: the simulated success rate), as a key of the map's reasons; None: it has one."""
+    from ..planning.result import PlanOutcome
+    from ..runner import TaskStatus
+    from .map import NOT_EXECUTABLE
+
+    if cell.task_status is not TaskStatus.DONE:
+        return cell.task_status
+    if cell.lattice_outcome is not PlanOutcome.SOLVED:
+        return cell.lattice_outcome
+    if panel >= 1 and cell.planner_outcome is not PlanOutcome.SOLVED:
+        return cell.planner_outcome
+    if panel == 2 and cell.error.startswith(NOT_EXECUTABLE):
+        return NOT_EXECUTABLE
+    return None
+
+
+def map_figure(result: "MapResult"):
     """Heat maps over (alpha, friction scale): the lattice optimum where a secure path exists, the
     planner's cost where it found one, and with simulation the simulated success rate. Grey: no
-    secure path; red: a path exists but the planner found none; black: the cell's task failed.
-    A star marks the scene's own (alpha, friction scale 1)."""
+    secure path; red: a path exists but the planner found none; black: the cell's task failed;
+    on each cell without a value a marker says why (map_reason). A star marks the scene's own
+    (alpha, friction scale 1). Returns the matplotlib Figure."""
+    from matplotlib.collections import QuadMesh
     from matplotlib.colors import ListedColormap
 
     from ..planning.result import PlanOutcome
@@ -145,33 +200,48 @@ def plot_map(result: "MapResult", path: Path) -> None:
     if o.simulate:
         rate = grid(lambda c: None if c.sim_successes is None else c.sim_successes / o.simulate)
         panels.append((f"simulated success rate ({o.simulate} trials, {o.perturb})", rate, "RdYlGn",
-                       "success rate"))
+                       "success rate (share of trials placed)"))
     x, y = _edges(alphas), _edges(scales)
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.6 * len(panels), 4.6), squeeze=False,
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.6 * len(panels), 5.0), squeeze=False,
                              constrained_layout=True)
     finite = np.concatenate([optimum[np.isfinite(optimum)], cost[np.isfinite(cost)]])
     vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    fills = [(blocked, "0.8", "grey: the lattice rules out a secure path"), (missed, "#d62728", "red: a path exists, the planner found none"),
+             (failed, "black", "black: the cell's task failed")]
+    reasons = map_reasons()
     for k, (ax, (title, values, cmap, label)) in enumerate(zip(axes[0], panels)):
-        ax.pcolormesh(x, y, blocked, cmap=ListedColormap(["0.8"]), vmin=0, vmax=1)
-        if k == 1:
-            ax.pcolormesh(x, y, missed, cmap=ListedColormap(["#d62728"]), vmin=0, vmax=1)
-        ax.pcolormesh(x, y, failed, cmap=ListedColormap(["black"]), vmin=0, vmax=1)
+        for mask, colour, name in fills:
+            if (k == 1 or mask is not missed) and np.isfinite(mask).any():
+                ax.pcolormesh(x, y, mask, cmap=ListedColormap([colour]), vmin=0, vmax=1, label=name)
         bounds = dict(vmin=0.0, vmax=1.0) if cmap == "RdYlGn" else dict(vmin=vmin, vmax=vmax)
         mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), cmap=cmap, **bounds)
         fig.colorbar(mesh, ax=ax, label=label)
+        why = {}
+        for cell in result.cells:
+            reason = map_reason(cell, k)
+            if reason is not None:
+                why.setdefault(reason, []).append((cell.alpha, cell.friction_scale))
+        for reason, at in why.items():
+            name, marker = reasons[reason]
+            ax.scatter(*np.array(at).T, marker=marker, s=46, facecolor="white", edgecolor="black",
+                       linewidth=0.9, zorder=4, label=name)
         ref_alpha, ref_scale = result.reference
-        ax.plot([ref_alpha], [ref_scale], marker="*", markersize=16, color="white", markeredgecolor="black",
+        ax.plot([ref_alpha], [ref_scale], marker="*", markersize=22, markerfacecolor="none", markeredgecolor="black",
                 linestyle="none", label=f"the scene (alpha {ref_alpha:g}, friction x1)")
-        ax.set(xlim=(x[0], x[-1]), ylim=(y[0], y[-1]), xlabel="alpha (finger - thumb length, over l)",
+        ax.set(xlim=(x[0], x[-1]), ylim=(y[0], y[-1]), xlabel="alpha: finger - thumb length (fraction of l)",
                ylabel="friction scale (x the scene's coefficients)", title=title)
         ax.title.set_fontsize(9)
-    handles = [plt.Rectangle((0, 0), 1, 1, color="0.8", label="no secure path"),
-               plt.Rectangle((0, 0), 1, 1, color="#d62728", label="a path exists, not found"),
-               plt.Rectangle((0, 0), 1, 1, color="black", label="task failed")]
-    star = axes[0][0].get_legend_handles_labels()[0]
-    fig.legend(handles=handles + star, loc="outside lower center", ncol=4, fontsize=8)
+    marks: dict = {}
+    for artist in [a for ax in axes[0] for a in ax.collections] + [a for ax in axes[0] for a in ax.lines]:
+        if not isinstance(artist, QuadMesh) and not artist.get_label().startswith("_"):  # meshes: proxies below
+            marks.setdefault(artist.get_label(), artist)
+    drawn = {a.get_label() for ax in axes[0] for a in ax.collections if isinstance(a, QuadMesh)}
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colour, label=name) for _, colour, name in fills if name in drawn]
+    handles += marks.values()
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8)
     fig.suptitle(f"{result.scene}: feasibility over digit asymmetry and friction")
-    save_png(fig, path)
+    return fig
 
 
-__all__ = ["plot_final_cost", "plot_map", "plot_success_vs_time", "plot_sweep", "pyplot", "save_png"]
+__all__ = ["map_figure", "map_reason", "map_reasons", "plot_final_cost", "plot_map", "plot_success_vs_time",
+           "plot_sweep", "pyplot", "save_png"]

@@ -28,6 +28,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 
+#: The two ways the prism is rolled about G->B (RollDirection.sign) in words: +1 lifts the side of
+#: the object left of G->B as seen from the finger (from the top face, where A presses), -1 the
+#: side right of it (a right-handed turn about G->B, and the opposite one).
+ROLL_WAYS = {1: "left side up", -1: "right side up"}
+#: How to read ROLL_WAYS, said once beside them.
+ROLL_WAYS_NOTE = "sides of G->B seen from the finger"
+
+
+def describe_restoring(ranges_deg: dict[int, tuple[float, float] | None]) -> str:
+    """The tilts (deg) over which the grasp restores itself, each way named:
+    "left side up 0.25..30.00 deg, right side up none (sides of G->B seen from the finger)".
+    ranges_deg: by RollDirection.sign, a (first, last) tilt in deg or None (never restores)."""
+    parts = [f"{ROLL_WAYS[sign]} " + ("none" if r is None else f"{r[0]:.2f}..{r[1]:.2f} deg")
+             for sign, r in ranges_deg.items()]
+    return f"{', '.join(parts)} ({ROLL_WAYS_NOTE})"
+
+
 @dataclass
 class RollDirection:
     """Outcome of rolling one way: the sampled tilts (rad), whether each restores, the axis changes."""

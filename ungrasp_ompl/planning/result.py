@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mechanics import primitive_sliding_signs
+from ..mechanics.roll import describe_restoring
 from ..scene import StateClass, StateDiagnosis
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
 
@@ -267,8 +268,8 @@ class Plan:
                 lines.append(f"  x-moments (every leg): {rep['x_moments']['mechanism']}"
                              f" -> {'held' if rep['x_moments']['ok'] else 'NOT held'}")
                 for r in rep["roll_simulation"]:
-                    rng = ", ".join("none" if x is None else f"{x[0]:.2f}..{x[1]:.2f} deg"
-                                    for x in r["restoring_tilt_deg"].values())
+                    tilts = r["restoring_tilt_deg"]
+                    rng = describe_restoring({1: tilts["positive"], -1: tilts["negative"]})
                     lines.append(f"  prism roll at {r['label']}: {'self-restoring' if r['self_restoring'] else 'NOT self-restoring'}"
                                  f" over tilts {rng}")
         else:

@@ -1,0 +1,304 @@
+"""Pictures a reader understands: every mark drawn is named by a legend (or shown on a colour
+bar), axes are named in words with units, and the stability print names each roll direction.
+Read from the matplotlib Figures the drawing functions build (no pixels)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from figure_marks import axis_names, legend_texts, unexplained_marks
+
+from conftest import SCENES
+from ungrasp_ompl import Scene, plan
+from ungrasp_ompl.plotting import REGION_CLASSES, TRIAL_PARAM_LABELS, plan_figure, regions_figure, trials_figure
+
+#: An axis name in words (no snake_case) ending in its unit in parentheses.
+_NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \(([^()]*\b(deg|mm|m|s|mJ)\b[^()]*|fraction of l\b[^()]*|"
+                    r"x the scene's[^()]*|reference units|share of [^()]+|index)\)$")
+
+
+def assert_named_axes(fig) -> None:
+    names = axis_names(fig)
+    assert names
+    for name in names:
+        assert _NAMED.match(name.replace("\n", " ")), name
+
+
+@pytest.fixture(scope="module")
+def asymmetric():
+    scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
+    return scene, plan(scene, planner="lattice", seed=1)
+
+
+def test_cspace_legend_names_every_mark(asymmetric):
+    scene, result = asymmetric
+    assert result.solved
+    fig = plan_figure(scene, result, max_points=500)
+    try:
+        assert unexplained_marks(fig) == []
+        texts = legend_texts(fig)
+        assert len(texts) == len(set(texts))
+        kinds = {p.type for p in result.primitives}
+        assert len(kinds) >= 2
+        assert kinds <= set(texts)
+        assert {"start", "end", "goal region (box)"} <= set(texts)
+        dots = [t for t in texts if t.startswith("free, force-closed lattice state")]
+        assert dots == [f"free, force-closed lattice state (500 of {int(result.holdable_map.holdable.sum())} drawn)"]
+        assert_named_axes(fig)
+        assert any("theta: object-table angle" in n for n in axis_names(fig))
+    finally:
+        plt.close(fig)
+
+
+def test_regions_legend_has_each_class_colour():
+    scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
+    fig = regions_figure(scene, d_values=2, step_deg=5.0)
+    try:
+        (legend,) = fig.legends
+        assert [t.get_text() for t in legend.get_texts()] == list(REGION_CLASSES)
+        images = [im for ax in fig.axes for im in ax.images]
+        assert len(images) == 2
+        for im in images:
+            drawn = np.unique(np.asarray(im.get_array()))
+            assert set(drawn.tolist()) <= set(range(len(REGION_CLASSES)))  # scene.StateClass values
+            for cls in drawn:
+                colour = im.cmap(im.norm(cls))
+                handle = legend.legend_handles[int(cls)]
+                np.testing.assert_allclose(handle.get_facecolor(), colour)
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def _report(successes: list[bool]):
+    """A SimulationReport of trials with the paper's perturbations drawn (seed 3) and outcomes and
+    final poses as given (placed: on the target; failed: 5 mm off)."""
+    from ungrasp_ompl.sim.campaign import SimulationReport
+    from ungrasp_ompl.sim.outcome import Outcome, TrialResult
+    from ungrasp_ompl.sim.perturb import preset, trial_params
+    from ungrasp_ompl.sim.setup import Variant
+
+    trials = []
+    for k, (ok, params) in enumerate(zip(successes, trial_params(preset("paper"), 3, len(successes)))):
+        pose = np.eye(4)
+        pose[0, 3] = 0.0 if ok else 0.005
+        trials.append(TrialResult(Outcome.SUCCESS if ok else Outcome.GRIP_LOST, None, None, None, 0.0, 0.0, 0.0, 0.0,
+                                  params=params.to_dict(), trial=k, final_pose=pose.tolist()))
+    return SimulationReport("demo", preset("paper"), Variant(), 3, trials)
+
+
+def test_trials_legend_names_every_mark_and_each_error_in_words():
+    report = _report([True, False, True, False, False])
+    outline = np.array([[0.0, 0.0], [0.03, 0.0], [0.03, 0.01], [0.0, 0.01]])
+    fig = trials_figure(report, outline, np.eye(4))
+    try:
+        assert unexplained_marks(fig) == []
+        texts = set(legend_texts(fig))
+        assert {"target outline", "final outline, placed", "final outline, failed", "trial placed",
+                "trial failed"} <= texts
+        drawn = [k for k in report.trials[0].params if len({t.params[k] for t in report.trials}) > 1]
+        xlabels = {ax.get_xlabel() for ax in fig.axes[1:]}
+        assert xlabels == {TRIAL_PARAM_LABELS[k] for k in drawn}
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_every_trial_error_has_a_label_with_its_unit():
+    from ungrasp_ompl.sim.perturb import TrialParams
+
+    keys = set(TrialParams().to_dict())
+    assert keys == set(TRIAL_PARAM_LABELS)
+    for key, label in TRIAL_PARAM_LABELS.items():
+        assert _NAMED.match(label), label
+        unit = key.rsplit("_", 1)[1]
+        assert label.endswith(f"({unit})") if unit in ("mm", "deg") else "x the scene's" in label
+
+
+def _map_result():
+    """A 4 x 3 map whose cells end each way a cell can: solved, each lattice verdict, each
+    planner outcome, a plan the robot cannot execute, each failed task."""
+    from ungrasp_ompl.benchmark.map import NOT_EXECUTABLE, MapCell, MapOptions, MapResult
+    from ungrasp_ompl.planning.result import PlanOutcome as P
+    from ungrasp_ompl.runner import TaskStatus as T
+
+    solved = dict(lattice_outcome=P.SOLVED, lattice_optimum=80.0)
+    kinds = [dict(solved, planner_outcome=P.SOLVED, planner_cost=82.0, sim_successes=3),
+             dict(lattice_outcome=P.START_NOT_HELD), dict(lattice_outcome=P.GOAL_EMPTY),
+             dict(lattice_outcome=P.NO_SECURE_PATH), dict(solved, planner_outcome=P.NOT_FOUND),
+             dict(solved, planner_outcome=P.INVALID_PATH), dict(solved, planner_outcome=P.HUNG),
+             dict(solved, planner_outcome=P.SOLVED, planner_cost=90.0, error=f"{NOT_EXECUTABLE}: out of reach"),
+             dict(task_status=T.FAILED, error="ValueError: x"), dict(task_status=T.HUNG), dict(task_status=T.DIED),
+             dict(solved, planner_outcome=P.SOLVED, planner_cost=85.0, sim_successes=5)]
+    alphas, scales = (0.0, 0.1, 0.2, 0.3), (0.5, 1.0, 1.5)
+    grid = [(f, a) for f in scales for a in alphas]
+    cells = [MapCell(alpha=a, friction_scale=f, **{"task_status": T.DONE, **k}) for (f, a), k in zip(grid, kinds)]
+    options = MapOptions(alphas=alphas, friction_scales=scales, simulate=5)
+    return MapResult("demo", (0.1, 1.0), options, cells, len(cells), "reference units")
+
+
+def test_map_marks_each_failed_cell_with_its_reason():
+    from ungrasp_ompl.benchmark.plots import map_figure, map_reason, map_reasons
+
+    result = _map_result()
+    reasons = map_reasons()
+    assert len({marker for _, marker in reasons.values()}) == len(reasons)  # a marker of its own each
+    fig = map_figure(result)
+    try:
+        assert unexplained_marks(fig) == []
+        texts = set(legend_texts(fig))
+        panels = [ax for ax in fig.axes if ax.get_xlabel().startswith("alpha")]
+        assert len(panels) == 3
+        seen = set()
+        for k, ax in enumerate(panels):
+            marked = {c.get_label(): {tuple(p) for p in np.asarray(c.get_offsets()).tolist()}
+                      for c in ax.collections if type(c).__name__ == "PathCollection"}
+            want: dict = {}
+            for cell in result.cells:
+                reason = map_reason(cell, k)
+                if reason is not None:
+                    want.setdefault(reasons[reason][0], set()).add((cell.alpha, cell.friction_scale))
+            assert marked == want  # one marker kind per reason, on exactly the cells failing for it
+            assert set(want) <= texts
+            seen |= set(want)
+        assert seen == {label for label, _ in reasons.values()}  # every reason occurs in this map
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_stability_names_each_roll_direction():
+    """The prism roll's +1 direction (a right-handed turn about G->B) lifts the side left of
+    G->B seen from the finger (+z, the top face): so the print's words say which range is which."""
+    from ungrasp_ompl.mechanics.roll import ROLL_WAYS, _rotate, describe_restoring
+    from ungrasp_ompl.stability import analyse
+
+    x, left = np.array([1.0, 0.0, 0.0]), np.array([[0.5, 1.0, 0.0]])  # +y: left of +x seen from +z
+    assert np.cross(x, left[0] - [0.5, 0, 0]) @ [0, 0, 1] > 0
+    assert _rotate(left, np.zeros(3), x, np.array([math.radians(10)]))[0, 0, 2] > 0  # +1: left side rises
+    assert _rotate(left, np.zeros(3), x, np.array([-math.radians(10)]))[0, 0, 2] < 0
+    assert ROLL_WAYS == {1: "left side up", -1: "right side up"}
+    assert describe_restoring({1: (0.25, 30.0), -1: None}) == (
+        "left side up 0.25..30.00 deg, right side up none (sides of G->B seen from the finger)")
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    report = analyse(scene, [("start", scene.start)])
+    (line,) = [ln for ln in report.lines() if "prism roll" in ln]
+    assert re.search(r"left side up [0-9.]+\.\.[0-9.]+ deg, right side up [0-9.]+\.\.[0-9.]+ deg", line), line
+
+
+@pytest.mark.slow
+def test_cage_picture_names_every_mark():
+    from ungrasp_ompl.robustness import cage_profile, plan_friction_margins
+    from ungrasp_ompl.robustness_plot import cage_figure
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    result = plan(scene, planner="lattice", seed=1)
+    profile = cage_profile(scene, result)
+    fig = cage_figure(scene.name, result, profile, plan_friction_margins(scene, profile.samples))
+    try:
+        assert unexplained_marks(fig) == []
+        texts = legend_texts(fig)
+        assert {c.outcome.value.replace("_", " ") for c in profile.cages} <= set(texts)
+        assert "infinite energy (fully caged), drawn at the top" in texts
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def _run(planner: str, k: int, cost: float | None):
+    from ungrasp_ompl.benchmark.tasks import RunResult, RunStatus
+
+    status = RunStatus.EXACT if cost is not None else RunStatus.TIMEOUT
+    return RunResult("demo", planner, k, k, status, cost, 2 if cost else None, 0.01 * (k + 1) if cost else None,
+                     0.5, 0.1, 100, 0.7)
+
+
+def _captured(monkeypatch) -> list:
+    """The figures the benchmark's plot functions save, kept open instead of written."""
+    from ungrasp_ompl.benchmark import plots
+
+    figures: list = []
+    monkeypatch.setattr(plots, "save_png", lambda fig, path: figures.append(fig))
+    return figures
+
+
+def test_bench_pictures_name_every_mark(monkeypatch):
+    from datetime import datetime
+
+    from ungrasp_ompl.benchmark.ompl_log import Experiment
+    from ungrasp_ompl.benchmark.plots import plot_final_cost, plot_success_vs_time
+    from ungrasp_ompl.benchmark.tasks import RunStatus
+
+    scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
+    runs = {"RRTstar": [_run("RRTstar", k, c) for k, c in enumerate((86.0, 87.5, None))],
+            "lattice": [_run("lattice", 0, 85.5)]}
+    exp = Experiment("demo", scene, list(runs), runs, 85.5, RunStatus.EXACT, 1, 0.5, 3, datetime(2026, 1, 1), 1)
+    figures = _captured(monkeypatch)
+    plot_success_vs_time([exp], None)
+    plot_final_cost([exp], None)
+    assert len(figures) == 2
+    for fig in figures:
+        try:
+            assert unexplained_marks(fig) == []
+            assert_named_axes(fig)
+        finally:
+            plt.close(fig)
+
+
+def test_sweep_picture_names_every_mark(monkeypatch):
+    from ungrasp_ompl.benchmark.options import SweepOptions
+    from ungrasp_ompl.benchmark.plots import plot_sweep
+    from ungrasp_ompl.benchmark.sweep import SweepPoint, SweepResult
+
+    points = [SweepPoint(a, [_run("RRTstar", k, c) for k, c in enumerate(costs)], _run("lattice", 0, optimum))
+              for a, costs, optimum in ((0.1, (None, None), None), (0.2, (86.0, 87.0), 85.5),
+                                        (0.3, (None, None), None))]
+    result = SweepResult("demo", "RRTstar", points, "reference units", SweepOptions(alphas=(0.1, 0.2, 0.3)))
+    figures = _captured(monkeypatch)
+    plot_sweep(result, 0.5, None)
+    (fig,) = figures
+    try:
+        assert unexplained_marks(fig) == []
+        assert legend_texts(fig).count("no secure path") == 1  # two alphas blocked, named once
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def _square_layout(clearance: float):
+    """One tangram square alone in a square frame that leaves clearance (m) on every side."""
+    import yaml
+
+    from ungrasp_ompl.layout import Layout
+
+    doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
+    square = next(p for p in doc["pieces"] if p["name"] == "square")
+    half = float(np.max(np.abs(np.asarray(square["outline"]["polygon"])))) + clearance
+    square["target"] = {"position": [half, half], "yaw_deg": 0}
+    doc["pieces"] = [square]
+    doc["frame"]["inner_size"] = 2 * half
+    return Layout.from_dict(doc)
+
+
+@pytest.mark.parametrize("clearance, placed", [(0.015, True), (0.0005, False)])
+def test_layout_picture_names_every_mark(clearance, placed):
+    from ungrasp_ompl.plotting import layout_figure
+    from ungrasp_ompl.tiling import TilingOptions, tile
+
+    layout = _square_layout(clearance)
+    tiling = tile(layout, TilingOptions(planner="lattice", seed=1))
+    assert tiling.solved is placed
+    fig = layout_figure(layout, tiling)
+    try:
+        assert unexplained_marks(fig) == []
+        texts = legend_texts(fig)
+        assert ("piece placed (number and shade: order)" in texts) is placed
+        assert ("piece that cannot be placed" in texts) is not placed
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
