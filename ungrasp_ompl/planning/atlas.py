@@ -16,6 +16,7 @@ leg    primitive     moves                           sliding
 ``P``  P_psi         psi                             B
 ``D``  P_dpsi        d alone                         A, and B unless psi = 90 deg
 ``X``  P_dpsi        d and psi, opposite signs       A and B (sign of ds_B per state)
+``Y``  P_dpsi        psi, while the P_dpsi slides d  A and B (the lattice search's step only)
 =====  ============  ==============================  ===================
 
 A straight motion between two lattice states is realised by a staircase of
@@ -38,8 +39,8 @@ from ..mechanics import force_closure, kinematic_validity, primitive_sliding_sig
 from ..scene import Scene
 
 THETA, D, PSI = 0, 1, 2
-LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi"}
-LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI)}
+LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi", "Y": "P_dpsi"}
+LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI), "Y": (PSI,)}
 #: Forward (paper) direction of each coordinate: theta down, d down, psi up.
 FORWARD = np.array([-1, -1, 1])
 #: The coordinates' names, in index order.
