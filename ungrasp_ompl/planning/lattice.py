@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
-from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins
+from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, _reached
 
 
 @dataclass
@@ -164,7 +164,7 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     - ``balanced``: the cheapest with every edge also charged planning.margin_weight times its
       weighted L1 length over its margin in degrees.
 
-    An edge's margin is the smaller of its ends' in the edge's mode, the start's +inf. margins (the
+    An edge's margin is the smaller of its ends' in the edge's mode, the start's too. margins (the
     LatticeMargins of this atlas, objective and goal_box) is needed for the last two; the
     result's min_margin (rad) and penalty are the path's then."""
     if objective not in OBJECTIVES:
@@ -195,19 +195,25 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
     # (entered by a Y step or at the start; it may not end nor give way before it does)
     n_slot = n_prim + n_prim // 3
     plain = range(n_prim)
-    start_node = n_cells * n_slot
     start_cell = atlas.index(scene.start)
+    start_flat = None if start_cell is None else int(np.ravel_multi_index(start_cell, shape))
     in_goal = atlas.releasable_in(goal_box).ravel()
-    keep = np.ones(len(edges.src), dtype=bool)
+    # the cells on some path from the start to the goal, numbered compactly (the others cannot be
+    # on the optimum; leaving them out makes the search several times faster)
+    cells = np.flatnonzero(_on_some_path(edges, n_cells, start_flat, in_goal))
+    compact = np.full(n_cells, -1)
+    compact[cells] = np.arange(len(cells))
+    start_node = len(cells) * n_slot
+    keep = (compact[edges.src] >= 0) & (compact[edges.dst] >= 0)
     if objective == "margin":  # only edges as wide as the bottleneck
         bottleneck = margins.bottleneck
-        keep = margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
+        keep &= margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
     # the graph over (lattice state, primitive under way): per edge its cell edge and whether it changes
     rows, cols, of_edge, changed = [], [], [], []
 
     def link(sel: NDArray[np.int_], prev: int, slot: int, change: bool) -> None:
-        rows.append(edges.src[sel] * n_slot + prev)
-        cols.append(edges.dst[sel] * n_slot + slot)
+        rows.append(compact[edges.src[sel]] * n_slot + prev)
+        cols.append(compact[edges.dst[sel]] * n_slot + slot)
         of_edge.append(sel)
         changed.append(np.full(len(sel), change))
 
@@ -226,10 +232,9 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         if kind in "DX":
             link(sel, pending, prim, False)
     entries = [s for s in plain if s % 3 != 2] + list(range(n_prim, n_slot))  # a P_dpsi enters pending
-    if start_cell is not None:  # the start enters with any primitive, at no cost
-        start_flat = int(np.ravel_multi_index(start_cell, shape))
+    if len(cells):  # the start enters with any primitive, at no cost
         rows.append(np.full(len(entries), start_node))
-        cols.append(start_flat * n_slot + np.array(entries))
+        cols.append(compact[start_flat] * n_slot + np.array(entries))
         of_edge.append(np.full(len(entries), -1))
         changed.append(np.zeros(len(entries), dtype=bool))
     rows, cols, of_edge, changed = (np.concatenate(x) for x in (rows, cols, of_edge, changed))
@@ -247,12 +252,12 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         criteria = [changed.astype(float), per_edge(edges.length * margins.penalty(margins.edge_margin())), cost]
     else:
         criteria = [cost]
-    goal_nodes = (np.flatnonzero(in_goal)[:, None] * n_slot + np.arange(n_prim)).ravel()
+    goal_nodes = (compact[cells[in_goal[cells]]][:, None] * n_slot + np.arange(n_prim)).ravel()
     goal, pred, n_edges = _lexicographic_dijkstra(rows, cols, criteria, start_node, goal_nodes)
 
     best_cost = None
     legs: list[Leg] = []
-    if start_cell is not None and in_goal[start_flat]:
+    if start_flat is not None and in_goal[start_flat]:
         best_cost = 0.0
     elif goal is not None:
         chain = []
@@ -264,7 +269,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         prev_idx = start_cell
         for node in chain[1:]:  # chain[0] is the start state itself
             c, slot = divmod(int(node), n_slot)
-            idx = tuple(int(x) for x in np.unravel_index(c, shape))
+            idx = tuple(int(x) for x in np.unravel_index(cells[c], shape))
             moved = [a for a in range(3) if idx[a] != prev_idx[a]]
             kind = "T" if moved == [THETA] else "X" if len(moved) == 2 else "D" if moved == [D] else \
                 "P" if slot < n_prim and slot % 3 == 1 else "Y"
@@ -276,6 +281,18 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         min_margin = min((margins.leg_margin(leg) for leg in legs), default=math.inf)
         penalty = sum(margins.leg_penalty(leg) for leg in legs)
     return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty, best_cost)
+
+
+def _on_some_path(edges: LatticeEdges, n_cells: int, start: int | None, goal: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per cell (flat): it lies on some path of the edges from the start cell (flat index, None off
+    the lattice) to a goal cell, by a breadth-first search each way."""
+    on = np.zeros(n_cells, dtype=bool)
+    if start is None or not goal.any():
+        return on
+    on[_reached(edges.src, edges.dst, n_cells, [start])] = True
+    back = np.zeros(n_cells, dtype=bool)
+    back[_reached(edges.dst, edges.src, n_cells, np.flatnonzero(goal))] = True
+    return on & back
 
 
 def _realise(atlas: SecurityAtlas, legs: list[Leg]) -> list[Leg] | None:
