@@ -50,3 +50,50 @@ def test_rrt_star_stops_at_the_optimum_reproducibly():
         assert run.cost == pytest.approx(optimum, abs=1e-9)
         assert "stopped at the lattice optimum" in run.summary()
     assert runs[0].iterations == runs[1].iterations and runs[0].states == runs[1].states
+
+
+@pytest.mark.slow
+def test_plan_bench_and_cage_report_one_friction_margin(tmp_path):
+    """One plan of guitar_pick (its first primitive turns psi, so the start's margin in that
+    primitive's mode, 3.50 deg, is not its margin held still, 4.97 deg): `plan` (plan.json), the
+    bench's run on the same task and `cage --plan` report the same smallest friction margin to
+    1e-6 deg, the start included, and it is the smallest of the mechanics' margins at the states
+    the plan passes, each in its leg's mode (an independent evaluation)."""
+    import json
+    import math
+
+    import numpy as np
+
+    from conftest import run_cli
+    from ungrasp_ompl.benchmark.tasks import Task, run_task
+    from ungrasp_ompl.mechanics import primitive_sliding_signs
+    from ungrasp_ompl.mechanics.margin import friction_margin
+    from ungrasp_ompl.planning.result import read_plan
+
+    scene_file = SCENES / "guitar_pick.yaml"
+    proc = run_cli("plan", str(scene_file), "--seed", "1", "--time", "0.5", "--iterations", "3000",
+                   "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    planned = json.loads((tmp_path / "plan.json").read_text())
+    figure = planned["min_margin_deg"]
+    bench = run_task(Task("guitar_pick", Scene.from_file(scene_file), "RRTstar", 0, 1, 0.5, iterations=3000))
+    assert bench.cost == pytest.approx(planned["cost"], abs=1e-9)
+    assert bench.min_margin_deg == pytest.approx(figure, abs=1e-6)
+    proc = run_cli("cage", str(scene_file), "--plan", str(tmp_path / "plan.json"), "--out", str(tmp_path / "cage"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    caged = json.loads((tmp_path / "cage" / "cage.json").read_text())
+    assert caged["min_friction_margin_deg"] == pytest.approx(figure, abs=1e-6)
+    assert f"smallest friction margin along the path {figure:.3f} deg" in proc.stdout
+    # the mechanics at every state of every leg, at the lattice's resolution, the start included
+    scene, plan_read = Scene.from_file(scene_file), read_plan(tmp_path / "plan.json")
+    res = np.asarray(planned["resolution"])
+    smallest = math.inf
+    for p in plan_read.primitives:
+        for a, b in zip(np.asarray(p.waypoints[:-1]), np.asarray(p.waypoints[1:])):
+            n = int(np.ceil(np.max(np.abs(b - a) / res) - 1e-9))
+            q = a + np.linspace(0, 1, n + 1)[:, None] * (b - a)
+            sa, sb = primitive_sliding_signs(p.type, q[:, 1], q[:, 2], *(b - a)[1:])
+            m = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, scene.mu, scene.options.sliding_model)
+            smallest = min(smallest, math.degrees(float(m.min())))
+    assert figure == pytest.approx(smallest, abs=1e-6)
+    assert figure < planned["start_margin_deg"]  # here the start, turning psi, is narrower than held

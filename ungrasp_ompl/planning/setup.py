@@ -271,7 +271,9 @@ class UngraspSetup:
         if not exact:
             return self._no_path(plan)
         path = self.pdef.getSolutionPath()
-        if opts.simplify and self.margins is not None:  # OMPL's reduceVertices ignores the objective
+        if plan.stopped_by == StoppedBy.OPTIMUM:
+            pass  # optimal as it is; OMPL's shortcuts count legs, not changes, and can add one
+        elif opts.simplify and self.margins is not None:  # OMPL's reduceVertices ignores the objective
             path = reduce_vertices(self.si, self.objective, path)
         elif opts.simplify:
             simplifier = og.PathSimplifier(self.si, self.goal, self.objective)
