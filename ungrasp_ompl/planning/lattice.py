@@ -5,7 +5,7 @@ a primitive (theta one step for P_theta, psi one step for P_psi, d one step,
 alone or with psi one step the other way, for P_dpsi), secure in that leg's
 contact mode at both ends, costing its weighted L1 length plus the mode-change
 penalty when the primitive (or its direction) changes, as a plan's cost counts
-its merged primitives (docs/model.md, section 6.2). For the cost objective a
+its merged primitives (docs/model.md, sections 6 and 8.2). For the cost objective a
 P_dpsi may also turn psi alone by a step once under way or before its first d
 step (a Y step: the lattice steps of a steep X leg, whose B mode is the
 P_dpsi's), its states secure in some mode a P_dpsi makes there, and it must
@@ -38,8 +38,8 @@ from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, _reached
 class LatticeResult:
     """The optimum on the lattice: cost (reference units), its legs (planner legs, T, P, D and X,
     realising it), or None when unreachable; legs_cost: the legs' cost, the optimum's unless no
-    straight legs realise its Y steps (then the best path without them); with a robust objective, the path's smallest friction margin (rad) and its penalty (the sum
-    over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
+    straight legs realise its Y steps (then the best path without them); with a robust objective,
+    the path's smallest friction margin (rad) and its penalty (the sum over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
     for balanced, reference units)."""
 
     cost: float | None
@@ -173,12 +173,16 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
                                 or not np.array_equal(margins.goal_box, goal_box)):
         raise ValueError(f"the {objective} objective needs the margins of this lattice, objective and goal box")
     if objective == "cost":
+        key = tuple(np.asarray(goal_box, dtype=float).ravel().round(12))
+        if key in atlas.cost_optima:
+            return atlas.cost_optima[key]
         found = _search(atlas, lattice_edges(atlas, turns=True), goal_box, objective, margins)
         legs = _realise(atlas, found.legs)
         if legs is None:  # no straight legs through its states: the best path of planner legs
             fallback = _search(atlas, lattice_edges(atlas), goal_box, objective, margins)
             legs, found.legs_cost = fallback.legs, fallback.cost
         found.legs = legs
+        atlas.cost_optima[key] = found
         return found
     return _search(atlas, margins.edges, goal_box, objective, margins)
 

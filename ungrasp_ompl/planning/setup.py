@@ -296,7 +296,7 @@ class UngraspSetup:
             return math.inf
         k = data.getGoalIndex(0)
         states = []
-        while True:
+        for _ in range(data.numVertices()):  # up the tree to its root
             s = data.getVertex(k).getState()
             states.append((s[0], s[1], s[2]))
             parents = data.getIncomingEdges(k)
