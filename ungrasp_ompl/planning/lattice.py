@@ -213,13 +213,14 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         bottleneck = margins.bottleneck
         keep &= margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
     # the graph over (lattice state, primitive under way): per edge its cell edge and whether it changes
-    rows, cols, of_edge, changed = [], [], [], []
+    rows, cols, of_edge, changed, cost = [], [], [], [], []
 
     def link(sel: NDArray[np.int_], prev: int, slot: int, change: bool) -> None:
         rows.append(compact[edges.src[sel]] * n_slot + prev)
         cols.append(compact[edges.dst[sel]] * n_slot + slot)
         of_edge.append(sel)
         changed.append(np.full(len(sel), change))
+        cost.append(edges.length[sel] + (opts.mode_change_penalty if change else 0.0))
 
     for k, (kind, prim, _) in enumerate(edges.moves):
         sel = np.flatnonzero(keep[edges.offsets[k]:edges.offsets[k + 1]]) + edges.offsets[k]
@@ -241,7 +242,8 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         cols.append(compact[start_flat] * n_slot + np.array(entries))
         of_edge.append(np.full(len(entries), -1))
         changed.append(np.zeros(len(entries), dtype=bool))
-    rows, cols, of_edge, changed = (np.concatenate(x) for x in (rows, cols, of_edge, changed))
+        cost.append(np.zeros(len(entries)))
+    rows, cols, of_edge, changed, cost = (np.concatenate(x) for x in (rows, cols, of_edge, changed, cost))
     on_lattice = of_edge >= 0
 
     def per_edge(values: NDArray[np.float64]) -> NDArray[np.float64]:  # cell-edge values, 0 from the start
@@ -249,7 +251,6 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         out[on_lattice] = values[of_edge[on_lattice]]  # (a lattice may have no secure edge at all)
         return out
 
-    cost = per_edge(edges.length) + opts.mode_change_penalty * changed
     if objective == "balanced":
         criteria = [cost + opts.margin_weight * per_edge(edges.length * margins.penalty(margins.edge_margin()))]
     elif objective == "margin":
@@ -321,9 +322,24 @@ def _realise(atlas: SecurityAtlas, legs: list[Leg]) -> list[Leg] | None:
 
 
 def _straight_legs(atlas: SecurityAtlas, states: list[tuple[int, int, int]]) -> list[Leg] | None:
-    """The fewest secure straight D or X legs from states[0] to states[-1], each between two of
-    the states (in order) and sliding d; None when there are none."""
+    """Secure straight D or X legs from states[0] to states[-1], each between two of the states
+    (in order) and sliding d: each as long as it can be, else the fewest; None when there are none."""
     n = len(states) - 1
+
+    def leg(a: int, b: int) -> Leg | None:
+        p, q = states[a], states[b]
+        kind = "D" if p[PSI] == q[PSI] else "X"
+        return Leg(kind, p, q) if p[D] != q[D] and atlas.leg_secure(kind, p, q) else None
+
+    out, a = [], 0
+    while a < n:  # greedily, the longest leg first (usually one leg does)
+        found = next(((b, x) for b in range(n, a, -1) if (x := leg(a, b)) is not None), None)
+        if found is None:
+            break
+        a, x = found
+        out.append(x)
+    if a == n:
+        return out
     fewest, after = [math.inf] * n + [0], [n] * (n + 1)
     for a in range(n - 1, -1, -1):
         for b in range(n, a, -1):

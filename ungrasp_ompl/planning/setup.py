@@ -182,9 +182,12 @@ class UngraspSetup:
             self.objective = RobustObjective(self.si, self.atlas, self.margins)
         else:
             self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
-        #: The exact lattice search (the cost objective's yardstick; None for a robust objective).
-        self.lattice = lattice_search(self.atlas, scene.goal.box()) if self.options.objective == "cost" else None
-        if self.lattice is not None and self.lattice.reachable and not roadmap:
+        #: The exact lattice search, where it can stop the planner (the cost objective's yardstick,
+        #: for an optimising planner; else None, and searched only to explain a failure).
+        self.lattice = None
+        if self.options.objective == "cost" and self.options.planner in OPTIMISING_PLANNERS:
+            self.lattice = lattice_search(self.atlas, scene.goal.box())
+        if self.lattice is not None and self.lattice.reachable:
             # OMPL's own stop: a path of objective cost below this is the optimum, as every motion
             # pays at least one leg's penalty, so the objective exceeds the plan's cost by one or more
             self.objective.setCostThreshold(ob.Cost(self.lattice.cost + self.objective.penalty + OPTIMUM_TOLERANCE))
@@ -380,6 +383,9 @@ def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | No
 #: Planners whose best path so far can be read from their tree while they run (solve's stop at the
 #: lattice optimum); the others stop there when OMPL finds the objective's cost threshold met.
 TREE_PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar")
+#: Planners that stop at the objective's cost threshold (PRM* is stopped by TakeTurns; the others
+#: stop at their first path).
+OPTIMISING_PLANNERS = TREE_PLANNERS + ("BITstar", "AORRTC")
 #: A cost this close (reference units) to the lattice optimum is the optimum.
 OPTIMUM_TOLERANCE = 1e-9
 
