@@ -53,14 +53,12 @@ def all_paths(atlas: SecurityAtlas, goal_box: np.ndarray) -> list[list[tuple[str
 
 def step_margin(atlas: SecurityAtlas, kind: str, a: tuple, b: tuple) -> float:
     """A lattice step's friction margin (rad), straight from the mechanics: the smaller of its
-    ends' in the step's contact mode, the start left out."""
+    ends' in the step's contact mode, the start included."""
     scene = atlas.scene
     qa, qb = atlas.state(a), atlas.state(b)
     dq = qb - qa
     out = math.inf
-    for q, idx in ((qa, a), (qb, b)):
-        if idx == atlas.index(scene.start):
-            continue
+    for q in (qa, qb):
         sa, sb = primitive_sliding_signs(LEG_PRIMITIVE[kind], q[1], q[2], dq[1], dq[2])
         out = min(out, float(friction_margin(*q, sa, sb, scene.mu, scene.options.sliding_model)[0]))
     return out

@@ -384,7 +384,7 @@ def _cage(args: argparse.Namespace) -> int:
     from .mechanics.cage import CageGrid
     from .planning import plan
     from .planning.result import read_plan
-    from .robustness import cage_profile, plan_friction_margins
+    from .robustness import cage_profile, path_friction_margin, plan_friction_margins
     from .scene import Scene
     from .sim.campaign import check_psi_offset, deviated_plan, plan_problems
 
@@ -444,7 +444,8 @@ def _cage(args: argparse.Namespace) -> int:
     weakest = profile.weakest(result)
     start_energy = "inf" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f}"
     print(f"start: {cage0.outcome.value.replace('_', ' ')} (escape energy {start_energy} mJ)")
-    print(f"{weakest.describe()}; smallest friction margin {math.degrees(margins.min()):.2f} deg")
+    path = path_friction_margin(scene, result)  # the plan's own figure, as `plan` and `bench` report it
+    print(f"{weakest.describe()}; smallest friction margin along the path {math.degrees(path.smallest):.3f} deg")
     if out is not None:
         from .robustness_plot import draw_cage_profile
 
@@ -452,6 +453,7 @@ def _cage(args: argparse.Namespace) -> int:
                "states": [[float(x) for x in q] for q in profile.samples.states],
                "primitive": [int(p) for p in profile.samples.primitive],
                "friction_margin_deg": [float(math.degrees(m)) for m in margins],
+               "min_friction_margin_deg": math.degrees(path.smallest),
                "cage": [c.to_dict() for c in profile.cages], "weakest": weakest.to_dict()}
         write_text_atomic(out / "cage.json", json.dumps(doc, indent=1) + "\n")
         draw_cage_profile(scene.name, result, profile, margins, out / "cage.png")

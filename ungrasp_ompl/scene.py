@@ -23,7 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import InputError
 from .geometry.collision import Box, CollisionChecker, CollisionModel
 from .geometry.plane import ManipulationPlane, choose_plane
-from .mechanics import DigitGeometry, force_closure, kinematic_checks, kinematic_validity, sliding_signs
+from .mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
+                        sliding_signs)
 from .mechanics.force_closure import SLIDING_MODELS
 from .scene_file import MAX_LENGTH, SceneReader, read_yaml
 from .scene_options import Object3D, PlanningOptions, RobotOptions, SimOptions
@@ -425,6 +426,10 @@ def _states_and_mode(q: ArrayLike, dq: ArrayLike | None) -> tuple[NDArray[np.flo
     if dq.shape != q.shape:
         raise InputError("dq", f"must have the shape of q {q.shape}, got {dq.shape}")
     sa, sb = sliding_signs(q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
+    # psi alone is a P_psi, whose B slides against dpsi even at psi = 0 (primitive_sliding_signs), as
+    # the planner and a plan's margin take it
+    turn = (dq[:, 0] == 0) & (dq[:, 1] == 0) & (dq[:, 2] != 0)
+    sb[turn] = primitive_sliding_signs("P_psi", q[turn, 1], q[turn, 2], 0.0, dq[turn, 2])[1]
     return q, sa, sb
 
 

@@ -236,7 +236,6 @@ def cell_from_row(row: dict[str, str]) -> MapCell:
 
 def run_cell(task: MapTask) -> MapCell:
     """Compute one cell (OMPL's random numbers seeded here for it)."""
-    from ..planning.lattice import lattice_search
     from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan, seed_ompl
 
     scene = task.scene
@@ -253,7 +252,7 @@ def run_cell(task: MapTask) -> MapCell:
         problem = setup.ends_problem()
         if problem:
             return MapCell(**done, lattice_outcome=problem["outcome"])
-        found = lattice_search(setup.atlas, scene.goal.box())
+        found = setup.lattice  # the exact search, the planner's yardstick
         if not found.reachable:
             return MapCell(**done, lattice_outcome=PlanOutcome.NO_SECURE_PATH)
         plan = setup.solve()

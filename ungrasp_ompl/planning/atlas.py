@@ -16,6 +16,7 @@ leg    primitive     moves                           sliding
 ``P``  P_psi         psi                             B
 ``D``  P_dpsi        d alone                         A, and B unless psi = 90 deg
 ``X``  P_dpsi        d and psi, opposite signs       A and B (sign of ds_B per state)
+``Y``  P_dpsi        psi, while the P_dpsi slides d  A and B (the lattice search's step only)
 =====  ============  ==============================  ===================
 
 A straight motion between two lattice states is realised by a staircase of
@@ -38,8 +39,8 @@ from ..mechanics import force_closure, kinematic_validity, primitive_sliding_sig
 from ..scene import Scene
 
 THETA, D, PSI = 0, 1, 2
-LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi"}
-LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI)}
+LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi", "Y": "P_dpsi"}
+LEG_AXES = {"T": (THETA,), "P": (PSI,), "D": (D,), "X": (D, PSI), "Y": (PSI,)}
 #: Forward (paper) direction of each coordinate: theta down, d down, psi up.
 FORWARD = np.array([-1, -1, 1])
 #: The coordinates' names, in index order.
@@ -86,6 +87,9 @@ class SecurityAtlas:
         self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
         self._reverse = scene.options.reverse_primitives
         self._no_dpsi = scene.options.forbid_partial  # P_dpsi slides A and B: partial 3D stability
+        #: lattice_search's cost optima by goal box (planning.lattice fills it: tiling's proof,
+        #: the planner's stop at the optimum and the lattice planner search once).
+        self.cost_optima: dict[tuple, object] = {}
         self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
             tuple(int(x) for x in self.lo_index), self.shape)
 

@@ -1,16 +1,24 @@
-"""Exact optimum on the primitive lattice: a Dijkstra search with the planner's cost.
+"""Exact optimum on the primitive lattice: a Dijkstra search with the planners' cost.
 
-Nodes are (lattice state, primitive last run); an edge is one lattice step of
+Nodes are (lattice state, primitive under way); an edge is one lattice step of
 a primitive (theta one step for P_theta, psi one step for P_psi, d one step,
 alone or with psi one step the other way, for P_dpsi), secure in that leg's
 contact mode at both ends, costing its weighted L1 length plus the mode-change
-penalty when the primitive (or its direction) changes. The search uses
+penalty when the primitive (or its direction) changes, as a plan's cost counts
+its merged primitives (docs/model.md, sections 6 and 8.2). For the cost objective a
+P_dpsi may also turn psi alone by a step once under way or before its first d
+step (a Y step: the lattice steps of a steep X leg, whose B mode is the
+P_dpsi's), its states secure in some mode a P_dpsi makes there, and it must
+slide d before another primitive starts: every path a planner can return (its
+legs rasterised on the lattice) is a path of this graph, so the optimum is a
+lower bound of every planner's cost, and the path found is realised by
+straight X and D legs between its states (lattice_search). The search uses
 scipy's compiled Dijkstra, so it is the yardstick for the sampling planners
 and the proof that no secure path exists at a resolution. The robust
-objectives (docs/model.md, section 6.1) search the same graph: balanced with
-the margin penalty added to the cost, margin over the edges as wide as the
-lattice's bottleneck with one Dijkstra per criterion in turn (primitive
-changes, tie-break, cost).
+objectives (docs/model.md, section 6.1) search the one-step graph without Y
+steps: balanced with the margin penalty added to the cost, margin over the
+edges as wide as the lattice's bottleneck with one Dijkstra per criterion in
+turn (primitive changes, tie-break, cost).
 """
 
 from __future__ import annotations
@@ -23,14 +31,15 @@ from numpy.typing import NDArray
 
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
-from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins
+from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, _reached
 
 
 @dataclass
 class LatticeResult:
-    """The optimum on the lattice: cost (reference units), its legs, or None when unreachable;
-    with a robust objective, the path's smallest friction margin (rad) and its penalty (the sum
-    over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
+    """The optimum on the lattice: cost (reference units), its legs (planner legs, T, P, D and X,
+    realising it), or None when unreachable; legs_cost: the legs' cost, the optimum's unless no
+    straight legs realise its Y steps (then the best path without them); with a robust objective,
+    the path's smallest friction margin (rad) and its penalty (the sum over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
     for balanced, reference units)."""
 
     cost: float | None
@@ -39,14 +48,15 @@ class LatticeResult:
     edges: int
     min_margin: float | None = None
     penalty: float | None = None
+    legs_cost: float | None = None
 
     @property
     def reachable(self) -> bool:
         return self.cost is not None
 
 
-def _moves(reverse: bool):
-    """(leg kind, primitive slot, index step) of every lattice move."""
+def _moves(reverse: bool, turns: bool = False):
+    """(leg kind, primitive slot, index step) of every lattice move; turns: with the Y steps."""
     out = []
     for sign in (1, -1) if reverse else (1,):
         base = 0 if sign == 1 else 3
@@ -59,11 +69,17 @@ def _moves(reverse: bool):
         x = [0, 0, 0]
         x[D], x[PSI] = sign * FORWARD[D], sign * FORWARD[PSI]
         out += [("T", base + 0, t), ("P", base + 1, p), ("D", base + 2, dd), ("X", base + 2, x)]
+        if turns:
+            out.append(("Y", base + 2, p))
     return out
 
 
-def _move_ok(atlas: SecurityAtlas, kind: str, step: list[int]) -> NDArray[np.bool_]:
-    """Per lattice state: the leg's mode is secure there (for X, in the diagonal's own B mode)."""
+def _move_ok(atlas: SecurityAtlas, kind: str, step: list[int], turns: bool = False) -> NDArray[np.bool_]:
+    """Per lattice state: the leg's mode is secure there (for X, in the diagonal's own B mode;
+    with turns, a P_dpsi step in some mode a P_dpsi makes there, dpsi_region)."""
+    if turns and kind in "DXY":
+        sa = step[D] if kind != "Y" else step[PSI] * FORWARD[PSI] * FORWARD[D]  # Y: the P_dpsi's own sense
+        return dpsi_region(atlas, int(sa))
     if kind != "X":
         axis = {"T": THETA, "P": PSI, "D": D}[kind]
         return atlas.leg_ok(kind, step[axis])
@@ -72,6 +88,22 @@ def _move_ok(atlas: SecurityAtlas, kind: str, step: list[int]) -> NDArray[np.boo
     out = np.zeros(atlas.shape, dtype=bool)
     for b in np.unique(sb):
         out |= atlas.mode_ok(int(sa.flat[0]), int(b)) & (sb == b)[None]
+    return out
+
+
+def dpsi_region(atlas: SecurityAtlas, sa: int) -> NDArray[np.bool_]:
+    """Lattice states secure in some contact mode a P_dpsi sliding d with sign sa (psi still or
+    moving the other way, at any slope) makes there: A slides with sa, B with the sign of ds_B,
+    which runs from d alone's (cos(psi) sa) to psi alone's limit (sa d sin(psi)) as the slope
+    steepens, through every sign between (one sign below psi = 90 deg); shape of the lattice."""
+    d, psi = np.meshgrid(atlas.axes[D], atlas.axes[PSI], indexing="ij")
+    _, alone = primitive_sliding_signs("P_dpsi", d, psi, float(sa), 0.0)
+    _, steep = primitive_sliding_signs("P_dpsi", d, psi, sa * 1e-6, -float(sa))
+    lo, hi = np.minimum(alone, steep), np.maximum(alone, steep)
+    out = np.zeros(atlas.shape, dtype=bool)
+    for b in (-1, 0, 1):
+        if ((lo <= b) & (b <= hi)).any():
+            out |= atlas.mode_ok(int(sa), b) & ((lo <= b) & (b <= hi))[None]
     return out
 
 
@@ -99,17 +131,18 @@ class LatticeEdges:
     length: NDArray[np.float64]  #: weighted L1 length of each edge (reference units)
 
 
-def lattice_edges(atlas: SecurityAtlas) -> LatticeEdges:
+def lattice_edges(atlas: SecurityAtlas, turns: bool = False) -> LatticeEdges:
     """The secure moves of the atlas's lattice (what lattice_search searches, without the last
     primitive): every allowed move (forward, or either way with reverse primitives; no P_dpsi when
-    partial stability is forbidden) from every state where it is secure at both ends."""
+    partial stability is forbidden) from every state where it is secure at both ends; turns: with
+    the P_dpsi's Y steps, its steps secure in dpsi_region (the cost objective's graph)."""
     opts = atlas.scene.options
     shape = atlas.shape
     cell = np.arange(int(np.prod(shape))).reshape(shape)
-    moves = [m for m in _moves(opts.reverse_primitives) if not (opts.forbid_partial and m[0] in "DX")]
+    moves = [m for m in _moves(opts.reverse_primitives, turns) if not (opts.forbid_partial and m[0] in "DXY")]
     srcs, dsts, lengths = [], [], []
     for kind, _, step in moves:
-        ok = _move_ok(atlas, kind, step)
+        ok = _move_ok(atlas, kind, step, turns)
         src, dst = _shifted(shape, step)
         good = ok[src] & ok[dst]
         srcs.append(cell[src][good])
@@ -131,7 +164,7 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     - ``balanced``: the cheapest with every edge also charged planning.margin_weight times its
       weighted L1 length over its margin in degrees.
 
-    An edge's margin is the smaller of its ends' in the edge's mode, the start's +inf. margins (the
+    An edge's margin is the smaller of its ends' in the edge's mode, the start's too. margins (the
     LatticeMargins of this atlas, objective and goal_box) is needed for the last two; the
     result's min_margin (rad) and penalty are the path's then."""
     if objective not in OBJECTIVES:
@@ -139,35 +172,78 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     if objective != "cost" and (margins is None or margins.objective != objective or margins.atlas is not atlas
                                 or not np.array_equal(margins.goal_box, goal_box)):
         raise ValueError(f"the {objective} objective needs the margins of this lattice, objective and goal box")
+    if objective == "cost":
+        key = tuple(np.asarray(goal_box, dtype=float).ravel().round(12))
+        if key in atlas.cost_optima:
+            return atlas.cost_optima[key]
+        found = _search(atlas, lattice_edges(atlas, turns=True), goal_box, objective, margins)
+        legs = _realise(atlas, found.legs)
+        if legs is None:  # no straight legs through its states: the best path of planner legs
+            fallback = _search(atlas, lattice_edges(atlas), goal_box, objective, margins)
+            legs, found.legs_cost = fallback.legs, fallback.cost
+        found.legs = legs
+        atlas.cost_optima[key] = found
+        return found
+    return _search(atlas, margins.edges, goal_box, objective, margins)
+
+
+def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.float64], objective: str,
+            margins: LatticeMargins | None) -> LatticeResult:
+    """lattice_search over a graph's edges (its legs one lattice step each, Y steps included)."""
     scene = atlas.scene
     opts = scene.options
     shape = atlas.shape
     n_cells = int(np.prod(shape))
-    edges = margins.edges if margins is not None else lattice_edges(atlas)
     n_prim = 6 if opts.reverse_primitives else 3
-    start_node = n_cells * n_prim
+    # slots: the primitives (and directions), then per direction a P_dpsi that has not slid d yet
+    # (entered by a Y step or at the start; it may not end nor give way before it does)
+    n_slot = n_prim + n_prim // 3
+    plain = range(n_prim)
     start_cell = atlas.index(scene.start)
+    start_flat = None if start_cell is None else int(np.ravel_multi_index(start_cell, shape))
     in_goal = atlas.releasable_in(goal_box).ravel()
-    keep = np.ones(len(edges.src), dtype=bool)
+    # the cells on some path from the start to the goal, numbered compactly (the others cannot be
+    # on the optimum; leaving them out makes the search several times faster)
+    cells = np.flatnonzero(_on_some_path(edges, n_cells, start_flat, in_goal))
+    compact = np.full(n_cells, -1)
+    compact[cells] = np.arange(len(cells))
+    start_node = len(cells) * n_slot
+    keep = (compact[edges.src] >= 0) & (compact[edges.dst] >= 0)
     if objective == "margin":  # only edges as wide as the bottleneck
         bottleneck = margins.bottleneck
-        keep = margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
-    # the graph over (lattice state, last primitive): per edge its cell edge and whether it changes
-    rows, cols, of_edge, changed = [], [], [], []
-    for k, (_, prim, _) in enumerate(edges.moves):
+        keep &= margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
+    # the graph over (lattice state, primitive under way): per edge its cell edge and whether it changes
+    rows, cols, of_edge, changed, cost = [], [], [], [], []
+
+    def link(sel: NDArray[np.int_], prev: int, slot: int, change: bool) -> None:
+        rows.append(compact[edges.src[sel]] * n_slot + prev)
+        cols.append(compact[edges.dst[sel]] * n_slot + slot)
+        of_edge.append(sel)
+        changed.append(np.full(len(sel), change))
+        cost.append(edges.length[sel] + (opts.mode_change_penalty if change else 0.0))
+
+    for k, (kind, prim, _) in enumerate(edges.moves):
         sel = np.flatnonzero(keep[edges.offsets[k]:edges.offsets[k + 1]]) + edges.offsets[k]
-        for prev in range(n_prim):
-            rows.append(edges.src[sel] * n_prim + prev)
-            cols.append(edges.dst[sel] * n_prim + prim)
-            of_edge.append(sel)
-            changed.append(np.full(len(sel), prev != prim))
-    if start_cell is not None:  # the start enters with any primitive, at no cost
-        start_flat = int(np.ravel_multi_index(start_cell, shape))
-        rows.append(np.full(n_prim, start_node))
-        cols.append(start_flat * n_prim + np.arange(n_prim))
-        of_edge.append(np.full(n_prim, -1))
-        changed.append(np.zeros(n_prim, dtype=bool))
-    rows, cols, of_edge, changed = (np.concatenate(x) for x in (rows, cols, of_edge, changed))
+        pending = n_prim + prim // 3
+        if kind == "Y":  # within a P_dpsi, or starting one that slides d later
+            link(sel, prim, prim, False)
+            link(sel, pending, pending, False)
+            for prev in plain:
+                if prev != prim:
+                    link(sel, prev, pending, True)
+            continue
+        for prev in plain:
+            link(sel, prev, prim, prev != prim)
+        if kind in "DX":
+            link(sel, pending, prim, False)
+    entries = [s for s in plain if s % 3 != 2] + list(range(n_prim, n_slot))  # a P_dpsi enters pending
+    if len(cells):  # the start enters with any primitive, at no cost
+        rows.append(np.full(len(entries), start_node))
+        cols.append(compact[start_flat] * n_slot + np.array(entries))
+        of_edge.append(np.full(len(entries), -1))
+        changed.append(np.zeros(len(entries), dtype=bool))
+        cost.append(np.zeros(len(entries)))
+    rows, cols, of_edge, changed, cost = (np.concatenate(x) for x in (rows, cols, of_edge, changed, cost))
     on_lattice = of_edge >= 0
 
     def per_edge(values: NDArray[np.float64]) -> NDArray[np.float64]:  # cell-edge values, 0 from the start
@@ -175,19 +251,18 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
         out[on_lattice] = values[of_edge[on_lattice]]  # (a lattice may have no secure edge at all)
         return out
 
-    cost = per_edge(edges.length) + opts.mode_change_penalty * changed
     if objective == "balanced":
         criteria = [cost + opts.margin_weight * per_edge(edges.length * margins.penalty(margins.edge_margin()))]
     elif objective == "margin":
         criteria = [changed.astype(float), per_edge(edges.length * margins.penalty(margins.edge_margin())), cost]
     else:
         criteria = [cost]
-    goal_nodes = (np.flatnonzero(in_goal)[:, None] * n_prim + np.arange(n_prim)).ravel()
+    goal_nodes = (compact[cells[in_goal[cells]]][:, None] * n_slot + np.arange(n_prim)).ravel()
     goal, pred, n_edges = _lexicographic_dijkstra(rows, cols, criteria, start_node, goal_nodes)
 
     best_cost = None
     legs: list[Leg] = []
-    if start_cell is not None and in_goal[start_flat]:
+    if start_flat is not None and in_goal[start_flat]:
         best_cost = 0.0
     elif goal is not None:
         chain = []
@@ -196,12 +271,13 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
             chain.append(node)
             node = pred[node]
         chain.reverse()
-        kinds = {prim: kind for kind, prim, _ in edges.moves if kind != "X"}
         prev_idx = start_cell
         for node in chain[1:]:  # chain[0] is the start state itself
-            c, prim = divmod(int(node), n_prim)
-            idx = tuple(int(x) for x in np.unravel_index(c, shape))
-            kind = "X" if idx[D] != prev_idx[D] and idx[PSI] != prev_idx[PSI] else kinds[prim]
+            c, slot = divmod(int(node), n_slot)
+            idx = tuple(int(x) for x in np.unravel_index(cells[c], shape))
+            moved = [a for a in range(3) if idx[a] != prev_idx[a]]
+            kind = "T" if moved == [THETA] else "X" if len(moved) == 2 else "D" if moved == [D] else \
+                "P" if slot < n_prim and slot % 3 == 1 else "Y"
             legs.append(Leg(kind, prev_idx, idx))
             prev_idx = idx
         best_cost = _path_cost(atlas, legs)
@@ -209,7 +285,76 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     if objective != "cost" and best_cost is not None:  # the path's smallest margin and penalty
         min_margin = min((margins.leg_margin(leg) for leg in legs), default=math.inf)
         penalty = sum(margins.leg_penalty(leg) for leg in legs)
-    return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty)
+    return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty, best_cost)
+
+
+def _on_some_path(edges: LatticeEdges, n_cells: int, start: int | None, goal: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per cell (flat): it lies on some path of the edges from the start cell (flat index, None off
+    the lattice) to a goal cell, by a breadth-first search each way."""
+    on = np.zeros(n_cells, dtype=bool)
+    if start is None or not goal.any():
+        return on
+    on[_reached(edges.src, edges.dst, n_cells, [start])] = True
+    back = np.zeros(n_cells, dtype=bool)
+    back[_reached(edges.dst, edges.src, n_cells, np.flatnonzero(goal))] = True
+    return on & back
+
+
+def _realise(atlas: SecurityAtlas, legs: list[Leg]) -> list[Leg] | None:
+    """The search's one-step legs as planner legs: every P_dpsi with Y steps as the fewest straight
+    X and D legs between its states, each secure as the atlas checks a planner's leg (the same
+    primitives, hence the same cost); None when some P_dpsi has no such legs."""
+    out: list[Leg] = []
+    k = 0
+    while k < len(legs):
+        j = k + 1
+        if legs[k].primitive == "P_dpsi":
+            while j < len(legs) and _slot(legs[j]) == _slot(legs[k]):
+                j += 1
+        run = legs[k:j]
+        if any(leg.kind == "Y" for leg in run):
+            run = _straight_legs(atlas, [run[0].start] + [leg.end for leg in run])
+            if run is None:
+                return None
+        out += run
+        k = j
+    return out
+
+
+def _straight_legs(atlas: SecurityAtlas, states: list[tuple[int, int, int]]) -> list[Leg] | None:
+    """Secure straight D or X legs from states[0] to states[-1], each between two of the states
+    (in order) and sliding d: each as long as it can be, else the fewest; None when there are none."""
+    n = len(states) - 1
+
+    def leg(a: int, b: int) -> Leg | None:
+        p, q = states[a], states[b]
+        kind = "D" if p[PSI] == q[PSI] else "X"
+        return Leg(kind, p, q) if p[D] != q[D] and atlas.leg_secure(kind, p, q) else None
+
+    out, a = [], 0
+    while a < n:  # greedily, the longest leg first (usually one leg does)
+        found = next(((b, x) for b in range(n, a, -1) if (x := leg(a, b)) is not None), None)
+        if found is None:
+            break
+        a, x = found
+        out.append(x)
+    if a == n:
+        return out
+    fewest, after = [math.inf] * n + [0], [n] * (n + 1)
+    for a in range(n - 1, -1, -1):
+        for b in range(n, a, -1):
+            p, q = states[a], states[b]
+            if fewest[b] + 1 < fewest[a] and p[D] != q[D] and \
+                    atlas.leg_secure("D" if p[PSI] == q[PSI] else "X", p, q):
+                fewest[a], after[a] = fewest[b] + 1, b
+    if not math.isfinite(fewest[0]):
+        return None
+    out, a = [], 0
+    while a < n:
+        p, q = states[a], states[after[a]]
+        out.append(Leg("D" if p[PSI] == q[PSI] else "X", p, q))
+        a = after[a]
+    return out
 
 
 def _lexicographic_dijkstra(rows: NDArray[np.int_], cols: NDArray[np.int_], criteria: list[NDArray[np.float64]],
@@ -246,10 +391,14 @@ def _path_cost(atlas: SecurityAtlas, legs: list[Leg]) -> float:
     opts = atlas.scene.options
     total, last = 0.0, None
     for leg in legs:
-        step = np.subtract(leg.end, leg.start)
-        slot = (leg.primitive, bool(np.any(step * FORWARD > 0)))
-        total += float(reference_cost(step * atlas.res, opts.d_weight))
+        slot = _slot(leg)
+        total += float(reference_cost(np.subtract(leg.end, leg.start) * atlas.res, opts.d_weight))
         if last is not None and slot != last:
             total += opts.mode_change_penalty
         last = slot
     return total
+
+
+def _slot(leg: Leg) -> tuple[str, bool]:
+    """A leg's primitive and whether it runs forward (the paper's direction)."""
+    return leg.primitive, bool(np.any(np.subtract(leg.end, leg.start) * FORWARD > 0))

@@ -5,9 +5,8 @@ values built from them (docs/model.md, sections 4.4 and 6.1).
 friction margin (rad, :func:`~ungrasp_ompl.mechanics.margin.friction_margin`) of the lattice
 states in every contact mode a primitive leg makes there, computed the first time a mode is
 needed and only where the atlas finds that mode secure and the state lies on some secure lattice
-path from the start to the goal region (-inf elsewhere). The start state counts +inf in every mode
-it is secure in: every plan leaves it, and its margin, the grasp as handed over, is the same for
-all of them (it is reported on its own). From them:
+path from the start to the goal region (-inf elsewhere). The start counts like every state, in the
+mode of the leg that leaves it, as in a plan's margin (robustness.path_friction_margin). From them:
 
 * a lattice step's margin: the smaller of its two ends', each in the step's contact mode;
 * a leg's margin: the smallest of its steps' (the lattice states it passes, in its mode);
@@ -73,7 +72,7 @@ class LatticeMargins:
         self.atlas = atlas
         self.objective = objective
         self.goal_box = np.asarray(atlas.scene.goal.box() if goal_box is None else goal_box, dtype=float)
-        #: The start's lattice index (None outside the lattice): its margin counts +inf.
+        #: The start's lattice index (None outside the lattice).
         self.start = atlas.index(atlas.scene.start)
         self._mode: dict[tuple[int, int], NDArray[np.float64]] = {}
         self._move: dict[tuple, NDArray[np.float64]] = {}
@@ -130,8 +129,7 @@ class LatticeMargins:
     # -- per state -------------------------------------------------------------------------------
     def mode(self, sa: int, sb: int) -> NDArray[np.float64]:
         """Friction margin (rad) in contact mode (sa, sb) of every lattice state, -inf where the
-        atlas finds the mode insecure or the state lies on no plan (relevant), +inf at the start
-        where it is secure; shape of the lattice."""
+        atlas finds the mode insecure or the state lies on no plan (relevant); shape of the lattice."""
         key = (int(sa), int(sb))
         if key not in self._mode:
             ok = self.atlas.mode_ok(*key) & self.relevant
@@ -142,8 +140,6 @@ class LatticeMargins:
                 s = self.atlas.scene
                 out[idx] = friction_margin(th, d, ps, key[0], key[1], s.mu, s.options.sliding_model)
                 self.computed_states += len(idx[0])
-            if self.start is not None and out[self.start] > -np.inf:
-                out[self.start] = np.inf
             self._mode[key] = out
         return self._mode[key]
 
@@ -270,8 +266,7 @@ class LatticeMargins:
         return idx, self.move(leg.kind, tuple(np.sign(diff).astype(int)))[tuple(idx.T)]
 
     def leg_margin(self, leg: Leg) -> float:
-        """The smallest margin (rad) along a leg, in its mode (+inf for a leg that passes only the
-        start)."""
+        """The smallest margin (rad) along a leg, in its mode."""
         if leg.kind == "X" or leg.start == leg.end:
             return float(self.leg_states(leg)[1].min())
         axis = LEG_AXES[leg.kind][0]  # a slice of the lattice along the leg's axis

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
-from enum import Enum
+from enum import Enum, StrEnum
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,17 @@ JSON_SCHEMA_VERSION = 1
 
 _A_WORDS = {-1: "toward_B", 1: "toward_G"}  # friction on the object at A, by sign of dd
 _B_WORDS = {-1: "toward_palm", 1: "toward_tip"}  # friction on the object at B, by sign of ds_B
+
+
+class StoppedBy(StrEnum):
+    """Why a planner stopped (Plan.stopped_by; a str, so plan.json holds its value)."""
+
+    PLANNER = "planner"  #: the planner returned by itself (a non-optimising planner's first path)
+    ITERATIONS = "iterations"  #: the seeded run's iteration budget ran out
+    TIME = "time"  #: the time limit (or a seeded run's hard cap) ran out
+    OPTIMUM = "optimum"  #: the path reached the exact lattice optimum: no path can cost less
+    NOT_STARTED = "not started"  #: planning could not start (PlanOutcome's evidence says why)
+    KILLED = "killed"  #: a planner that ignores its time limit was stopped after its deadline
 
 
 @dataclass
@@ -134,7 +145,7 @@ class Plan:
     planning_time_s: float = 0.0
     setup_time_s: float = 0.0
     iterations: int = 0
-    stopped_by: str = ""
+    stopped_by: str = ""  # a StoppedBy value
     resolution: list[float] = field(default_factory=list)
     evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
     lattice_optimum: float | None = None
@@ -143,7 +154,7 @@ class Plan:
     mu_eff: dict | None = None  # friction used in the plane at G, A, B
     stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
     objective: str = "cost"  # what the planner optimised: cost, margin or balanced (docs/model.md, section 6)
-    min_margin_deg: float | None = None  # smallest friction margin along the path's motion, each leg in its mode
+    min_margin_deg: float | None = None  # smallest friction margin along the path, start included (path_friction_margin)
     margin_profile_deg: list[float] = field(default_factory=list)  # the smallest of each primitive, in order
     margin_bottleneck_deg: float | None = None  # the most any secure lattice path keeps (robust objectives)
     margin_forced: bool | None = None  # min_margin_deg is the bottleneck: no secure lattice path passes more
@@ -251,14 +262,16 @@ class Plan:
             lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
                          f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
             if self.min_margin_deg is not None:
-                lines.append(f"  objective {self.objective}: smallest friction margin along the path "
-                             f"{self.min_margin_deg:.3f} deg{self._forced()} (the start, held: "
-                             f"{self.start_margin_deg:.3f} deg)")
+                lines.append(f"  objective {self.objective}: smallest friction margin along the path, the start "
+                             f"included, {self.min_margin_deg:.3f} deg{self._forced()} (held still at the start, "
+                             f"before it moves: {self.start_margin_deg:.3f} deg)")
                 lines.append("  smallest friction margin of each primitive: "
                              + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
             first = self.time_to_first_solution_s
+            stop = ("stopped at the lattice optimum: no path costs less" if self.stopped_by == StoppedBy.OPTIMUM
+                    else f"stopped by {self.stopped_by}")
             lines.append(f"  first solution {first:.3f} s, planning {self.planning_time_s:.2f} s "
-                         f"({self.iterations} iterations, stopped by {self.stopped_by}), setup {self.setup_time_s:.2f} s")
+                         f"({self.iterations} iterations, {stop}), setup {self.setup_time_s:.2f} s")
             for p in self.primitives:
                 s, e = _deg(p.start), _deg(p.end)
                 slide = ", ".join(f"{c} slides ({w.replace('_', ' ')})" for c, w in p.sliding.items()) or "all stick"

@@ -8,7 +8,9 @@ the one-call entry point.
 Reproducibility (docs/model.md, section 9): OMPL's seed generator is seeded
 afresh before every seeded run (seed_ompl), and a seeded run stops after a
 fixed count of planner iterations (not on wall time), so the same seed gives
-the same plan, in a fresh process or after other plans.
+the same plan, in a fresh process or after other plans. A cost-optimising
+planner also stops once its path reaches the exact lattice optimum (checked
+at its iterations, so the stop is as reproducible as the budget).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from .lattice import lattice_search
 from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins
 from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
-from .result import HoldableMap, Plan, PlanOutcome, merge_legs, sequence_cost
+from .result import HoldableMap, Plan, PlanOutcome, StoppedBy, merge_legs, sequence_cost
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -180,6 +182,15 @@ class UngraspSetup:
             self.objective = RobustObjective(self.si, self.atlas, self.margins)
         else:
             self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
+        #: The exact lattice search, where it can stop the planner (the cost objective's yardstick,
+        #: for an optimising planner; else None, and searched only to explain a failure).
+        self.lattice = None
+        if self.options.objective == "cost" and self.options.planner in OPTIMISING_PLANNERS:
+            self.lattice = lattice_search(self.atlas, scene.goal.box())
+        if self.lattice is not None and self.lattice.reachable:
+            # OMPL's own stop: a path of objective cost below this is the optimum, as every motion
+            # pays at least one leg's penalty, so the objective exceeds the plan's cost by one or more
+            self.objective.setCostThreshold(ob.Cost(self.lattice.cost + self.objective.penalty + OPTIMUM_TOLERANCE))
         self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
         self.pdef = ob.ProblemDefinition(self.si)
         self._start = self.space.allocState()
@@ -211,7 +222,7 @@ class UngraspSetup:
                     objective=opts.objective)
         problem = self.ends_problem()
         if problem:
-            plan.stopped_by = "not started"
+            plan.stopped_by = StoppedBy.NOT_STARTED
             return plan.fail(**problem)
         budget = opts.iterations
         cap = opts.time
@@ -220,7 +231,8 @@ class UngraspSetup:
             budget = budget or max(1, int(rate * opts.time))
             cap = 5.0 * opts.time
         best_cost = getattr(self.planner, "bestCost", None)
-        state = {"n": 0, "first": None, "stop": ""}
+        state = {"n": 0, "first": None, "stop": "", "best": math.inf}
+        optimum = self.lattice.cost if self.lattice is not None and opts.planner in TREE_PLANNERS else None
         t0 = perf_counter()
 
         def done() -> bool:
@@ -230,11 +242,16 @@ class UngraspSetup:
                 found = math.isfinite(best_cost().value()) if best_cost else self.pdef.hasExactSolution()
                 if found:
                     state["first"] = elapsed
+            if optimum is not None and best_cost().value() < state["best"]:  # a better path: is it optimal?
+                state["best"] = best_cost().value()
+                if self._tree_path_cost() <= optimum + OPTIMUM_TOLERANCE:
+                    state["stop"] = StoppedBy.OPTIMUM
+                    return True
             if budget is not None and state["n"] >= budget:
-                state["stop"] = "iterations"
+                state["stop"] = StoppedBy.ITERATIONS
                 return True
             if elapsed >= cap:
-                state["stop"] = "time"
+                state["stop"] = StoppedBy.TIME
                 return True
             return False
 
@@ -250,12 +267,16 @@ class UngraspSetup:
             if state["first"] is None and self.objective.first_solution is not None:
                 state["first"] = self.objective.first_solution - t0
         plan.iterations = state["n"]
-        plan.stopped_by = state["stop"] or "planner"
+        plan.stopped_by = state["stop"] or StoppedBy.PLANNER
+        if not state["stop"] and best_cost and self.objective.isSatisfied(best_cost()):
+            plan.stopped_by = StoppedBy.OPTIMUM  # OMPL stopped at the cost threshold
         exact = self.pdef.hasExactSolution() and str(status) in ("Exact solution",)
         if not exact:
             return self._no_path(plan)
         path = self.pdef.getSolutionPath()
-        if opts.simplify and self.margins is not None:  # OMPL's reduceVertices ignores the objective
+        if plan.stopped_by == StoppedBy.OPTIMUM:
+            pass  # optimal as it is; OMPL's shortcuts count legs, not changes, and can add one
+        elif opts.simplify and self.margins is not None:  # OMPL's reduceVertices ignores the objective
             path = reduce_vertices(self.si, self.objective, path)
         elif opts.simplify:
             simplifier = og.PathSimplifier(self.si, self.goal, self.objective)
@@ -268,10 +289,35 @@ class UngraspSetup:
         fill_solution(plan, self.atlas, legs, self.margins)
         return plan
 
+    def _tree_path_cost(self) -> float:
+        """The cost, counted as a plan's (merged primitives), of the planner's best path so far,
+        read from its tree (getPlannerData marks the best goal state; every state has one parent);
+        inf without one."""
+        data = ob.PlannerData(self.si)
+        self.planner.getPlannerData(data)
+        if data.numGoalVertices() == 0:
+            return math.inf
+        k = data.getGoalIndex(0)
+        states = []
+        for _ in range(data.numVertices()):  # up the tree to its root
+            s = data.getVertex(k).getState()
+            states.append((s[0], s[1], s[2]))
+            parents = data.getIncomingEdges(k)
+            if not parents:
+                break
+            k = parents[0]
+        legs, problem = self._realised(np.array(states[::-1]))
+        return math.inf if problem else sequence_cost(self.atlas, merge_legs(self.atlas, legs))[0]
+
     def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
         """Primitive legs realising a path of states, each edge in its travel direction,
         choosing among the realisations of every edge (the best for a robust objective) those
         with fewest primitive changes overall; every leg re-validated with the exact mechanics."""
+        legs, problem = self._realised(states)
+        return (legs, problem) if problem else (legs, verify_legs(self.scene, self.atlas, legs))
+
+    def _realised(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
+        """path_legs before the re-validation: the legs, or why the path has none."""
         atlas = self.atlas
         idx = []
         for q in states:
@@ -288,18 +334,17 @@ class UngraspSetup:
             if self.margins is not None:  # the realisations the objective ranks first
                 found = self.margins.best(found)
             options.append(found)
-        legs = _fewest_changes(options)
-        return legs, verify_legs(self.scene, atlas, legs)
+        return _fewest_changes(options), None
 
     def _no_path(self, plan: Plan) -> Plan:
         """The plan failed with the exact lattice search's verdict: no secure path, or one the
         planner did not find (its cost recorded as lattice_optimum)."""
-        result = lattice_search(self.atlas, self.scene.goal.box())
+        result = self.lattice or lattice_search(self.atlas, self.scene.goal.box())
         res = plan.resolution
         if not result.reachable:
             return plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=res)
         plan.lattice_optimum = result.cost
-        limit = f"{plan.iterations} iterations" if plan.stopped_by == "iterations" else f"{plan.planning_time_s:.2f} s"
+        limit = f"{plan.iterations} iterations" if plan.stopped_by == StoppedBy.ITERATIONS else f"{plan.planning_time_s:.2f} s"
         return plan.fail(PlanOutcome.NOT_FOUND, resolution=res, stopped_by=plan.stopped_by, limit=limit,
                          lattice_optimum=result.cost)
 
@@ -335,6 +380,16 @@ def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | No
     return None
 
 
+#: Planners whose best path so far can be read from their tree while they run (solve's stop at the
+#: lattice optimum); the others stop there when OMPL finds the objective's cost threshold met.
+TREE_PLANNERS = ("RRTstar", "InformedRRTstar", "SORRTstar")
+#: Planners that stop at the objective's cost threshold (PRM* is stopped by TakeTurns; the others
+#: stop at their first path).
+OPTIMISING_PLANNERS = TREE_PLANNERS + ("BITstar", "AORRTC")
+#: A cost this close (reference units) to the lattice optimum is the optimum.
+OPTIMUM_TOLERANCE = 1e-9
+
+
 #: A path's smallest margin this close (deg) to the lattice's bottleneck is the bottleneck (the
 #: plan's states are recomputed from its corners, a rounding away from the lattice's).
 FORCED_TOLERANCE_DEG = 1e-9
@@ -345,7 +400,7 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: La
     (the smallest of each primitive and of the path, the start's; with the lattice's margins, its
     bottleneck and whether the path's smallest margin is forced by it); marks it solved."""
     from ..mechanics.margin import friction_margin
-    from ..robustness import plan_friction_margins, plan_samples
+    from ..robustness import path_friction_margin
 
     steps = merge_legs(atlas, legs)
     plan.primitives = steps
@@ -353,11 +408,8 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: La
     plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
     plan.outcome, plan.evidence = PlanOutcome.SOLVED, {}
     scene = atlas.scene
-    if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start left out
-        samples = plan_samples(plan, atlas.res, both_modes=True)
-        m = np.degrees(plan_friction_margins(scene, samples))
-        m[np.all(np.abs(samples.states - np.asarray(scene.start)) <= 1e-12, axis=1)] = np.inf
-        plan.margin_profile_deg = [float(m[samples.primitive == k].min()) for k in range(len(steps))]
+    if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start included
+        plan.margin_profile_deg = [math.degrees(m) for m in path_friction_margin(scene, plan).of_primitives()]
         plan.min_margin_deg = min(plan.margin_profile_deg)
     plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.mu, scene.options.sliding_model)[0]))
     bottleneck = margins.bottleneck if margins is not None else None
@@ -381,7 +433,7 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     t2 = perf_counter()
     plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=LATTICE, seed=seed,
                 sliding_model=scene.options.sliding_model, setup_time_s=t1 - t0, planning_time_s=t2 - t1,
-                resolution=[float(x) for x in atlas.res], stopped_by="planner", lattice_optimum=result.cost,
+                resolution=[float(x) for x in atlas.res], stopped_by=StoppedBy.PLANNER, lattice_optimum=result.cost,
                 holdable_map=HoldableMap.of(atlas), objective=objective)
     if not result.reachable:
         problem = ends_problem(scene, atlas)
@@ -479,7 +531,7 @@ def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = 
     outcome = run_in_child(_plan_here, scene, opts, deadline=deadline)
     if outcome.status is TaskStatus.HUNG:
         return Plan(outcome=PlanOutcome.HUNG, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, stopped_by="killed", planning_time_s=deadline or 0.0,
+                    sliding_model=scene.options.sliding_model, stopped_by=StoppedBy.KILLED, planning_time_s=deadline or 0.0,
                     evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS.get(opts.planner, "")))
     if outcome.status is TaskStatus.DIED:
         raise ToolError(f"the process planning {scene.name} with {opts.planner} ended without an answer")
