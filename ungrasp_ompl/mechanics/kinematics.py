@@ -114,7 +114,8 @@ def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0, 
 
 
 def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
-    """Contact A (the finger tip): (1 - d)(cos theta, sin theta), shape (..., 2)."""
+    """Contact A (the finger tip) on the segment: (1 - d)(cos theta, sin theta), shape (..., 2)
+    (a rounded tip's contact, rolled and on the top face, is contact_point)."""
     theta, d = _arrays(theta, d)
     return (1.0 - d)[..., None] * object_axis(theta)
 

@@ -11,8 +11,9 @@ the finger's at +opening/2; the finger is alpha * l longer.
 Every state of the plan fixes the palm pose and the opening exactly
 (mechanics.kinematics): the finger's tip corner where its tip touches the
 object's top face at A (finger_corner: the thickness and a rounded tip's dome
-move it, and the dome rolls on the object as the digits turn against it), the thumb's face through B, the thumb tip alpha l short of the
-finger's corner along e. Legs are sampled densely so that contacts stay
+move it, and the dome rolls on the object as the digits turn against it), the
+thumb's face through B, the thumb tip alpha l short of the finger's corner
+along e. Legs are sampled densely so that contacts stay
 within 0.1 mm of their planned places between samples.
 """
 
