@@ -12,8 +12,8 @@ import yaml
 
 from conftest import SCENES, run_cli
 from ungrasp_ompl import Scene, plan
-from ungrasp_ompl.robot.export import read_csv
-from ungrasp_ompl.robot.model import load_ur5e, thumb_tip
+from ungrasp_ompl.robot.export import read_csv, read_json, write_json
+from ungrasp_ompl.robot.model import finger_tip, load_ur5e, tcp_pose, thumb_tip
 from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, plane_frame
 from ungrasp_ompl.robot.placement import contact_points_world, densify
 from ungrasp_ompl.robot.trajectory import JOINT_NAMES
@@ -53,6 +53,47 @@ def test_timed_thumb_tip_stays_on_its_planned_path(executed):
         for q in traj.positions[a:b + 1:5]:
             tip = thumb_tip(ex.robot, q)
             assert np.min(np.linalg.norm(planned - tip, axis=1)) < 1e-4, name
+
+
+def test_the_rounded_tip_rolls_on_the_object_along_the_exported_trajectory(executed, tmp_path):
+    """The exported trajectory, written and read back: at every sample of a primitive, forward
+    kinematics puts the finger's dome centre (r behind the finger's face and r back from its tip
+    corner) r above the object's top face, the object posed by G (the plane's origin) and B, which
+    lies on the thumb's face l from G. Where A sticks (P_psi, P_theta) the contact, the foot of the
+    dome's centre on the top face, moves over the object between samples by r times the finger's
+    turn against the object (psi), toward G: the dome rolls (docs/model.md, section 2.6)."""
+    scene, result, ex = executed
+    write_json(ex.trajectory, tmp_path / "trajectory.json")
+    traj = read_json(tmp_path / "trajectory.json")
+    l, t = scene.object_length, scene.object_thickness
+    r = scene.digits.finger_tip_radius * l
+    assert r > 0 and not scene.digits.flat_finger_tip
+    frame = plane_frame(scene)
+
+    def plane(p):  # world point -> (x along GB, z up), G at the origin
+        return np.array([(p - frame[:3, 3]) @ frame[:3, 0], (p - frame[:3, 3]) @ frame[:3, 2]])
+
+    rolled = 0.0
+    for name, a, b in traj.segments:
+        if not name.startswith("P_"):
+            continue
+        along, psi = [], []
+        for q in traj.positions[a:b + 1]:
+            palm = tcp_pose(ex.robot, q)
+            centre = plane(finger_tip(ex.robot, q) + r * palm[:3, 0] - r * palm[:3, 2])
+            e = palm[:3, 2] @ frame[:3, [0, 2]]  # the digit axis in the plane
+            tip = plane(thumb_tip(ex.robot, q))
+            k = tip @ e  # B = tip - s e with |B| = l, s >= 0 (toward the palm)
+            bx, bz = tip - (k + math.sqrt(k * k - tip @ tip + l * l)) * e
+            theta = math.atan2(bz, bx)
+            u, top = np.array([math.cos(theta), math.sin(theta)]), np.array([-math.sin(theta), math.cos(theta)])
+            assert centre @ top - t == pytest.approx(r, abs=1e-7), name  # 0.1 um
+            along.append((centre - r * top) @ u)
+            psi.append(math.atan2(-e[1], -e[0]) - theta)
+        if name in ("P_psi", "P_theta"):
+            np.testing.assert_allclose(np.diff(along), -r * np.diff(psi), atol=1e-8, err_msg=name)
+            rolled += abs(along[-1] - along[0])
+    assert rolled > 1e-4  # the plan's P_psi turns the finger: A rolled more than 0.1 mm
 
 
 def test_every_sample_within_limits_and_continuous(executed):

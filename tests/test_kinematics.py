@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ungrasp_ompl.mechanics import DigitGeometry, aperture, digit_polygons, finger_tip, s_b, thumb_clearance, thumb_tip
-from ungrasp_ompl.mechanics.kinematics import digit_axis, kinematic_checks, thumb_normal
+from ungrasp_ompl.mechanics.kinematics import digit_axis, finger_corner, kinematic_checks, thumb_normal
 
 DIGITS = DigitGeometry(alpha=0.47)
 
@@ -92,3 +92,40 @@ def test_a_thick_object_moves_the_finger_to_its_top_face(states):
     np.testing.assert_allclose(np.sum((a_top - tip) * thumb_normal(th, ps), -1), aperture(d, ps, t), atol=1e-12)
     np.testing.assert_allclose(np.sum((u - tip) * thumb_normal(th, ps), -1), 0.0, atol=1e-12)
     np.testing.assert_allclose(s_b(d, ps, DIGITS.alpha, t), s_b(d, ps, DIGITS.alpha) - t * np.sin(ps), atol=1e-12)
+
+
+def _perp(v):
+    """v turned by +90 deg: the velocity of the point v of a body turning at unit rate about the origin."""
+    return np.stack([-v[..., 1], v[..., 0]], -1)
+
+
+@pytest.mark.parametrize("velocity", [(-1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (-0.4, 0.0, 0.7), (0.0, -1.0, 0.0),
+                                      (-0.2, -0.5, 0.4)])
+def test_a_rounded_tip_rolls_on_the_object_without_slipping(states, velocity):
+    """The finger as a rigid body, placed where finger_corner puts its tip corner, turned by
+    theta + psi: its dome (centre r behind the face and r back from the corner) stays r above the
+    object's top face. While d is fixed (theta and psi moving: P_theta, P_psi) the finger's
+    material point at the contact moves with the object's (which turns about G at dtheta): the
+    dome rolls without slipping, and the contact advances toward G over the object by r times
+    the finger's turn against it (psi). When d moves, the object slides against the finger by
+    dd u, the sliding of docs/model.md section 3.2. Finite differences, no formula of the code."""
+    th, d, ps = states
+    t, r, h = 0.04, 0.03, 1e-6
+
+    def finger(q):
+        th, d, ps = q
+        corner = finger_corner(th, d, ps, t, r)
+        return corner + r * (thumb_normal(th, ps) - digit_axis(th, ps)), th + ps
+
+    u = np.stack([np.cos(th), np.sin(th)], -1)
+    top = _perp(u)
+    centre, _ = finger((th, d, ps))
+    np.testing.assert_allclose(np.sum(centre * top, -1), t + r, atol=1e-12)  # r above the top face
+    contact = centre - r * top
+    # the contact on the object: (1 - d) from G when the digits lie along it, rolled r psi toward G
+    np.testing.assert_allclose(np.sum(contact * u, -1), 1.0 - d - r * ps, atol=1e-12)
+    v = np.asarray(velocity)
+    (c1, b1), (c0, b0) = (finger(np.array([th, d, ps]) + s * h * v[:, None]) for s in (1.0, -1.0))
+    v_finger = (c1 - c0) / (2 * h) + ((b1 - b0) / (2 * h))[:, None] * _perp(contact - centre)
+    v_object = v[0] * _perp(contact)
+    np.testing.assert_allclose(v_object - v_finger, v[1] * u, atol=1e-7)

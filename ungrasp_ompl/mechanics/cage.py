@@ -52,7 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
 from .convex import ConvexShape, minkowski_difference
-from .kinematics import DigitGeometry, digit_axis, digit_bodies, digit_polygons, thumb_normal
+from .kinematics import DigitGeometry, contact_point, digit_axis, digit_bodies, digit_polygons, thumb_normal
 
 #: Standard gravity, m/s^2.
 GRAVITY = 9.81
@@ -634,7 +634,7 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     force = point = None
     if squeeze > 0:
         force = squeeze * np.array([s, -c])
-        point = (1.0 - d) * length * u + thickness * top
+        point = contact_point(theta, d, psi, thickness / length, digits.finger_tip_radius) * length
     return CageProblem(body, centre, weight, tuple(shapes), near, True, force, point)
 
 

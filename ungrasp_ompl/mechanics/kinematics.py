@@ -29,7 +29,8 @@ class DigitGeometry:
     along the digits and normal to the plane; zero width or length leaves it
     out of collision checks. finger_tip_radius: radius of the rounded finger
     tip (0 for a flat tip); it moves the digits so that the dome touches the
-    object at A (see finger_corner), not the planar force analysis.
+    object at A (see finger_corner), and the dome rolls on the object as the
+    finger turns against it (see contact_d), not the planar force analysis.
     thumb_tip_margin: how far B must stay from the thumb's tip (s_B >= it);
     0 lets a plan end with B on the tip's edge, which a real thumb loses.
     object_thickness: the object's thickness t. G and B are on its bottom face
@@ -81,38 +82,74 @@ def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
 
 
+def contact_d(d: ArrayLike, psi: ArrayLike, tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """Distance of the contact A from B along the object, over l: d + r psi for a finger tip
+    rounded with radius r (d itself for a point or a flat tip).
+
+    d is where A touches while the digits lie along the object (psi = 0) and changes only when A
+    slides; a dome that sticks rolls on the object as the finger turns against it (by psi), so
+    its contact moves toward G by r times that turn."""
+    d, psi, tip_radius = _arrays(d, psi, tip_radius)
+    return d + tip_radius * psi
+
+
 def aperture(d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0, tip_radius: ArrayLike = 0.0
              ) -> NDArray[np.float64]:
-    """Distance between the digit faces, over l: d sin psi + t cos psi + r (cos psi - 1), for an
-    object of thickness t (the finger on its top face) and a finger tip rounded with radius r."""
+    """Distance between the digit faces, over l: d_A sin psi + t cos psi + r (cos psi - 1), for an
+    object of thickness t (the finger on its top face) and a finger tip rounded with radius r
+    (d_A = contact_d, where the rolled dome touches)."""
     d, psi, thickness, tip_radius = _arrays(d, psi, thickness, tip_radius)
-    return d * np.sin(psi) + thickness * np.cos(psi) + tip_radius * (np.cos(psi) - 1.0)
+    d_a = contact_d(d, psi, tip_radius)
+    return d_a * np.sin(psi) + thickness * np.cos(psi) + tip_radius * (np.cos(psi) - 1.0)
 
 
 def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0, tip_radius: ArrayLike = 0.0
         ) -> NDArray[np.float64]:
     """Position of B on the thumb face from the thumb tip toward the palm, over l:
-    d cos psi - alpha - t sin psi + r (1 - sin psi) (t the thickness, r the finger tip's radius)."""
+    d_A cos psi - alpha - t sin psi + r (1 - sin psi) (t the thickness, r the finger tip's radius,
+    d_A = contact_d)."""
     d, psi, thickness, tip_radius = _arrays(d, psi, thickness, tip_radius)
-    return d * np.cos(psi) - alpha - thickness * np.sin(psi) + tip_radius * (1.0 - np.sin(psi))
+    d_a = contact_d(d, psi, tip_radius)
+    return d_a * np.cos(psi) - alpha - thickness * np.sin(psi) + tip_radius * (1.0 - np.sin(psi))
 
 
 def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
-    """Contact A (the finger tip): (1 - d)(cos theta, sin theta), shape (..., 2)."""
+    """Contact A (the finger tip) on the segment: (1 - d)(cos theta, sin theta), shape (..., 2)
+    (a rounded tip's contact, rolled and on the top face, is contact_point)."""
     theta, d = _arrays(theta, d)
     return (1.0 - d)[..., None] * object_axis(theta)
+
+
+def contact_point(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0,
+                  tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """Contact A on the object's top face, shape (..., 2): (1 - d_A) u + t n_top, with
+    d_A = contact_d (a rounded tip's contact rolled by r psi toward G) and n_top the top face's
+    normal (-sin theta, cos theta)."""
+    theta, thickness = _arrays(theta, thickness)
+    u = object_axis(theta)
+    top = np.stack([-u[..., 1], u[..., 0]], axis=-1)
+    return finger_tip(theta, contact_d(d, psi, tip_radius)) + thickness[..., None] * top
+
+
+def dome_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0,
+                tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
+    """Centre of the rounded finger tip's dome, shape (..., 2): r above A along the top face's
+    normal, A + r n_top (A itself for a point or a flat tip, r = 0)."""
+    theta, tip_radius = _arrays(theta, tip_radius)
+    top = np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
+    return contact_point(theta, d, psi, thickness, tip_radius) + tip_radius[..., None] * top
 
 
 def finger_corner(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, thickness: ArrayLike = 0.0,
                   tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
     """The finger's tip corner on its contact face, shape (..., 2): A itself for a segment and a
     flat tip; for thickness t, A lifted to the top face (A + t n_top); a tip rounded with radius r
-    touches the top face there with its dome, which puts the corner r (n_top - n_B + e) further."""
-    theta, d, psi, thickness, tip_radius = _arrays(theta, d, psi, thickness, tip_radius)
-    u = object_axis(theta)
-    top = np.stack([-u[..., 1], u[..., 0]], axis=-1)
-    lift = thickness[..., None] * top + tip_radius[..., None] * (top - thumb_normal(theta, psi) + digit_axis(theta, psi))
-    return finger_tip(theta, d) + lift
+    touches the top face with its dome (contact_point, rolled by r psi), whose centre lies r along
+    n_top from the contact and r from the face and from the tip's end, so the corner is
+    dome_centre + r (e - n_B)."""
+    theta, psi, tip_radius = _arrays(theta, psi, tip_radius)
+    corner = digit_axis(theta, psi) - thumb_normal(theta, psi)
+    return dome_centre(theta, d, psi, thickness, tip_radius) + tip_radius[..., None] * corner
 
 
 def thumb_tip(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0,
@@ -187,18 +224,19 @@ def kinematic_checks(
 ) -> dict[str, NDArray[np.bool_]]:
     """Each kinematic condition of a state, by name (True where it holds).
 
-    - ``d``: 0 < d <= 1 (A lies on the object);
+    - ``d``: 0 < d_A <= 1 (A lies on the object; d_A = contact_d);
     - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face (and at least
       ``thumb_tip_margin`` from its tip);
     - ``thumb clearance``: the thumb tip stays above the table;
-    - ``aperture``: 0 <= d sin psi <= max_aperture (gripper stroke).
+    - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke).
     """
     theta, d, psi = _arrays(theta, d, psi)
     sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
     w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
+    d_a = contact_d(d, psi, digits.finger_tip_radius)
     tol = 1e-12
     return {
-        "d": (d > 0.0) & (d <= 1.0 + tol),
+        "d": (d_a > 0.0) & (d_a <= 1.0 + tol),
         "s_B >= 0": sb >= digits.thumb_tip_margin - tol,
         "s_B <= thumb_length": sb <= digits.thumb_length + tol,
         "thumb clearance": thumb_clearance(theta, d, psi, digits) >= -tol,

@@ -11,8 +11,9 @@ the finger's at +opening/2; the finger is alpha * l longer.
 Every state of the plan fixes the palm pose and the opening exactly
 (mechanics.kinematics): the finger's tip corner where its tip touches the
 object's top face at A (finger_corner: the thickness and a rounded tip's dome
-move it), the thumb's face through B, the thumb tip alpha l short of the
-finger's corner along e. Legs are sampled densely so that contacts stay
+move it, and the dome rolls on the object as the digits turn against it), the
+thumb's face through B, the thumb tip alpha l short of the finger's corner
+along e. Legs are sampled densely so that contacts stay
 within 0.1 mm of their planned places between samples.
 """
 
@@ -23,7 +24,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..mechanics.kinematics import (aperture, digit_axis, finger_corner, finger_tip, object_axis,
+from ..mechanics.kinematics import (aperture, contact_point, digit_axis, finger_corner, object_axis,
                                    thumb_normal, thumb_tip)
 from ..planning.result import Plan
 from ..scene import Scene
@@ -54,8 +55,9 @@ def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
     """Where the robot puts the digits for planar states q (N, 3), plane coordinates (metres).
 
     thumb: the thumb's tip on its face; finger: the finger's tip corner on its face; a: the
-    contact A on the object's top face; b: B; e: the digit axis; n: the gap direction n_B
-    (unit vectors, (N, 2) each); opening: the distance between the digit faces (N,), m.
+    contact A on the object's top face (a rounded tip's rolled: contact_point); b: B; e: the digit
+    axis; n: the gap direction n_B (unit vectors, (N, 2) each); opening: the distance between the
+    digit faces (N,), m.
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     th, d, ps = q.T
@@ -63,7 +65,7 @@ def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
     t, r = dg.object_thickness, dg.finger_tip_radius
     u = object_axis(th)
     return {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r) * l, "finger": finger_corner(th, d, ps, t, r) * l,
-            "a": (finger_tip(th, d) + t * np.stack([-u[:, 1], u[:, 0]], axis=-1)) * l, "b": u * l,
+            "a": contact_point(th, d, ps, t, r) * l, "b": u * l,
             "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r) * l}
 
 

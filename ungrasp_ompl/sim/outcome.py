@@ -39,7 +39,8 @@ class ContactTravel:
     Each figure is the net displacement of the contact point between the primitive's first and
     last control ticks at which both A and B touch, measured in the frame of the body named
     (the object, or the digit it touches); a contact the plan keeps sticking has a planned 0 on
-    both. nan where the contact was not held at two ticks of the primitive.
+    both, but a rounded finger tip's A, which rolls about r times psi's change on both. nan
+    where the contact was not held at two ticks of the primitive.
     """
 
     primitive: str  #: the primitive's type (P_psi, P_theta, P_dpsi)
