@@ -236,6 +236,8 @@ def _plan(args: argparse.Namespace) -> int:
     seed = _seed(args.seed)
     result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
                   objective=args.objective)
+    if result.solved and result.tolerance is None:
+        result.tolerance = scene.tolerance(result).to_dict()
     print(result.summary())
     cage = None
     if args.cage and result.solved:

@@ -36,7 +36,8 @@ from numpy.typing import NDArray
 from .errors import InputError
 from .mechanics import force_closure, s_b
 from .mechanics.antipodal import effective_friction
-from .mechanics.kinematics import aperture, digit_axis, thumb_normal, thumb_tip
+from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
+                                   housing_offsets, thumb_normal, thumb_tip)
 from .mechanics.margin import kinematic_margins
 from .robustness import PlanSamples, plan_samples
 from .sim.perturb import PRESETS, Perturbation
@@ -61,6 +62,12 @@ class ToleranceReason(Enum):
 
 
 #: The error components, as TrialParams names them (the friction loss counts G, A, B together).
+#: The first scale tried (dimensionless); the scale doubles from it until a state fails.
+FIRST_SCALE = 1.0 / 64.0
+
+#: Relative precision of each component's own tolerance (it only names the binding component).
+SOLO_TOLERANCE = 1e-2
+
 COMPONENTS = ("shift_along", "shift_across", "yaw", "friction", "thickness", "palm_shift", "palm_turn",
               "table_height")
 
@@ -72,9 +79,11 @@ class ToleranceOptions:
     perturbation: str = "paper"
     """The preset whose bounds make the box at scale 1 (sim.perturb.PRESETS)."""
     scale_tolerance: float = 1e-3
-    """Bisection stops when the bracket on s is this narrow (dimensionless)."""
+    """Bisection stops when the bracket on s is this narrow relative to s (dimensionless)."""
     max_scale: float = 5.0
     """The largest scale tried (dimensionless); at 5 the `paper` box loses all friction."""
+    housing: bool = False
+    """Count the gripper housing's clearance over the table beside the digits' (bool; the simulator's palm is kinematic and never meets the table)."""
     resolution: tuple[float, float, float] | None = None
     """Sampling of the plan's legs and of the box's (turn, shift) face: theta rad, d over l, psi rad;
     None: the scene's planning.resolution."""
@@ -113,10 +122,18 @@ class Tolerance:
         where = (f"{self.reason.value.replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
                  f"{math.degrees(psi):.1f} deg) in primitive {self.primitive + 1} ({self.primitive_type}), "
                  f"bound by {self.component.replace('_', ' ')}")
-        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p['shift_mm']:.2f} mm, "
+        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p["shift_mm"]:.3f} mm, "
                 f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
                 f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
                 + ("nothing fails" if self.reason is ToleranceReason.NONE else where))
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "Tolerance":
+        """Back from to_dict (plan.json's tolerance)."""
+        scales = {k: math.inf if v is None else float(v) for k, v in doc["component_scales"].items()}
+        return cls(float(doc["scale"]), doc["perturbation"], ToleranceReason(doc["reason"]), doc["component"],
+                   tuple(doc["state"]), int(doc["primitive"]), doc["primitive_type"], scales, dict(doc["physical"]),
+                   int(doc["samples"]))
 
     def to_dict(self) -> dict:
         """For plan.json (radians, over l, millimetres where named)."""
@@ -131,10 +148,10 @@ class _Box:
     """The error box of one plan, ready to move its states at any scale (the module docstring)."""
 
     def __init__(self, scene: Scene, plan: Plan, box: Perturbation, samples: PlanSamples,
-                 resolution: NDArray[np.float64]):
+                 resolution: NDArray[np.float64], housing: bool = False):
         from .geometry.collision import CollisionChecker
 
-        self.scene, self.plan, self.box, self.samples = scene, plan, box, samples
+        self.scene, self.plan, self.box, self.samples, self.housing = scene, plan, box, samples, housing
         l, dg = scene.object_length, scene.digits
         self.l = l
         self.res = resolution
@@ -194,8 +211,12 @@ class _Box:
         loss = s * b.friction if on["friction"] else 0.0
         yaw = s * math.radians(b.yaw_deg) if on["yaw"] else 0.0
         fc = np.ones(len(th), dtype=bool)
-        corners = [(loss, yaw)] if sc.options.sliding_model == "relaxed" else \
-            [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
+        if not any(on[c] for c in ("shift_along", "palm_turn", "friction", "yaw")):
+            corners = []  # nothing moves what force closure depends on: it holds as at scale 0
+        elif sc.options.sliding_model == "relaxed":
+            corners = [(loss, yaw)]
+        else:
+            corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
             fc &= force_closure(th, d, ps, sa, sb, self.mu(lo, y), sc.options.sliding_model)
         # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
@@ -222,9 +243,10 @@ class _Box:
             digits = replace(dg, object_thickness=t)
             sbv = s_b(d, ps, dg.alpha, t, dg.finger_tip_radius)
             w = aperture(d, ps, t, dg.finger_tip_radius)
-            kin = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)
+            low = _lowest(th, d, ps, digits if self.housing else replace(digits, palm_width=0.0))
+            near = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)["obstacles"] if self.obstacles else np.inf
             checks = (~fc, sbv < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), (w < 0.0) | (w > dg.max_aperture),
-                      kin["table"] + lift < 0.0, kin["obstacles"] - moved < 0.0)
+                      low + lift < 0.0, near - moved < 0.0)
             for i, bad in enumerate(checks):
                 code = np.where((code == 0) & bad, i + 1, code)
         last = self.samples.states.shape[0] - 1
@@ -242,23 +264,48 @@ class _Box:
         return np.where(first == 127, 0, first).astype(np.int8)
 
     def scale(self, rows: NDArray, on: dict[str, bool], tol: float, top: float) -> tuple[float, NDArray]:
-        """The largest scale in [0, top] with no failure at rows (bisection to tol), and the
-        failure codes just above it (all zero when nothing fails at top)."""
-        codes = self.failures(0.0, rows, on)
-        if codes.any():
-            return 0.0, codes
-        codes = self.failures(top, rows, on)
-        if not codes.any():
-            return top, codes
-        lo, hi = 0.0, top
-        while hi - lo > tol:
-            mid = 0.5 * (lo + hi)
-            c = self.failures(mid, rows, on)
+        """The largest scale in [0, top] with no failure at rows, to the relative tolerance tol
+        (and at least 1e-6), and the failure codes of rows just above it (all zero when nothing
+        fails at top). The scale doubles from FIRST_SCALE until a state fails, then bisects; a
+        state secure at a scale is secure below it (the boxes nest), so once a scale fails only
+        the states failing there are examined further."""
+        codes = np.zeros(len(rows), dtype=np.int8)
+        live = np.arange(len(rows))
+        first = self.failures(0.0, rows, on)
+        if first.any():
+            return 0.0, first
+        lo, hi, s = 0.0, None, min(FIRST_SCALE, top)
+        while hi is None:
+            c = self.failures(s, rows, on)
             if c.any():
-                hi, codes = mid, c
+                hi, codes[:] = s, c
+                live = np.flatnonzero(c)
+            elif s >= top:
+                return top, codes
+            else:
+                lo, s = s, min(2.0 * s, top)
+        while hi - lo > max(tol * hi, 1e-6):
+            mid = 0.5 * (lo + hi)
+            c = self.failures(mid, rows[live], on)
+            if c.any():
+                hi = mid
+                codes[:] = 0
+                codes[live] = c
+                live = live[c > 0]
             else:
                 lo = mid
         return lo, codes
+
+
+def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> NDArray[np.float64]:
+    """The height over the table of the lowest point of the thumb, the finger and the housing
+    (over l): kinematic_margins' table margin, without the polygons' orientation it does not need."""
+    thumb, finger = digit_polygons(theta, d, psi, digits)
+    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
+    if digits.palm_width > 0 and digits.palm_length > 0:
+        centre = housing_centre(theta, d, psi, digits, thumb[..., 0, :])
+        low = np.minimum(low, (centre[..., None, 1] + housing_offsets(theta, psi, digits)[..., 1]).min(axis=-1))
+    return low
 
 
 def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
@@ -270,14 +317,14 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
         raise InputError("perturbation", f"unknown preset {options.perturbation!r} (one of: {', '.join(PRESETS)})")
     if not (math.isfinite(options.max_scale) and options.max_scale > 0):
         raise InputError("max_scale", f"must be a positive number, got {options.max_scale!r}")
-    if not (math.isfinite(options.scale_tolerance) and 0 < options.scale_tolerance < options.max_scale):
-        raise InputError("scale_tolerance", f"must lie in (0, max_scale), got {options.scale_tolerance!r}")
+    if not (math.isfinite(options.scale_tolerance) and 0 < options.scale_tolerance < 1):
+        raise InputError("scale_tolerance", f"must lie in (0, 1) (relative), got {options.scale_tolerance!r}")
     res = np.asarray(options.resolution if options.resolution is not None else scene.options.resolution, dtype=float)
     if res.shape != (3,) or not np.all(np.isfinite(res) & (res > 0)):
         raise InputError("resolution", f"must be three positive numbers (theta rad, d, psi rad), got {options.resolution!r}")
     box = PRESETS[options.perturbation]
     samples = plan_samples(plan, res, both_modes=True)
-    ctx = _Box(scene, plan, box, samples, res)
+    ctx = _Box(scene, plan, box, samples, res, options.housing)
     every = np.arange(len(samples.states))
     all_on = {c: True for c in COMPONENTS}
     s, codes = ctx.scale(every, all_on, options.scale_tolerance, options.max_scale)
@@ -285,10 +332,12 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
     failing = np.flatnonzero(codes)
     k = int(failing[0]) if len(failing) else len(every) - 1
     reason = reasons[int(codes[k]) - 1] if len(failing) else ToleranceReason.NONE
-    solo = {}
-    for c in COMPONENTS:
+    solo = {c: math.inf for c in COMPONENTS}
+    for c in COMPONENTS if len(failing) else ():
+        if c == "shift_across":  # moves nothing in the plane
+            continue
         on = {x: x == c for x in COMPONENTS}
-        sc, cc = ctx.scale(np.array([k]), on, options.scale_tolerance, options.max_scale)
+        sc, cc = ctx.scale(np.array([k]), on, SOLO_TOLERANCE, options.max_scale)
         solo[c] = sc if cc.any() else math.inf
     component = min(solo, key=lambda c: solo[c]) if len(failing) else "none"
     p = int(samples.primitive[k])
