@@ -122,7 +122,7 @@ class Tolerance:
         where = (f"{self.reason.value.replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
                  f"{math.degrees(psi):.1f} deg) in primitive {self.primitive + 1} ({self.primitive_type}), "
                  f"bound by {self.component.replace('_', ' ')}")
-        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p["shift_mm"]:.3f} mm, "
+        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p['shift_mm']:.3f} mm, "
                 f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
                 f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
                 + ("nothing fails" if self.reason is ToleranceReason.NONE else where))
