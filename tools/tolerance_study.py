@@ -78,40 +78,42 @@ def main() -> int:
     rows = []
     print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | placed |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for name in args.scenes.split(","):
-        scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
-        runs = [("lattice", None)] + [("RRTstar", s) for s in range(1, args.seeds + 1)]
-        for planner, seed in runs:
-            for objective in OBJECTIVES:
-                key = plan_key(name, planner, seed, objective)
-                path = out / "plans" / f"{key}.json"
-                if key in done and path.exists():
-                    result = Plan.from_dict(json.loads(path.read_text()))
-                    successes, trials = int(done[key]["successes"]), int(done[key]["trials"])
-                elif args.no_simulate:
-                    continue
-                else:
-                    result = plan(scene, planner=planner, time=1.0, seed=seed, objective=objective)
-                    if not result.solved:
-                        print(f"<!-- {key}: {result.reason} -->", flush=True)
-                        continue
-                    path.write_text(result.to_json())
-                    report = simulate_plan(scene, result, args.trials, args.jobs)
-                    successes, trials = report.successes, len(report.trials)
-                    trial_rows = []
-                    for t in report.trials:
-                        trial_rows.append({"key": key, "trial": t.trial, "outcome": t.outcome.value,
-                                           "phase": t.phase or "", "position_error_mm": t.position_error_mm,
-                                           **t.params})
-                    _append(out / "trials.csv", list(trial_rows[0]), trial_rows)
-                    _append(out / "plans.csv", list(PLAN_FIELDS),
-                            [{"key": key, "scene": name, "planner": planner, "seed": seed, "objective": objective,
-                              "cost": result.cost, "trials": trials, "successes": successes}])
-                tol = tolerance(scene, result)
-                rows.append((name, planner, seed, objective, result.cost, tol, successes, trials))
-                print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
-                      f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | "
-                      f"{successes}/{trials} |", flush=True)
+    names = args.scenes.split(",")
+    scenes = {name: Scene.from_file(ROOT / "scenes" / f"{name}.yaml") for name in names}
+    runs = [("lattice", None)] + [("RRTstar", s) for s in range(1, args.seeds + 1)]
+    # the objects in turn, so that a run stopped early has plans of each
+    order = [(name, planner, seed, objective) for planner, seed in runs for objective in OBJECTIVES for name in names]
+    for name, planner, seed, objective in order:
+        scene = scenes[name]
+        key = plan_key(name, planner, seed, objective)
+        path = out / "plans" / f"{key}.json"
+        if key in done and path.exists():
+            result = Plan.from_dict(json.loads(path.read_text()))
+            successes, trials = int(done[key]["successes"]), int(done[key]["trials"])
+        elif args.no_simulate:
+            continue
+        else:
+            result = plan(scene, planner=planner, time=1.0, seed=seed, objective=objective)
+            if not result.solved:
+                print(f"<!-- {key}: {result.reason} -->", flush=True)
+                continue
+            path.write_text(result.to_json())
+            report = simulate_plan(scene, result, args.trials, args.jobs)
+            successes, trials = report.successes, len(report.trials)
+            trial_rows = []
+            for t in report.trials:
+                trial_rows.append({"key": key, "trial": t.trial, "outcome": t.outcome.value,
+                                   "phase": t.phase or "", "position_error_mm": t.position_error_mm,
+                                   **t.params})
+            _append(out / "trials.csv", list(trial_rows[0]), trial_rows)
+            _append(out / "plans.csv", list(PLAN_FIELDS),
+                    [{"key": key, "scene": name, "planner": planner, "seed": seed, "objective": objective,
+                      "cost": result.cost, "trials": trials, "successes": successes}])
+        tol = tolerance(scene, result)
+        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials))
+        print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
+              f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | "
+              f"{successes}/{trials} |", flush=True)
     print()
     print("| scene | plans | rho(tolerance, successes) |")
     print("|---|---|---|")

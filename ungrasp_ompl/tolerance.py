@@ -78,6 +78,8 @@ class ToleranceOptions:
 
     perturbation: str = "paper"
     """The preset whose bounds make the box at scale 1 (sim.perturb.PRESETS)."""
+    box: Perturbation | None = None
+    """Bounds of the box at scale 1 instead of the preset's (mm, deg and fractions as sim.perturb.Perturbation has them)."""
     scale_tolerance: float = 1e-3
     """Bisection stops when the bracket on s is this narrow relative to s (dimensionless)."""
     max_scale: float = 5.0
@@ -313,7 +315,7 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
     section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
     if not plan.solved or not plan.primitives:
         raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
-    if options.perturbation not in PRESETS:
+    if options.box is None and options.perturbation not in PRESETS:
         raise InputError("perturbation", f"unknown preset {options.perturbation!r} (one of: {', '.join(PRESETS)})")
     if not (math.isfinite(options.max_scale) and options.max_scale > 0):
         raise InputError("max_scale", f"must be a positive number, got {options.max_scale!r}")
@@ -322,7 +324,13 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
     res = np.asarray(options.resolution if options.resolution is not None else scene.options.resolution, dtype=float)
     if res.shape != (3,) or not np.all(np.isfinite(res) & (res > 0)):
         raise InputError("resolution", f"must be three positive numbers (theta rad, d, psi rad), got {options.resolution!r}")
-    box = PRESETS[options.perturbation]
+    box = options.box if options.box is not None else PRESETS[options.perturbation]
+    bounds = {k: getattr(box, k) for k in ("shift_mm", "yaw_deg", "friction", "thickness", "palm_shift_mm",
+                                           "palm_turn_deg", "table_mm")}
+    bad = [k for k, v in bounds.items() if not (math.isfinite(v) and v >= 0)] + \
+        (["friction"] if box.friction > 1 else [])
+    if bad:
+        raise InputError(f"box.{bad[0]}", f"must be a finite bound >= 0 (friction at most 1), got {bounds[bad[0]]!r}")
     samples = plan_samples(plan, res, both_modes=True)
     ctx = _Box(scene, plan, box, samples, res, options.housing)
     every = np.arange(len(samples.states))
