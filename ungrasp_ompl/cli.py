@@ -255,6 +255,8 @@ def _plan(args: argparse.Namespace) -> int:
         if not certified.certified:
             return EXIT_NO_SOLUTION
         result = certified.plan
+    if result.solved and result.tolerance is None:
+        result.tolerance = scene.tolerance(result).to_dict()
     print(result.summary())
     if certified is not None:
         print(_certified_line(certified))

@@ -32,6 +32,8 @@ from .scene_options import Object3D, PlanningOptions, RobotOptions, SimOptions
 if TYPE_CHECKING:  # pragma: no cover
     from .mechanics.cage import Cage, CageGrid
     from .mechanics.margin import Margins
+    from .planning.result import Plan
+    from .tolerance import Tolerance, ToleranceOptions
 
 __all__ = ["Box", "GoalSpec", "Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass",
            "StateDiagnosis", "read_yaml"]
@@ -373,6 +375,15 @@ class Scene:
                                                 boxes, squeeze), grid, l) for state in q]
         except GridTooLarge as exc:
             raise InputError("grid", f"{exc}; choose coarser steps") from None
+
+    def tolerance(self, plan: "Plan", options: "ToleranceOptions | None" = None) -> "Tolerance":
+        """The tolerance of a solved plan of this scene (docs/model.md, section 4.6): the largest
+        scale s of the `paper` error box (or options.perturbation's) such that every state of the
+        plan, moved by any error within s times the box, stays secure; with the check and the
+        error component that bind it. InputError for an unsolved plan or bad options."""
+        from .tolerance import ToleranceOptions, tolerance
+
+        return tolerance(self, plan, options or ToleranceOptions())
 
     def collision_model(self) -> CollisionModel:
         """What collision checking needs of this scene, in plane coordinates (metres)."""

@@ -159,6 +159,7 @@ class Plan:
     margin_bottleneck_deg: float | None = None  # the most any secure lattice path keeps (robust objectives)
     margin_forced: bool | None = None  # min_margin_deg is the bottleneck: no secure lattice path passes more
     start_margin_deg: float | None = None  # the start's friction margin with every contact sticking
+    tolerance: dict | None = None  # the plan's tolerance of the paper errors (tolerance.Tolerance.to_dict)
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
@@ -267,6 +268,8 @@ class Plan:
                              f"before it moves: {self.start_margin_deg:.3f} deg)")
                 lines.append("  smallest friction margin of each primitive: "
                              + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
+            if self.tolerance is not None:
+                lines.append("  " + _describe_tolerance(self.tolerance))
             first = self.time_to_first_solution_s
             stop = ("stopped at the lattice optimum: no path costs less" if self.stopped_by == StoppedBy.OPTIMUM
                     else f"stopped by {self.stopped_by}")
@@ -312,6 +315,13 @@ def read_plan(path: str) -> Plan:
     from ..io import read_json_file
 
     return Plan.from_dict(read_json_file(path, "--plan"), source=str(path))
+
+
+def _describe_tolerance(tol: dict) -> str:
+    """plan.json's tolerance as one line for a person (tolerance.Tolerance.describe)."""
+    from ..tolerance import Tolerance
+
+    return Tolerance.from_dict(tol).describe()
 
 
 def _deg(q: list[float]) -> str:

@@ -1,0 +1,170 @@
+"""The tolerance of a plan (docs/model.md, section 4.6) against a brute-force oracle that moves
+the plan's states by randomly drawn errors with its own rigid-body arithmetic (the calibration as
+a 3D transform about the palm, the digits' corners across their width), identities, and bad input."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ungrasp_ompl import Scene
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.mechanics import force_closure, kinematic_checks
+from ungrasp_ompl.mechanics.antipodal import effective_friction
+from ungrasp_ompl.mechanics.kinematics import digit_axis, digit_polygons, thumb_normal
+from ungrasp_ompl.planning import plan
+from ungrasp_ompl.robustness import plan_samples
+from ungrasp_ompl.sim.campaign import steeper_start
+from ungrasp_ompl.sim.perturb import PRESETS
+from ungrasp_ompl.tolerance import ToleranceOptions, ToleranceReason, tolerance
+
+
+@pytest.fixture(scope="module")
+def pick():
+    scene = Scene.from_file("guitar_pick")
+    return scene, plan(scene, planner="lattice")
+
+
+def _draw(rng: np.random.Generator, m: int, corners: bool) -> dict[str, np.ndarray]:
+    """m errors in units of the box (each component in [-1, 1], friction loss in [0, 1]); with
+    corners, each component lies on its bound half the time."""
+    def u(*shape):
+        x = rng.uniform(-1.0, 1.0, size=(m, *shape))
+        if corners:
+            x = np.where(rng.random(x.shape) < 0.5, np.sign(x), x)
+        return x
+    return {"along": u(), "across": u(), "yaw": u(), "loss": np.abs(u(3)), "thick": u(), "palm": u(3),
+            "turn": u(3), "table": u()}
+
+
+def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+    cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+    return np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]) \
+        @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+
+
+def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.ndarray],
+                    rows: np.ndarray | None = None) -> np.ndarray:
+    """For each plan sample (rows) and error (scale times the paper box): whether the moved state
+    is insecure. The calibration moves the digits' corners, across their width, by one rigid 3D
+    transform about the palm's origin at the start, as the simulator moves the hand."""
+    box, l, dg = PRESETS["paper"], scene.object_length, scene.digits
+    smp = plan_samples(result, scene.options.resolution, both_modes=True)
+    rows = np.arange(len(smp.states)) if rows is None else rows
+    q = smp.states[rows]
+    m = len(errors["along"])
+    th, d, ps = (np.repeat(q[:, i], m) for i in range(3))
+    e = {k: np.tile(v, (len(q),) + (1,) * (v.ndim - 1)) * scale for k, v in errors.items()}
+    a = e["along"] * box.shift_mm / 1000
+    turn = np.radians(e["turn"] * box.palm_turn_deg)
+    shift = e["palm"] * box.palm_shift_mm / 1000
+    height = e["table"] * box.table_mm / 1000
+    t = dg.object_thickness * (1 + e["thick"] * box.thickness)
+    # the planar state: the grasp shift moves A on the object, the palm's turn about y tilts it
+    th1, d1 = th - turn[:, 1], d + a / l
+    sa, sb = np.repeat(smp.a_sign[rows], m), np.repeat(smp.b_sign[rows], m)
+    bad = np.zeros(len(th), dtype=bool)
+    beta = (scene.plane.g.beta, scene.plane.b.beta)
+    yaw = np.abs(np.radians(e["yaw"] * box.yaw_deg))
+    for j in range(m):  # friction per error: each has its own coefficients
+        mu = [c * (1 - loss * box.friction) for c, loss in zip(scene.mu_contacts, errors["loss"][j] * scale)]
+        mu[0], mu[2] = (float(np.nan_to_num(effective_friction(mu[k], beta[i] + yaw[j]), nan=0.0))
+                        for i, k in ((0, 0), (1, 2)))
+        at = np.arange(j, len(th), m)
+        bad[at] = ~force_closure(th1[at], d1[at], ps[at], sa[at], sb[at], tuple(mu), scene.options.sliding_model)
+    for i in np.unique(t):
+        k = t == i
+        checks = kinematic_checks(th1[k], d1[k], ps[k], replace(dg, object_thickness=i, thumb_tip_margin=0.0))
+        ok = checks["d"] & checks["s_B >= 0"] & checks["s_B <= thumb_length"] & checks["aperture"]
+        # the digits where the hand is: the planned state with A moved on the object, G moved by the
+        # shift, then the calibration's rigid motion about the palm's origin at the start
+        digits = replace(dg, object_thickness=i)
+        thumb, finger = digit_polygons(th[k], d1[k], ps[k], digits)
+        pts = np.concatenate([thumb, finger], axis=1) * l + (a[k, None] * np.stack([np.cos(th[k]), np.sin(th[k])], -1))[:, None]
+        half = dg.width * l / 2
+        p3 = np.concatenate([np.stack([pts[..., 0], np.full(pts.shape[:2], y), pts[..., 1]], -1) for y in (-half, half)], 1)
+        th0, d0, ps0 = result.states[0]
+        e0, n0 = digit_axis(th0, ps0), thumb_normal(th0, ps0)
+        axes = np.array([[n0[0], 0, n0[1]], [0, 1, 0], [e0[0], 0, e0[1]]]).T  # palm x, y, z as columns
+        start_thumb, start_finger = digit_polygons(th0, d0, ps0, dg)
+        w0 = np.dot(start_finger[0] - start_thumb[0], n0)  # the opening at the start
+        p0 = (start_thumb[0] - dg.thumb_length * e0 + w0 / 2 * n0) * l
+        p0 = np.array([p0[0], 0.0, p0[1]])
+        rot = np.stack([axes @ _rotation(*tr) @ axes.T for tr in turn[k]])
+        moved = np.einsum("nij,npj->npi", rot, p3 - p0) + p0 + (shift[k] @ axes.T)[:, None]
+        low = moved[..., 2].min(axis=1)
+        bad[k] |= ~ok | (low < height[k])
+    last = len(smp.states) - 1
+    at_end = np.repeat(rows == last, m)
+    if at_end.any():
+        from ungrasp_ompl.geometry.collision import CollisionChecker
+
+        r = scene.robot
+        checker = CollisionChecker(scene.collision_model())
+        bad[at_end] |= checker.termination_collides(np.column_stack([th1, d1, ps])[at_end], r.termination,
+                                                    r.termination_opening)
+    return bad.reshape(len(q), m)
+
+
+def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pick):
+    scene, result = pick
+    tol = tolerance(scene, result)
+    assert 0 < tol.scale < 1
+    rng = np.random.default_rng(7)
+    inside = oracle_insecure(scene, result, tol.scale, _draw(rng, 300, corners=True))
+    assert not inside.any()
+    smp = plan_samples(result, scene.options.resolution, both_modes=True)
+    k = int(np.flatnonzero(np.all(np.isclose(smp.states, tol.state), axis=1))[0])
+    beyond = oracle_insecure(scene, result, 1.1 * tol.scale, _draw(rng, 3000, corners=True), rows=np.array([k]))
+    assert beyond.any()
+
+
+def test_a_start_outside_force_closure_has_no_tolerance(pick):
+    scene, result = pick
+    offset = next(math.radians(x) for x in range(1, 60)
+                  if not scene.force_closure([result.states[0][0] + math.radians(x)] + result.states[0][1:])[0])
+    tol = tolerance(scene, steeper_start(result, offset))
+    assert tol.scale == 0.0
+    assert tol.reason is ToleranceReason.NOT_FORCE_CLOSED
+    assert tol.primitive == 0 and tol.physical["shift_mm"] == 0.0
+
+
+def test_the_box_doubled_halves_the_scale_and_any_larger_box_lowers_it(pick):
+    scene, result = pick
+    paper = PRESETS["paper"]
+    base = tolerance(scene, result)
+    double = replace(paper, **{k: 2 * getattr(paper, k) for k in ("shift_mm", "yaw_deg", "friction", "thickness",
+                                                                  "palm_shift_mm", "palm_turn_deg", "table_mm")})
+    halved = tolerance(scene, result, ToleranceOptions(box=double))
+    assert halved.scale == pytest.approx(base.scale / 2, rel=5e-3)
+    assert halved.physical["shift_mm"] == pytest.approx(base.physical["shift_mm"], rel=5e-3)
+    for key in ("shift_mm", "table_mm", "palm_shift_mm"):
+        grown = tolerance(scene, result, ToleranceOptions(box=replace(paper, **{key: 3 * getattr(paper, key)})))
+        assert grown.scale <= base.scale * (1 + 2e-3)
+
+
+def test_each_component_alone_is_tolerated_at_least_as_much_as_all_together(pick):
+    scene, result = pick
+    tol = tolerance(scene, result)
+    assert tol.component_scales["shift_across"] == math.inf  # it moves nothing in the plane
+    assert min(tol.component_scales.values()) >= tol.scale * (1 - 1e-2)
+    assert tol.component == min(tol.component_scales, key=tol.component_scales.get)
+    assert type(tol).from_dict(tol.to_dict()) == tol
+
+
+def test_bad_input_names_the_field(pick):
+    scene, result = pick
+    unsolved = replace(result, primitives=[])
+    with pytest.raises(InputError, match="plan"):
+        tolerance(scene, unsolved)
+    with pytest.raises(InputError, match="perturbation"):
+        tolerance(scene, result, ToleranceOptions(perturbation="earthquake"))
+    with pytest.raises(InputError, match="max_scale"):
+        tolerance(scene, result, ToleranceOptions(max_scale=-1.0))
+    with pytest.raises(InputError, match="resolution"):
+        tolerance(scene, result, ToleranceOptions(resolution=(0.1, 0.0, 0.1)))
+    with pytest.raises(InputError, match="box.table_mm"):
+        tolerance(scene, result, ToleranceOptions(box=replace(PRESETS["paper"], table_mm=math.nan)))

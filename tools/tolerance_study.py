@@ -1,0 +1,130 @@
+"""Does a plan's tolerance (docs/model.md, section 4.6) predict its simulated success? Plans of
+each object scene by the lattice and by RRT* over several seeds, with the cost, margin and
+balanced objectives, each simulated under the `paper` perturbation; beside each its tolerance.
+
+    python tools/tolerance_study.py [--seeds N] [--trials N] [--jobs N] [--scenes a,b] [--out DIR]
+
+Every plan's plan.json and every trial (its outcome, phase and drawn errors) are written to DIR
+(default tolerance_study/) as they are simulated: plans.csv and trials.csv. A second run with
+the same DIR simulates only the plans not there yet, so the tolerance can be recomputed after a
+change of its definition without simulating again. Prints one markdown row per plan, then
+Spearman's rank correlation of the success count with the tolerance, pooled and per scene.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+from scipy.stats import spearmanr
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.planning import plan  # noqa: E402
+from ungrasp_ompl.planning.result import Plan  # noqa: E402
+from ungrasp_ompl.tolerance import tolerance  # noqa: E402
+
+OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+OBJECTIVES = ("cost", "margin", "balanced")
+PLAN_FIELDS = ("key", "scene", "planner", "seed", "objective", "cost", "trials", "successes")
+
+
+def plan_key(scene: str, planner: str, seed: int | None, objective: str) -> str:
+    return f"{scene}-{planner}-{seed if seed is not None else 'x'}-{objective}"
+
+
+def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
+    """The trials of one plan under the paper perturbation, seed 1."""
+    from ungrasp_ompl.robot.pipeline import execute
+    from ungrasp_ompl.sim.campaign import simulate
+    from ungrasp_ompl.sim.perturb import PRESETS
+    from ungrasp_ompl.sim.setup import trial_setup
+
+    ex = execute(scene, result)
+    return simulate(trial_setup(scene, result, ex.trajectory, ex.robot), PRESETS["paper"], trials, 1, jobs,
+                    scene=scene.name)
+
+
+def _append(path: Path, fields: list[str], rows: list[dict]) -> None:
+    new = not path.exists()
+    with path.open("a", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields)
+        if new:
+            w.writeheader()
+        w.writerows(rows)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=3, help="RRT* seeds 1..N per objective")
+    ap.add_argument("--trials", type=int, default=40, help="simulated trials per plan (seed 1)")
+    ap.add_argument("--jobs", type=int, default=1, help="simulation workers")
+    ap.add_argument("--scenes", default=",".join(OBJECTS), help="comma-separated shipped object scenes")
+    ap.add_argument("--out", default="tolerance_study", help="directory for plans and trials (reused)")
+    ap.add_argument("--no-simulate", action="store_true", help="only the plans already simulated in --out")
+    args = ap.parse_args()
+    out = Path(args.out)
+    (out / "plans").mkdir(parents=True, exist_ok=True)
+    done = {}
+    if (out / "plans.csv").exists():
+        with (out / "plans.csv").open() as f:
+            done = {r["key"]: r for r in csv.DictReader(f)}
+    rows = []
+    print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | placed |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    names = args.scenes.split(",")
+    scenes = {name: Scene.from_file(ROOT / "scenes" / f"{name}.yaml") for name in names}
+    runs = [("lattice", None)] + [("RRTstar", s) for s in range(1, args.seeds + 1)]
+    # the objects in turn, so that a run stopped early has plans of each
+    order = [(name, planner, seed, objective) for planner, seed in runs for objective in OBJECTIVES for name in names]
+    for name, planner, seed, objective in order:
+        scene = scenes[name]
+        key = plan_key(name, planner, seed, objective)
+        path = out / "plans" / f"{key}.json"
+        if key in done and path.exists():
+            result = Plan.from_dict(json.loads(path.read_text()))
+            successes, trials = int(done[key]["successes"]), int(done[key]["trials"])
+        elif args.no_simulate:
+            continue
+        else:
+            result = plan(scene, planner=planner, time=1.0, seed=seed, objective=objective)
+            if not result.solved:
+                print(f"<!-- {key}: {result.reason} -->", flush=True)
+                continue
+            path.write_text(result.to_json())
+            report = simulate_plan(scene, result, args.trials, args.jobs)
+            successes, trials = report.successes, len(report.trials)
+            trial_rows = []
+            for t in report.trials:
+                trial_rows.append({"key": key, "trial": t.trial, "outcome": t.outcome.value,
+                                   "phase": t.phase or "", "position_error_mm": t.position_error_mm,
+                                   **t.params})
+            _append(out / "trials.csv", list(trial_rows[0]), trial_rows)
+            _append(out / "plans.csv", list(PLAN_FIELDS),
+                    [{"key": key, "scene": name, "planner": planner, "seed": seed, "objective": objective,
+                      "cost": result.cost, "trials": trials, "successes": successes}])
+        tol = tolerance(scene, result)
+        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials))
+        print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
+              f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | "
+              f"{successes}/{trials} |", flush=True)
+    print()
+    print("| scene | plans | rho(tolerance, successes) |")
+    print("|---|---|---|")
+    groups = {"pooled": rows, **{n: [r for r in rows if r[0] == n] for n in dict.fromkeys(r[0] for r in rows)}}
+    for name, got in groups.items():
+        x = [r[5].scale for r in got]
+        y = [r[6] for r in got]
+        rho = spearmanr(x, y).statistic if len(set(x)) > 1 and len(set(y)) > 1 else math.nan
+        print(f"| {name} | {len(got)} | {rho:+.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,359 @@
+"""The tolerance of a plan: the largest scale s of an error box (the `paper` perturbation's by
+default) such that every state of the plan's executed motion, moved by any error within s times
+the box, stays secure (docs/model.md, section 4.6). From the model alone, no simulation.
+
+How an error moves a state (lengths over l, angles rad; section 4.6 derives each):
+
+* grasp shift along GB by a (m): the object slides along the thumb's face in the pinch, so A
+  sits a further from B: d' = d + a / l (psi kept); G then lies a u(theta') from where the plan
+  has it, which raises the digits by a sin(theta') over the table;
+* the arm's calibration, one rigid motion of the hand and the object it holds: a turn phi about
+  the palm's y axis (the plane's normal) turns the state about the palm's origin P0 at the start,
+  theta' = theta + phi, and lifts G by (P0 - R(phi) P0)_z; the palm's shift along its x (n_B) and
+  z (e) axes at the start lifts it by their vertical parts; the table's height error lowers
+  everything by it; turns about the palm's x and z axes tip the plane, lowering the digits' edges
+  by half their width (or the housing's thickness) times the horizontal part of the turn;
+* friction lost: every coefficient times (1 - loss) before the plane's reduction; a turn gamma
+  in the grasp turns the chord GB against the outline's normals at G and B, which reduces as
+  beta + |gamma| (section 5.2);
+* thickness: the object's thickness times (1 + k) in every kinematic quantity (s_B, the opening,
+  where the digits stand);
+* shift across GB and the palm's shift along y move nothing in the plane.
+
+A moved state with theta' < 0 lies flat with the hand turned against it: (0, d', psi + theta').
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from enum import Enum
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import InputError
+from .mechanics import force_closure, s_b
+from .mechanics.antipodal import effective_friction
+from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
+                                   housing_offsets, thumb_normal, thumb_tip)
+from .mechanics.margin import kinematic_margins
+from .robustness import PlanSamples, plan_samples
+from .sim.perturb import PRESETS, Perturbation
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .planning.result import Plan
+    from .scene import Scene
+
+
+class ToleranceReason(Enum):
+    """Which check a moved state fails first at the scale just above the tolerance."""
+
+    NOT_FORCE_CLOSED = "not_force_closed"  #: no force closure in the leg's contact mode
+    B_PAST_THUMB_TIP = "b_past_thumb_tip"  #: s_B < 0: B off the thumb's tip
+    B_PAST_THUMB_BASE = "b_past_thumb_base"  #: s_B beyond the thumb's length
+    A_OFF_OBJECT = "a_off_object"  #: d' outside (0, 1]: the finger off the object
+    APERTURE = "aperture"  #: the opening beyond the gripper's stroke (or negative)
+    DIGIT_IN_TABLE = "digit_in_table"  #: a digit or the housing below the table
+    OBSTACLE = "obstacle"  #: a digit or the housing in an obstacle
+    NO_TERMINATION = "no_termination"  #: the gripper cannot let go from the moved last state
+    NONE = "none"  #: nothing fails up to the largest scale (all friction lost)
+
+
+#: The error components, as TrialParams names them (the friction loss counts G, A, B together).
+#: The first scale tried (dimensionless); the scale doubles from it until a state fails.
+FIRST_SCALE = 1.0 / 64.0
+
+#: Relative precision of each component's own tolerance (it only names the binding component).
+SOLO_TOLERANCE = 1e-2
+
+COMPONENTS = ("shift_along", "shift_across", "yaw", "friction", "thickness", "palm_shift", "palm_turn",
+              "table_height")
+
+
+@dataclass(frozen=True)
+class ToleranceOptions:
+    """How the tolerance is computed."""
+
+    perturbation: str = "paper"
+    """The preset whose bounds make the box at scale 1 (sim.perturb.PRESETS)."""
+    box: Perturbation | None = None
+    """Bounds of the box at scale 1 instead of the preset's (mm, deg and fractions as sim.perturb.Perturbation has them)."""
+    scale_tolerance: float = 1e-3
+    """Bisection stops when the bracket on s is this narrow relative to s (dimensionless)."""
+    max_scale: float = 5.0
+    """The largest scale tried (dimensionless); at 5 the `paper` box loses all friction."""
+    housing: bool = False
+    """Count the gripper housing's clearance over the table beside the digits' (bool; the simulator's palm is kinematic and never meets the table)."""
+    resolution: tuple[float, float, float] | None = None
+    """Sampling of the plan's legs and of the box's (turn, shift) face: theta rad, d over l, psi rad;
+    None: the scene's planning.resolution."""
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """A plan's tolerance and what binds it (see module docstring)."""
+
+    scale: float
+    """s: the largest scale of the box with every moved state secure (dimensionless)."""
+    perturbation: str
+    """The box's preset."""
+    reason: ToleranceReason
+    """The check that fails just above s."""
+    component: str
+    """The binding error component (COMPONENTS): the one that alone is tolerated least at the binding state."""
+    state: tuple[float, float, float]
+    """The binding state of the plan, as planned: theta (rad), d (over l), psi (rad)."""
+    primitive: int
+    """The index of the plan's primitive it lies on."""
+    primitive_type: str
+    """That primitive's type."""
+    component_scales: dict[str, float]
+    """Each component's own tolerance at the binding state (the box with that component alone; inf: none)."""
+    physical: dict[str, float]
+    """The box at scale s in physical units: shift_mm, yaw_deg, friction_loss, thickness_fraction,
+    palm_shift_mm, palm_turn_deg, table_mm."""
+    samples: int
+    """How many states of the plan were checked."""
+
+    def describe(self) -> str:
+        """One line for a person (millimetres and degrees)."""
+        p = self.physical
+        theta, d, psi = self.state
+        where = (f"{self.reason.value.replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
+                 f"{math.degrees(psi):.1f} deg) in primitive {self.primitive + 1} ({self.primitive_type}), "
+                 f"bound by {self.component.replace('_', ' ')}")
+        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p['shift_mm']:.3f} mm, "
+                f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
+                f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
+                + ("nothing fails" if self.reason is ToleranceReason.NONE else where))
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "Tolerance":
+        """Back from to_dict (plan.json's tolerance)."""
+        scales = {k: math.inf if v is None else float(v) for k, v in doc["component_scales"].items()}
+        return cls(float(doc["scale"]), doc["perturbation"], ToleranceReason(doc["reason"]), doc["component"],
+                   tuple(doc["state"]), int(doc["primitive"]), doc["primitive_type"], scales, dict(doc["physical"]),
+                   int(doc["samples"]))
+
+    def to_dict(self) -> dict:
+        """For plan.json (radians, over l, millimetres where named)."""
+        return {"scale": self.scale, "perturbation": self.perturbation, "reason": self.reason.value,
+                "component": self.component, "state": list(self.state), "primitive": self.primitive,
+                "primitive_type": self.primitive_type,
+                "component_scales": {k: (None if math.isinf(v) else v) for k, v in self.component_scales.items()},
+                "physical": dict(self.physical), "samples": self.samples}
+
+
+class _Box:
+    """The error box of one plan, ready to move its states at any scale (the module docstring)."""
+
+    def __init__(self, scene: Scene, plan: Plan, box: Perturbation, samples: PlanSamples,
+                 resolution: NDArray[np.float64], housing: bool = False):
+        from .geometry.collision import CollisionChecker
+
+        self.scene, self.plan, self.box, self.samples, self.housing = scene, plan, box, samples, housing
+        l, dg = scene.object_length, scene.digits
+        self.l = l
+        self.res = resolution
+        th0, d0, ps0 = (float(x) for x in plan.states[0])
+        # the palm's origin and axes at the start (robot.placement.palm_poses), over l
+        tip = thumb_tip(th0, d0, ps0, dg.alpha, dg.object_thickness, dg.finger_tip_radius)
+        e0, n0 = digit_axis(th0, ps0), thumb_normal(th0, ps0)
+        self.p0 = tip - dg.thumb_length * e0 + aperture(d0, ps0, dg.object_thickness, dg.finger_tip_radius) / 2 * n0
+        self.lift_per_shift = abs(float(n0[1])) + abs(float(e0[1]))  # palm x and z shifts' vertical parts
+        self.drop_per_turn = max(dg.width, dg.palm_thickness if dg.palm_width > 0 else 0.0) / 2 \
+            * (abs(float(n0[0])) + abs(float(e0[0])))  # palm x and z turns tip the plane
+        self.obstacles = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]],
+                                         [b.lo[0], b.hi[1]]]) / l for b in scene.obstacles)
+        plane = scene.plane
+        self.beta = (plane.g.beta, plane.b.beta) if plane is not None else None
+        self.mu_contacts = scene.mu_contacts or scene.mu
+        self.checker = CollisionChecker(scene.collision_model())
+
+    # -- the moved quantities ------------------------------------------------------------------
+    def mu(self, loss: float, yaw: float) -> tuple[float, float, float]:
+        """Friction at G, A, B with every coefficient lost by the fraction loss and the grasp turned
+        by yaw (rad): the plane's reduction taken at beta + yaw (0 where nothing is left)."""
+        mg, ma, mb = (m * (1.0 - loss) for m in self.mu_contacts)
+        if self.beta is not None:
+            mg, mb = (float(np.nan_to_num(effective_friction(m, b + yaw), nan=0.0)) if m > 0 else 0.0
+                      for m, b in zip((mg, mb), self.beta))
+        return max(mg, 0.0), max(ma, 0.0), max(mb, 0.0)
+
+    def face(self, s: float, on: dict[str, bool]) -> tuple[NDArray, NDArray]:
+        """The grid over the box's face of the two components the states depend on nonlinearly, at
+        scale s: the palm's turn about y (rad) and the grasp shift along GB (over l), each from -s
+        to s times its bound at no coarser a step than the sampling resolution, ends included."""
+        b = self.box
+        phi = s * math.radians(b.palm_turn_deg) if on["palm_turn"] else 0.0
+        shift = s * b.shift_mm / 1000 / self.l if on["shift_along"] else 0.0
+        n_phi = 1 if phi == 0 else 2 * int(math.ceil(phi / min(self.res[0], self.res[2]))) + 1
+        n_d = 1 if shift == 0 else 2 * int(math.ceil(shift / self.res[1])) + 1
+        p, a = np.meshgrid(np.linspace(-phi, phi, n_phi), np.linspace(-shift, shift, n_d), indexing="ij")
+        return p.ravel(), a.ravel()
+
+    def failures(self, s: float, rows: NDArray, on: dict[str, bool]) -> NDArray[np.int8]:
+        """For the samples rows: 0 where every error of s times the box (components on) leaves the
+        state secure, else the ToleranceReason index (in its order) of the first check failing."""
+        b, sc, dg = self.box, self.scene, self.scene.digits
+        q = self.samples.states[rows]
+        n = len(q)
+        phi, shift = self.face(s, on)
+        g = len(phi)
+        th = (q[:, 0:1] + phi[None, :]).ravel()
+        d = (q[:, 1:2] + shift[None, :]).ravel()
+        ps = np.repeat(q[:, 2], g)
+        flat = th < 0.0
+        ps = np.where(flat, ps + th, ps)
+        th = np.where(flat, 0.0, th)
+        sa = np.repeat(self.samples.a_sign[rows], g)
+        sb = np.repeat(self.samples.b_sign[rows], g)
+        loss = s * b.friction if on["friction"] else 0.0
+        yaw = s * math.radians(b.yaw_deg) if on["yaw"] else 0.0
+        fc = np.ones(len(th), dtype=bool)
+        if not any(on[c] for c in ("shift_along", "palm_turn", "friction", "yaw")):
+            corners = []  # nothing moves what force closure depends on: it holds as at scale 0
+        elif sc.options.sliding_model == "relaxed":
+            corners = [(loss, yaw)]
+        else:
+            corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
+        for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
+            fc &= force_closure(th, d, ps, sa, sb, self.mu(lo, y), sc.options.sliding_model)
+        # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
+        # about P0 exactly on the face's grid; the palm's shift, the table's height and the plane's
+        # tip at their worst corners, as they enter linearly)
+        p0 = self.p0
+        turned = p0[:, None] - np.stack([np.cos(phi) * p0[0] - np.sin(phi) * p0[1],
+                                         np.sin(phi) * p0[0] + np.cos(phi) * p0[1]])  # P0 - R(phi) P0, (2, g)
+        worst = 0.0
+        if on["palm_shift"]:
+            worst += s * b.palm_shift_mm / 1000 / self.l * self.lift_per_shift
+        if on["table_height"]:
+            worst += s * b.table_mm / 1000 / self.l
+        if on["palm_turn"]:
+            worst += s * math.radians(b.palm_turn_deg) * self.drop_per_turn
+        lift = np.tile(turned[1], n) + np.tile(shift, n) * np.sin(th) - worst
+        # how far the hand may stand from where the moved state puts it, for the obstacles
+        away = s * math.sqrt(2.0) * b.palm_shift_mm / 1000 / self.l if on["palm_shift"] else 0.0
+        moved = np.tile(np.abs(shift) + np.hypot(turned[0], turned[1]), n) + away + worst
+        code = np.zeros(len(th), dtype=np.int8)
+        kappas = (-1.0, 1.0) if on["thickness"] and b.thickness else (0.0,)
+        for k in kappas:
+            t = dg.object_thickness * (1.0 + k * s * b.thickness)
+            digits = replace(dg, object_thickness=t)
+            sbv = s_b(d, ps, dg.alpha, t, dg.finger_tip_radius)
+            w = aperture(d, ps, t, dg.finger_tip_radius)
+            low = _lowest(th, d, ps, digits if self.housing else replace(digits, palm_width=0.0))
+            near = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)["obstacles"] if self.obstacles else np.inf
+            checks = (~fc, sbv < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), (w < 0.0) | (w > dg.max_aperture),
+                      low + lift < 0.0, near - moved < 0.0)
+            for i, bad in enumerate(checks):
+                code = np.where((code == 0) & bad, i + 1, code)
+        last = self.samples.states.shape[0] - 1
+        ends = np.flatnonzero(rows == last)
+        if len(ends):
+            i = ends[0]
+            sl = slice(i * g, (i + 1) * g)
+            r = sc.robot
+            amount = r.termination_opening if r.termination == "open" else r.termination_angle
+            stuck = self.checker.termination_collides(np.column_stack([th[sl], d[sl], ps[sl]]), r.termination, amount)
+            code[sl] = np.where((code[sl] == 0) & stuck, list(ToleranceReason).index(ToleranceReason.NO_TERMINATION) + 1,
+                                code[sl])
+        code = code.reshape(n, g)
+        first = np.where(code > 0, code, 127).min(axis=1)
+        return np.where(first == 127, 0, first).astype(np.int8)
+
+    def scale(self, rows: NDArray, on: dict[str, bool], tol: float, top: float) -> tuple[float, NDArray]:
+        """The largest scale in [0, top] with no failure at rows, to the relative tolerance tol
+        (and at least 1e-6), and the failure codes of rows just above it (all zero when nothing
+        fails at top). The scale doubles from FIRST_SCALE until a state fails, then bisects; a
+        state secure at a scale is secure below it (the boxes nest), so once a scale fails only
+        the states failing there are examined further."""
+        codes = np.zeros(len(rows), dtype=np.int8)
+        live = np.arange(len(rows))
+        first = self.failures(0.0, rows, on)
+        if first.any():
+            return 0.0, first
+        lo, hi, s = 0.0, None, min(FIRST_SCALE, top)
+        while hi is None:
+            c = self.failures(s, rows, on)
+            if c.any():
+                hi, codes[:] = s, c
+                live = np.flatnonzero(c)
+            elif s >= top:
+                return top, codes
+            else:
+                lo, s = s, min(2.0 * s, top)
+        while hi - lo > max(tol * hi, 1e-6):
+            mid = 0.5 * (lo + hi)
+            c = self.failures(mid, rows[live], on)
+            if c.any():
+                hi = mid
+                codes[:] = 0
+                codes[live] = c
+                live = live[c > 0]
+            else:
+                lo = mid
+        return lo, codes
+
+
+def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> NDArray[np.float64]:
+    """The height over the table of the lowest point of the thumb, the finger and the housing
+    (over l): kinematic_margins' table margin, without the polygons' orientation it does not need."""
+    thumb, finger = digit_polygons(theta, d, psi, digits)
+    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
+    if digits.palm_width > 0 and digits.palm_length > 0:
+        centre = housing_centre(theta, d, psi, digits, thumb[..., 0, :])
+        low = np.minimum(low, (centre[..., None, 1] + housing_offsets(theta, psi, digits)[..., 1]).min(axis=-1))
+    return low
+
+
+def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
+    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
+    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
+    if not plan.solved or not plan.primitives:
+        raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
+    if options.box is None and options.perturbation not in PRESETS:
+        raise InputError("perturbation", f"unknown preset {options.perturbation!r} (one of: {', '.join(PRESETS)})")
+    if not (math.isfinite(options.max_scale) and options.max_scale > 0):
+        raise InputError("max_scale", f"must be a positive number, got {options.max_scale!r}")
+    if not (math.isfinite(options.scale_tolerance) and 0 < options.scale_tolerance < 1):
+        raise InputError("scale_tolerance", f"must lie in (0, 1) (relative), got {options.scale_tolerance!r}")
+    res = np.asarray(options.resolution if options.resolution is not None else scene.options.resolution, dtype=float)
+    if res.shape != (3,) or not np.all(np.isfinite(res) & (res > 0)):
+        raise InputError("resolution", f"must be three positive numbers (theta rad, d, psi rad), got {options.resolution!r}")
+    box = options.box if options.box is not None else PRESETS[options.perturbation]
+    bounds = {k: getattr(box, k) for k in ("shift_mm", "yaw_deg", "friction", "thickness", "palm_shift_mm",
+                                           "palm_turn_deg", "table_mm")}
+    bad = [k for k, v in bounds.items() if not (math.isfinite(v) and v >= 0)] + \
+        (["friction"] if box.friction > 1 else [])
+    if bad:
+        raise InputError(f"box.{bad[0]}", f"must be a finite bound >= 0 (friction at most 1), got {bounds[bad[0]]!r}")
+    samples = plan_samples(plan, res, both_modes=True)
+    ctx = _Box(scene, plan, box, samples, res, options.housing)
+    every = np.arange(len(samples.states))
+    all_on = {c: True for c in COMPONENTS}
+    s, codes = ctx.scale(every, all_on, options.scale_tolerance, options.max_scale)
+    reasons = list(ToleranceReason)
+    failing = np.flatnonzero(codes)
+    k = int(failing[0]) if len(failing) else len(every) - 1
+    reason = reasons[int(codes[k]) - 1] if len(failing) else ToleranceReason.NONE
+    solo = {c: math.inf for c in COMPONENTS}
+    for c in COMPONENTS if len(failing) else ():
+        if c == "shift_across":  # moves nothing in the plane
+            continue
+        on = {x: x == c for x in COMPONENTS}
+        sc, cc = ctx.scale(np.array([k]), on, SOLO_TOLERANCE, options.max_scale)
+        solo[c] = sc if cc.any() else math.inf
+    component = min(solo, key=lambda c: solo[c]) if len(failing) else "none"
+    p = int(samples.primitive[k])
+    physical = {"shift_mm": s * box.shift_mm, "yaw_deg": s * box.yaw_deg, "friction_loss": s * box.friction,
+                "thickness_fraction": s * box.thickness, "palm_shift_mm": s * box.palm_shift_mm,
+                "palm_turn_deg": s * box.palm_turn_deg, "table_mm": s * box.table_mm}
+    return Tolerance(s, box.name, reason, component, tuple(float(x) for x in samples.states[k]), p,
+                     plan.primitives[p].type, solo, physical, len(samples.states))
+
+
+__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "tolerance"]
