@@ -54,8 +54,8 @@ def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
     assert here.cells == there.cells and there.ran == 4
     cells = {(c.alpha, c.friction_scale): c for c in there.cells}
     reference = cells[(0.47, 1.0)]
-    assert reference.secure_path and reference.lattice_optimum == pytest.approx(85.5)  # README's optimum
-    assert reference.planner_solved and reference.planner_cost >= 85.5 - 1e-9
+    assert reference.secure_path and reference.lattice_optimum == pytest.approx(84.5)  # README's optimum
+    assert reference.planner_solved and reference.planner_cost >= 84.5 - 1e-9
     assert not cells[(0.47, 0.8)].secure_path and cells[(0.47, 0.8)].planner_outcome is None
     assert all(c.task_status is TaskStatus.DONE for c in there.cells)
 
@@ -67,7 +67,7 @@ def test_a_bench_on_ray_matches_the_local_pool_run_by_run(cluster, tmp_path):
     here = _rows(tmp_path / "here" / "runs.csv", UNTIMED)
     assert _rows(tmp_path / "ray" / "runs.csv", UNTIMED) == here
     assert len(here) == 4 and all(r["status"] == "exact" for r in here)
-    assert result.optima == {"reference_asymmetric": pytest.approx(85.5)}
+    assert result.optima == {"reference_asymmetric": pytest.approx(84.5)}
 
 
 def _nap(task: tuple[str, int]) -> tuple[int, int]:

@@ -76,8 +76,8 @@ def test_placement_puts_the_digits_on_the_faces_of_a_thick_object():
         top = np.column_stack([-u[:, 1], u[:, 0]])
         # the thumb's face (through its tip, along e) passes through B
         assert np.allclose(np.sum((p["b"] - p["thumb"]) * p["n"], axis=1), 0, atol=1e-12)
-        # A lies on the top face, (1 - d) l from G
-        assert np.allclose(p["a"], (1 - d)[:, None] * l * u + t * top, atol=1e-12)
+        # A lies on the top face, (1 - d - r psi) l from G: the dome has rolled by psi (docs/model.md 2.6)
+        assert np.allclose(p["a"], (1 - d - radius * ps)[:, None] * l * u + t * top, atol=1e-12)
         # the finger's dome centre lies r from the top face, above A
         centre = p["finger"] + radius * l * (p["n"] - p["e"])
         assert np.allclose(centre, p["a"] + radius * l * top, atol=1e-12)

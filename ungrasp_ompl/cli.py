@@ -745,7 +745,7 @@ def _simulate(args: argparse.Namespace) -> int:
     draw_trials(report, object_outline(scene), setup.target_pose, out / "trials.png")
     from .view.trial_poses import write_simulated_view
 
-    write_simulated_view(out, scene, result, execution, setup, perturbation, args.seed, report.trials[0].final_pose)
+    write_simulated_view(out, scene, result, execution, setup, perturbation, args.seed, report.trials[0])
     print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json, the trajectory, "
           f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
           f"'start': python -m mujoco.viewer --mjcf={out / 'model.xml'})")

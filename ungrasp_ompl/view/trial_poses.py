@@ -2,7 +2,8 @@
 
 ``simulate --out DIR`` runs its first trial once more in the main process with pose recording on
 (MuJoCo is deterministic: it is the campaign's trial 0 again; ``final_pose_difference_m`` says how
-far its end pose lies from the campaign's) and writes the object's world pose every RECORD_PERIOD_S
+far the campaign's last pose, at the end or at the failure where its trial stopped, lies from the
+recorded pose at the same time) and writes the object's world pose every RECORD_PERIOD_S
 of trajectory time. Units: s (trajectory time, as in trajectory.json), m; poses are 4x4 world
 poses of the object's body frame (the manipulation plane's frame at the target: origin at G, x
 toward B, z up; the prism spans z in [0, thickness]).
@@ -47,10 +48,11 @@ class TrialPoses:
 
 
 def record_trial(setup: Any, params: Any, start_time: float, trial: int = 0, seed: int | None = None,
-                 campaign_final: Any = None) -> TrialPoses:
+                 campaign: Any = None) -> TrialPoses:
     """Run one trial (sim.trial.run_trial) with recording on. setup: its TrialSetup; params: its
     TrialParams; start_time: trajectory time (s) of the drive's start (its first primitive);
-    campaign_final: the campaign's final 4x4 pose of the same trial, to compare with."""
+    campaign: the campaign's TrialResult of the same trial, whose final pose is compared with the
+    recorded pose at the same simulated time (a campaign's trial stops at its failure)."""
     from ..sim.trial import run_trial, trial_spec
 
     record: list[tuple[float, NDArray]] = []
@@ -60,8 +62,12 @@ def record_trial(setup: Any, params: Any, start_time: float, trial: int = 0, see
     keep = _thinned(times)
     spec = trial_spec(setup, params)
     diff = None
-    if campaign_final is not None:
-        diff = float(np.max(np.abs(np.asarray(campaign_final, dtype=float)[:3, 3] - np.asarray(result.final_pose)[:3, 3])))
+    if campaign is not None:
+        same_time = np.asarray(result.final_pose)
+        if campaign.sim_time_s < result.sim_time_s:  # the campaign stopped at the failure: its pose then
+            drive_time = campaign.sim_time_s - setup.settle_time  # the record's times start after the settling
+            same_time = poses[int(np.argmin(np.abs(times - start_time - drive_time)))]
+        diff = float(np.max(np.abs(np.asarray(campaign.final_pose, dtype=float)[:3, 3] - same_time[:3, 3])))
     return TrialPoses(times[keep], poses[keep], np.asarray(spec.obj.outline, dtype=float), float(spec.obj.thickness),
                       trial, result.cause(), float(result.position_error_mm), diff)
 
@@ -120,7 +126,7 @@ def read_trial_poses(path: PathLike) -> TrialPoses:
 
 
 def write_simulated_view(directory: PathLike, scene: Any, plan: Any, execution: Any, setup: Any, perturbation: Any,
-                         seed: int, campaign_final: Any = None) -> list[Path]:
+                         seed: int, campaign: Any = None) -> list[Path]:
     """What the 3D view of a simulated plan needs, written into directory: view_scene.json (kind
     simulation) and trial_poses.json of trial 0 (run again with recording; its perturbation is the
     campaign's trial 0's, drawn from (seed, 0)). Returns the two paths."""
@@ -130,6 +136,6 @@ def write_simulated_view(directory: PathLike, scene: Any, plan: Any, execution: 
     traj = execution.trajectory
     start = next(float(traj.times[a]) for name, a, _ in traj.segments if name not in NON_PRIMITIVES[:2])
     params = trial_params(perturbation, seed, 1)[0]
-    poses = record_trial(setup, params, start, 0, seed, campaign_final)
+    poses = record_trial(setup, params, start, 0, seed, campaign)
     return [write_view_record(directory, [(scene, plan)], execution, kind="simulation"),
             write_trial_poses(directory, poses)]
