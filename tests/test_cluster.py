@@ -54,7 +54,7 @@ def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
     assert here.cells == there.cells and there.ran == 4
     cells = {(c.alpha, c.friction_scale): c for c in there.cells}
     reference = cells[(0.47, 1.0)]
-    assert reference.secure_path and reference.lattice_optimum == pytest.approx(84.5)  # README's optimum
+    assert reference.secure_path and reference.lattice_optimum == pytest.approx(84.5)  # docs/model.md 8.2
     assert reference.planner_solved and reference.planner_cost >= 84.5 - 1e-9
     assert not cells[(0.47, 0.8)].secure_path and cells[(0.47, 0.8)].planner_outcome is None
     assert all(c.task_status is TaskStatus.DONE for c in there.cells)

@@ -129,7 +129,7 @@ class HoldableMap:
 
 @dataclass
 class Plan:
-    """The result of planning a scene (see README for every field)."""
+    """The result of planning a scene (docs/plan-json.md lists every field)."""
 
     outcome: PlanOutcome
     scene: str
