@@ -235,8 +235,8 @@ def cell_from_row(row: dict[str, str]) -> MapCell:
 
 
 def run_cell(task: MapTask) -> MapCell:
-    """Compute one cell (OMPL's random numbers seeded here for it)."""
-    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan, seed_ompl
+    """Compute one cell (UngraspSetup seeds OMPL's random numbers with the task's seed)."""
+    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan
 
     scene = task.scene
     done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
@@ -247,7 +247,6 @@ def run_cell(task: MapTask) -> MapCell:
         cell = MapCell(**done, lattice_outcome=verdict, lattice_optimum=plan.lattice_optimum,
                        planner_outcome=plan.outcome, planner_cost=plan.cost)
     else:
-        seed_ompl(task.seed)
         setup = UngraspSetup(scene, PlannerOptions(planner=task.planner, time=task.time, seed=task.seed))
         problem = setup.ends_problem()
         if problem:

@@ -126,8 +126,9 @@ def _ompl_run(task: Task) -> dict:
     task's iterations (its goal samples seeded too, so the run is reproducible)."""
     from ..planning.setup import UngraspSetup, seed_ompl
 
-    seed_ompl(task.seed)
     seeded = task.iterations is not None
+    if not seeded:  # on wall time the run is not reproducible, but OMPL still draws from the task's seed
+        seed_ompl(task.seed)
     options = PlannerOptions(planner=task.planner, time=task.time_limit, seed=task.seed if seeded else None,
                              iterations=task.iterations, objective=task.objective)
     plan = UngraspSetup(task.scene, options).solve()

@@ -156,13 +156,16 @@ def check_objective(objective: str, planner: str) -> None:
 
 
 class UngraspSetup:
-    """The OMPL problem of one scene, ready to solve (like og.SimpleSetup)."""
+    """The OMPL problem of one scene, ready to solve (like og.SimpleSetup). With options.seed it
+    seeds OMPL's random numbers itself (seed_ompl), so the same options give the same plan."""
 
     def __init__(self, scene: Scene, options: PlannerOptions = PlannerOptions(), atlas: SecurityAtlas | None = None):
         """atlas: the scene's secure lattice over its planning box when built already (tiling's
         proof built it); otherwise it is built here."""
         self.scene = scene
         self.options = options.validated()
+        if self.options.seed is not None:  # before OMPL builds anything that draws numbers
+            seed_ompl(self.options.seed)
         t0 = perf_counter()
         if atlas is not None and (atlas.scene is not scene or not np.allclose(atlas.res, scene.options.resolution)):
             raise ValueError("the atlas given was built for another scene or resolution")
@@ -488,8 +491,6 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
 
 
 def _plan_here(scene: Scene, opts: PlannerOptions, atlas: SecurityAtlas | None = None) -> Plan:
-    if opts.seed is not None:
-        seed_ompl(opts.seed)
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     result = UngraspSetup(scene, opts, atlas).solve()
     if scene.plane is not None:
