@@ -39,7 +39,7 @@ from .mechanics.antipodal import effective_friction
 from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
                                    housing_offsets, thumb_normal, thumb_tip)
 from .mechanics.margin import kinematic_margins
-from .robustness import PlanSamples, plan_samples
+from .planning.path_margin import PlanSamples, plan_samples
 from .sim.perturb import PRESETS, Perturbation
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -6,7 +6,7 @@ friction margin (rad, :func:`~ungrasp_ompl.mechanics.margin.friction_margin`) of
 states in every contact mode a primitive leg makes there, computed the first time a mode is
 needed and only where the atlas finds that mode secure and the state lies on some secure lattice
 path from the start to the goal region (-inf elsewhere). The start counts like every state, in the
-mode of the leg that leaves it, as in a plan's margin (robustness.path_friction_margin). From them:
+mode of the leg that leaves it, as in a plan's margin (planning.path_margin.path_friction_margin). From them:
 
 * a lattice step's margin: the smaller of its two ends', each in the step's contact mode;
 * a leg's margin: the smallest of its steps' (the lattice states it passes, in its mode);

@@ -403,7 +403,7 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: La
     (the smallest of each primitive and of the path, the start's; with the lattice's margins, its
     bottleneck and whether the path's smallest margin is forced by it); marks it solved."""
     from ..mechanics.margin import friction_margin
-    from ..robustness import path_friction_margin
+    from .path_margin import path_friction_margin
 
     steps = merge_legs(atlas, legs)
     plan.primitives = steps
