@@ -40,6 +40,7 @@ from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_po
                                    housing_offsets, thumb_normal, thumb_tip)
 from .mechanics.margin import kinematic_margins
 from .planning.path_margin import PlanSamples, plan_samples
+from .planning.result import describe_tolerance
 from .sim.perturb import PRESETS, Perturbation
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -118,16 +119,8 @@ class Tolerance:
     """How many states of the plan were checked."""
 
     def describe(self) -> str:
-        """One line for a person (millimetres and degrees)."""
-        p = self.physical
-        theta, d, psi = self.state
-        where = (f"{self.reason.value.replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
-                 f"{math.degrees(psi):.1f} deg) in primitive {self.primitive + 1} ({self.primitive_type}), "
-                 f"bound by {self.component.replace('_', ' ')}")
-        return (f"tolerance {self.scale:.3f} of the {self.perturbation} errors: grasp shift {p['shift_mm']:.3f} mm, "
-                f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
-                f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
-                + ("nothing fails" if self.reason is ToleranceReason.NONE else where))
+        """One line for a person (millimetres and degrees): the plan summary's line."""
+        return describe_tolerance(self.to_dict())
 
     @classmethod
     def from_dict(cls, doc: dict) -> "Tolerance":

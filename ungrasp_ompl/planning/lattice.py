@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from ..mechanics import primitive_sliding_signs
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
-from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, _reached
+from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, on_some_path
 
 
 @dataclass
@@ -204,7 +204,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
     in_goal = atlas.releasable_in(goal_box).ravel()
     # the cells on some path from the start to the goal, numbered compactly (the others cannot be
     # on the optimum; leaving them out makes the search several times faster)
-    cells = np.flatnonzero(_on_some_path(edges, n_cells, start_flat, in_goal))
+    cells = np.flatnonzero(on_some_path(edges, n_cells, start_flat, in_goal))
     compact = np.full(n_cells, -1)
     compact[cells] = np.arange(len(cells))
     start_node = len(cells) * n_slot
@@ -288,18 +288,6 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
     return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty, best_cost)
 
 
-def _on_some_path(edges: LatticeEdges, n_cells: int, start: int | None, goal: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Per cell (flat): it lies on some path of the edges from the start cell (flat index, None off
-    the lattice) to a goal cell, by a breadth-first search each way."""
-    on = np.zeros(n_cells, dtype=bool)
-    if start is None or not goal.any():
-        return on
-    on[_reached(edges.src, edges.dst, n_cells, [start])] = True
-    back = np.zeros(n_cells, dtype=bool)
-    back[_reached(edges.dst, edges.src, n_cells, np.flatnonzero(goal))] = True
-    return on & back
-
-
 def _realise(atlas: SecurityAtlas, legs: list[Leg]) -> list[Leg] | None:
     """The search's one-step legs as planner legs: every P_dpsi with Y steps as the fewest straight
     X and D legs between its states, each secure as the atlas checks a planner's leg (the same
@@ -340,20 +328,17 @@ def _straight_legs(atlas: SecurityAtlas, states: list[tuple[int, int, int]]) -> 
         out.append(x)
     if a == n:
         return out
-    fewest, after = [math.inf] * n + [0], [n] * (n + 1)
+    fewest, after = [math.inf] * n + [0], [(n, None)] * (n + 1)
     for a in range(n - 1, -1, -1):
         for b in range(n, a, -1):
-            p, q = states[a], states[b]
-            if fewest[b] + 1 < fewest[a] and p[D] != q[D] and \
-                    atlas.leg_secure("D" if p[PSI] == q[PSI] else "X", p, q):
-                fewest[a], after[a] = fewest[b] + 1, b
+            if fewest[b] + 1 < fewest[a] and (x := leg(a, b)) is not None:
+                fewest[a], after[a] = fewest[b] + 1, (b, x)
     if not math.isfinite(fewest[0]):
         return None
     out, a = [], 0
     while a < n:
-        p, q = states[a], states[after[a]]
-        out.append(Leg("D" if p[PSI] == q[PSI] else "X", p, q))
-        a = after[a]
+        a, x = after[a]
+        out.append(x)
     return out
 
 

@@ -108,16 +108,8 @@ class LatticeMargins:
         reaching a releasable goal state, by breadth-first search over the lattice's secure moves."""
         if self._relevant is None:
             n = int(np.prod(self.atlas.shape))
-            e = self.edges
-            out = np.zeros(n, dtype=bool)
-            goal = np.flatnonzero(self.goal)
-            if self.start is not None and len(goal):
-                start = int(np.ravel_multi_index(self.start, self.atlas.shape))
-                out[_reached(e.src, e.dst, n, [start])] = True
-                back = np.zeros(n, dtype=bool)
-                back[_reached(e.dst, e.src, n, goal)] = True
-                out &= back
-            self._relevant = out.reshape(self.atlas.shape)
+            start = None if self.start is None else int(np.ravel_multi_index(self.start, self.atlas.shape))
+            self._relevant = on_some_path(self.edges, n, start, self.goal).reshape(self.atlas.shape)
         return self._relevant
 
     def prepare(self) -> None:
@@ -325,6 +317,18 @@ class LatticeMargins:
         return out
 
 
+def on_some_path(edges, n_cells: int, start: int | None, goal: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Per cell (flat): it lies on some path of the edges (LatticeEdges) from the start cell (flat
+    index, None off the lattice) to a goal cell (goal: flat mask), by a breadth-first search each way."""
+    on = np.zeros(n_cells, dtype=bool)
+    if start is None or not goal.any():
+        return on
+    on[_reached(edges.src, edges.dst, n_cells, [start])] = True
+    back = np.zeros(n_cells, dtype=bool)
+    back[_reached(edges.dst, edges.src, n_cells, np.flatnonzero(goal))] = True
+    return on & back
+
+
 def _reached(src: NDArray[np.int_], dst: NDArray[np.int_], n: int, seeds) -> NDArray[np.int_]:
     """The nodes (of n) reached from any of the seeds along the directed edges src -> dst, the seeds
     included: breadth-first search from a virtual node n that leads to each seed."""
@@ -339,4 +343,4 @@ def _reached(src: NDArray[np.int_], dst: NDArray[np.int_], n: int, seeds) -> NDA
     return order[order < n]
 
 
-__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "TIE_SCALE_DEG", "TIE_TOLERANCE"]
+__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "TIE_SCALE_DEG", "TIE_TOLERANCE", "on_some_path"]

@@ -269,7 +269,7 @@ class Plan:
                 lines.append("  smallest friction margin of each primitive: "
                              + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
             if self.tolerance is not None:
-                lines.append("  " + _describe_tolerance(self.tolerance))
+                lines.append("  " + describe_tolerance(self.tolerance))
             first = self.time_to_first_solution_s
             stop = ("stopped at the lattice optimum: no path costs less" if self.stopped_by == StoppedBy.OPTIMUM
                     else f"stopped by {self.stopped_by}")
@@ -317,11 +317,18 @@ def read_plan(path: str) -> Plan:
     return Plan.from_dict(read_json_file(path, "--plan"), source=str(path))
 
 
-def _describe_tolerance(tol: dict) -> str:
-    """plan.json's tolerance as one line for a person (tolerance.Tolerance.describe)."""
-    from ..tolerance import Tolerance
-
-    return Tolerance.from_dict(tol).describe()
+def describe_tolerance(tol: dict) -> str:
+    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) as one line for a person, in
+    millimetres and degrees."""
+    p = tol["physical"]
+    theta, d, psi = tol["state"]
+    where = (f"{tol['reason'].replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
+             f"{math.degrees(psi):.1f} deg) in primitive {tol['primitive'] + 1} ({tol['primitive_type']}), "
+             f"bound by {tol['component'].replace('_', ' ')}")
+    return (f"tolerance {tol['scale']:.3f} of the {tol['perturbation']} errors: grasp shift {p['shift_mm']:.3f} mm, "
+            f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
+            f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
+            + ("nothing fails" if tol["reason"] == "none" else where))
 
 
 def _deg(q: list[float]) -> str:
