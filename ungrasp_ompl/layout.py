@@ -35,8 +35,8 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import InputError
 from .geometry.solids import Solid, box, polygons_overlap, prism
 from .scene import Scene
-from .scene_file import SceneReader, read_yaml
-from .scene_options import Object3D
+from .scene.loader import SceneReader, read_yaml
+from .scene.options import Object3D
 
 #: Scene sections a layout shares among its pieces.
 SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .geometry.outline import Outline
+from ..geometry.outline import Outline
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ Units: lengths in metres, except ``digits.alpha`` and the d coordinate, which
 are over the object length l (docs/model.md, section 2). Angles are radians in
 code; a person types degrees in keys ending ``_deg``. Plane coordinates are
 (x, z) in the manipulation plane, G at the origin, x along the table toward
-B's side, z up. Every field is validated on load (scene_file.SceneReader); a bad one raises
+B's side, z up. Every field is validated on load (scene.loader.SceneReader); a bad one raises
 :class:`~ungrasp_ompl.errors.InputError` naming the field and the reason.
 """
 
@@ -20,20 +20,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError
-from .geometry.collision import Box, CollisionChecker, CollisionModel
-from .geometry.plane import ManipulationPlane, choose_plane
-from .mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
+from ..errors import InputError
+from ..geometry.collision import Box, CollisionChecker, CollisionModel
+from ..geometry.plane import ManipulationPlane, choose_plane
+from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
-from .mechanics.force_closure import SLIDING_MODELS
-from .scene_file import MAX_LENGTH, SceneReader, read_yaml
-from .scene_options import Object3D, PlanningOptions, RobotOptions, SimOptions
+from ..mechanics.force_closure import SLIDING_MODELS
+from .loader import MAX_LENGTH, SceneReader, read_yaml
+from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .mechanics.cage import Cage, CageGrid
-    from .mechanics.margin import Margins
-    from .planning.result import Plan
-    from .tolerance import Tolerance, ToleranceOptions
+    from ..mechanics.cage import Cage, CageGrid
+    from ..mechanics.margin import Margins
+    from ..planning.result import Plan
+    from ..tolerance import Tolerance, ToleranceOptions
 
 __all__ = ["Box", "GoalSpec", "Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass",
            "StateDiagnosis", "read_yaml"]
@@ -123,7 +123,7 @@ class Scene:
     def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
         """Load and validate a scene file, or the shipped scene of that name ("guitar_pick"; see
         ``ungrasp-ompl scenes`` and shipped.resolve); raises InputError naming the bad field."""
-        from .shipped import resolve, shipped_names
+        from ..shipped import resolve, shipped_names
 
         path = resolve(path, "scene")
         data = read_yaml(path, "scene")
@@ -335,7 +335,7 @@ class Scene:
         dq makes (every contact sticking without dq, as in :meth:`force_closure`), positive
         exactly where that holds, and the kinematic margins (m) of B on the thumb, the digits
         above the table and from the obstacles (mechanics.margin.kinematic_margins)."""
-        from .mechanics.margin import Margins, friction_margin, kinematic_margins
+        from ..mechanics.margin import Margins, friction_margin, kinematic_margins
 
         q, sa, sb = _states_and_mode(q, dq)
         l = self.object_length
@@ -350,7 +350,7 @@ class Scene:
         the manipulation plane, its weight from sim.density and its volume) must gain to escape.
         squeeze: a constant force (N) pressing it where the finger does. Raises InputError for an
         object without thickness (it has no weight) and for a grid too fine to hold in memory."""
-        from .mechanics.cage import CageGrid, GridTooLarge, escape_energy, pinch_problem, weight_of
+        from ..mechanics.cage import CageGrid, GridTooLarge, escape_energy, pinch_problem, weight_of
 
         q = _states(q, "q")
         if self.object_thickness <= 0.0:
@@ -381,7 +381,7 @@ class Scene:
         scale s of the `paper` error box (or options.perturbation's) such that every state of the
         plan, moved by any error within s times the box, stays secure; with the check and the
         error component that bind it. InputError for an unsolved plan or bad options."""
-        from .tolerance import ToleranceOptions, tolerance
+        from ..tolerance import ToleranceOptions, tolerance
 
         return tolerance(self, plan, options or ToleranceOptions())
 

@@ -15,10 +15,10 @@ from typing import Any
 
 import yaml
 
-from .errors import InputError
-from .geometry.collision import Box
-from .geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
-from .scene_options import Object3D, RobotOptions, SimOptions
+from ..errors import InputError
+from ..geometry.collision import Box
+from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
+from .options import Object3D, RobotOptions, SimOptions
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
