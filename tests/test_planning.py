@@ -11,11 +11,12 @@ import pytest
 
 from conftest import ROOT, run_cli
 from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.mechanics import kinematic_checks
 from ungrasp_ompl.planning.atlas import FORWARD, SecurityAtlas, planning_box, reference_cost
 from ungrasp_ompl.planning.lattice import lattice_search
 from ungrasp_ompl.planning.result import merge_legs, sequence_cost
 from ungrasp_ompl.planning.setup import PlannerOptions, UngraspSetup
-from ungrasp_ompl.planning.verify import verify_leg
+from ungrasp_ompl.planning.verify import LegCheck, PathCheck, verify_leg
 
 BRUTE_FORCE = (math.radians(1.5), 0.015, math.radians(1.5))  # the brute-force search's lattice
 GOLDEN = ROOT / "tests" / "golden"
@@ -43,6 +44,23 @@ def test_motion_validator_is_directed(setup):
     assert math.isfinite(obj.motionCost(state(sp, a), state(sp, b)).value())
     assert not math.isfinite(obj.motionCost(state(sp, b), state(sp, a)).value())
     assert not obj.isSymmetric()
+
+
+def test_a_path_that_is_not_secure_says_why_in_values(setup):
+    """path_legs names, as values, why a path cannot be executed: a state outside the planning box,
+    an edge against the primitives' directions, a leg that fails the exact re-check."""
+    a = setup.scene.start
+    legs, problem = setup.path_legs(np.array([a, a + [0, 0, 10.0]]))
+    assert not legs and problem.check is PathCheck.OUTSIDE_BOX
+    down = a + np.array([-math.radians(5), 0, 0])  # back up from here is no forward primitive
+    legs, problem = setup.path_legs(np.array([down, a]))
+    assert not legs and (problem.check, problem.index) == (PathCheck.NO_SECURE_LEGS, 0)
+    assert json.loads(json.dumps(problem.evidence()))["path_check"] == "no_secure_legs"
+    # past the thumb's tip: the re-check's first failure is kinematic, at the first sample beyond
+    far = a + np.array([0, -0.9, 0])
+    failure = verify_leg(setup.scene, "P_d", a, far, setup.atlas.res)
+    assert failure.check is LegCheck.KINEMATICS
+    assert not all(v.all() for v in kinematic_checks(*np.array([failure.state]).T, setup.scene.digits).values())
 
 
 @pytest.mark.slow

@@ -20,6 +20,7 @@ from conftest import SCENES, assert_picture, run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import Plan
+from ungrasp_ompl.planning.verify import LegCheck
 from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
 from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate, steeper_start, wilson_interval
@@ -245,7 +246,8 @@ def test_a_deviated_start_is_executed_and_flagged_when_the_model_rejects_it(pick
     assert deviated.primitives[-1].end == result.primitives[-1].end
     # 60 deg more: B lies beyond the thumb's tip at the start, which the model refuses
     problems = plan_problems(scene, deviated_plan(result, math.radians(60)))
-    assert problems and "primitive 1" in problems[0] and "s_B >= 0" in problems[0]
+    assert problems and (problems[0].primitive, problems[0].failure.check, problems[0].failure.detail) == \
+        (1, LegCheck.KINEMATICS, "s_B >= 0")
 
 
 def test_a_steeper_start_pivots_into_the_plan_and_can_leave_force_closure():
@@ -261,7 +263,9 @@ def test_a_steeper_start_pivots_into_the_plan_and_can_leave_force_closure():
     q = [result.states[0][0] + math.radians(25), *result.states[0][1:]]
     assert scene.margin([q]).friction[0] < 0  # 25 deg steeper is not
     problems = plan_problems(scene, steeper_start(result, math.radians(25)))
-    assert problems and problems[0].startswith("primitive 1 (P_theta)") and "force-closed" in problems[0]
+    assert problems and (problems[0].primitive, problems[0].type, problems[0].failure.check) == \
+        (1, "P_theta", LegCheck.FORCE_CLOSURE)
+    assert problems[0].failure.state == pytest.approx(q)  # the first state of the pivot already fails
 
 
 @pytest.mark.parametrize("k, n", [(0, 10), (9, 10), (109, 120), (40, 40), (17, 40)])

@@ -51,7 +51,7 @@ from .mechanics import kinematic_validity
 from .planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from .planning.lattice import lattice_search
 from .planning.result import Plan, PlanOutcome, describe_outcome
-from .planning.setup import LATTICE
+from .planning.setup import LATTICE, EndsProblem
 from .scene import Scene
 
 #: Room beyond B (and behind G) counted by the ranking, m: more is not better.
@@ -269,14 +269,27 @@ def wall_contact(layout: Layout, i: int) -> float:
 
 
 # -- checking one approach -------------------------------------------------------------
-def approach_scene(layout: Layout, i: int, approach: Approach, placed: list[int]) -> Scene | str:
+@dataclass(frozen=True)
+class DigitsDoNotFit:
+    """Why an approach has no scene: the scene's own validation refuses the digits on its plane."""
+
+    field: str
+    """The scene's field that is out of range (digits.alpha: over the plane's length |GB|)."""
+    reason: str
+    """The scene's reason."""
+
+    def __str__(self) -> str:
+        return f"the digits do not fit this plane ({self.field}: {self.reason})"
+
+
+def approach_scene(layout: Layout, i: int, approach: Approach, placed: list[int]) -> Scene | DigitsDoNotFit:
     """Piece i's scene in the approach's manipulation plane among the pieces placed, or why there
     is none: the digits' asymmetry (digits.alpha, over the plane's length |GB|) out of range for a
     plane that short or long."""
     try:
         return layout.scene(i, (approach.g, approach.b), placed)
     except InputError as exc:
-        return f"the digits do not fit this plane ({exc.field}: {exc.reason})"
+        return DigitsDoNotFit(exc.field, exc.reason)
 
 
 class GoalStates:
@@ -326,7 +339,7 @@ class GoalStates:
             yield self._held[k // self._chunk]
 
 
-def screen(scene: Scene, goal: GoalStates | None = None) -> str | None:
+def screen(scene: Scene, goal: GoalStates | None = None) -> EndsProblem | None:
     """Why an approach cannot work, from the start grasp and the goal region alone; None if it may.
 
     The answer of planning.setup.ends_problem on the goal's lattice states, found a chunk of
@@ -339,7 +352,7 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> str | None:
     none can among more; and the answer only asks whether some goal state can be held and let go."""
     goal = goal if goal is not None else GoalStates(scene)
     if goal.outside_box:
-        return describe_outcome(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
+        return EndsProblem(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
     names = frozenset(s.name for s in scene.solids)
     r = scene.robot
     amount = r.termination_opening if r.termination == "open" else r.termination_angle
@@ -359,7 +372,7 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> str | None:
         start_held = checker is not None and not checker.in_collision(scene.start)[0]
     if not start_held:
         start = scene.diagnose(scene.start)
-        return describe_outcome(PlanOutcome.START_NOT_HELD, dict(
+        return EndsProblem(PlanOutcome.START_NOT_HELD, dict(
             state_class=start.state_class.name, failed_checks=list(start.failed_checks), contacts=list(start.contacts)))
     checker = checker or CollisionChecker(scene.collision_model())
     fewer = [holdable for solids, holdable in goal.failed if solids <= names]
@@ -376,15 +389,15 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> str | None:
                     goal.witness, goal.free_of = q[j:j + 64][free][:1], names
                     return None
     goal.failed.append((names, holdable))
-    return describe_outcome(PlanOutcome.GOAL_EMPTY, dict(holdable=holdable, termination=r.termination))
+    return EndsProblem(PlanOutcome.GOAL_EMPTY, dict(holdable=holdable, termination=r.termination))
 
 
-def prove(scene: Scene) -> tuple[str | None, SecurityAtlas]:
-    """Whether the exact lattice search finds a secure path (None, or why not) and the secure
-    lattice it searched, which planning the piece then reuses."""
+def prove(scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
+    """Whether the exact lattice search finds a secure path (None, or NO_SECURE_PATH) and the
+    secure lattice it searched, which planning the piece then reuses."""
     atlas = SecurityAtlas(scene, planning_box(scene))
     if not lattice_search(atlas, scene.goal.box()).reachable:
-        return "no secure path (exact lattice search)", atlas
+        return PlanOutcome.NO_SECURE_PATH, atlas
     return None, atlas
 
 
@@ -422,7 +435,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 result.checks += 1
                 report("search", len(placed), i)
                 scene = approach_scene(layout, i, a, placed)
-                if isinstance(scene, str):
+                if isinstance(scene, DigitsDoNotFit):
                     why.append(f"{a.describe()}: {scene}")
                     continue
                 plane = (i, a.g.tobytes(), a.b.tobytes())
@@ -430,7 +443,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                     goals[plane] = GoalStates(scene)
                 problem = screen(scene, goals[plane])
                 if problem:
-                    why.append(f"{a.describe()}: {problem}")
+                    why.append(f"{a.describe()}: {describe_outcome(problem.outcome, problem.evidence)}")
                 else:
                     ok.append((a, scene))
             if not ok and not why:
@@ -469,7 +482,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                     if problem is None:
                         proven[key] = (a, scene, atlas)
                         break
-                    why.append(f"{a.describe()}: {problem}")
+                    why.append(f"{a.describe()}: no secure path (exact lattice search)")
                 if proven[key] is None:  # it cannot be placed now, nor after more pieces
                     fail(i, placed, why)
                     return None

@@ -250,7 +250,7 @@ def run_cell(task: MapTask) -> MapCell:
         setup = UngraspSetup(scene, PlannerOptions(planner=task.planner, time=task.time, seed=task.seed))
         problem = setup.ends_problem()
         if problem:
-            return MapCell(**done, lattice_outcome=problem["outcome"])
+            return MapCell(**done, lattice_outcome=problem.outcome)
         found = setup.lattice  # the exact search, the planner's yardstick
         if not found.reachable:
             return MapCell(**done, lattice_outcome=PlanOutcome.NO_SECURE_PATH)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from time import perf_counter
 from dataclasses import dataclass
+from typing import Any
 from enum import Enum
 
 import numpy as np
@@ -39,7 +40,7 @@ from .result import HoldableMap, Plan, PlanOutcome, StoppedBy, merge_legs, seque
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
-from .verify import verify_leg
+from .verify import PathCheck, PathProblem, verify_leg
 
 
 #: Planners that may spin in C++ without checking their termination condition, and what was seen.
@@ -210,9 +211,8 @@ class UngraspSetup:
         self.setup_time = perf_counter() - t0
 
     # -- diagnosis -----------------------------------------------------------------
-    def ends_problem(self) -> dict | None:
-        """Why planning cannot start (the start cannot be held, or the goal region is empty) as
-        Plan.fail's arguments, or None."""
+    def ends_problem(self) -> EndsProblem | None:
+        """Why planning cannot start (the start cannot be held, or the goal region is empty), or None."""
         return ends_problem(self.scene, self.atlas, self.goal.maxSampleCount() > 0)
 
     # -- solving -------------------------------------------------------------------
@@ -226,7 +226,7 @@ class UngraspSetup:
         problem = self.ends_problem()
         if problem:
             plan.stopped_by = StoppedBy.NOT_STARTED
-            return plan.fail(**problem)
+            return plan.fail(problem.outcome, **problem.evidence)
         budget = opts.iterations
         cap = opts.time
         if opts.seed is not None:
@@ -286,7 +286,7 @@ class UngraspSetup:
             simplifier.reduceVertices(path)
         legs, problem = self.path_legs(path_states(path))
         if problem:
-            return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
+            return plan.fail(PlanOutcome.INVALID_PATH, **problem.evidence())
         if plan.time_to_first_solution_s is None:
             plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
         fill_solution(plan, self.atlas, legs, self.margins)
@@ -312,28 +312,28 @@ class UngraspSetup:
         legs, problem = self._realised(np.array(states[::-1]))
         return math.inf if problem else sequence_cost(self.atlas, merge_legs(self.atlas, legs))[0]
 
-    def path_legs(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
+    def path_legs(self, states: np.ndarray) -> tuple[list[Leg], PathProblem | None]:
         """Primitive legs realising a path of states, each edge in its travel direction,
         choosing among the realisations of every edge (the best for a robust objective) those
         with fewest primitive changes overall; every leg re-validated with the exact mechanics."""
         legs, problem = self._realised(states)
         return (legs, problem) if problem else (legs, verify_legs(self.scene, self.atlas, legs))
 
-    def _realised(self, states: np.ndarray) -> tuple[list[Leg], str | None]:
+    def _realised(self, states: np.ndarray) -> tuple[list[Leg], PathProblem | None]:
         """path_legs before the re-validation: the legs, or why the path has none."""
         atlas = self.atlas
         idx = []
         for q in states:
             i = atlas.index(q)
             if i is None:
-                return [], "a state lies outside the planning box"
+                return [], PathProblem(PathCheck.OUTSIDE_BOX)
             if not idx or idx[-1] != i:
                 idx.append(i)
         options = []
         for k, (a, b) in enumerate(zip(idx[:-1], idx[1:])):
             found = atlas.realise(a, b)
             if not found:
-                return [], f"edge {k} has no secure primitive legs in its travel direction"
+                return [], PathProblem(PathCheck.NO_SECURE_LEGS, k)
             if self.margins is not None:  # the realisations the objective ranks first
                 found = self.margins.best(found)
             options.append(found)
@@ -352,34 +352,44 @@ class UngraspSetup:
                          lattice_optimum=result.cost)
 
 
-def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None = None) -> dict | None:
+@dataclass(frozen=True)
+class EndsProblem:
+    """Why no path can start or end (ends_problem): the plan's outcome and its evidence."""
+
+    outcome: PlanOutcome
+    """START_NOT_HELD or GOAL_EMPTY."""
+    evidence: dict[str, Any]
+    """Plan.evidence under that outcome (the keys PlanOutcome names; JSON types)."""
+
+
+def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None = None) -> EndsProblem | None:
     """Why no path can start or end: the start state cannot be held (Scene.diagnose's evidence)
-    or no goal state can be held with room to let go; Plan.fail's arguments, or None.
+    or no goal state can be held with room to let go; None if neither.
     goal_reachable: whether the goal region holds such a state, when the caller knows."""
     start = scene.diagnose(scene.start)
     if start.state_class is not StateClass.HELD:
-        return dict(outcome=PlanOutcome.START_NOT_HELD, state_class=start.state_class.name,
-                    failed_checks=list(start.failed_checks), contacts=list(start.contacts))
+        return EndsProblem(PlanOutcome.START_NOT_HELD, dict(state_class=start.state_class.name,
+                           failed_checks=list(start.failed_checks), contacts=list(start.contacts)))
     behind = goal_behind_start(scene)
     if behind:
-        return dict(outcome=PlanOutcome.GOAL_EMPTY, outside_box=True, behind_start=behind)
+        return EndsProblem(PlanOutcome.GOAL_EMPTY, dict(outside_box=True, behind_start=behind))
     box = scene.goal.box()
     if goal_reachable is None:
         goal_reachable = atlas.can_let_go_in(box)
     if not goal_reachable:
-        return dict(outcome=PlanOutcome.GOAL_EMPTY, holdable=bool(atlas.holdable_in(box).any()),
-                    termination=scene.robot.termination)
+        return EndsProblem(PlanOutcome.GOAL_EMPTY, dict(holdable=bool(atlas.holdable_in(box).any()),
+                                                        termination=scene.robot.termination))
     return None
 
 
-def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> str | None:
+def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> PathProblem | None:
     """Re-check every leg in its travel direction with the exact mechanics and FCL at half the
     lattice step; the first failure, or None."""
     checker = CollisionChecker(scene.collision_model())
     for k, leg in enumerate(legs):
         why = verify_leg(scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), atlas.res / 2, checker)
         if why:
-            return f"leg {k} ({leg.primitive}) {why}"
+            return PathProblem(PathCheck.LEG_FAILS, k, leg.primitive, why)
     return None
 
 
@@ -440,10 +450,10 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
                 holdable_map=HoldableMap.of(atlas), objective=objective)
     if not result.reachable:
         problem = ends_problem(scene, atlas)
-        return plan.fail(**problem) if problem else plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=plan.resolution)
+        return plan.fail(problem.outcome, **problem.evidence) if problem else plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=plan.resolution)
     problem = verify_legs(scene, atlas, result.legs)
     if problem:
-        return plan.fail(PlanOutcome.INVALID_PATH, problem=problem)
+        return plan.fail(PlanOutcome.INVALID_PATH, **problem.evidence())
     plan.time_to_first_solution_s = t2 - t1
     fill_solution(plan, atlas, result.legs, margins)
     return plan

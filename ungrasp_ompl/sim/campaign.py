@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..planning.result import Plan, PrimitiveStep
+from ..planning.verify import LegFailure, verify_leg
 from ..runner import InlineRunner, LocalRunner, Runner, open_runner
 from ..scene import Scene
 from .outcome import Outcome, TrialResult
@@ -35,7 +36,7 @@ class SimulationReport:
     variant: Variant
     seed: int
     trials: list[TrialResult] = field(default_factory=list)
-    plan_problems: list[str] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
+    plan_problems: list["PlanProblem"] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
     trajectory_duration_s: float = 0.0
 
     @property
@@ -77,7 +78,7 @@ class SimulationReport:
             "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
-            "seed": self.seed, "plan_problems": self.plan_problems,
+            "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
         }
 
@@ -202,23 +203,38 @@ def steeper_start(plan: Plan, theta_offset: float) -> Plan:
     return replace(plan, states=[steep] + list(plan.states), primitives=[pivot] + list(plan.primitives))
 
 
-def plan_problems(scene: Scene, plan: Plan) -> list[str]:
-    """Why the scene's model would reject the plan, leg by leg (empty: every leg is secure):
-    kinematics, collision and force closure in each leg's contact mode (planning.verify)."""
+@dataclass(frozen=True)
+class PlanProblem:
+    """Why the scene's model rejects a plan's primitive (plan_problems)."""
+
+    primitive: int
+    """The primitive, counted from 1 as a person reads the plan."""
+    type: str
+    """Its type (P_theta, P_psi, P_dpsi, ...)."""
+    failure: LegFailure
+    """The first failing check and the state where it fails."""
+
+    def __str__(self) -> str:
+        return f"primitive {self.primitive} ({self.type}): {self.failure}"
+
+
+def plan_problems(scene: Scene, plan: Plan) -> list[PlanProblem]:
+    """Why the scene's model would reject the plan, primitive by primitive (empty: every leg is
+    secure): kinematics, collision and force closure in each leg's contact mode (planning.verify);
+    the first failure of each failing primitive."""
     from ..geometry.collision import CollisionChecker
-    from ..planning.verify import verify_leg
 
     checker = CollisionChecker(scene.collision_model())
     resolution = np.asarray(scene.options.resolution) / 2
     out = []
     for k, p in enumerate(plan.primitives):
         for a, b in zip(p.waypoints[:-1], p.waypoints[1:]):
-            reason = verify_leg(scene, p.type, a, b, resolution, checker)
-            if reason:
-                out.append(f"primitive {k + 1} ({p.type}): {reason}")
+            failure = verify_leg(scene, p.type, a, b, resolution, checker)
+            if failure:
+                out.append(PlanProblem(k + 1, p.type, failure))
                 break
     return out
 
 
-__all__ = ["Outcome", "SimulationReport", "deviated_plan", "failure_causes", "plan_problems", "run_trials",
+__all__ = ["Outcome", "PlanProblem", "SimulationReport", "deviated_plan", "failure_causes", "plan_problems", "run_trials",
            "simulate", "steeper_start", "wilson_interval"]
