@@ -16,13 +16,24 @@ open sides of n. Everything is vectorised over states.
 
 from __future__ import annotations
 
+from enum import StrEnum
 from itertools import combinations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 
-SLIDING_MODELS = ("relaxed", "strict")
+class SlidingModel(StrEnum):
+    """Which friction a sliding contact may exert (docs/model.md, section 4.3). A member is its
+    name as a string, so files and comparisons with the name keep working."""
+
+    #: A sliding contact may apply anything between its friction cone's edge and its normal (the default).
+    RELAXED = "relaxed"
+    #: A sliding contact applies one wrench, on its friction cone's edge.
+    STRICT = "strict"
+
+
+SLIDING_MODELS = tuple(m.value for m in SlidingModel)
 
 #: The reference planner's friction (angles 11, 17, 17 deg at G, A, B), the default mu.
 REFERENCE_MU = (float(np.tan(np.radians(11))), float(np.tan(np.radians(17))), float(np.tan(np.radians(17))))

@@ -18,7 +18,7 @@ import yaml
 from ..errors import InputError
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
-from .options import Object3D, RobotOptions, SimOptions
+from .options import Object3D, RobotOptions, SimOptions, Termination
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
@@ -195,7 +195,7 @@ class SceneReader:
                 self.fail("robot.home_deg", f"must list 6 joint angles in degrees, got {h!r}")
             home = tuple(math.radians(self.angle({0: v}, "robot.home_deg", 0, -360.0, 360.0)) for v in h)
         term = m.get("termination", d.termination)
-        if term not in ("open", "rotate"):
+        if term not in tuple(Termination):
             self.fail("robot.termination", f"must be open or rotate, got {term!r}")
         obj_pos, obj_yaw = d.object_position, d.object_yaw
         if "object" in m:
@@ -209,7 +209,7 @@ class SceneReader:
             home=home,
             contact_speed=self.number(m, "robot.contact_speed", "contact_speed", positive=True, maximum=1.0,
                                       default=d.contact_speed, unit=" m/s"),
-            termination=term,
+            termination=Termination(term),
             termination_opening=self.length(m, "robot.termination_opening", "termination_opening",
                                             default=d.termination_opening),
             termination_angle=math.radians(self.number(m, "robot.termination_angle_deg", "termination_angle_deg",

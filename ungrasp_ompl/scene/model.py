@@ -25,7 +25,7 @@ from ..geometry.collision import Box, CollisionChecker, CollisionModel
 from ..geometry.plane import ManipulationPlane, choose_plane
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
-from ..mechanics.force_closure import SLIDING_MODELS
+from ..mechanics.force_closure import SLIDING_MODELS, SlidingModel
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
 
@@ -287,7 +287,7 @@ class Scene:
             raise InputError("planning.resolution", f"is too fine for the bounds: its lattice would hold {states:.3g} "
                              f"states (at most {MAX_LATTICE_STATES:.3g}); coarsen it or narrow the bounds", source)
         options = PlanningOptions(
-            sliding_model=model,
+            sliding_model=SlidingModel(model),
             reverse_primitives=reverse,
             forbid_partial=forbid_partial,
             margin_weight=r.margin_weight(pl),

@@ -7,11 +7,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry.outline import Outline
+from ..mechanics.force_closure import SlidingModel
+
+
+class Termination(StrEnum):
+    """How the gripper lets go at the end of a plan (a member is its name as a string)."""
+
+    #: The jaws open by robot.termination_opening.
+    OPEN = "open"
+    #: The hand turns about the thumb's tip by robot.termination_angle.
+    ROTATE = "rotate"
 
 
 @dataclass(frozen=True)
@@ -19,7 +30,7 @@ class PlanningOptions:
     """Options of the planar planner that a scene fixes (the scene's `planning` section). Costs
     are in the reference units: 1 per degree of theta or psi."""
 
-    sliding_model: str = "relaxed"
+    sliding_model: SlidingModel = SlidingModel.RELAXED
     """How a sliding contact's friction is modelled: relaxed or strict (docs/model.md, section 4)."""
     reverse_primitives: bool = False
     """Allow the reverse directions too (pivot up, thumb closing, finger sliding back)."""
@@ -68,7 +79,7 @@ class RobotOptions:
     """Arm joint angles the approach starts from (rad)."""
     contact_speed: float = 0.01
     """Cap on the digit tips' speed along the primitives (m/s)."""
-    termination: str = "open"
+    termination: Termination = Termination.OPEN
     """How the gripper lets go: open (by termination_opening) or rotate (about the thumb tip)."""
     termination_opening: float = 0.01
     """How far the gripper opens to let go (m)."""
