@@ -79,7 +79,7 @@ def _report(successes: list[bool]):
     final poses as given (placed: on the target; failed: 5 mm off)."""
     from ungrasp_ompl.sim.campaign import SimulationReport
     from ungrasp_ompl.sim.outcome import Outcome, TrialResult
-    from ungrasp_ompl.sim.perturb import preset, trial_params
+    from ungrasp_ompl.perturbation import preset, trial_params
     from ungrasp_ompl.sim.setup import Variant
 
     trials = []
@@ -109,7 +109,7 @@ def test_trials_legend_names_every_mark_and_each_error_in_words():
 
 
 def test_every_trial_error_has_a_label_with_its_unit():
-    from ungrasp_ompl.sim.perturb import TrialParams
+    from ungrasp_ompl.perturbation import TrialParams
 
     keys = set(TrialParams().to_dict())
     assert keys == set(TRIAL_PARAM_LABELS)

@@ -25,7 +25,7 @@ from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
 from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate, steeper_start, wilson_interval
 from ungrasp_ompl.sim.outcome import Outcome
-from ungrasp_ompl.sim.perturb import PRESETS, TrialParams, trial_params
+from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.trial import calibration_offset, perturbed_start, run_trial, trial_mjcf, trial_spec
 

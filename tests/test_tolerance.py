@@ -18,7 +18,7 @@ from ungrasp_ompl.mechanics.kinematics import digit_axis, digit_polygons, thumb_
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.robustness import plan_samples
 from ungrasp_ompl.sim.campaign import steeper_start
-from ungrasp_ompl.sim.perturb import PRESETS
+from ungrasp_ompl.perturbation import PRESETS
 from ungrasp_ompl.tolerance import ToleranceOptions, ToleranceReason, tolerance
 
 

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
-from ungrasp_ompl.sim.perturb import TrialParams  # noqa: E402
+from ungrasp_ompl.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim.setup import trial_setup  # noqa: E402
 from ungrasp_ompl.sim.trial import run_trial  # noqa: E402
 

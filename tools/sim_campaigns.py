@@ -40,7 +40,7 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
 from ungrasp_ompl.sim.campaign import plan_problems, simulate, steeper_start, wilson_interval  # noqa: E402
-from ungrasp_ompl.sim.perturb import PRESETS  # noqa: E402
+from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant, trial_setup  # noqa: E402
 
 SCENES = ROOT / "scenes"

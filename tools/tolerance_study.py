@@ -43,7 +43,7 @@ def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
     """The trials of one plan under the paper perturbation, seed 1."""
     from ungrasp_ompl.robot.pipeline import execute
     from ungrasp_ompl.sim.campaign import simulate
-    from ungrasp_ompl.sim.perturb import PRESETS
+    from ungrasp_ompl.perturbation import PRESETS
     from ungrasp_ompl.sim.setup import trial_setup
 
     ex = execute(scene, result)

@@ -665,7 +665,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from .robot.pipeline import execute
     from .scene import Scene, read_yaml
     from .sim.campaign import check_psi_offset, default_jobs, deviated_plan, plan_problems, simulate
-    from .sim.perturb import preset, trial_params
+    from .perturbation import preset, trial_params
     from .sim.setup import Variant, object_outline, trial_setup
     from .sim.trial import trial_mjcf
 

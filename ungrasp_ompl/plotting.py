@@ -232,7 +232,7 @@ def layout_figure(layout, tiling):
     return fig
 
 
-#: The errors a simulated trial draws (sim.perturb.TrialParams.to_dict keys) in words, with units.
+#: The errors a simulated trial draws (perturbation.TrialParams.to_dict keys) in words, with units.
 TRIAL_PARAM_LABELS = {
     "shift_along_mm": "object shifted in the grasp along GB (mm)",
     "shift_across_mm": "object shifted in the grasp across GB (mm)",

@@ -41,7 +41,7 @@ from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_po
 from .mechanics.margin import kinematic_margins
 from .planning.path_margin import PlanSamples, plan_samples
 from .planning.result import describe_tolerance
-from .sim.perturb import PRESETS, Perturbation
+from .perturbation import PRESETS, Perturbation
 
 if TYPE_CHECKING:  # pragma: no cover
     from .planning.result import Plan
@@ -78,9 +78,9 @@ class ToleranceOptions:
     """How the tolerance is computed."""
 
     perturbation: str = "paper"
-    """The preset whose bounds make the box at scale 1 (sim.perturb.PRESETS)."""
+    """The preset whose bounds make the box at scale 1 (perturbation.PRESETS)."""
     box: Perturbation | None = None
-    """Bounds of the box at scale 1 instead of the preset's (mm, deg and fractions as sim.perturb.Perturbation has them)."""
+    """Bounds of the box at scale 1 instead of the preset's (mm, deg and fractions as perturbation.Perturbation has them)."""
     scale_tolerance: float = 1e-3
     """Bisection stops when the bracket on s is this narrow relative to s (dimensionless)."""
     max_scale: float = 5.0

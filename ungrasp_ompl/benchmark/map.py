@@ -96,7 +96,7 @@ class MapOptions:
             raise InputError("--alpha", f"and --friction-scale give more than {MAX_CELLS} cells")
         check_out(self.out)
         if self.simulate:
-            from ..sim.perturb import preset
+            from ..perturbation import preset
 
             preset(self.perturb)  # InputError("--perturb") for an unknown preset
         return replace(self, planner=planner, alphas=tuple(map(float, self.alphas)),
@@ -267,7 +267,7 @@ def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
     from ..errors import UngraspError
     from ..planning.setup import add_3d_report
     from ..robot.pipeline import execute
-    from ..sim.perturb import preset, trial_params
+    from ..perturbation import preset, trial_params
     from ..sim.setup import trial_setup
     from ..sim.trial import run_trial
 

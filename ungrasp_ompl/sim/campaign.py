@@ -22,7 +22,7 @@ from ..planning.verify import LegFailure, verify_leg
 from ..runner import InlineRunner, LocalRunner, Runner, open_runner
 from ..scene import Scene
 from .outcome import Outcome, TrialResult
-from .perturb import Perturbation, TrialParams, trial_params
+from ..perturbation import Perturbation, TrialParams, trial_params
 from .setup import Variant
 from .trial import TrialSetup, run_trial
 

@@ -61,7 +61,7 @@ class CertifyOptions:
     def validated(self) -> "CertifyOptions":
         """These options checked; InputError naming the command-line flag otherwise."""
         from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, check_objective
-        from .perturb import preset
+        from ..perturbation import preset
 
         for flag, value in (("--certify", self.trials), ("--candidates", self.candidates), ("--jobs", self.jobs)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -249,7 +249,7 @@ def certify(scene: Scene, options: CertifyOptions,
     from ..planning import plan
     from ..planning.atlas import SecurityAtlas, planning_box
     from ..robot.pipeline import execute
-    from .perturb import preset
+    from ..perturbation import preset
     from .setup import trial_setup
 
     options = options.validated()

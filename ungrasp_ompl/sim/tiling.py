@@ -24,7 +24,7 @@ from ..robot.trajectory import JointTrajectory
 from ..tiling import Tiling
 from .campaign import trial_runner
 from .outcome import FLAT_TILT_DEG, TrialResult
-from .perturb import Perturbation
+from ..perturbation import Perturbation
 from .setup import trial_setup
 from .trial import TrialSetup, run_trial
 

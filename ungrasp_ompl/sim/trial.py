@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from .drive import GripperDrive
 from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
-from .perturb import TrialParams
+from ..perturbation import TrialParams
 
 #: A contact at A or B absent this long (s) before the termination is a loss of grip.
 LOSS_WINDOW = 0.05

@@ -130,7 +130,7 @@ def write_simulated_view(directory: PathLike, scene: Any, plan: Any, execution: 
     """What the 3D view of a simulated plan needs, written into directory: view_scene.json (kind
     simulation) and trial_poses.json of trial 0 (run again with recording; its perturbation is the
     campaign's trial 0's, drawn from (seed, 0)). Returns the two paths."""
-    from ..sim.perturb import trial_params
+    from ..perturbation import trial_params
     from .record import NON_PRIMITIVES, write_view_record
 
     traj = execution.trajectory

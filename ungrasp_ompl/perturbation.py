@@ -1,4 +1,5 @@
-"""Random errors of a trial, of the kinds an open-loop set-up like the paper's has.
+"""Random errors of a trial, of the kinds an open-loop set-up like the paper's has: the simulator
+draws them (sim/), and a plan's tolerance (tolerance.py) scales their box.
 
 Every error is drawn uniformly within its bound (a bounded error, as calibration leaves),
 from a numpy Generator seeded per trial, so a campaign is reproducible trial by trial.
@@ -12,7 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from .errors import InputError
 
 
 @dataclass(frozen=True)
