@@ -1,10 +1,19 @@
-"""Independent oracles for the tests: force closure by linear programming (scipy HiGHS)."""
+"""Independent oracles for the tests: force closure by linear programming (scipy HiGHS); the friction
+margin by plain bisection on the shrink angle; the cage's escape level by bisection with
+scipy.ndimage labelling."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 from scipy.sparse import block_diag, csr_matrix, hstack, identity
+
+from ungrasp_ompl.mechanics.cage import _component
+from ungrasp_ompl.mechanics.force_closure import REFERENCE_MU
+from ungrasp_ompl.mechanics.margin import _fails, _limits, _prepared
 
 
 def lp_force_closure(w: np.ndarray, mask: np.ndarray, batch: int = 500) -> np.ndarray:
@@ -34,3 +43,56 @@ def lp_force_closure(w: np.ndarray, mask: np.ndarray, batch: int = 500) -> np.nd
         slack = res.x[6 * k :].reshape(2, k, 3).sum(axis=(0, 2))
         out[lo : lo + k] = (slack <= 1e-9) & (ranks[lo : lo + k] == 3)
     return out
+
+
+def friction_margin_bisection(
+    theta: ArrayLike,
+    d: ArrayLike,
+    psi: ArrayLike,
+    a_sign: ArrayLike = 0,
+    b_sign: ArrayLike = 0,
+    mu: tuple[float, float, float] = REFERENCE_MU,
+    model: str = "relaxed",
+    tol: float = 1e-12,
+) -> NDArray[np.float64]:
+    """The friction margin by plain bisection on the shrink angle (rad, to tol): the reference
+    for :func:`friction_margin`, with the same limits and sign convention."""
+    w, v, mask, fc0, _ = _prepared(theta, d, psi, a_sign, b_sign, mu, model)
+    d_lo, d_hi = _limits(mu)
+    lo = np.where(fc0, 0.0, d_lo)
+    hi = np.where(fc0, d_hi, 0.0)
+    out = np.where(fc0, d_hi, -np.inf)
+    fail_end = _fails(w, v, mask, np.where(fc0, hi, lo))
+    todo = np.flatnonzero(np.where(fc0, fail_end, ~fail_end))
+    a, b = lo[todo], hi[todo]  # closure at a, none at b
+    while len(todo) and np.max(b - a) > tol:
+        mid = 0.5 * (a + b)
+        f = _fails(w[todo], v[todo], mask[todo], mid)
+        b = np.where(f, mid, b)
+        a = np.where(f, a, mid)
+    out[todo] = b
+    return out
+
+
+def escape_level_bisection(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
+                           border: NDArray[np.bool_], periodic: bool = False) -> float:
+    """The same minimax level as :func:`escape_level`, by brute force: bisection over the sorted
+    energies of the free cells, connectivity by scipy.ndimage.label (26-connected). The reference."""
+    energy = np.broadcast_to(energy, free.shape)
+
+    def connected(level: float) -> bool:
+        lab, ids = _component(free & (energy <= level), start, periodic)
+        return bool(np.isin(lab[border], ids).any())
+
+    levels = np.unique(energy[free])
+    levels = levels[levels >= energy[start]]
+    if not connected(levels[-1]):
+        return math.inf
+    lo, hi = -1, len(levels) - 1  # not connected at levels[lo] (or below all), connected at levels[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if connected(levels[mid]):
+            hi = mid
+        else:
+            lo = mid
+    return float(levels[hi])

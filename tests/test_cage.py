@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import run_cli
+from oracle import escape_level_bisection
 
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics.cage import (
@@ -22,7 +23,6 @@ from ungrasp_ompl.mechanics.cage import (
     CageProblem,
     escape_energy,
     escape_level,
-    escape_level_bisection,
     free_space,
     grid_border,
     pinch_problem,

@@ -11,16 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from oracle import lp_force_closure
+from oracle import friction_margin_bisection, lp_force_closure
 from ungrasp_ompl.geometry.collision import CollisionChecker
 from ungrasp_ompl.mechanics import contact_wrenches, force_closure, kinematic_checks, thumb_clearance
 from ungrasp_ompl.mechanics.force_closure import REFERENCE_MU
-from ungrasp_ompl.mechanics.margin import (
-    MAX_CONE_HALF_ANGLE,
-    friction_margin,
-    friction_margin_bisection,
-    shrinking_wrenches,
-)
+from ungrasp_ompl.mechanics.margin import MAX_CONE_HALF_ANGLE, friction_margin, shrinking_wrenches
 from ungrasp_ompl.scene import Scene
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"

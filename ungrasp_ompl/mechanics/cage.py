@@ -35,8 +35,8 @@ potential), a basin reaches far away at its lowest border cell, and the lowest p
 start's basin to far away is a bottleneck path in the minimum spanning tree of that small graph.
 Any path from the start crosses a chain of basins through passes at least that high, and
 descending into each basin and climbing to its next pass never goes higher, so the value is exact.
-:func:`escape_level_bisection`, a bisection on the energy level with connected components of the
-whole grid, is the reference the tests compare both with.
+A bisection on the energy level with connected components of the whole grid (tests/oracle.py) is
+the reference the tests compare both with.
 """
 
 from __future__ import annotations
@@ -547,30 +547,6 @@ def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tupl
     return best, best_cell
 
 
-def escape_level_bisection(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
-                           border: NDArray[np.bool_], periodic: bool = False) -> float:
-    """The same minimax level as :func:`escape_level`, by brute force: bisection over the sorted
-    energies of the free cells, connectivity by scipy.ndimage.label (26-connected). The reference."""
-    energy = np.broadcast_to(energy, free.shape)
-
-    def connected(level: float) -> bool:
-        lab, ids = _component(free & (energy <= level), start, periodic)
-        return bool(np.isin(lab[border], ids).any())
-
-    levels = np.unique(energy[free])
-    levels = levels[levels >= energy[start]]
-    if not connected(levels[-1]):
-        return math.inf
-    lo, hi = -1, len(levels) - 1  # not connected at levels[lo] (or below all), connected at levels[hi]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if connected(levels[mid]):
-            hi = mid
-        else:
-            lo = mid
-    return float(levels[hi])
-
-
 # -- a cage ----------------------------------------------------------------------------------------
 def escape_energy(problem: CageProblem, grid: CageGrid, length: float) -> Cage:
     """The cage of the problem on the grid (its steps over l = length, m): outcome, escape energy
@@ -644,5 +620,5 @@ def weight_of(mass: float) -> float:
 
 
 __all__ = ["Cage", "CageGrid", "CageOutcome", "CageProblem", "GRAVITY", "PoseGrid", "escape_energy", "escape_level",
-           "escape_level_bisection", "free_space", "grid_border", "pinch_problem", "pose_grid", "potential",
+           "free_space", "grid_border", "pinch_problem", "pose_grid", "potential",
            "weight_of"]

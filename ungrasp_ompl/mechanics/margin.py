@@ -30,7 +30,7 @@ found by bisection over the sorted candidates where force closure is monotone (a
 vectorised force-closure evaluations), by a scan outward from 0 otherwise. delta* is thus exact
 up to rounding, a root of the force-closure margin itself rather than the point where it falls
 below force_closure.py's tolerance 1e-9 (which plain bisection on delta finds, about 1e-9 rad
-earlier: :func:`friction_margin_bisection`, the reference).
+earlier: the tests' bisection oracle, the reference).
 
 Relation to :func:`~ungrasp_ompl.mechanics.force_closure.force_closure_margin`: that margin is
 dimensionless (the sine of how far the wrenches reach past the nearest facet plane of their
@@ -317,35 +317,6 @@ def _scan_candidates(w, v, mask, fc0, cand, count, out):
     return out
 
 
-def friction_margin_bisection(
-    theta: ArrayLike,
-    d: ArrayLike,
-    psi: ArrayLike,
-    a_sign: ArrayLike = 0,
-    b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
-    tol: float = 1e-12,
-) -> NDArray[np.float64]:
-    """The friction margin by plain bisection on the shrink angle (rad, to tol): the reference
-    for :func:`friction_margin`, with the same limits and sign convention."""
-    w, v, mask, fc0, _ = _prepared(theta, d, psi, a_sign, b_sign, mu, model)
-    d_lo, d_hi = _limits(mu)
-    lo = np.where(fc0, 0.0, d_lo)
-    hi = np.where(fc0, d_hi, 0.0)
-    out = np.where(fc0, d_hi, -np.inf)
-    fail_end = _fails(w, v, mask, np.where(fc0, hi, lo))
-    todo = np.flatnonzero(np.where(fc0, fail_end, ~fail_end))
-    a, b = lo[todo], hi[todo]  # closure at a, none at b
-    while len(todo) and np.max(b - a) > tol:
-        mid = 0.5 * (a + b)
-        f = _fails(w[todo], v[todo], mask[todo], mid)
-        b = np.where(f, mid, b)
-        a = np.where(f, a, mid)
-    out[todo] = b
-    return out
-
-
 # -- kinematic margins ---------------------------------------------------------------------------
 def kinematic_margins(
     theta: ArrayLike,
@@ -410,5 +381,5 @@ class Margins:
         return np.min(np.stack(list(self.kinematic.values())), axis=0)
 
 
-__all__ = ["MAX_CONE_HALF_ANGLE", "Margins", "friction_margin", "friction_margin_bisection", "kinematic_margins",
+__all__ = ["MAX_CONE_HALF_ANGLE", "Margins", "friction_margin", "kinematic_margins",
            "shrinking_wrenches"]
