@@ -12,7 +12,7 @@ from scipy.optimize import linprog
 from scipy.sparse import block_diag, csr_matrix, hstack, identity
 
 from ungrasp_ompl.mechanics.cage import _component
-from ungrasp_ompl.mechanics.force_closure import REFERENCE_MU
+from ungrasp_ompl.mechanics.force_closure import REFERENCE_FRICTION, Friction
 from ungrasp_ompl.mechanics.margin import _fails, _limits, _prepared
 
 
@@ -51,14 +51,13 @@ def friction_margin_bisection(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
     tol: float = 1e-12,
 ) -> NDArray[np.float64]:
     """The friction margin by plain bisection on the shrink angle (rad, to tol): the reference
     for :func:`friction_margin`, with the same limits and sign convention."""
-    w, v, mask, fc0, _ = _prepared(theta, d, psi, a_sign, b_sign, mu, model)
-    d_lo, d_hi = _limits(mu)
+    w, v, mask, fc0, _ = _prepared(theta, d, psi, a_sign, b_sign, friction)
+    d_lo, d_hi = _limits(friction.mu)
     lo = np.where(fc0, 0.0, d_lo)
     hi = np.where(fc0, d_hi, 0.0)
     out = np.where(fc0, d_hi, -np.inf)

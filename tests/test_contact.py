@@ -14,6 +14,7 @@ import pytest
 
 from ungrasp_ompl.mechanics import (
     DigitGeometry,
+    Friction,
     contact_wrenches,
     finger_tip,
     primitive_of,
@@ -66,7 +67,7 @@ def test_sliding_edge_opposes_relative_velocity(primitive):
         assert primitive_of(step)[0] == primitive
         v_a, v_b = relative_velocities(q, dq)
         sa, sb = primitive_sliding_signs(primitive, q[:, 1], q[:, 2], dq[:, 1], dq[:, 2])
-        w, _ = contact_wrenches(q[:, 0], q[:, 1], q[:, 2], sa, sb, MU, "strict")
+        w, _ = contact_wrenches(q[:, 0], q[:, 1], q[:, 2], sa, sb, Friction(MU, "strict"))
         n_a = np.stack([np.sin(q[:, 0]), -np.cos(q[:, 0])], -1)
         n_b = thumb_normal(q[:, 0], q[:, 2])
         for v, normal, sign, slot in ((v_a, n_a, sa, 2), (v_b, n_b, sb, 4)):

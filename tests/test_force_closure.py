@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from oracle import lp_force_closure
-from ungrasp_ompl.mechanics import cone_edges, contact_wrenches, force_closure, force_closure_margin
+from ungrasp_ompl.mechanics import Friction, cone_edges, contact_wrenches, force_closure, force_closure_margin
 
 MU = tuple(math.tan(math.radians(a)) for a in (11, 17, 17))
 MODES = list(itertools.product((-1, 0, 1), repeat=2))  # (A, B): stick, or sliding with the sign of dd / ds_B
@@ -26,10 +26,10 @@ def test_closed_form_equals_lp_oracle(model, mode):
     """On 10,000 random states per contact mode and sliding model the closed form agrees with the LP."""
     n = 10_000
     th, d, ps = random_states(n, seed=hash((model, mode)) % 2**32)
-    w, mask = contact_wrenches(th, d, ps, mode[0], mode[1], MU, model)
+    w, mask = contact_wrenches(th, d, ps, mode[0], mode[1], Friction(MU, model))
     lp = lp_force_closure(w, mask)
-    margin = force_closure_margin(th, d, ps, mode[0], mode[1], MU, model)
-    closed = force_closure(th, d, ps, mode[0], mode[1], MU, model)
+    margin = force_closure_margin(th, d, ps, mode[0], mode[1], Friction(MU, model))
+    closed = force_closure(th, d, ps, mode[0], mode[1], Friction(MU, model))
     # the closed form's margin is exactly 0 off closure; only a margin in (0, 1e-7] is too close to call
     clear = (margin > 1e-7) | (margin <= 0.0)
     assert clear.mean() > 0.999
@@ -40,7 +40,7 @@ def test_closed_form_equals_lp_oracle(model, mode):
 def test_wrenches_are_cone_edges_at_contact_points():
     """Sticking wrenches are the friction-cone edges of each contact, with moments about G."""
     th, d, ps = random_states(200, seed=3)
-    w, mask = contact_wrenches(th, d, ps, 0, 0, MU, "relaxed")
+    w, mask = contact_wrenches(th, d, ps, 0, 0, Friction(MU, "relaxed"))
     assert mask.all()
     u = np.stack([np.cos(th), np.sin(th)], -1)
     contacts = [
@@ -61,9 +61,9 @@ def test_wrenches_are_cone_edges_at_contact_points():
 def test_sliding_models_nest(mode):
     """strict (one edge) force closure implies relaxed (edge + normal), which implies sticking."""
     th, d, ps = random_states(20_000, seed=5)
-    strict = force_closure(th, d, ps, *mode, MU, "strict")
-    relaxed = force_closure(th, d, ps, *mode, MU, "relaxed")
-    stick = force_closure(th, d, ps, 0, 0, MU, "relaxed")
+    strict = force_closure(th, d, ps, *mode, Friction(MU, "strict"))
+    relaxed = force_closure(th, d, ps, *mode, Friction(MU, "relaxed"))
+    stick = force_closure(th, d, ps, 0, 0, Friction(MU, "relaxed"))
     assert not np.any(strict & ~relaxed)
     assert not np.any(relaxed & ~stick)
     assert np.any(relaxed & ~strict)
@@ -73,8 +73,8 @@ def test_p_psi_near_reference_start_needs_relaxed_model():
     """docs/model.md, section 4.3: at theta 30 deg, d 0.8 and small psi, P_psi (B sliding toward
     the palm) is force-closed under the relaxed model and not under the strict one."""
     psi = np.radians(np.arange(0.0, 8.01, 0.5))
-    relaxed = force_closure(math.radians(30), 0.8, psi, 0, -1, MU, "relaxed")
-    strict = force_closure(math.radians(30), 0.8, psi, 0, -1, MU, "strict")
+    relaxed = force_closure(math.radians(30), 0.8, psi, 0, -1, Friction(MU, "relaxed"))
+    strict = force_closure(math.radians(30), 0.8, psi, 0, -1, Friction(MU, "strict"))
     assert relaxed.all()
     assert not strict.any()
 
@@ -82,8 +82,8 @@ def test_p_psi_near_reference_start_needs_relaxed_model():
 def test_margin_shrinks_to_the_boundary():
     """The margin is positive exactly where force closure holds and is continuous across it."""
     psi = np.radians(np.linspace(0, 20, 4001))
-    m = force_closure_margin(math.radians(30), 0.8, psi, 0, -1, MU, "strict")
-    fc = force_closure(math.radians(30), 0.8, psi, 0, -1, MU, "strict")
+    m = force_closure_margin(math.radians(30), 0.8, psi, 0, -1, Friction(MU, "strict"))
+    fc = force_closure(math.radians(30), 0.8, psi, 0, -1, Friction(MU, "strict"))
     assert np.array_equal(fc, m > 1e-9)
     assert np.all(m[~fc] == 0.0)
     cross = np.flatnonzero(np.diff(fc.astype(int)) != 0)
@@ -93,4 +93,4 @@ def test_margin_shrinks_to_the_boundary():
 
 def test_unknown_sliding_model_is_rejected():
     with pytest.raises(ValueError, match="sliding model"):
-        force_closure(0.5, 0.5, 0.5, 0, 0, MU, "sticky")
+        Friction(MU, "sticky")

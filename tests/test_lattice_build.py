@@ -13,7 +13,7 @@ import pytest
 from ungrasp_ompl import Scene
 from ungrasp_ompl.geometry.collision import CollisionChecker
 from ungrasp_ompl.layout import Layout
-from ungrasp_ompl.mechanics import force_closure, force_closure_margin, kinematic_validity
+from ungrasp_ompl.mechanics import Friction, force_closure, force_closure_margin, kinematic_validity
 from ungrasp_ompl.mechanics.force_closure import FC_TOLERANCE
 from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
 from ungrasp_ompl.shipped import shipped_scenes
@@ -31,7 +31,7 @@ def _per_state(scene: Scene, atlas: SecurityAtlas) -> None:
     assert np.array_equal(atlas.kinematic.ravel(), kin)
 
     def fc(sa: int, sb: int) -> np.ndarray:
-        return force_closure_margin(th, d, ps, sa, sb, scene.mu, scene.options.sliding_model) > FC_TOLERANCE
+        return force_closure_margin(th, d, ps, sa, sb, scene.friction) > FC_TOLERANCE
 
     check = kin & fc(0, 0)
     collision = np.zeros(len(q), dtype=bool)
@@ -77,9 +77,9 @@ def test_force_closure_on_broadcast_axes_equals_the_margin_test(model):
     signs = rng.integers(-1, 2, size=(2,) + np.broadcast_shapes(th.shape, d.shape, ps.shape))
     flat = [np.ravel(np.broadcast_to(x, signs.shape[1:])) for x in (th, d, ps)]
     for sa, sb in [(0, 0), (0, -1), (-1, -1), (1, 0), (signs[0], signs[1])]:
-        got = force_closure(th, d, ps, sa, sb, mu, model)
+        got = force_closure(th, d, ps, sa, sb, Friction(mu, model))
         ref = force_closure_margin(*flat, np.ravel(np.broadcast_to(sa, got.shape)),
-                                   np.ravel(np.broadcast_to(sb, got.shape)), mu, model) > FC_TOLERANCE
+                                   np.ravel(np.broadcast_to(sb, got.shape)), Friction(mu, model)) > FC_TOLERANCE
         assert got.shape == signs.shape[1:]
         assert np.array_equal(got.ravel(), ref)
         assert 0 < ref.sum() < ref.size  # both outcomes occur

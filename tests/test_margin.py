@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from oracle import friction_margin_bisection, lp_force_closure
 from ungrasp_ompl.geometry.collision import CollisionChecker
-from ungrasp_ompl.mechanics import contact_wrenches, force_closure, kinematic_checks, thumb_clearance
+from ungrasp_ompl.mechanics import Friction, contact_wrenches, force_closure, kinematic_checks, thumb_clearance
 from ungrasp_ompl.mechanics.force_closure import REFERENCE_MU
 from ungrasp_ompl.mechanics.margin import MAX_CONE_HALF_ANGLE, friction_margin, shrinking_wrenches
 from ungrasp_ompl.scene import Scene
@@ -37,8 +37,8 @@ def _shrunk(mu: tuple[float, float, float], delta: float) -> tuple[float, float,
 @pytest.mark.parametrize("mode", MODES)
 def test_sign_agrees_with_force_closure_on_a_grid(model, mode):
     th, d, ps = _grid()
-    m = friction_margin(th, d, ps, *mode, REFERENCE_MU, model)
-    fc = force_closure(th, d, ps, *mode, REFERENCE_MU, model)
+    m = friction_margin(th, d, ps, *mode, Friction(REFERENCE_MU, model))
+    fc = force_closure(th, d, ps, *mode, Friction(REFERENCE_MU, model))
     assert np.array_equal(m > 0, fc)
     assert fc.any() and (~fc).any()
     assert np.all(m <= min(math.atan(x) for x in REFERENCE_MU) + 1e-15)
@@ -49,9 +49,9 @@ def test_shrinking_wrenches_are_the_shrunk_cones_wrenches():
     th, d, ps = _grid(5, 4, 6)
     for mode in MODES:
         for model in ("relaxed", "strict"):
-            w, v, mask = shrinking_wrenches(th, d, ps, *mode, REFERENCE_MU, model)
+            w, v, mask = shrinking_wrenches(th, d, ps, *mode, Friction(REFERENCE_MU, model))
             for delta in (-0.4, 0.1, 0.18):
-                ref, ref_mask = contact_wrenches(th, d, ps, *mode, _shrunk(REFERENCE_MU, delta), model)
+                ref, ref_mask = contact_wrenches(th, d, ps, *mode, Friction(_shrunk(REFERENCE_MU, delta), model))
                 got = math.cos(delta) * w + math.sin(delta) * v
                 got /= np.linalg.norm(got, axis=-1, keepdims=True)
                 ref = ref / np.linalg.norm(ref, axis=-1, keepdims=True)
@@ -69,13 +69,13 @@ def test_threshold_flips_the_lp_oracle(model):
     eps = 1e-6
     checked = {True: 0, False: 0}
     for mode in MODES:
-        m = friction_margin(th, d, ps, *mode, REFERENCE_MU, model)
+        m = friction_margin(th, d, ps, *mode, Friction(REFERENCE_MU, model))
         cap = min(math.atan(x) for x in REFERENCE_MU)
         lo = max(math.atan(x) for x in REFERENCE_MU) - MAX_CONE_HALF_ANGLE
         use = np.isfinite(m) & (m < cap - 1e-9) & (m > lo + 1e-6)
         for i in np.flatnonzero(use):
             for delta, closed in ((m[i] - eps, True), (m[i] + eps, False)):
-                w, mask = contact_wrenches(th[i], d[i], ps[i], *mode, _shrunk(REFERENCE_MU, delta), model)
+                w, mask = contact_wrenches(th[i], d[i], ps[i], *mode, Friction(_shrunk(REFERENCE_MU, delta), model))
                 assert lp_force_closure(w, mask)[0] == closed, (mode, th[i], d[i], ps[i], m[i], delta)
             checked[bool(m[i] > 0)] += 1
     assert checked[True] > 50 and checked[False] > 50  # thresholds inside and outside force closure
@@ -104,7 +104,7 @@ def test_states_near_the_boundary_against_the_lp_oracle():
         for t in (a, b):
             m = friction_margin(t, d[k], ps[k], 0, -1)[0]
             assert abs(m) < 1e-5
-            w, mask = contact_wrenches(t, d[k], ps[k], 0, -1, REFERENCE_MU)
+            w, mask = contact_wrenches(t, d[k], ps[k], 0, -1)
             if abs(m) > 1e-7:  # clear of the LP's own tolerance
                 assert lp_force_closure(w, mask)[0] == (m > 0)
         done += 1
@@ -132,8 +132,8 @@ def test_relaxed_margin_matches_bisection():
        delta=st.floats(-0.1, 0.1))
 def test_margin_shifts_with_the_cones(theta, d, psi, a, b, model, delta):
     """Cones narrower by delta leave a margin smaller by delta (while neither window's end bites)."""
-    m = friction_margin(theta, d, psi, a, b, REFERENCE_MU, model)[0]
-    m2 = friction_margin(theta, d, psi, a, b, _shrunk(REFERENCE_MU, delta), model)[0]
+    m = friction_margin(theta, d, psi, a, b, Friction(REFERENCE_MU, model))[0]
+    m2 = friction_margin(theta, d, psi, a, b, Friction(_shrunk(REFERENCE_MU, delta), model))[0]
     cap = min(math.atan(x) for x in REFERENCE_MU)
     lo = max(math.atan(x) for x in REFERENCE_MU) - MAX_CONE_HALF_ANGLE
     if np.isfinite(m) and lo + 0.2 < m < cap - 0.2:
@@ -150,7 +150,7 @@ def test_relaxed_force_closure_holds_all_the_way_to_the_margin(theta, d, psi, a,
     if not np.isfinite(m) or abs(m) < 1e-6:
         return
     delta = u * m
-    fc = force_closure(theta, d, psi, a, b, _shrunk(REFERENCE_MU, delta))[0]
+    fc = force_closure(theta, d, psi, a, b, Friction(_shrunk(REFERENCE_MU, delta)))[0]
     assert fc == (m > 0)
 
 
@@ -161,7 +161,7 @@ def test_scene_margin_units_and_modes():
     dq = np.array([[0, 0, 0], [0, -1, 0.5]])
     m = scene.margin(q, dq)
     assert m.friction.shape == (2,)
-    assert m.friction[0] == pytest.approx(friction_margin(*scene.start, 0, 0, scene.mu)[0])
+    assert m.friction[0] == pytest.approx(friction_margin(*scene.start, 0, 0, scene.friction)[0])
     assert m.friction_deg[0] == pytest.approx(math.degrees(m.friction[0]))
     assert (m.friction[0] > 0) == bool(scene.force_closure(q[:1])[0])
     assert (m.friction[1] > 0) == bool(scene.force_closure(q[1:], dq[1:])[0])

@@ -60,7 +60,7 @@ def step_margin(atlas: SecurityAtlas, kind: str, a: tuple, b: tuple) -> float:
     out = math.inf
     for q in (qa, qb):
         sa, sb = primitive_sliding_signs(LEG_PRIMITIVE[kind], q[1], q[2], dq[1], dq[2])
-        out = min(out, float(friction_margin(*q, sa, sb, scene.mu, scene.options.sliding_model)[0]))
+        out = min(out, float(friction_margin(*q, sa, sb, scene.friction)[0]))
     return out
 
 

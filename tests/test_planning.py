@@ -11,7 +11,7 @@ import pytest
 
 from conftest import ROOT, run_cli
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.mechanics import kinematic_checks
+from ungrasp_ompl.mechanics import Friction, kinematic_checks
 from ungrasp_ompl.planning.atlas import FORWARD, SecurityAtlas, planning_box, reference_cost
 from ungrasp_ompl.planning.lattice import lattice_search
 from ungrasp_ompl.planning.result import merge_legs, sequence_cost
@@ -209,7 +209,7 @@ def test_python_api_queries(scenes):
     q = np.column_stack([rng.uniform(0, 1.5, 500), rng.uniform(0.5, 1, 500), rng.uniform(0, 1.5, 500)])
     dq = np.tile([0.0, 0.0, 0.1], (500, 1))  # P_psi: B slides toward the palm
     from ungrasp_ompl.mechanics import force_closure
-    expected = force_closure(q[:, 0], q[:, 1], q[:, 2], 0, -1, scene.mu, "relaxed")
+    expected = force_closure(q[:, 0], q[:, 1], q[:, 2], 0, -1, Friction(scene.mu))
     assert np.array_equal(scene.force_closure(q, dq), expected)
     stick = scene.force_closure(q)
     assert not np.any(expected & ~stick)

@@ -74,7 +74,7 @@ def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.nda
         mu[0], mu[2] = (float(np.nan_to_num(effective_friction(mu[k], beta[i] + yaw[j]), nan=0.0))
                         for i, k in ((0, 0), (1, 2)))
         at = np.arange(j, len(th), m)
-        bad[at] = ~force_closure(th1[at], d1[at], ps[at], sa[at], sb[at], tuple(mu), scene.options.sliding_model)
+        bad[at] = ~force_closure(th1[at], d1[at], ps[at], sa[at], sb[at], scene.friction.with_mu(tuple(mu)))
     for i in np.unique(t):
         k = t == i
         checks = kinematic_checks(th1[k], d1[k], ps[k], replace(dg, object_thickness=i, thumb_tip_margin=0.0))

@@ -93,7 +93,7 @@ def test_plan_bench_and_cage_report_one_friction_margin(tmp_path):
             n = int(np.ceil(np.max(np.abs(b - a) / res) - 1e-9))
             q = a + np.linspace(0, 1, n + 1)[:, None] * (b - a)
             sa, sb = primitive_sliding_signs(p.type, q[:, 1], q[:, 2], *(b - a)[1:])
-            m = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, scene.mu, scene.options.sliding_model)
+            m = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, scene.friction)
             smallest = min(smallest, math.degrees(float(m.min())))
     assert figure == pytest.approx(smallest, abs=1e-6)
     assert figure < planned["start_margin_deg"]  # here the start, turning psi, is narrower than held

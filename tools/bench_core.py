@@ -45,7 +45,7 @@ if str(REPO_ROOT) not in sys.path:
 
 from scipy.optimize import linprog  # noqa: E402
 
-from ungrasp_ompl.mechanics import contact_wrenches, force_closure  # noqa: E402
+from ungrasp_ompl.mechanics import Friction, contact_wrenches, force_closure  # noqa: E402
 from ungrasp_ompl.scene import Scene  # noqa: E402
 
 MODELS = ("relaxed", "strict")
@@ -95,7 +95,7 @@ def vectorised_rate(states, mu, model: str) -> float:
 
     def run():
         for a, b in SIGN_PAIRS:
-            force_closure(theta, d, psi, a, b, mu, model)
+            force_closure(theta, d, psi, a, b, Friction(mu, model))
 
     return len(SIGN_PAIRS) * len(theta) / best_time(run)
 
@@ -122,8 +122,8 @@ def lp_comparison(states, mu, model: str) -> tuple[float, int, int]:
         idx = np.flatnonzero(mode == m)
         if idx.size == 0:
             continue
-        W, mask = contact_wrenches(theta[idx], d[idx], psi[idx], a, b, mu, model)
-        fc = force_closure(theta[idx], d[idx], psi[idx], a, b, mu, model)
+        W, mask = contact_wrenches(theta[idx], d[idx], psi[idx], a, b, Friction(mu, model))
+        fc = force_closure(theta[idx], d[idx], psi[idx], a, b, Friction(mu, model))
         jobs.append((W, mask, fc))
     lp_results = []
     t0 = time.perf_counter()

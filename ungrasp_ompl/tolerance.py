@@ -213,7 +213,7 @@ class _Box:
         else:
             corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
-            fc &= force_closure(th, d, ps, sa, sb, self.mu(lo, y), sc.options.sliding_model)
+            fc &= force_closure(th, d, ps, sa, sb, sc.friction.with_mu(self.mu(lo, y)))
         # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
         # about P0 exactly on the face's grid; the palm's shift, the table's height and the plane's
         # tip at their worst corners, as they enter linearly)

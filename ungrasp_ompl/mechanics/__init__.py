@@ -15,7 +15,10 @@ from .contact import (
     sliding_signs,
 )
 from .force_closure import (
+    REFERENCE_FRICTION,
     SLIDING_MODELS,
+    Friction,
+    SlidingModel,
     cone_edges,
     contact_wrenches,
     force_closure,
@@ -35,9 +38,12 @@ from .kinematics import (
 
 __all__ = [
     "PRIMITIVES",
+    "REFERENCE_FRICTION",
     "SLIDING_MODELS",
     "ContactMode",
     "DigitGeometry",
+    "Friction",
+    "SlidingModel",
     "aperture",
     "cone_edges",
     "contact_mode",

@@ -16,6 +16,7 @@ open sides of n. Everything is vectorised over states.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import StrEnum
 from itertools import combinations
 
@@ -38,6 +39,32 @@ SLIDING_MODELS = tuple(m.value for m in SlidingModel)
 #: The reference planner's friction (angles 11, 17, 17 deg at G, A, B), the default mu.
 REFERENCE_MU = (float(np.tan(np.radians(11))), float(np.tan(np.radians(17))), float(np.tan(np.radians(17))))
 
+
+
+@dataclass(frozen=True)
+class Friction:
+    """The friction of the plane's three contacts and how a sliding contact may use it: the one
+    value every force-closure and margin function takes."""
+
+    mu: tuple[float, float, float] = REFERENCE_MU
+    """Coefficients at G, A, B (dimensionless; the manipulation plane's, docs/model.md 5.2)."""
+    model: SlidingModel = SlidingModel.RELAXED
+    """Which friction a sliding contact may apply (docs/model.md, section 4.3)."""
+
+    def __post_init__(self) -> None:
+        if self.model not in SLIDING_MODELS:
+            raise ValueError(f"sliding model must be one of {SLIDING_MODELS}, not {self.model!r}")
+        object.__setattr__(self, "model", SlidingModel(self.model))
+        object.__setattr__(self, "mu", tuple(float(m) for m in self.mu))
+
+    def with_mu(self, mu: tuple[float, float, float]) -> "Friction":
+        """The same sliding model with other coefficients at G, A, B."""
+        return Friction(mu, self.model)
+
+
+#: The reference planner's friction with relaxed sliding: the default of every function below.
+REFERENCE_FRICTION = Friction()
+
 #: Force closure requires a margin above this (dimensionless, see below).
 FC_TOLERANCE = 1e-9
 
@@ -57,13 +84,12 @@ def cone_edges(normal: ArrayLike, tangent: ArrayLike, mu: float) -> tuple[NDArra
     return n * c + t * s, n * c - t * s
 
 
-def _slots(theta, d, psi, a_sign, b_sign, mu, model):
+def _slots(theta, d, psi, a_sign, b_sign, friction: Friction):
     """Wrenches of unit forces in the six slots and the masks of the slots that exist: lists of
     (m, f_x, f_z) and of bools, each array at its own broadcast shape (G's are scalars, A's follow
     theta and d, B's theta and psi, unless the signs vary more), so that a lattice given as three
     orthogonal axes costs its axes here, not its states."""
-    if model not in SLIDING_MODELS:
-        raise ValueError(f"sliding model must be one of {SLIDING_MODELS}, not {model!r}")
+    mu, relaxed = friction.mu, friction.model is SlidingModel.RELAXED
     theta, d, psi, a_sign, b_sign = (np.asarray(x, dtype=float) for x in (theta, d, psi, a_sign, b_sign))
     ct, st = np.cos(theta), np.sin(theta)
     cb, sb = np.cos(theta + psi), np.sin(theta + psi)
@@ -92,7 +118,7 @@ def _slots(theta, d, psi, a_sign, b_sign, mu, model):
         for fx, fz in (f1, f2):
             slots.append((px * fz - pz * fx, fx, fz))
         masks.append(np.True_)
-        masks.append(stick | (model == "relaxed"))
+        masks.append(stick | relaxed)
     return slots, masks
 
 
@@ -112,8 +138,7 @@ def contact_wrenches(
     psi: ArrayLike,
     a_sign: ArrayLike,
     b_sign: ArrayLike,
-    mu: tuple[float, float, float],
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Contact wrenches of G, A, B, shape (N, 6, 3), and which of the 6 slots exist.
 
@@ -121,10 +146,10 @@ def contact_wrenches(
     slots with its cone edges; a sliding one fills the first with the edge
     opposing the sliding and the second with its normal (relaxed) or nothing
     (strict). Each wrench is (moment about G, f_x, f_z) of a unit force.
-    mu = (mu_G, mu_A, mu_B); a_sign, b_sign as in
+    a_sign, b_sign as in
     :func:`~ungrasp_ompl.mechanics.contact.sliding_signs`.
     """
-    slots, masks = _flat(_slots(theta, d, psi, a_sign, b_sign, mu, model), theta, d, psi, a_sign, b_sign)
+    slots, masks = _flat(_slots(theta, d, psi, a_sign, b_sign, friction), theta, d, psi, a_sign, b_sign)
     w = np.stack([np.stack(sl, axis=-1) for sl in slots], axis=1)
     return w, np.stack(masks, axis=1)
 
@@ -147,8 +172,7 @@ def force_closure_margin(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
 ) -> NDArray[np.float64]:
     """Force-closure margin of each state in the given contact mode, shape (N,).
 
@@ -159,7 +183,7 @@ def force_closure_margin(
     force closure; exactly zero without force closure. States with fewer than
     two independent wrenches get -1.
     """
-    unit = _unit(*_flat(_slots(theta, d, psi, a_sign, b_sign, mu, model), theta, d, psi, a_sign, b_sign))
+    unit = _unit(*_flat(_slots(theta, d, psi, a_sign, b_sign, friction), theta, d, psi, a_sign, b_sign))
     n_state = unit[0][0].shape[0]
     comp = np.empty((6, 3, n_state))
     for k, w in enumerate(unit):
@@ -205,8 +229,7 @@ def force_closure(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
 ) -> NDArray[np.bool_]:
     """True where the contacts are in force closure in the given contact mode: where
     force_closure_margin exceeds FC_TOLERANCE. The arguments broadcast together; the result has
@@ -223,11 +246,11 @@ def force_closure(
     by force_closure_margin itself.
     """
     args = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign)))
-    slots, masks = _slots(theta, d, psi, a_sign, b_sign, mu, model)
+    slots, masks = _slots(theta, d, psi, a_sign, b_sign, friction)
     unit = [w for w, m in zip(_unit(slots, masks), masks) if np.any(m)]  # an absent slot spans nothing
     ok, unsure = _spans(unit, args[0].shape)
     if unsure.any():
-        ok[unsure] = force_closure_margin(*(x[unsure] for x in args), mu, model) > FC_TOLERANCE
+        ok[unsure] = force_closure_margin(*(x[unsure] for x in args), friction) > FC_TOLERANCE
     return ok
 
 

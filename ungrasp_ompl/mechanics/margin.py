@@ -57,7 +57,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .convex import signed_distance
-from .force_closure import FC_TOLERANCE, REFERENCE_MU, _pair_margin, contact_wrenches, force_closure
+from .force_closure import FC_TOLERANCE, REFERENCE_FRICTION, Friction, SlidingModel, _pair_margin, contact_wrenches, force_closure
 from .kinematics import DigitGeometry, digit_bodies, s_b, thumb_clearance
 
 _TRIPLES = list(combinations(range(6), 3))
@@ -74,8 +74,7 @@ def shrinking_wrenches(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """W, V (N, 6, 3) and the slot mask (N, 6): with every cone shrunk by the angle delta (rad)
     the six slots' wrenches are cos(delta) W + sin(delta) V (up to a positive factor).
@@ -89,9 +88,9 @@ def shrinking_wrenches(
     45 deg and still gives the right edges). A relaxed sliding contact's normal slot does not
     turn: its V is zero.
     """
-    w, mask = contact_wrenches(theta, d, psi, a_sign, b_sign, mu, model)
-    quarter = tuple(math.tan(math.atan(m) - math.pi / 4) for m in mu)
-    w45, _ = contact_wrenches(theta, d, psi, a_sign, b_sign, quarter, model)
+    w, mask = contact_wrenches(theta, d, psi, a_sign, b_sign, friction)
+    quarter = tuple(math.tan(math.atan(m) - math.pi / 4) for m in friction.mu)
+    w45, _ = contact_wrenches(theta, d, psi, a_sign, b_sign, friction.with_mu(quarter))
     v = math.sqrt(2.0) * w45 - w
     _, _, _, sa, sb = np.broadcast_arrays(
         *(np.ravel(np.atleast_1d(np.asarray(x, dtype=float))) for x in (theta, d, psi, a_sign, b_sign))
@@ -209,8 +208,7 @@ def friction_margin(
     psi: ArrayLike,
     a_sign: ArrayLike = 0,
     b_sign: ArrayLike = 0,
-    mu: tuple[float, float, float] = REFERENCE_MU,
-    model: str = "relaxed",
+    friction: Friction = REFERENCE_FRICTION,
 ) -> NDArray[np.float64]:
     """The friction margin of each state in the given contact mode, radians, shape (N,).
 
@@ -219,8 +217,8 @@ def friction_margin(
     angle by which every cone must grow); at most min(atan(mu)); -inf where no growth of the cones
     gives force closure. Arguments as for force_closure (a_sign, b_sign in {-1, 0, 1}).
     """
-    w, v, mask, fc0, monotone = _prepared(theta, d, psi, a_sign, b_sign, mu, model)
-    out = np.full(len(w), _limits(mu)[1])
+    w, v, mask, fc0, monotone = _prepared(theta, d, psi, a_sign, b_sign, friction)
+    out = np.full(len(w), _limits(friction.mu)[1])
     # where closure is monotone and still holds with the narrowest cone shrunk to a ray, the margin
     # is that cap (what the candidates' bisection ends with): no event is needed there
     capped = monotone & fc0
@@ -228,20 +226,20 @@ def friction_margin(
     rest = np.flatnonzero(~capped)
     for lo in range(0, len(rest), _CHUNK):
         k = rest[lo:lo + _CHUNK]
-        out[k] = _margin_chunk(w[k], v[k], mask[k], fc0[k], monotone[k], mu)
+        out[k] = _margin_chunk(w[k], v[k], mask[k], fc0[k], monotone[k], friction.mu)
     return out
 
 
-def _prepared(theta, d, psi, a_sign, b_sign, mu, model):
+def _prepared(theta, d, psi, a_sign, b_sign, friction: Friction):
     """Wrenches W, V and mask, force closure now, and where force closure is monotone in the
     shrink angle (every sliding contact relaxed: its arc from the normal to its edge shrinks;
     a strict sliding contact's single edge moves instead)."""
-    w, v, mask = shrinking_wrenches(theta, d, psi, a_sign, b_sign, mu, model)
+    w, v, mask = shrinking_wrenches(theta, d, psi, a_sign, b_sign, friction)
     theta, d, psi, a_sign, b_sign = np.broadcast_arrays(
         *(np.ravel(np.atleast_1d(np.asarray(x, dtype=float))) for x in (theta, d, psi, a_sign, b_sign))
     )
-    fc0 = force_closure(theta, d, psi, np.sign(a_sign), np.sign(b_sign), mu, model)
-    monotone = np.full(len(w), model == "relaxed") | ((a_sign == 0) & (b_sign == 0))
+    fc0 = force_closure(theta, d, psi, np.sign(a_sign), np.sign(b_sign), friction)
+    monotone = np.full(len(w), friction.model is SlidingModel.RELAXED) | ((a_sign == 0) & (b_sign == 0))
     return w, v, mask, fc0, monotone
 
 

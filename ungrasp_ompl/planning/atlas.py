@@ -159,7 +159,7 @@ class SecurityAtlas:
         th, d, ps = self._lattice
         s = self.scene
         out = np.zeros(self.shape, dtype=bool)
-        out[:, :, psi_from:] = force_closure(th, d, ps[:, :, psi_from:], sa, sb, s.mu, s.options.sliding_model)
+        out[:, :, psi_from:] = force_closure(th, d, ps[:, :, psi_from:], sa, sb, s.friction)
         return out
 
     def mode_ok(self, sa: int, sb: int) -> NDArray[np.bool_]:

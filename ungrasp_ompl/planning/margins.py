@@ -130,7 +130,7 @@ class LatticeMargins:
             if len(idx[0]):
                 th, d, ps = (self.atlas.axes[a][idx[a]] for a in range(3))
                 s = self.atlas.scene
-                out[idx] = friction_margin(th, d, ps, key[0], key[1], s.mu, s.options.sliding_model)
+                out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
                 self.computed_states += len(idx[0])
             self._mode[key] = out
         return self._mode[key]

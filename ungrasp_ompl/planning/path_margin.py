@@ -69,8 +69,7 @@ def plan_samples(plan: Plan, resolution: ArrayLike = PROFILE_RESOLUTION, both_mo
 def plan_friction_margins(scene: Scene, samples: PlanSamples) -> NDArray[np.float64]:
     """The friction margin (rad) of each sample in its leg's contact mode."""
     q = samples.states
-    return friction_margin(q[:, 0], q[:, 1], q[:, 2], samples.a_sign, samples.b_sign, scene.mu,
-                           scene.options.sliding_model)
+    return friction_margin(q[:, 0], q[:, 1], q[:, 2], samples.a_sign, samples.b_sign, scene.friction)
 
 
 @dataclass(frozen=True)

@@ -424,7 +424,7 @@ def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: La
     if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start included
         plan.margin_profile_deg = [math.degrees(m) for m in path_friction_margin(scene, plan).of_primitives()]
         plan.min_margin_deg = min(plan.margin_profile_deg)
-    plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.mu, scene.options.sliding_model)[0]))
+    plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.friction)[0]))
     bottleneck = margins.bottleneck if margins is not None else None
     if bottleneck is not None:
         plan.margin_bottleneck_deg = math.degrees(bottleneck)

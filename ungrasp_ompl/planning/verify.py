@@ -116,7 +116,7 @@ def verify_leg(
         if not ok.all():
             return LegFailure(LegCheck.KINEMATICS, _state(q[np.argmin(ok)]), name)
     sa, sb = primitive_sliding_signs(primitive, d, ps, step[1], step[2])
-    fc = force_closure(th, d, ps, sa, sb, scene.mu, scene.options.sliding_model)
+    fc = force_closure(th, d, ps, sa, sb, scene.friction)
     if not fc.all():
         return LegFailure(LegCheck.FORCE_CLOSURE, _state(q[np.argmin(fc)]))
     checker = checker or CollisionChecker(scene.collision_model())

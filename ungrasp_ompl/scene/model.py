@@ -25,7 +25,7 @@ from ..geometry.collision import Box, CollisionChecker, CollisionModel
 from ..geometry.plane import ManipulationPlane, choose_plane
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
-from ..mechanics.force_closure import SLIDING_MODELS, SlidingModel
+from ..mechanics.force_closure import SLIDING_MODELS, Friction, SlidingModel
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
 
@@ -319,6 +319,11 @@ class Scene:
                 + (", planar_only" if self.planar_only else "") + ")")
 
     # -- queries -----------------------------------------------------------------
+    @property
+    def friction(self) -> Friction:
+        """The plane's friction at G, A, B (mu) with the scene's sliding model: what force closure uses."""
+        return Friction(self.mu, self.options.sliding_model)
+
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
         """Force closure of states q, shape (N, 3) (theta rad, d over l, psi rad).
 
@@ -327,7 +332,7 @@ class Scene:
         opposing their sliding); without it every contact sticks.
         """
         q, sa, sb = _states_and_mode(q, dq)
-        return force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
+        return force_closure(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.friction)
 
     def margin(self, q: ArrayLike, dq: ArrayLike | None = None) -> Margins:
         """How far states q (N, 3) (theta rad, d over l, psi rad) are from losing their grip
@@ -341,7 +346,7 @@ class Scene:
         l = self.object_length
         boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]]) / l
                       for b in self.obstacles)
-        friction = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.mu, self.options.sliding_model)
+        friction = friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, self.friction)
         return Margins(friction, kinematic_margins(q[:, 0], q[:, 1], q[:, 2], self.digits, l, boxes))
 
     def cage(self, q: ArrayLike, grid: CageGrid | None = None, squeeze: float = 0.0) -> list[Cage]:
