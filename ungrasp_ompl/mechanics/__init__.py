@@ -8,6 +8,7 @@ and z up; a state is (theta, d, psi).
 from .contact import (
     PRIMITIVES,
     ContactMode,
+    Primitive,
     contact_mode,
     friction_directions,
     primitive_of,
@@ -43,6 +44,7 @@ __all__ = [
     "ContactMode",
     "DigitGeometry",
     "Friction",
+    "Primitive",
     "SlidingModel",
     "aperture",
     "cone_edges",

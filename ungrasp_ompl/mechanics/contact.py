@@ -16,6 +16,7 @@ the digit:
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -23,12 +24,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from .kinematics import digit_axis, object_axis
 
+class Primitive(StrEnum):
+    """The paper's motion primitives (docs/model.md 3.3). A member is its name as a string
+    ("P_theta", ...), so files, plan.json and comparisons with the name keep working."""
+
+    #: Pivot about G; every contact sticks.
+    THETA = "P_theta"
+    #: The thumb turns; G and A stick, B slides.
+    PSI = "P_psi"
+    #: The finger slides toward B while psi grows (or holds).
+    DPSI = "P_dpsi"
+
+
 #: The paper's primitives: which coordinates each one moves, and the sign of
 #: its forward (paper) direction in (theta, d, psi).
-PRIMITIVES: dict[str, tuple[int, int, int]] = {
-    "P_theta": (-1, 0, 0),  # pivot about G, all contacts stick
-    "P_psi": (0, 0, 1),  # thumb turns, G and A stick, B slides
-    "P_dpsi": (0, -1, 1),  # finger slides toward B while psi grows (or holds)
+PRIMITIVES: dict[Primitive, tuple[int, int, int]] = {
+    Primitive.THETA: (-1, 0, 0),
+    Primitive.PSI: (0, 0, 1),
+    Primitive.DPSI: (0, -1, 1),
 }
 
 #: Velocities below this (per unit of the largest component) count as zero.
@@ -108,10 +121,10 @@ def primitive_sliding_signs(
     """
     d, psi, dd, dpsi = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (d, psi, dd, dpsi)))
     zero = np.zeros(d.shape, dtype=np.int8)
-    if primitive == "P_theta":
+    if primitive == Primitive.THETA:
         return zero, zero.copy()
-    if primitive == "P_psi":
+    if primitive == Primitive.PSI:
         return zero, (-np.sign(dpsi)).astype(np.int8)
-    if primitive == "P_dpsi":
+    if primitive == Primitive.DPSI:
         return sliding_signs(d, psi, dd, dpsi)
     raise ValueError(f"unknown primitive {primitive!r}; expected one of {', '.join(PRIMITIVES)}")

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..mechanics import primitive_sliding_signs
+from ..mechanics import Primitive, primitive_sliding_signs
 from ..mechanics.roll import describe_restoring
 from ..scene import StateClass, StateDiagnosis
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
@@ -44,7 +44,7 @@ class PrimitiveStep:
     sliding contact, partial with two (no z-moments).
     """
 
-    type: str
+    type: Primitive
     direction: str
     start: list[float]
     end: list[float]
@@ -224,14 +224,14 @@ class Plan:
             key = f"primitives[{i}]"
             if not isinstance(p, dict):
                 raise InputError(key, "must be a mapping", source)
-            if p.get("type") not in ("P_theta", "P_psi", "P_dpsi"):
+            if p.get("type") not in tuple(Primitive):
                 raise InputError(f"{key}.type", f"must be P_theta, P_psi or P_dpsi, got {p.get('type')!r}", source)
             ways = p.get("waypoints")
             if not isinstance(ways, list) or len(ways) < 2:
                 raise InputError(f"{key}.waypoints", "must list at least the start and end states", source)
             ways = [state(w, f"{key}.waypoints[{k}]") for k, w in enumerate(ways)]
             sliding = p.get("sliding", {})
-            steps.append(PrimitiveStep(p["type"], str(p.get("direction", "forward")), ways[0], ways[-1],
+            steps.append(PrimitiveStep(Primitive(p["type"]), str(p.get("direction", "forward")), ways[0], ways[-1],
                                        dict(sliding) if isinstance(sliding, dict) else {},
                                        str(p.get("stability", "")), ways, p.get("x_moments")))
         ends = [state(states[0], "states[0]")] + [st.end for st in steps[:-1]]
