@@ -229,6 +229,18 @@ def test_halving_the_timestep_keeps_the_outcomes(pick):
             assert abs(coarse.position_error_mm - fine.position_error_mm) < 1.0
 
 
+def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick):
+    """Once the palm lifts away and the object lies still, untouched, the trial is read off there:
+    the same verdict, error and tilt as simulating the retreat and the rest to the end."""
+    setup = _setup(pick)
+    early = run_trial(setup, TrialParams())
+    full = run_trial(setup, TrialParams(), record=[])  # a recorded trial runs every phase
+    assert early.success and full.success
+    assert early.sim_time_s < full.sim_time_s - setup.rest_time  # it stopped during the retreat
+    assert early.position_error_mm == pytest.approx(full.position_error_mm, abs=1e-6)
+    assert early.tilt_deg == pytest.approx(full.tilt_deg, abs=1e-6)
+
+
 def test_simulate_runs_seeded_trials_on_workers_like_inline(pick):
     setup = _setup(pick)
     inline = simulate(setup, PRESETS["grasp"], trials=2, seed=5, jobs=1)

@@ -4,7 +4,8 @@ Sequence: the object is put at the plan's start pose (plus the trial's perturbat
 clear of the table if it would reach into it), the jaws at the planned opening; the world
 settles with the palm still (gravity, the servo squeezing); then every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
-the squeeze; after the retreat the world rests, and the outcome is read off. A calibration
+the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
+lifts away and everything free lies still, untouched by the digits, at once: see Stillness). A calibration
 error offsets the whole commanded trajectory (and the object the hand holds at the start) by
 one rigid transform, and moves the table, as a miscalibrated arm and table would.
 """
@@ -27,6 +28,10 @@ from ..perturbation import TrialParams
 LOSS_WINDOW = 0.05
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
+#: Slower than this (m/s, and STILL_SPIN rad/s) for STILL_WINDOW s, a free body on the table lies still.
+STILL_SPEED = 1e-4
+STILL_SPIN = 1e-3
+STILL_WINDOW = 0.05
 
 
 @dataclass(frozen=True)
@@ -114,6 +119,35 @@ def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
     return replace(spec, obj=obj, table_height=params.table_height_mm / 1000,
                    friction=replace(fr, table=fr.table * fg, finger=fr.finger * fa, thumb=fr.thumb * fb,
                                     solids=fr.solids * fg))
+
+
+class Stillness:
+    """Whether the trial's outcome is settled during the retreat: every free body (the object, the
+    pieces already down) has moved slower than STILL_SPEED and STILL_SPIN, with no digit touching
+    any of them, for STILL_WINDOW s. The retreat lifts the palm straight up and the rest that
+    follows adds nothing, so from then on no force but gravity and the table's acts on them: the
+    trial's end is read off there instead of simulating the last second and a half."""
+
+    def __init__(self, model, ids: ModelIds):
+        bodies = [ids.object_body, *ids.placed_bodies]
+        self.dofs = np.concatenate([np.arange(model.body_dofadr[b], model.body_dofadr[b] + 6) for b in bodies])
+        self.free = np.isin(model.geom_bodyid, bodies)
+        self.digit = np.zeros(model.ngeom, bool)
+        self.digit[list(ids.finger_geoms | ids.thumb_geoms)] = True
+        self.since: float | None = None
+
+    def settled(self, data, t: float) -> bool:
+        """Note the world at time t (s); True once it has been still for STILL_WINDOW."""
+        v = data.qvel[self.dofs].reshape(-1, 6)
+        moving = bool((np.linalg.norm(v[:, :3], axis=1) > STILL_SPEED).any()
+                      or (np.linalg.norm(v[:, 3:], axis=1) > STILL_SPIN).any())
+        g = data.contact.geom[:data.ncon]
+        touched = bool(((self.digit[g[:, 0]] & self.free[g[:, 1]]) | (self.digit[g[:, 1]] & self.free[g[:, 0]])).any())
+        if moving or touched:
+            self.since = None
+            return False
+        self.since = t if self.since is None else self.since
+        return t - self.since >= STILL_WINDOW - 1e-9
 
 
 class _Watch:
@@ -321,12 +355,14 @@ def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:
 
 
 def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
-              record: list | None = None) -> TrialResult:
+              record: list | None = None, stop_at_failure: bool = True) -> TrialResult:
     """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
     (time s from the drive's start, 4x4 world pose of the object) is appended after the settling
     (time 0), after every control tick, and once after the rest (the 3D view shows it). Without
-    it a trial stops at its failure, since nothing after it can change the verdict: a failed
-    trial's final pose is where the object was then."""
+    it a trial stops at its failure, since nothing after it can change the verdict (a failed
+    trial's final pose is where the object was then; stop_at_failure=False goes on, as a
+    benchmark of a whole trial does), and once the world is still during the retreat
+    (Stillness), where nothing after it can either."""
     import mujoco
 
     wall = time.perf_counter()
@@ -344,12 +380,15 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     primitive = _primitive_of_ticks(drive)
     plane_y = setup.target_pose[:3, 1]
     release = drive.phase_start("termination")
+    lifting = drive.phase_start("retreat") if any(name == "retreat" for name, _, _ in drive.phases) else math.inf
+    stillness = Stillness(model, ids)
+    settled = False
     missing_since: float | None = None
     solid_seen_at = -math.inf
     roll = sinking = dome = off_dome = 0.0
     failure: tuple[Outcome, float] | None = None
     for k in range(1, len(drive.times)):
-        if failure is not None and record is None:  # what follows a failure cannot change the verdict
+        if failure is not None and record is None and stop_at_failure:  # nothing after it changes the verdict
             break
         _set_palm(data, ids, palm[k], quat)
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
@@ -357,6 +396,9 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
+        if record is None and t >= lifting and stillness.settled(data, t):
+            settled = True  # nothing left can move what lies on the table
+            break
         if t >= release or failure is not None:  # after a failure (a crushed or falling object) nothing is measured
             continue
         now = watch.measure(data, ids.object_body, ids.finger_body, setup.b_point)
@@ -385,7 +427,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if t - missing_since >= LOSS_WINDOW:
             failure = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= missing_since - 0.2),
                        missing_since)
-    if failure is None or record is not None:
+    if ((failure is None or not stop_at_failure) and not settled) or record is not None:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
