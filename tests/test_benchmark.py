@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import sqlite3
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,6 @@ import pytest
 from conftest import assert_picture
 from ungrasp_ompl.benchmark import (LATTICE, BenchmarkOptions, RunStatus, SweepOptions, parse_alpha_range,
                                     run_benchmark, run_sweep)
-from ungrasp_ompl.benchmark.sweep import scene_with_alpha
 from ungrasp_ompl.benchmark.tasks import Task, run_task, run_tasks
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.runner import LocalRunner
@@ -208,8 +208,22 @@ def test_seeded_runs_are_reproducible_in_fresh_and_reused_processes():
     assert fresh[0].iterations == 1500 and fresh[0].cost >= 84.5 - 1e-9
 
 
-def test_scene_with_alpha_changes_only_alpha():
+def test_scene_with_digits_changes_only_the_digits_asked_and_checks_them():
     scene = Scene.from_file(SCENE)
-    changed = scene_with_alpha(scene, 0.2)
+    changed = scene.with_digits(alpha=0.2)
     assert changed.digits.alpha == 0.2 and scene.digits.alpha == 0.47
-    assert changed.digits.thumb_length == scene.digits.thumb_length and changed.mu == scene.mu
+    assert replace(changed.digits, alpha=scene.digits.alpha) == scene.digits and changed.mu == scene.mu
+    flat = scene.with_digits(finger_tip="flat")
+    assert flat.digits.flat_finger_tip and flat.digits.finger_tip_radius == 0.0
+    rounded = flat.with_digits(finger_tip="rounded")  # back to a dome across the tip's thickness
+    assert rounded.digits == replace(scene.digits, finger_tip_radius=scene.digits.finger_tip_thickness / 2)
+    big = scene.with_digits(finger_tip_radius=0.003)  # a 3 mm dome needs a 6 mm tip
+    assert big.digits.finger_tip_radius * big.object_length == pytest.approx(0.003)
+    assert big.digits.finger_tip_thickness * big.object_length == pytest.approx(0.006)
+    for kwargs, field in ((dict(alpha=1.0), "digits.alpha"), (dict(alpha=-0.99), "digits.alpha"),
+                          (dict(finger_tip="pointy"), "digits.finger_tip"),
+                          (dict(finger_tip="flat", finger_tip_radius=0.001), "digits.finger_tip_radius"),
+                          (dict(finger_tip_radius=-0.001), "digits.finger_tip_radius")):
+        with pytest.raises(InputError) as err:
+            scene.with_digits(**kwargs)
+        assert err.value.field == field

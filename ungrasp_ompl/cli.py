@@ -414,7 +414,7 @@ def _cage(args: argparse.Namespace) -> int:
             return EXIT_NO_SOLUTION
         print(f"planned {scene.name} with {result.planner} (seed {result.seed}): cost {result.cost:.2f}")
     if args.finger_tip is not None:
-        scene = _with_finger_tip(scene, args.finger_tip)
+        scene = scene.with_digits(finger_tip=args.finger_tip)
     if args.start_psi_offset_deg is not None:
         result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
         start = result.states[0]
@@ -585,15 +585,6 @@ class _Progress:
             _Progress.open.remove(self)
 
 
-def _with_finger_tip(scene, tip: str):
-    """The scene with the finger's tip rounded (a dome of half the tip thickness) or flat."""
-    from dataclasses import replace
-
-    dg = scene.digits
-    return replace(scene, digits=replace(dg, flat_finger_tip=tip == "flat",
-                                         finger_tip_radius=0.0 if tip == "flat" else dg.finger_tip_thickness / 2))
-
-
 def _cluster(args: argparse.Namespace) -> str | None:
     """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
@@ -692,7 +683,7 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.start_psi_offset_deg is not None:
         check_psi_offset(math.radians(args.start_psi_offset_deg))
     if args.finger_tip is not None:
-        scene = _with_finger_tip(scene, args.finger_tip)
+        scene = scene.with_digits(finger_tip=args.finger_tip)
     variant = Variant(friction_scale=args.friction_scale, thickness=args.thickness, equal_digits=args.equal_digits)
 
     if args.plan is not None:

@@ -35,11 +35,11 @@ from .map import MapOptions, MapResult, run_map
 from .options import BenchmarkOptions, SweepOptions, validate_planners
 from .ranges import parse_alpha_range, parse_range
 from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
-from .sweep import SweepPoint, SweepResult, run_sweep, scene_with_alpha
+from .sweep import SweepPoint, SweepResult, run_sweep
 from .tasks import LATTICE, STATUSES, RunResult, RunStatus
 
 __all__ = ["LATTICE", "STATUSES", "SUMMARY_COLUMNS", "BenchmarkOptions", "BenchmarkResult", "MapOptions", "MapResult",
            "RunResult",
            "RunStatus", "SummaryRow", "SweepOptions", "SweepPoint", "SweepResult", "limitation_notes",
-           "parse_alpha_range", "parse_range", "run_benchmark", "run_map", "run_sweep", "scene_with_alpha", "summarise",
+           "parse_alpha_range", "parse_range", "run_benchmark", "run_map", "run_sweep", "summarise",
            "validate_planners"]

@@ -7,8 +7,6 @@ reference units; alpha over the object length.
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,15 +22,6 @@ from .plots import plot_sweep
 from .statistics import median
 from .table import Column, format_table, write_csv
 from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
-
-
-def scene_with_alpha(scene: Scene, alpha: float) -> Scene:
-    """The scene with digits.alpha replaced (over the object length); InputError("--alpha") if invalid."""
-    if not (math.isfinite(alpha) and -1.0 < alpha < 1.0):
-        raise InputError("--alpha", f"{alpha:g} must lie in (-1, 1) (over the object length)")
-    if scene.digits.thumb_length + alpha <= 0:
-        raise InputError("--alpha", f"{alpha:g} makes the finger length thumb_length + alpha non-positive")
-    return dataclasses.replace(scene, digits=dataclasses.replace(scene.digits, alpha=float(alpha)))
 
 
 @dataclass(frozen=True)
@@ -109,7 +98,7 @@ def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progres
     options = options.validated()
     out = Path(options.out)
     base = Scene.from_file(scene_path)
-    scenes = [scene_with_alpha(base, a) for a in options.alphas]
+    scenes = [_with_alpha(base, a) for a in options.alphas]
     limit = float(options.time)
     groups = [repr(a) for a in options.alphas]
     tasks = [Task(g, scene, LATTICE, -1, options.seed, limit) for g, scene in zip(groups, scenes)]
@@ -130,4 +119,12 @@ def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progres
     return result
 
 
-__all__ = ["SWEEP_COLUMNS", "SweepPoint", "SweepResult", "run_sweep", "scene_with_alpha"]
+def _with_alpha(scene: Scene, alpha: float) -> Scene:
+    """The scene with digits.alpha replaced (Scene.with_digits); InputError("--alpha") if invalid."""
+    try:
+        return scene.with_digits(alpha=alpha)
+    except InputError as exc:
+        raise InputError("--alpha", f"{alpha:g}: {exc.reason}") from None
+
+
+__all__ = ["SWEEP_COLUMNS", "SweepPoint", "SweepResult", "run_sweep"]

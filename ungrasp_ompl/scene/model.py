@@ -431,6 +431,39 @@ class Scene:
         """A copy of the scene with some planning options replaced."""
         return replace(self, options=replace(self.options, **changes))
 
+    def with_digits(self, alpha: float | None = None, finger_tip: str | None = None,
+                    finger_tip_radius: float | None = None) -> "Scene":
+        """The scene with other digits, checked as the scene file's are (InputError naming the
+        digits field): alpha over l; finger_tip rounded or flat (a flat tip has no radius; a
+        rounded one made from a flat tip gets a dome of half its tip's thickness);
+        finger_tip_radius in metres, a dome that thickens the finger's tip to twice its radius
+        where the tip is thinner than that. The one way to vary a scene's digits."""
+        dg, l = self.digits, self.object_length
+        changes: dict[str, Any] = {}
+        if alpha is not None:
+            if not (math.isfinite(alpha) and -1.0 < alpha < 1.0):
+                raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha:.4g}")
+            if dg.thumb_length + alpha <= 0:
+                raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive")
+            changes["alpha"] = float(alpha)
+        flat = dg.flat_finger_tip if finger_tip is None else finger_tip == "flat"
+        if finger_tip is not None and finger_tip not in ("rounded", "flat"):
+            raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), "
+                             f"got {finger_tip!r}")
+        if flat:
+            if finger_tip_radius:
+                raise InputError("digits.finger_tip_radius", "needs finger_tip: rounded (a flat tip has no radius)")
+            changes.update(flat_finger_tip=True, finger_tip_radius=0.0)
+        else:
+            radius = dg.finger_tip_radius if finger_tip_radius is None else finger_tip_radius / l
+            if finger_tip_radius is None and dg.flat_finger_tip:
+                radius = dg.finger_tip_thickness / 2
+            if not (math.isfinite(radius) and radius >= 0.0):
+                raise InputError("digits.finger_tip_radius", f"must be a length >= 0 m, got {radius * l:.4g}")
+            changes.update(flat_finger_tip=False, finger_tip_radius=radius,
+                           finger_tip_thickness=max(dg.finger_tip_thickness, 2 * radius))
+        return replace(self, digits=replace(dg, **changes))
+
 
 def _states_and_mode(q: ArrayLike, dq: ArrayLike | None) -> tuple[NDArray[np.float64], NDArray, NDArray]:
     """States q (N, 3) and the sliding signs at A and B (N,) each of the contact mode velocities dq
