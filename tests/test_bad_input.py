@@ -50,6 +50,7 @@ SCENE_COMMANDS = {
     "simulate": ("--trials", "1", "--perturb", "none", "--jobs", "1", "--time", "0.2", "--out", "{out}"),
     "map": ("--alpha", "0.4", "--time", "0.2", "--jobs", "1", "--seed", "1", "--out", "{out}"),
     "cage": ("--planner", "lattice", "--out", "{out}"),
+    "design": ("--alpha", "0.4", "--tip-radius", "1", "--goal", "scene", "--jobs", "1", "--out", "{out}"),
 }
 LAYOUT_COMMANDS = {
     "tile": ("--planner", "lattice", "--approaches", "1", "--out", "{out}"),

@@ -122,7 +122,7 @@ def test_every_trial_error_has_a_label_with_its_unit():
 def _map_result():
     """A 4 x 3 map whose cells end each way a cell can: solved, each lattice verdict, each
     planner outcome, a plan the robot cannot execute, each failed task."""
-    from ungrasp_ompl.benchmark.map import NOT_EXECUTABLE, MapCell, MapOptions, MapResult
+    from ungrasp_ompl.benchmark.map import MapCell, MapOptions, MapResult
     from ungrasp_ompl.planning.result import PlanOutcome as P
     from ungrasp_ompl.runner import TaskStatus as T
 
@@ -131,7 +131,7 @@ def _map_result():
              dict(lattice_outcome=P.START_NOT_HELD), dict(lattice_outcome=P.GOAL_EMPTY),
              dict(lattice_outcome=P.NO_SECURE_PATH), dict(solved, planner_outcome=P.NOT_FOUND),
              dict(solved, planner_outcome=P.INVALID_PATH), dict(solved, planner_outcome=P.HUNG),
-             dict(solved, planner_outcome=P.SOLVED, planner_cost=90.0, error=f"{NOT_EXECUTABLE}: out of reach"),
+             dict(solved, planner_outcome=P.SOLVED, planner_cost=90.0, executable=False, error="not executable: out of reach"),
              dict(task_status=T.FAILED, error="ValueError: x"), dict(task_status=T.HUNG), dict(task_status=T.DIED),
              dict(solved, planner_outcome=P.SOLVED, planner_cost=85.0, sim_successes=5)]
     alphas, scales = (0.0, 0.1, 0.2, 0.3), (0.5, 1.0, 1.5)

@@ -150,6 +150,28 @@ def _parser() -> argparse.ArgumentParser:
     mp.add_argument("--resume", action="store_true", help="keep the cells already done in OUT/map.csv")
     mp.add_argument("--out", default="map", help="output directory (default ./map): map.csv and map.png")
 
+    dn = sub.add_parser("design", help="the digits for an object: plan a grid of digit asymmetries and finger-tip radii, "
+                        "choose the most tolerant plan (or the most successful with --simulate)")
+    dn.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    dn.add_argument("--alpha", default=None, metavar="START:STOP:STEP",
+                    help="digit asymmetry over the object length (default five values 0.05 apart about the scene's)")
+    dn.add_argument("--tip-radius", default=None, metavar="START:STOP:STEP",
+                    help="the rounded finger tip's dome radius in mm (default 0.5, 0.75, 1, 1.5 and 2 times the scene's)")
+    dn.add_argument("--finger-tip", default="rounded", choices=("rounded", "flat"),
+                    help="rounded (point contact at A, the radius varies) or flat (edge contact)")
+    dn.add_argument("--goal", default="free", choices=("free", "scene"),
+                    help="free: each design lets go wherever its digits can (d and psi within the bounds); scene: "
+                    "the scene's own goal region (default free)")
+    dn.add_argument("--simulate", type=int, default=0, metavar="N",
+                    help="also simulate N trials of each design's plan and choose by success (Wilson lower bound)")
+    dn.add_argument("--perturb", default="paper", help="error preset of the simulated trials (default paper)")
+    dn.add_argument("--seed", type=int, default=1, help="seed of the simulated trials' errors (default 1)")
+    dn.add_argument("--jobs", type=int, default=2, help="designs at a time on this machine (default 2)")
+    dn.add_argument("--cluster", default=None, metavar="ADDRESS",
+                    help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    dn.add_argument("--out", default="design", help="output directory (default ./design): design.csv, design.png, "
+                    "design_scene.yaml")
+
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline, or the name of a shipped scene")
 
@@ -518,6 +540,32 @@ def _map(args: argparse.Namespace) -> int:
     return EXIT_FAILURE if result.failed else EXIT_OK
 
 
+#: The design options' fields and the flags a person types for them.
+_DESIGN_FLAGS = {"alphas": "--alpha", "tip_radii": "--tip-radius", "finger_tip": "--finger-tip", "goal": "--goal",
+                 "simulate": "--simulate", "seed": "--seed"}
+
+
+def _design(args: argparse.Namespace) -> int:
+    from .benchmark.design import DesignOptions, run_design
+    from .benchmark.ranges import parse_range
+
+    radii = tuple(r / 1000 for r in parse_range(args.tip_radius, "--tip-radius")) if args.tip_radius else ()
+    options = DesignOptions(alphas=tuple(parse_range(args.alpha, "--alpha")) if args.alpha else (), tip_radii=radii,
+                            finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb, seed=args.seed,
+                            jobs=args.jobs, cluster=_cluster(args), out=args.out)
+    bar = _Progress("designs", "design")
+    try:
+        result = run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total))
+    except InputError as exc:
+        if exc.field in _DESIGN_FLAGS:  # the library names its options' fields; a person typed the flag
+            raise InputError(_DESIGN_FLAGS[exc.field], exc.reason, exc.source) from None
+        raise
+    files = result.write(result.options.out)
+    print(result.summary())
+    print(f"wrote {', '.join(str(p) for p in files.values())}")
+    return EXIT_OK if result.best is not None else EXIT_NO_SOLUTION
+
+
 def _map_progress(p) -> str:
     """How a map stands, beside its count (p: benchmark.map.MapProgress)."""
     words = []
@@ -847,7 +895,7 @@ def run(argv: list[str] | None = None) -> int:
         args = _parser().parse_args(argv)
         commands = {"plan": _plan, "regions": _regions, "stability": _stability, "cage": _cage, "bench": _bench,
                     "sweep": _sweep,
-                    "map": _map, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
+                    "map": _map, "design": _design, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
         return commands[args.command](args)
     except UngraspError as exc:
         for bar in list(_Progress.open):

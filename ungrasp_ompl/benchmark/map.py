@@ -40,8 +40,6 @@ from .options import check_jobs, check_out, check_time, validate_planners
 SIM_TRIAL_GRACE_S = 120.0
 #: The most cells a map may have.
 MAX_CELLS = 1_000_000
-#: How MapCell.error begins when the robot cannot execute the cell's plan (so it was not simulated).
-NOT_EXECUTABLE = "not executable"
 
 
 @dataclass(frozen=True)
@@ -178,6 +176,8 @@ class MapCell:
     """The planner's path cost (reference units); None: no path."""
     sim_successes: int | None = None
     """Successful simulated trials (count); None: not simulated (no plan, or the robot cannot execute it)."""
+    executable: bool | None = None
+    """Whether the robot could execute the cell's plan (None: not tried: no plan, or no trials asked)."""
     error: str = ""
     """Why the task failed, or why a plan was not simulated (the robot's reason); empty otherwise."""
 
@@ -197,7 +197,7 @@ class MapCell:
 #: map.csv's columns; the first two identify a cell.
 MAP_COLUMNS = ("alpha", "friction_scale", "task_status", "secure_path", "lattice_outcome", "lattice_optimum",
                "planner", "planner_outcome", "planner_solved", "planner_cost", "sim_trials", "sim_successes",
-               "sim_success_rate", "seed", "time_s", "error")
+               "sim_success_rate", "seed", "time_s", "executable", "error")
 
 
 def cell_key(alpha: float, friction_scale: float) -> tuple[str, str]:
@@ -216,7 +216,7 @@ def cell_row(cell: MapCell, task: MapTask) -> list[object]:
             cell.lattice_outcome.value if cell.lattice_outcome else None, cell.lattice_optimum, task.planner,
             cell.planner_outcome.value if cell.planner_outcome else None, flag(cell.planner_solved),
             cell.planner_cost, task.trials, cell.sim_successes, rate, task.seed, repr(float(task.time)),
-            cell.error.replace("\n", " ")]
+            flag(cell.executable), cell.error.replace("\n", " ")]
 
 
 def cell_from_row(row: dict[str, str]) -> MapCell:
@@ -231,7 +231,8 @@ def cell_from_row(row: dict[str, str]) -> MapCell:
                    lattice_optimum=number("lattice_optimum"),
                    planner_outcome=PlanOutcome(row["planner_outcome"]) if row["planner_outcome"] else None,
                    planner_cost=number("planner_cost"),
-                   sim_successes=int(row["sim_successes"]) if row["sim_successes"] else None, error=row["error"])
+                   sim_successes=int(row["sim_successes"]) if row["sim_successes"] else None,
+                   executable=bool(int(row["executable"])) if row["executable"] else None, error=row["error"])
 
 
 def run_cell(task: MapTask) -> MapCell:
@@ -264,23 +265,12 @@ def run_cell(task: MapTask) -> MapCell:
 
 def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
     """The cell with the simulated trials of its plan counted (or why the robot cannot execute it)."""
-    from ..errors import UngraspError
-    from ..planning.setup import add_3d_report
-    from ..robot.pipeline import execute
-    from ..perturbation import preset, trial_params
-    from ..sim.setup import trial_setup
-    from ..sim.trial import run_trial
+    from ..sim.plan_trials import plan_trials
 
-    scene = task.scene
-    if scene.plane is not None:
-        add_3d_report(scene, plan)
-    try:
-        execution = execute(scene, plan)
-    except UngraspError as exc:  # out of reach, a collision of the arm, beyond the joint limits
-        return replace(cell, error=f"{NOT_EXECUTABLE}: {exc}")
-    setup = trial_setup(scene, plan, execution.trajectory, execution.robot)
-    params = trial_params(preset(task.perturb), task.seed, task.trials)
-    return replace(cell, sim_successes=sum(run_trial(setup, p, k, task.seed).success for k, p in enumerate(params)))
+    run = plan_trials(task.scene, plan, task.trials, task.perturb, task.seed)
+    if not run.executable:
+        return replace(cell, executable=False, error=f"not executable: {run.not_executable}")
+    return replace(cell, executable=True, sim_successes=run.successes)
 
 
 @dataclass(frozen=True)

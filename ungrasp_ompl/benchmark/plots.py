@@ -14,6 +14,7 @@ from ..planning.setup import LATTICE
 from .ompl_log import Experiment, cost_units
 
 if TYPE_CHECKING:
+    from .design import DesignResult
     from .map import MapResult
     from .sweep import SweepResult
 
@@ -132,13 +133,16 @@ def plot_map(result: "MapResult", path: Path) -> None:
     save_png(map_figure(result), path)
 
 
+#: map_reasons' key for a cell whose plan the robot cannot execute (so it was not simulated).
+NOT_EXECUTABLE = "not executable"
+
+
 def map_reasons() -> dict:
     """Why a cell of the map shows no value, each with its label and marker: the cell's task
     (TaskStatus), the exact lattice's verdict or the planner's outcome (PlanOutcome), or the
     robot (the plan is not executable)."""
     from ..planning.result import PlanOutcome
     from ..runner import TaskStatus
-    from .map import NOT_EXECUTABLE
 
     return {TaskStatus.FAILED: ("task raised an error", "X"), TaskStatus.HUNG: ("task hung (killed)", "H"),
             TaskStatus.DIED: ("task's process died", "P"),
@@ -155,7 +159,6 @@ def map_reason(cell, panel: int):
     cost, 2: the simulated success rate), as a key of the map's reasons; None: it has one."""
     from ..planning.result import PlanOutcome
     from ..runner import TaskStatus
-    from .map import NOT_EXECUTABLE
 
     if cell.task_status is not TaskStatus.DONE:
         return cell.task_status
@@ -163,7 +166,7 @@ def map_reason(cell, panel: int):
         return cell.lattice_outcome
     if panel >= 1 and cell.planner_outcome is not PlanOutcome.SOLVED:
         return cell.planner_outcome
-    if panel == 2 and cell.error.startswith(NOT_EXECUTABLE):
+    if panel == 2 and cell.executable is False:
         return NOT_EXECUTABLE
     return None
 
@@ -245,3 +248,65 @@ def map_figure(result: "MapResult"):
 
 __all__ = ["map_figure", "map_reason", "map_reasons", "plot_final_cost", "plot_map", "plot_success_vs_time",
            "plot_sweep", "pyplot", "save_png"]
+
+
+def plot_design(result: "DesignResult", path: Path) -> None:
+    """Write design_figure's picture to path (PNG)."""
+    save_png(design_figure(result), path)
+
+
+def design_figure(result: "DesignResult"):
+    """A heat map over the designs (alpha across, the tip's radius up): the plan's tolerance, or
+    with trials the simulated success rate; on each design without a plan a marker says why; a
+    star marks the chosen design and a circle the scene's own digits. Returns the Figure."""
+    from ..planning.result import PlanOutcome
+
+    plt = pyplot()
+    o = result.options
+    alphas, radii = list(o.alphas), [r * 1000 for r in o.tip_radii]
+    cells = np.array(result.designs, dtype=object).reshape(len(radii), len(alphas))
+    simulated = bool(o.simulate)
+    if simulated:
+        value = np.array([[np.nan if d.successes is None else d.successes / d.trials for d in row] for row in cells])
+        label, title = "simulated success rate (share of trials)", f"{result.scene}: success over {o.simulate} trials ({o.perturb})"
+    else:
+        value = np.array([[np.nan if d.tolerance is None else d.tolerance for d in row] for row in cells])
+        label, title = "tolerance (scale of the paper error box)", f"{result.scene}: tolerance of each design's plan"
+    fig, ax = plt.subplots(figsize=(7.5, 5.0), constrained_layout=True)
+
+    def edges(v: list[float]) -> np.ndarray:
+        v = np.asarray(v, dtype=float)
+        if len(v) == 1:
+            return np.array([v[0] - 0.5, v[0] + 0.5]) if v[0] == 0 else np.array([v[0] * 0.9, v[0] * 1.1])
+        mid = (v[1:] + v[:-1]) / 2
+        return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+
+    mesh = ax.pcolormesh(edges(alphas), edges(radii), np.ma.masked_invalid(value), cmap="viridis", shading="flat")
+    fig.colorbar(mesh, ax=ax, label=label)
+    reasons = {"invalid digits": ("digits cannot be built", "x"),
+               PlanOutcome.START_NOT_HELD: ("start not held", "v"), PlanOutcome.GOAL_EMPTY: ("goal region empty", "s"),
+               PlanOutcome.NO_SECURE_PATH: ("no secure path", "d"), NOT_EXECUTABLE: ("robot cannot execute it", "^"),
+               "failed": ("task failed", "X")}
+    placed: dict = {}
+    for i, row in enumerate(cells):
+        for j, d in enumerate(row):
+            if d.outcome is PlanOutcome.SOLVED and not (simulated and d.successes is None):
+                continue
+            key = ("invalid digits" if not d.digits_valid else NOT_EXECUTABLE if d.executable is False
+                   else d.outcome if d.outcome else "failed")
+            placed.setdefault(key, []).append((alphas[j], radii[i]))
+    for key, points in placed.items():
+        text, marker = reasons[key]
+        xs, ys = zip(*points)
+        ax.scatter(xs, ys, marker=marker, color="white", edgecolors="black", s=60, label=text)
+    own_a, own_r = result.own[0], result.own[1] * 1000
+    ax.scatter([own_a], [own_r], marker="o", facecolors="none", edgecolors="red", s=220, linewidths=2,
+               label="the scene's own digits")
+    if result.best is not None:
+        ax.scatter([result.best.alpha], [result.best.tip_radius * 1000], marker="*", color="orange",
+                   edgecolors="black", s=320, label="chosen design")
+    ax.set(xlabel="alpha: finger minus thumb length, over the object length",
+           ylabel="finger tip's dome radius (mm)" if o.finger_tip == "rounded" else "flat finger tip (no radius)",
+           title=title)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3)
+    return fig

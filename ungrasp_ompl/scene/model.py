@@ -431,6 +431,13 @@ class Scene:
         """A copy of the scene with some planning options replaced."""
         return replace(self, options=replace(self.options, **changes))
 
+    def with_free_goal(self) -> "Scene":
+        """The scene whose goal region lets d and psi take any value within the bounds (theta's
+        range kept): wherever the digits can let go, not only where the scene's own digits do."""
+        lo, hi = self.bounds
+        goal = replace(self.goal, d=(float(lo[1]), float(hi[1])), psi=(float(lo[2]), float(hi[2])))
+        return replace(self, goal=goal)
+
     def with_digits(self, alpha: float | None = None, finger_tip: str | None = None,
                     finger_tip_radius: float | None = None) -> "Scene":
         """The scene with other digits, checked as the scene file's are (InputError naming the

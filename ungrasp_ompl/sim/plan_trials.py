@@ -1,0 +1,60 @@
+"""A plan's simulated trials, one after another in this process: the one plan -> robot ->
+simulation pipeline that ``map``, ``design`` and certification run per cell or candidate.
+
+The plan is executed on the robot (robot.pipeline.execute: placement, IK, timing); when the robot
+cannot execute it (out of reach, an arm collision, beyond the joint limits) there are no trials and
+the robot's reason says why. Otherwise trial k meets the preset's errors drawn from (seed, k), as
+every campaign draws them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import UngraspError
+from ..perturbation import preset, trial_params
+from ..planning.result import Plan
+from ..scene import Scene
+from .outcome import TrialResult
+
+
+@dataclass(frozen=True)
+class PlanTrials:
+    """The simulated trials of one plan."""
+
+    results: tuple[TrialResult, ...]
+    """Each trial's result, in order (empty when the robot cannot execute the plan)."""
+    not_executable: str = ""
+    """The robot's reason when it cannot execute the plan; empty otherwise."""
+
+    @property
+    def executable(self) -> bool:
+        """The robot could execute the plan, so it was simulated."""
+        return not self.not_executable
+
+    @property
+    def successes(self) -> int:
+        """Trials placed within the scene's sim.max_error (count)."""
+        return sum(r.success for r in self.results)
+
+
+def plan_trials(scene: Scene, plan: Plan, trials: int, perturbation: str = "paper", seed: int = 1) -> PlanTrials:
+    """Execute a solved plan on the robot and simulate trials of it with the named preset's
+    errors; PlanTrials (without results, and the robot's reason, when it cannot be executed)."""
+    from ..planning.setup import add_3d_report
+    from ..robot.pipeline import execute
+    from .setup import trial_setup
+    from .trial import run_trial
+
+    if scene.plane is not None and plan.object is None:
+        add_3d_report(scene, plan)  # the object and its plane, which the placement needs
+    try:
+        execution = execute(scene, plan)
+    except UngraspError as exc:
+        return PlanTrials((), str(exc))
+    setup = trial_setup(scene, plan, execution.trajectory, execution.robot)
+    params = trial_params(preset(perturbation), seed, trials)
+    return PlanTrials(tuple(run_trial(setup, p, k, seed) for k, p in enumerate(params)))
+
+
+__all__ = ["PlanTrials", "plan_trials"]
