@@ -23,7 +23,8 @@ from ungrasp_ompl.planning.result import Plan
 from ungrasp_ompl.planning.verify import LegCheck
 from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
-from ungrasp_ompl.sim.campaign import deviated_plan, plan_problems, simulate, steeper_start, wilson_interval
+from ungrasp_ompl.planning.deviate import deviated_plan, plan_problems, steeper_start
+from ungrasp_ompl.sim.campaign import simulate, wilson_interval
 from ungrasp_ompl.sim.outcome import Outcome
 from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup

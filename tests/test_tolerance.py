@@ -17,7 +17,7 @@ from ungrasp_ompl.mechanics.antipodal import effective_friction
 from ungrasp_ompl.mechanics.kinematics import digit_axis, digit_polygons, thumb_normal
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.robustness import plan_samples
-from ungrasp_ompl.sim.campaign import steeper_start
+from ungrasp_ompl.planning.deviate import steeper_start
 from ungrasp_ompl.perturbation import PRESETS
 from ungrasp_ompl.tolerance import ToleranceOptions, ToleranceReason, tolerance
 

@@ -39,7 +39,8 @@ sys.path.insert(0, str(ROOT))
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
-from ungrasp_ompl.sim.campaign import plan_problems, simulate, steeper_start, wilson_interval  # noqa: E402
+from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: E402
+from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant, trial_setup  # noqa: E402
 

@@ -410,7 +410,7 @@ def _cage(args: argparse.Namespace) -> int:
     from .planning.result import read_plan
     from .robustness import cage_profile, path_friction_margin, plan_friction_margins
     from .scene import Scene
-    from .sim.campaign import check_psi_offset, deviated_plan, plan_problems
+    from .planning.deviate import check_psi_offset, deviated_plan, plan_problems
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     out = Path(args.out) if args.out else None
@@ -703,7 +703,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from .robot.export import export_all
     from .robot.pipeline import execute
     from .scene import Scene, read_yaml
-    from .sim.campaign import check_psi_offset, default_jobs, deviated_plan, plan_problems, simulate
+    from .planning.deviate import check_psi_offset, deviated_plan, plan_problems
+    from .sim.campaign import default_jobs, simulate
     from .perturbation import preset, trial_params
     from .sim.setup import Variant, object_outline, trial_setup
     from .sim.trial import trial_mjcf
