@@ -396,3 +396,24 @@ def test_cage_warns_of_a_plan_the_scene_rejects(tmp_path):
     proc = run_cli("cage", "guitar_pick", "--plan", str(plan_dir / "plan.json"))
     assert proc.returncode == 0, proc.stderr
     assert "warning: the model rejects this plan for guitar_pick: primitive" in proc.stdout
+
+
+def test_the_cage_workflow_returns_its_profile_as_values(tmp_path):
+    """cage_report is the command without the printing: its weakest state is the profile's least
+    escape energy, its smallest margin the plan's own, and write() puts both into cage.json."""
+    import json
+
+    from ungrasp_ompl.cage_report import CageOptions, cage_report
+    from ungrasp_ompl.planning.path_margin import path_friction_margin
+
+    scene = Scene.from_file("guitar_pick")
+    report = cage_report(scene, CageOptions(planner="lattice"))
+    assert report.planned and report.plan.solved and not report.problems
+    energies = [c.escape_energy for c in report.profile.cages]
+    assert report.weakest.escape_energy == min(energies)
+    assert report.smallest_margin == path_friction_margin(scene, report.plan).smallest
+    doc = json.loads(report.write(tmp_path)[0].read_text())
+    assert doc["min_friction_margin_deg"] == pytest.approx(math.degrees(report.smallest_margin))
+    with pytest.raises(InputError) as err:
+        cage_report(scene, CageOptions(planner="lattice", refine=0.0))
+    assert err.value.field == "refine"

@@ -400,89 +400,42 @@ def _stability(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: The cage options' fields and the flags a person types for them.
+_CAGE_FLAGS = {"refine": "--refine", "squeeze": "--squeeze"}
+
+
 def _cage(args: argparse.Namespace) -> int:
-    import json
     import math
 
-    from .io import write_text_atomic
-    from .mechanics.cage import CageGrid
-    from .planning import plan
-    from .planning.result import read_plan
-    from .robustness import cage_profile, path_friction_margin, plan_friction_margins
+    from .cage_report import CageOptions, cage_report
     from .scene import Scene
-    from .planning.deviate import check_psi_offset, deviated_plan, plan_problems
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     out = Path(args.out) if args.out else None
     if out is not None and out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
-    if scene.object_thickness <= 0.0:
-        raise InputError("object.thickness", "the cage's potential energy needs an object with a thickness (m)",
-                         scene.source)
-    if not (math.isfinite(args.refine) and args.refine > 0.0):
-        raise InputError("--refine", f"must be a positive factor, got {args.refine!r}")
-    if not (math.isfinite(args.squeeze) and args.squeeze >= 0.0):
-        raise InputError("--squeeze", f"must be a force in newtons >= 0, got {args.squeeze!r}")
-    if args.start_psi_offset_deg is not None:
-        check_psi_offset(math.radians(args.start_psi_offset_deg))
-    if args.plan is not None:
-        result = read_plan(args.plan)
-        for p in plan_problems(scene, result):
-            print(f"warning: the model rejects this plan for {scene.name}: {p}")
-    else:
-        result = plan(scene, planner=args.planner, time=args.time, seed=args.seed)
-        if not result.solved:
-            print(result.summary())
-            return EXIT_NO_SOLUTION
-        print(f"planned {scene.name} with {result.planner} (seed {result.seed}): cost {result.cost:.2f}")
-    if args.finger_tip is not None:
-        scene = scene.with_digits(finger_tip=args.finger_tip)
-    if args.start_psi_offset_deg is not None:
-        result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
-        start = result.states[0]
-        held = scene.diagnose(start)
-        print(f"deviated start: psi {math.degrees(start[2]):.1f} deg ({held.describe('it')}; friction margin "
-              f"{float(scene.margin(start).friction_deg[0]):.2f} deg with every contact sticking)")
-    try:
-        profile = cage_profile(scene, result, grid=CageGrid().refined(args.refine), squeeze=args.squeeze)
-    except InputError as exc:
-        if exc.field != "grid":
-            raise
-        raise InputError("--refine", exc.reason) from None
-    margins = plan_friction_margins(scene, profile.samples)
-    cage0 = profile.cages[0]
-    print(f"cage of {scene.name} along the plan: {len(profile.cages)} states, grid {cage0.spacing[0] * 1000:.2f} mm / "
-          f"{math.degrees(cage0.spacing[2]):.2f} deg over the whole turn, penetration tolerance "
-          f"{cage0.tolerance * 1000:.2f} mm" + (f", squeeze {args.squeeze:g} N" if args.squeeze else ", gravity only"))
-    print(f"  {'state (theta deg, d, psi deg)':<34} {'primitive':<8} {'cage':<12} {'escape mJ':>10} {'margin deg':>10}")
-    last = None
-    for k, (q, c) in enumerate(zip(profile.samples.states, profile.cages)):
-        prim = result.primitives[profile.samples.primitive[k]].type
-        row = (prim, c.outcome.value, round(c.escape_energy_mj, 4))
-        if row == last and k != len(profile.cages) - 1:
-            continue  # print where something changes, and the last state
-        last = row
-        energy = "inf" if math.isinf(c.escape_energy) else f"{c.escape_energy_mj:.4f}"
-        print(f"  ({math.degrees(q[0]):5.1f}, {q[1]:.3f}, {math.degrees(q[2]):5.1f}){'':<13} {prim:<8} "
-              f"{c.outcome.value:<12} {energy:>10} {math.degrees(margins[k]):>10.2f}")
-    weakest = profile.weakest(result)
-    start_energy = "inf" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f}"
-    print(f"start: {cage0.outcome.value.replace('_', ' ')} (escape energy {start_energy} mJ)")
-    path = path_friction_margin(scene, result)  # the plan's own figure, as `plan` and `bench` report it
-    print(f"{weakest.describe()}; smallest friction margin along the path {math.degrees(path.smallest):.3f} deg")
+    offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
+    options = CageOptions(plan=args.plan, planner=args.planner, time=args.time, seed=args.seed, squeeze=args.squeeze,
+                          refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset)
+    report = _flagged(lambda: cage_report(scene, options), _CAGE_FLAGS)
+    print(report.summary())
+    if not report.plan.solved:
+        return EXIT_NO_SOLUTION
     if out is not None:
-        from .robustness_plot import draw_cage_profile
-
-        doc = {"scene": scene.name, "squeeze_n": args.squeeze, "refine": args.refine,
-               "states": [[float(x) for x in q] for q in profile.samples.states],
-               "primitive": [int(p) for p in profile.samples.primitive],
-               "friction_margin_deg": [float(math.degrees(m)) for m in margins],
-               "min_friction_margin_deg": math.degrees(path.smallest),
-               "cage": [c.to_dict() for c in profile.cages], "weakest": weakest.to_dict()}
-        write_text_atomic(out / "cage.json", json.dumps(doc, indent=1) + "\n")
-        draw_cage_profile(scene.name, result, profile, margins, out / "cage.png")
-        print(f"wrote {out / 'cage.json'} and {out / 'cage.png'}")
+        files = report.write(out)
+        print(f"wrote {files[0]} and {files[1]}")
     return EXIT_OK
+
+
+def _flagged(call, flags: dict[str, str]):
+    """call()'s value; an InputError naming an options field it raises is named by its flag instead
+    (the library names its options' fields, a person typed the flags)."""
+    try:
+        return call()
+    except InputError as exc:
+        if exc.field in flags:
+            raise InputError(flags[exc.field], exc.reason, exc.source) from None
+        raise
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -554,12 +507,8 @@ def _design(args: argparse.Namespace) -> int:
                             finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb, seed=args.seed,
                             jobs=args.jobs, cluster=_cluster(args), out=args.out)
     bar = _Progress("designs", "design")
-    try:
-        result = run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total))
-    except InputError as exc:
-        if exc.field in _DESIGN_FLAGS:  # the library names its options' fields; a person typed the flag
-            raise InputError(_DESIGN_FLAGS[exc.field], exc.reason, exc.source) from None
-        raise
+    result = _flagged(lambda: run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total)),
+                      _DESIGN_FLAGS)
     files = result.write(result.options.out)
     print(result.summary())
     print(f"wrote {', '.join(str(p) for p in files.values())}")
