@@ -732,9 +732,12 @@ def _simulate(args: argparse.Namespace) -> int:
     write_text_atomic(out / "trials.csv", buf.getvalue())
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
     draw_trials(report, object_outline(scene), setup.target_pose, out / "trials.png")
-    from .view.trial_poses import write_simulated_view
+    from .sim.poses import record_trial, trial_start_time, write_trial_poses
+    from .view.record import write_view_record
 
-    write_simulated_view(out, scene, result, execution, setup, perturbation, args.seed, report.trials[0])
+    write_view_record(out, [(scene, result)], execution, kind="simulation")
+    write_trial_poses(out, record_trial(setup, trial_params(perturbation, args.seed, 1)[0],
+                                        trial_start_time(execution.trajectory), 0, args.seed, report.trials[0]))
     print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json, the trajectory, "
           f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
           f"'start': python -m mujoco.viewer --mjcf={out / 'model.xml'})")

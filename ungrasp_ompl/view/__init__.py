@@ -4,9 +4,10 @@
 wrote (trajectory.json, view_scene.json, and trial_poses.json after a simulation) and writes one
 self-contained HTML page (meshcat's viewer, animated) and, on request, a PNG strip of key frames.
 
-Modules: ``record`` (view_scene.json: what the view needs besides the trajectory), ``trial_poses``
-(a simulated trial's object poses), ``geometry`` (triangle meshes), ``scene`` (bodies and their
-poses over time), ``html`` (the meshcat page), ``frames`` (the key-frame strip, matplotlib).
+Modules: ``record`` (view_scene.json: what the view needs besides the trajectory), ``geometry``
+(triangle meshes), ``scene`` (bodies and their poses over time), ``html`` (the meshcat page),
+``frames`` (the key-frame strip, matplotlib). A simulated trial's object poses are what
+``sim.poses`` wrote (trial_poses.json): the view reads them and never runs the simulator.
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..sim.poses import POSES_FILE
 from .record import RECORD_FILE, write_view_record
-from .trial_poses import POSES_FILE
 
 TRAJECTORY_FILE = "trajectory.json"
 VIEW_FILE = "view.html"
@@ -45,7 +46,7 @@ def load_scene(directory: PathLike):
     from ..robot.export import read_json
     from .record import default_record, read_view_record
     from .scene import build_scene
-    from .trial_poses import read_trial_poses
+    from ..sim.poses import read_trial_poses
 
     d = Path(directory)
     if not d.is_dir():

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from ..robot.trajectory import JointTrajectory
 from . import geometry as geo
 from .record import PieceRecord, ViewRecord, robot_model
-from .trial_poses import TrialPoses
+from ..sim.poses import TrialPoses
 
 #: Frames per second of the animation (key frames; the browser interpolates between them).
 FPS = 30.0

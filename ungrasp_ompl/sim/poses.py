@@ -1,4 +1,4 @@
-"""The simulated object's pose over time in one trial: ``trial_poses.json``, for the 3D view.
+"""The simulated object's pose over time in one trial: ``trial_poses.json``, which the 3D view reads.
 
 ``simulate --out DIR`` runs its first trial once more in the main process with pose recording on
 (MuJoCo is deterministic: it is the campaign's trial 0 again; ``final_pose_difference_m`` says how
@@ -22,6 +22,9 @@ from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..io import read_json_file, write_text_atomic
+from ..perturbation import TrialParams
+from .outcome import TrialResult
+from .trial import TrialSetup, run_trial, trial_spec
 
 POSES_FILE = "trial_poses.json"
 FORMAT = "ungrasp-ompl trial poses"
@@ -47,14 +50,12 @@ class TrialPoses:
     final_pose_difference_m: float | None = None
 
 
-def record_trial(setup: Any, params: Any, start_time: float, trial: int = 0, seed: int | None = None,
-                 campaign: Any = None) -> TrialPoses:
+def record_trial(setup: TrialSetup, params: TrialParams, start_time: float, trial: int = 0, seed: int | None = None,
+                 campaign: TrialResult | None = None) -> TrialPoses:
     """Run one trial (sim.trial.run_trial) with recording on. setup: its TrialSetup; params: its
     TrialParams; start_time: trajectory time (s) of the drive's start (its first primitive);
     campaign: the campaign's TrialResult of the same trial, whose final pose is compared with the
     recorded pose at the same simulated time (a campaign's trial stops at its failure)."""
-    from ..sim.trial import run_trial, trial_spec
-
     record: list[tuple[float, NDArray]] = []
     result = run_trial(setup, params, trial, seed, record=record)
     times = np.array([t for t, _ in record]) + start_time
@@ -125,17 +126,8 @@ def read_trial_poses(path: PathLike) -> TrialPoses:
                       float("nan") if err is None else float(err), doc.get("final_pose_difference_m"))
 
 
-def write_simulated_view(directory: PathLike, scene: Any, plan: Any, execution: Any, setup: Any, perturbation: Any,
-                         seed: int, campaign: Any = None) -> list[Path]:
-    """What the 3D view of a simulated plan needs, written into directory: view_scene.json (kind
-    simulation) and trial_poses.json of trial 0 (run again with recording; its perturbation is the
-    campaign's trial 0's, drawn from (seed, 0)). Returns the two paths."""
-    from ..perturbation import trial_params
-    from .record import NON_PRIMITIVES, write_view_record
-
-    traj = execution.trajectory
-    start = next(float(traj.times[a]) for name, a, _ in traj.segments if name not in NON_PRIMITIVES[:2])
-    params = trial_params(perturbation, seed, 1)[0]
-    poses = record_trial(setup, params, start, 0, seed, campaign)
-    return [write_view_record(directory, [(scene, plan)], execution, kind="simulation"),
-            write_trial_poses(directory, poses)]
+def trial_start_time(trajectory: Any) -> float:
+    """Trajectory time (s) at which a placement's drive starts: its first primitive (the
+    approach and the return before it are not simulated)."""
+    return next(float(trajectory.times[a]) for name, a, _ in trajectory.segments
+                if name not in ("return", "approach"))
