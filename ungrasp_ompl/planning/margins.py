@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import bisect
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,9 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..mechanics import primitive_sliding_signs
 from ..mechanics.margin import friction_margin
 from .atlas import D, LEG_AXES, PSI, Leg, SecurityAtlas, reference_cost
+from .edges import LatticeEdges, lattice_edges
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .lattice import LatticeEdges
 
 #: Margins below this (deg) count as this in the balanced penalty, so that it stays finite.
 MARGIN_FLOOR_DEG = 1e-6
@@ -91,8 +89,6 @@ class LatticeMargins:
     def edges(self) -> "LatticeEdges":
         """The lattice's secure moves, built once."""
         if self._edges is None:
-            from .lattice import lattice_edges  # lattice.py imports this module
-
             self._edges = lattice_edges(self.atlas)
         return self._edges
 
