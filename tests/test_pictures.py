@@ -175,7 +175,7 @@ def test_stability_names_each_roll_direction():
     """The prism roll's +1 direction (a right-handed turn about G->B) lifts the side left of
     G->B seen from the finger (+z, the top face): so the print's words say which range is which."""
     from ungrasp_ompl.mechanics.roll import ROLL_WAYS, _rotate, describe_restoring
-    from ungrasp_ompl.stability import analyse
+    from ungrasp_ompl.scene.stability import analyse
 
     x, left = np.array([1.0, 0.0, 0.0]), np.array([[0.5, 1.0, 0.0]])  # +y: left of +x seen from +z
     assert np.cross(x, left[0] - [0.5, 0, 0]) @ [0, 0, 1] > 0

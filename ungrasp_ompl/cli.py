@@ -377,7 +377,7 @@ def _stability(args: argparse.Namespace) -> int:
     import math
 
     from .scene import Scene
-    from .stability import analyse
+    from .scene.stability import analyse
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     if scene.plane is None:

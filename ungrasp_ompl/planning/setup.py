@@ -522,7 +522,7 @@ def seed_ompl(seed: int) -> None:
 
 def add_3d_report(scene: Scene, result: Plan) -> None:
     """Attach the object, manipulation plane, effective friction and 3D stability to a plan."""
-    from ..stability import analyse
+    from ..scene.stability import analyse
 
     result.object = scene.object3d.to_dict()
     result.manipulation_plane = scene.plane.to_dict()

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .mechanics.roll import RollResult, describe_restoring, roll_simulation
-from .scene import Scene
+from ..mechanics.roll import RollResult, describe_restoring, roll_simulation
+from .model import Scene
 
 
 @dataclass
