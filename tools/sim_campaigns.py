@@ -95,7 +95,7 @@ def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, pap
     err = s["position_error_mm"]
     errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"
     causes = "; ".join(f"{n} {c}" for c, n in report.causes().items()) or "-"
-    verdict = model or ("secure" if not problems else "rejected: " + problems[0].split(": ", 1)[1].split(" at (")[0])
+    verdict = model or ("secure" if not problems else "rejected: " + str(problems[0].failure).split(" at (")[0])
     return Row(label, report.successes, trials, report.placed, errs, paper, paper_rate, verdict, causes)
 
 
