@@ -302,8 +302,10 @@ class DesignResult:
         head = [f"# Digits chosen by `ungrasp-ompl design` for {self.scene} (to print, in mm): thumb {thumb * 1000:.2f} long, "
                 f"finger {finger * 1000:.2f} long", f"# ({self.options.finger_tip} tip"
                 + (f", dome radius {d.tip_radius * 1000:.2f}" if self.options.finger_tip == "rounded" else "")
-                + f"); tolerance {d.tolerance:.3f} of the paper error box, cost {d.cost:.2f}."]
-        return "\n".join(head) + "\n" + yaml.safe_dump(doc, sort_keys=False)
+                + f"); tolerance {d.tolerance:.3f} of the paper error box, cost {d.cost:.2f}"
+                + (f"; {d.successes}/{d.trials} simulated trials placed ({self.options.perturb} errors, seed "
+                   f"{self.options.seed})." if d.successes is not None else ".")]
+        return "\n".join(head) + "\n" + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
     def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
         """Write design.csv, design.png and (with a chosen design) design_scene.yaml atomically
