@@ -41,7 +41,7 @@ def test_the_candidates_take_the_objectives_in_turn_then_further_seeds():
         "lattice balanced", "lattice cost", "lattice margin"]
     with pytest.raises(InputError) as err:
         candidate_sources("lattice", "cost", 1, 4)
-    assert err.value.field == "--candidates"
+    assert err.value.field == "candidates"
 
 
 ROW = st.tuples(st.integers(0, 12), st.integers(1, 12), st.sampled_from([1.0, 2.0])).map(
@@ -88,7 +88,7 @@ def test_certify_refuses_a_scene_the_simulator_cannot_take():
     scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
     with pytest.raises(InputError) as err:
         certify(scene, CertifyOptions(trials=2, candidates=2))
-    assert err.value.field == "--certify" and "thickness" in err.value.reason
+    assert err.value.field == "trials" and "thickness" in err.value.reason
 
 
 OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=0.5, jobs=1)

@@ -299,7 +299,7 @@ def test_plan_read_back_is_checked_field_by_field(tmp_path):
             read_plan(path)
         assert exc.value.field == field and words in exc.value.reason, str(exc.value)
 
-    refused(json.dumps(golden)[:500], "--plan", "is not valid JSON (cut short or mistyped?) at line 1, column 501")
+    refused(json.dumps(golden)[:500], "plan", "is not valid JSON (cut short or mistyped?) at line 1, column 501")
     far = json.loads(json.dumps(golden))
     far["primitives"][1]["waypoints"][-1][1] = 1e300  # d of 1e300 object lengths
     refused(far, "primitives[1].waypoints[1]", "must lie within theta [0, pi/2] rad, d [0, 1]")

@@ -9,6 +9,7 @@ command relies on is missing or failed (one line).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -249,11 +250,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _plan(args: argparse.Namespace) -> int:
     path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
-    import json
-
-    from .io import write_text_atomic
-    from .planning import plan
     from .scene import Scene
+    from .sim.campaign import default_jobs
+    from .sim.certify import CertifyOptions
+    from .workflows.plan import PlanOptions, plan_scene
 
     scene = Scene.from_file(path)
     out = Path(args.out) if args.out else None
@@ -261,104 +261,37 @@ def _plan(args: argparse.Namespace) -> int:
     for flag, path in (("--out", out), ("--export", export)):
         if path is not None and path.exists() and not path.is_dir():
             raise InputError(flag, f"{path} exists and is not a directory")
-    if args.cage and scene.object_thickness <= 0.0:
-        raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
-                         scene.source)
-    seed = _seed(args.seed)
-    certified = None
     if args.certify is None:
         for flag in ("candidates", "jobs"):
             if getattr(args, flag) is not None:
                 raise InputError(f"--{flag}", "applies only with --certify N")
-        result = plan(scene, planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
-                      objective=args.objective)
-    else:
-        certified = _certify(args, scene, seed)
-        if not certified.certified:
-            return EXIT_NO_SOLUTION
-        result = certified.plan
-    if result.solved and result.tolerance is None:
-        result.tolerance = scene.tolerance(result).to_dict()
+    if args.cage and scene.object_thickness <= 0.0:  # before a seed is drawn
+        raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
+                         scene.source)
+    seed = _seed(args.seed)
+    certify = None if args.certify is None else CertifyOptions(
+        trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
+        objective=args.objective, time=args.time, iterations=args.iterations, seed=seed,
+        jobs=default_jobs() if args.jobs is None else args.jobs)
+    options = PlanOptions(planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
+                          objective=args.objective, cage=args.cage, certify=certify)
+    bars = {"planning": _Progress("candidates", "planning"), "simulating": _Progress("trials", "simulate")}
+    result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
     print(result.summary())
-    if certified is not None:
-        print(_certified_line(certified))
-    cage = None
-    if args.cage and result.solved:
-        from .robustness import cage_profile
-
-        cage = cage_profile(scene, result).weakest(result)
-        print(cage.describe())
-    extra = {"cage": cage.to_dict()} if cage is not None else {}
-    if certified is not None:
-        extra["certification"] = certified.to_dict()
-    if out is not None:
-        from .plotting import draw_plan
-
-        write_text_atomic(out / "plan.json", json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
-        draw_plan(scene, result, out / "cspace.png")
-        print(f"wrote {out / 'plan.json'} and {out / 'cspace.png'}")
+    if out is not None and (result.certification is None or result.certification.certified):
+        files = result.write(out)
+        print(f"wrote {files['plan']} and {files['cspace']}")
     if not result.solved:
         return EXIT_NO_SOLUTION
     if export is not None:
         if scene.planar_only:
             print(f"note: {scene.name} is planar-only: {scene.planar_only}")
-        from .robot.export import export_all
-        from .robot.pipeline import execute
-
-        execution = execute(scene, result)
+        execution = result.execute()
         print(execution.summary())
-        paths = export_all(execution.trajectory, export)
-        from .view import write_view_record
-
-        paths["view"] = write_view_record(export, [(scene, result)], execution)
-        paths["plan"] = export / "plan.json"
-        write_text_atomic(paths["plan"], json.dumps({**result.to_dict(), **extra}, indent=2) + "\n")
+        paths = result.export(export, execution)
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
     return EXIT_OK
-
-
-def _certify(args: argparse.Namespace, scene, seed: int):
-    """plan --certify: the candidates planned and simulated, their table printed (sim.certify)."""
-    from .sim.campaign import default_jobs
-    from .sim.certify import CertifyOptions, certify
-
-    options = CertifyOptions(trials=args.certify, candidates=4 if args.candidates is None else args.candidates,
-                             planner=args.planner, objective=args.objective, time=args.time,
-                             iterations=args.iterations, seed=seed,
-                             jobs=default_jobs() if args.jobs is None else args.jobs)
-    bars = {"planning": _Progress("candidates", "planning"), "simulating": _Progress("trials", "simulate")}
-    result = certify(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
-    print(f"{len(result.candidates)} candidate plans of {scene.name}, {options.trials} trials each (perturbation "
-          f"'{options.perturb}', seed {seed}: trial k meets the same errors in every candidate), {options.jobs} jobs:")
-    print(f"  {'#':>2}  {'source':<26} {'cost':>8}  {'success':>8}  Wilson 95 %")
-    for c in result.candidates:
-        cost = "" if c.plan.cost is None else f"{c.plan.cost:.2f}"
-        if c.simulated:
-            low, high = c.interval
-            what = f"{c.successes:>3}/{len(c.results):<4}  {100 * low:3.0f}-{100 * high:.0f} %"
-            if c.same_as is not None:
-                what += f" (the path of #{c.same_as})"
-            elif c.causes:
-                cause, n = next(iter(c.causes.items()))
-                what += f"; {n} x {cause}" + (" ..." if len(c.causes) > 1 else "")
-        else:
-            what = f"{c.status.value.replace('_', ' ')}: {c.why}"
-        print(f"  {c.index:>2}  {c.source.label():<26} {cost:>8}  {what}")
-    n = len(result.candidates)
-    print(f"  {result.wall_time_s:.1f} s in all, {result.wall_time_s / n:.1f} s per candidate")
-    if not result.certified:
-        print(f"no candidate of {scene.name} could be simulated (none solved and executable)")
-    return result
-
-
-def _certified_line(result) -> str:
-    """Which candidate plan --certify kept, with its counts."""
-    kept = result.candidates[result.kept]
-    low, high = kept.interval
-    return (f"kept candidate #{kept.index} ({kept.source.label()}): success {kept.successes}/{len(kept.results)}, "
-            f"Wilson 95 % interval {100 * low:.1f}-{100 * high:.1f} % (the highest lower bound of the "
-            f"{sum(c.simulated for c in result.candidates)} simulated)")
 
 
 def _seed(given: int | None) -> int:
@@ -400,8 +333,6 @@ def _stability(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-#: The cage options' fields and the flags a person types for them.
-_CAGE_FLAGS = {"refine": "--refine", "squeeze": "--squeeze"}
 
 
 def _cage(args: argparse.Namespace) -> int:
@@ -417,7 +348,7 @@ def _cage(args: argparse.Namespace) -> int:
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
     options = CageOptions(plan=args.plan, planner=args.planner, time=args.time, seed=args.seed, squeeze=args.squeeze,
                           refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset)
-    report = _flagged(lambda: cage_report(scene, options), _CAGE_FLAGS)
+    report = cage_report(scene, options)
     print(report.summary())
     if not report.plan.solved:
         return EXIT_NO_SOLUTION
@@ -425,17 +356,6 @@ def _cage(args: argparse.Namespace) -> int:
         files = report.write(out)
         print(f"wrote {files[0]} and {files[1]}")
     return EXIT_OK
-
-
-def _flagged(call, flags: dict[str, str]):
-    """call()'s value; an InputError naming an options field it raises is named by its flag instead
-    (the library names its options' fields, a person typed the flags)."""
-    try:
-        return call()
-    except InputError as exc:
-        if exc.field in flags:
-            raise InputError(flags[exc.field], exc.reason, exc.source) from None
-        raise
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -493,9 +413,6 @@ def _map(args: argparse.Namespace) -> int:
     return EXIT_FAILURE if result.failed else EXIT_OK
 
 
-#: The design options' fields and the flags a person types for them.
-_DESIGN_FLAGS = {"alphas": "--alpha", "tip_radii": "--tip-radius", "finger_tip": "--finger-tip", "goal": "--goal",
-                 "simulate": "--simulate", "seed": "--seed"}
 
 
 def _design(args: argparse.Namespace) -> int:
@@ -507,8 +424,7 @@ def _design(args: argparse.Namespace) -> int:
                             finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb, seed=args.seed,
                             jobs=args.jobs, cluster=_cluster(args), out=args.out)
     bar = _Progress("designs", "design")
-    result = _flagged(lambda: run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total)),
-                      _DESIGN_FLAGS)
+    result = run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total))
     files = result.write(result.options.out)
     print(result.summary())
     print(f"wrote {', '.join(str(p) for p in files.values())}")
@@ -588,43 +504,26 @@ def _cluster(args: argparse.Namespace) -> str | None:
 
 
 def _tile(args: argparse.Namespace) -> int:
-    import json
-
-    from .io import write_text_atomic
     from .layout import Layout
-    from .plotting import draw_layout, draw_plan
-    from .planning.setup import PlannerOptions
-    from .tiling import TilingOptions, tile
+    from .tiling import TilingOptions
+    from .workflows.tile import check_tiling_options, tile_layout
 
     layout = Layout.from_file(resolve(args.layout, "layout"))
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
-    if args.planner != "lattice":
-        PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range).validated()
+    options = check_tiling_options(TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
+                                                 range=args.range, approaches=args.approaches))
     seed = _seed(args.seed)
-    result = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=seed, range=args.range,
-                                        approaches=args.approaches), _tile_progress(_Progress("pieces")))
+    result = tile_layout(layout, dataclasses.replace(options, seed=seed), _tile_progress(_Progress("pieces")))
     print(result.summary())
-    write_text_atomic(out / "tiling.json", json.dumps(result.to_dict(), indent=1) + "\n")
-    draw_layout(layout, result, out / "layout.png")
-    for p in result.placements:
-        draw_plan(p.scene, p.plan, out / f"cspace_{p.order}_{p.name}.png")
-    print(f"wrote {out / 'tiling.json'}, {out / 'layout.png'} and {len(result.placements)} C-space pictures")
-    if not result.solved:
+    files = result.write(out)
+    pictures = sum(k.startswith("cspace ") for k in files)
+    print(f"wrote {files['tiling']}, {files['layout']} and {pictures} C-space pictures"
+          + ("" if result.execution is None else ", " + ", ".join(str(files[k]) for k in files
+                                                                  if k not in ("tiling", "layout") and not k.startswith("cspace "))))
+    if result.execution is None:
         return EXIT_NO_SOLUTION
-    from .robot.export import export_all
-    from .robot.pipeline import execute_sequence
-
-    execution = execute_sequence([(p.scene, p.plan) for p in result.placements],
-                                 labels=[p.name for p in result.placements])
-    print(execution.summary())
-    paths = export_all(execution.trajectory, out)
-    from .view import write_view_record
-
-    paths["view"] = write_view_record(out, [(p.scene, p.plan) for p in result.placements], execution,
-                                      labels=[p.name for p in result.placements], kind="tiling")
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
     print(f"view it: ungrasp-ompl view {out}  (writes {out / 'view.html'})")
     return EXIT_OK
 
@@ -639,156 +538,45 @@ def _tile_progress(bar: _Progress):
     return show
 
 
+
+
 def _simulate(args: argparse.Namespace) -> int:
-    import csv
-    import io
-    import json
     import math
 
-    from .io import write_text_atomic
-    from .planning import plan
-    from .planning.result import read_plan
-    from .plotting import draw_trials
-    from .robot.export import export_all
-    from .robot.pipeline import execute
+    from .layout import Layout
     from .scene import Scene, read_yaml
-    from .planning.deviate import check_psi_offset, deviated_plan, plan_problems
-    from .sim.campaign import default_jobs, simulate
-    from .perturbation import preset, trial_params
-    from .sim.setup import Variant, object_outline, trial_setup
-    from .sim.trial import trial_mjcf
+    from .workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
-    perturbation = preset(args.perturb)
     shipped = next((s for s in shipped_scenes() if s.name == args.scene), None)
-    args.scene = str(resolve(args.scene, shipped.kind if shipped and not Path(args.scene).exists() else "scene"))
-    doc = read_yaml(args.scene, "scene")
+    path = resolve(args.scene, shipped.kind if shipped and not Path(args.scene).exists() else "scene")
+    offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
+    options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
+                              cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
+                              finger_tip=args.finger_tip, start_psi_offset=offset, friction_scale=args.friction_scale,
+                              thickness=args.thickness, equal_digits=args.equal_digits)
+    doc = read_yaml(path, "scene")
     if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
-        return _simulate_layout(args, perturbation, out)
-    scene = Scene.from_dict(doc, source=args.scene, default_name=Path(args.scene).stem)
-    if not 0.0 < args.friction_scale <= 1.0:
-        raise InputError("--friction-scale", f"must lie in (0, 1]: the simulator never grants more friction than "
-                         f"the scene's, got {args.friction_scale:g}")
-    if args.thickness is not None and not 0.0 < args.thickness < 0.05:
-        raise InputError("--thickness", f"must be a thickness in metres in (0, 0.05), got {args.thickness:g}")
-    if args.thickness is None and scene.object_thickness <= 0.0:
-        raise InputError("object.thickness", "the simulator needs an object with a thickness (m)", scene.source)
-    jobs = default_jobs() if args.jobs is None else args.jobs
-    if args.trials < 1 or jobs < 1:
-        raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
-    if args.start_psi_offset_deg is not None:
-        check_psi_offset(math.radians(args.start_psi_offset_deg))
-    if args.finger_tip is not None:
-        scene = scene.with_digits(finger_tip=args.finger_tip)
-    variant = Variant(friction_scale=args.friction_scale, thickness=args.thickness, equal_digits=args.equal_digits)
-
-    if args.plan is not None:
-        result = read_plan(args.plan)
-    else:
-        result = plan(scene, planner=args.planner, time=args.time, seed=args.seed)
-        if not result.solved:
-            print(result.summary())
+        layout = Layout.from_file(path)
+        run = simulate_layout(layout, options, _progress(args.trials))
+        print(run.summary())
+        if run.execution is None:
             return EXIT_NO_SOLUTION
-    if args.start_psi_offset_deg is not None:
-        result = deviated_plan(result, math.radians(args.start_psi_offset_deg))
-    problems = plan_problems(scene, result) if args.plan is not None or args.start_psi_offset_deg else []
-    for p in problems:
-        print(f"warning: the model rejects this plan for {scene.name}: {p}")
-    execution = execute(scene, result)
-    write_text_atomic(out / "plan.json", result.to_json())
-    export_all(execution.trajectory, out)
-    setup = trial_setup(scene, result, execution.trajectory, execution.robot, variant)
-    write_text_atomic(out / "model.xml", trial_mjcf(setup, trial_params(perturbation, args.seed, 1)[0]))
-    print(f"simulating {args.trials} trials of {scene.name} ({len(result.primitives)} primitives, "
-          f"{setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat), perturbation "
-          f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
-    report = simulate(setup, perturbation, args.trials, args.seed, jobs, _progress(args.trials), scene.name, variant,
-                      cluster=_cluster(args))
-    report.plan_problems = problems
-    summary = report.to_dict()
-    errs = summary["position_error_mm"]
-    yaw = summary["yaw_error_deg"]
-    low, high = summary["success_interval_95"]
-    print(f"success {report.successes}/{args.trials} (95 % interval {100 * low:.0f}-{100 * high:.0f} %; placed within "
-          f"{1000 * scene.sim.max_error:g} mm of the target)" + (
-        f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
-        f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
-    if report.placed != report.successes:
-        placed = summary["placed_position_error_mm"]
-        print(f"placed by the paper's criterion (any error) {report.placed}/{args.trials}; their error mean "
-              f"{placed['mean']:.2f} mm, max {placed['max']:.2f} mm")
-    for cause, n in report.causes().items():
-        print(f"  {n} x {cause}")
-    wall = sum(t.wall_time_s for t in report.trials) / len(report.trials)
-    print(f"real-time factor {report.real_time_factor():.1f} per worker ({wall:.2f} s wall per trial); deepest "
-          f"sinking into a digit or the table {summary['max_penetration_mm']:.3f} mm")
-    rows = [t.to_row() for t in report.trials]
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text_atomic(out / "trials.csv", buf.getvalue())
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
-    draw_trials(report, object_outline(scene), setup.target_pose, out / "trials.png")
-    from .sim.poses import record_trial, trial_start_time, write_trial_poses
-    from .view.record import write_view_record
-
-    write_view_record(out, [(scene, result)], execution, kind="simulation")
-    write_trial_poses(out, record_trial(setup, trial_params(perturbation, args.seed, 1)[0],
-                                        trial_start_time(execution.trajectory), 0, args.seed, report.trials[0]))
-    print(f"wrote {out / 'trials.csv'}, {out / 'summary.json'}, {out / 'trials.png'}, plan.json, the trajectory, "
-          f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
-          f"'start': python -m mujoco.viewer --mjcf={out / 'model.xml'})")
-    print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
-    return EXIT_OK
-
-
-def _simulate_layout(args: argparse.Namespace, perturbation, out: Path) -> int:
-    """simulate on a layout: tile it, then run whole attempts (every piece in order)."""
-    import json
-
-    from .io import write_text_atomic
-    from .layout import Layout
-    from .robot.export import export_all
-    from .robot.pipeline import execute_sequence
-    from .sim.campaign import default_jobs
-    from .sim.tiling import simulate_tiling, tiling_setups
-    from .tiling import TilingOptions, tile
-
-    for flag in ("plan", "start_psi_offset_deg", "thickness", "finger_tip"):
-        if getattr(args, flag) is not None:
-            raise InputError(f"--{flag.replace('_', '-')}", "applies to a single scene, not to a layout")
-    if args.equal_digits or args.friction_scale != 1.0:
-        raise InputError("--equal-digits" if args.equal_digits else "--friction-scale",
-                         "applies to a single scene, not to a layout")
-    jobs = default_jobs() if args.jobs is None else args.jobs
-    if args.trials < 1 or jobs < 1:
-        raise InputError("--trials" if args.trials < 1 else "--jobs", "must be at least 1")
-    layout = Layout.from_file(args.scene)
-    tiling = tile(layout, TilingOptions(planner=args.planner, time=args.time, seed=args.seed))
-    print(tiling.summary())
-    if not tiling.solved:
+        files = run.write(out)
+        print(f"wrote {files['summary']} and the trajectory")
+        return EXIT_OK
+    scene = Scene.from_dict(doc, source=str(path), default_name=path.stem)
+    run = simulate_scene(scene, options, _progress(args.trials))
+    print(run.summary())
+    if run.report is None:
         return EXIT_NO_SOLUTION
-    execution = execute_sequence([(p.scene, p.plan) for p in tiling.placements],
-                                 labels=[p.name for p in tiling.placements])
-    export_all(execution.trajectory, out)
-    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
-    print(f"simulating {args.trials} attempts of {layout.name}: {len(setups)} pieces each, perturbation "
-          f"'{perturbation.name}', seed {args.seed}, {jobs} jobs")
-    attempts = simulate_tiling(layout, setups, perturbation, args.trials, args.seed, jobs, _progress(args.trials),
-                               cluster=_cluster(args))
-    placed = sum(a.success for a in attempts)
-    print(f"success {placed}/{args.trials} (all {len(setups)} pieces flat inside the frame)")
-    for a in attempts:
-        if not a.success:
-            print(f"  attempt {a.attempt}: {a.cause()}")
-    doc = {"layout": layout.name, "attempts": args.trials, "successes": placed,
-           "results": [{"attempt": a.attempt, "success": a.success, "cause": a.cause(),
-                        "pieces": [dict(name=n, **t.to_row()) for n, t in zip(a.names, a.pieces)]} for a in attempts]}
-    write_text_atomic(out / "summary.json", json.dumps(doc, indent=1) + "\n")
-    print(f"wrote {out / 'summary.json'} and the trajectory")
+    files = run.write(out)
+    print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory, "
+          f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
+          f"'start': python -m mujoco.viewer --mjcf={files['model']})")
+    print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
     return EXIT_OK
 
 
@@ -842,10 +630,29 @@ def _scenes(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: Options fields whose flag is not --field-name (the library names its options' fields).
+_FIELD_FLAGS = {"alphas": "--alpha", "tip_radii": "--tip-radius", "friction_scales": "--friction-scale",
+                "start_psi_offset": "--start-psi-offset-deg", "start_theta_deg": "--start-theta",
+                "plan.trials": "--certify"}
+
+
+def _as_flag(exc: InputError, parser: argparse.ArgumentParser, command: str) -> InputError:
+    """The error of a library option named by the flag a person typed for it, when the command
+    has that flag; any other error (a scene's field, a file's) as it is."""
+    if exc.source is not None or not exc.field.isidentifier():
+        return exc
+    flag = _FIELD_FLAGS.get(f"{command}.{exc.field}", _FIELD_FLAGS.get(exc.field, "--" + exc.field.replace("_", "-")))
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
+    known = {o for action in sub._actions for o in action.option_strings}
+    return InputError(flag, exc.reason) if flag in known else exc
+
+
 def run(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    parser = _parser()
+    args = None
     try:
-        args = _parser().parse_args(argv)
+        args = parser.parse_args(argv)
         commands = {"plan": _plan, "regions": _regions, "stability": _stability, "cage": _cage, "bench": _bench,
                     "sweep": _sweep,
                     "map": _map, "design": _design, "tile": _tile, "simulate": _simulate, "scenes": _scenes, "view": _view}
@@ -853,6 +660,8 @@ def run(argv: list[str] | None = None) -> int:
     except UngraspError as exc:
         for bar in list(_Progress.open):
             bar.close(ok=False)
+        if isinstance(exc, InputError) and args is not None:
+            exc = _as_flag(exc, parser, args.command)
         print(f"ungrasp-ompl: error: {shipped_names(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:

@@ -96,7 +96,7 @@ PRESETS: dict[str, Perturbation] = {p.name: p for p in (
 def preset(name: str) -> Perturbation:
     """The named preset; InputError listing the presets for an unknown name."""
     if name not in PRESETS:
-        raise InputError("--perturb", f"unknown preset {name!r} (one of: {', '.join(PRESETS)})")
+        raise InputError("perturb", f"unknown preset {name!r} (one of: {', '.join(PRESETS)})")
     return PRESETS[name]
 
 

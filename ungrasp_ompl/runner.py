@@ -188,7 +188,7 @@ class RayRunner:
         """Whether connect() started Ray in this process (close() then stops it)."""
 
     def connect(self) -> "RayRunner":
-        """Connect to the cluster now (starting one for "local"); InputError("--cluster") when no
+        """Connect to the cluster now (starting one for "local"); InputError("cluster") when no
         cluster answers at the address, ToolError when ray is not installed."""
         ray = _ray()
         if ray.is_initialized():
@@ -246,7 +246,7 @@ def _ray():
 
 
 def _check_reachable(address: str, timeout_s: float = 3.0, probe_s: float = 30.0) -> None:
-    """InputError("--cluster") unless a Ray cluster answers at the address: something must accept
+    """InputError("cluster") unless a Ray cluster answers at the address: something must accept
     a connection on HOST:PORT within timeout_s, and a child process must connect to Ray there
     within probe_s (where Ray itself would retry for long, logging every attempt)."""
     from .errors import InputError
@@ -254,15 +254,15 @@ def _check_reachable(address: str, timeout_s: float = 3.0, probe_s: float = 30.0
     if address != "auto":
         host, sep, port = address.removeprefix("ray://").rpartition(":")
         if not sep or not host or not port.isdigit():
-            raise InputError("--cluster", f"must be local, auto or HOST:PORT (e.g. 10.0.0.5:6379), got {address!r}")
+            raise InputError("cluster", f"must be local, auto or HOST:PORT (e.g. 10.0.0.5:6379), got {address!r}")
         try:
             socket.create_connection((host, int(port)), timeout=timeout_s).close()
         except OSError as exc:
-            raise InputError("--cluster", f"no Ray cluster answers at {address} ({exc.strerror or exc})") from None
+            raise InputError("cluster", f"no Ray cluster answers at {address} ({exc.strerror or exc})") from None
     probe = run_in_child(_probe_ray, address, deadline=probe_s)
     if probe.status is not TaskStatus.DONE:
         why = str(probe.error) if probe.error else f"no answer in {probe_s:g} s"
-        raise InputError("--cluster", f"no Ray cluster at {address} ({why.splitlines()[0]})")
+        raise InputError("cluster", f"no Ray cluster at {address} ({why.splitlines()[0]})")
 
 
 def _probe_ray(address: str) -> None:

@@ -44,7 +44,7 @@ class RowStream:
         with open(self.path, newline="") as f:
             lines = list(csv.reader(f))
         if not lines or lines[0] != self.header:
-            raise InputError("--resume", f"{self.path} was not written by this command (its columns differ)")
+            raise InputError("resume", f"{self.path} was not written by this command (its columns differ)")
         for row in lines[1:]:
             if len(row) == len(self.header):  # a last line cut short by an interruption is dropped
                 self.rows[self.key(row)] = row

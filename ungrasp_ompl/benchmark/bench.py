@@ -83,7 +83,7 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     units, and its path's smallest friction margin) is also the yardstick of the gap column,
     computed once per scene when ``lattice`` is not benchmarked. Every planner, the yardstick
     included, optimises the options' objective. Writes the files (see the module) and returns the result. Raises
-    InputError naming the option (``--planners``, ``--runs``, ...) or the scene, before
+    InputError naming the options field (``planners``, ``runs``, ...) or the scene, before
     anything runs.
     """
     options = options.validated()

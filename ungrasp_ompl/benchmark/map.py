@@ -73,30 +73,30 @@ class MapOptions:
 
     def validated(self) -> "MapOptions":
         """These options checked; InputError naming the option otherwise."""
-        (planner,) = validate_planners([self.planner], "--planner")
+        (planner,) = validate_planners([self.planner], "planner")
         check_time(self.time)
         check_jobs(self.jobs)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
-            raise InputError("--seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
         if isinstance(self.simulate, bool) or not isinstance(self.simulate, int) or not 0 <= self.simulate <= 10000:
-            raise InputError("--simulate", f"must be a number of trials in [0, 10000], got {self.simulate!r}")
+            raise InputError("simulate", f"must be a number of trials in [0, 10000], got {self.simulate!r}")
         if self.start_theta_deg is not None and not (math.isfinite(self.start_theta_deg)
                                                      and 0.0 <= self.start_theta_deg <= 90.0):
-            raise InputError("--start-theta", f"must be an angle in [0, 90] deg, got {self.start_theta_deg!r}")
+            raise InputError("start_theta_deg", f"must be an angle in [0, 90] deg, got {self.start_theta_deg!r}")
         if not self.alphas:
-            raise InputError("--alpha", "gives no value")
+            raise InputError("alphas", "gives no value")
         if not self.friction_scales:
-            raise InputError("--friction-scale", "gives no value")
+            raise InputError("friction_scales", "gives no value")
         for s in self.friction_scales:
             if not (math.isfinite(s) and s > 0):
-                raise InputError("--friction-scale", f"must be positive factors, got {s:g}")
+                raise InputError("friction_scales", f"must be positive factors, got {s:g}")
         if len(self.alphas) * len(self.friction_scales) > MAX_CELLS:
-            raise InputError("--alpha", f"and --friction-scale give more than {MAX_CELLS} cells")
+            raise InputError("alphas", f"and --friction-scale give more than {MAX_CELLS} cells")
         check_out(self.out)
         if self.simulate:
             from ..perturbation import preset
 
-            preset(self.perturb)  # InputError("--perturb") for an unknown preset
+            preset(self.perturb)  # InputError("perturb") for an unknown preset
         return replace(self, planner=planner, alphas=tuple(map(float, self.alphas)),
                        friction_scales=tuple(map(float, self.friction_scales)))
 
@@ -117,9 +117,9 @@ def scene_variant(doc: dict, alpha: float, friction_scale: float, start_theta_de
         Scene.from_dict(base, source=source, default_name=name)
     except InputError as exc:
         if exc.field.startswith("digits"):
-            raise InputError("--alpha", f"{alpha:g}: {exc.field}: {exc.reason}") from None
+            raise InputError("alphas", f"{alpha:g}: {exc.field}: {exc.reason}") from None
         if exc.field.startswith("start"):
-            raise InputError("--start-theta", f"{start_theta_deg:g}: {exc.field}: {exc.reason}") from None
+            raise InputError("start_theta_deg", f"{start_theta_deg:g}: {exc.field}: {exc.reason}") from None
         raise
     friction = base.pop("friction", None)
     angles = base.pop("friction_angle_deg", None)
@@ -129,7 +129,7 @@ def scene_variant(doc: dict, alpha: float, friction_scale: float, start_theta_de
     try:
         return Scene.from_dict(base, source=source, default_name=name)
     except InputError as exc:
-        raise InputError("--friction-scale", f"{friction_scale:g}: {exc.field}: {exc.reason}") from None
+        raise InputError("friction_scales", f"{friction_scale:g}: {exc.field}: {exc.reason}") from None
 
 
 @dataclass(frozen=True)
@@ -327,7 +327,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     doc = read_yaml(scene_path, "scene")
     base = Scene.from_dict(doc, source=source, default_name=Path(source).stem)
     if options.simulate and base.object_thickness <= 0.0:
-        raise InputError("--simulate", "the simulator needs a scene with an object thickness (m)")
+        raise InputError("simulate", "the simulator needs a scene with an object thickness (m)")
     grid = [(a, f) for f in options.friction_scales for a in options.alphas]
     tasks = [MapTask(i, a, f, scene_variant(doc, a, f, options.start_theta_deg, source, base.name), options.planner,
                      options.time, options.seed, options.simulate, options.perturb) for i, (a, f) in enumerate(grid)]
@@ -340,7 +340,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
         task, named = by_key[key], dict(zip(MAP_COLUMNS, row))
         if (named["planner"], named["sim_trials"], named["seed"], named["time_s"]) != (
                 task.planner, str(task.trials), str(task.seed), repr(float(task.time))):
-            raise InputError("--resume", f"{stream.path} was made with other options (planner, --time, --seed or "
+            raise InputError("resume", f"{stream.path} was made with other options (planner, --time, --seed or "
                              "--simulate); use another --out or leave out --resume")
     stream.rows = dict(kept)
     resumed = len(kept)

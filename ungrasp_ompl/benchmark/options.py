@@ -1,8 +1,8 @@
 """What a benchmark and a sweep run with, and the checks that name the option at fault.
 
-Every check raises :class:`~ungrasp_ompl.errors.InputError` naming the command-line option
-(``--planners``, ``--runs``, ...), so the CLI answers with one line and exit 2 before anything
-runs or is written.
+Every check raises :class:`~ungrasp_ompl.errors.InputError` naming the options field at fault
+(``planners``, ``runs``, ...; the CLI names the flag a person typed for it), so the command
+answers with one line and exit 2 before anything runs or is written.
 """
 
 from __future__ import annotations
@@ -81,16 +81,16 @@ class SweepOptions:
 
     def validated(self) -> "SweepOptions":
         """These options checked; InputError naming the option otherwise."""
-        (planner,) = validate_planners([self.planner], "--planner")
+        (planner,) = validate_planners([self.planner], "planner")
         check_runs(self.runs, self.time, self.jobs, self.seed, self.out)
         check_iterations(self.iterations)
         alphas = tuple(float(a) for a in self.alphas)
         if not alphas:
-            raise InputError("--alpha", "gives no value")
+            raise InputError("alpha", "gives no value")
         return replace(self, planner=planner, alphas=alphas)
 
 
-def validate_planners(planners: Iterable[str], option: str = "--planners") -> list[str]:
+def validate_planners(planners: Iterable[str], option: str = "planners") -> list[str]:
     """The planner names, duplicates dropped; InputError(option) for an unknown or refused one."""
     names = list(dict.fromkeys(planners))
     if not names:
@@ -110,35 +110,35 @@ def validate_planners(planners: Iterable[str], option: str = "--planners") -> li
 def check_runs(runs: int, time_limit: float, jobs: int, seed: int, out_dir: str | os.PathLike[str]) -> Path:
     """Check the options every campaign shares; returns out_dir as a Path."""
     if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise InputError("--runs", f"must be a positive integer, got {runs!r}")
+        raise InputError("runs", f"must be a positive integer, got {runs!r}")
     check_time(time_limit)
     check_jobs(jobs)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0 or seed + runs > 2**32:
-        raise InputError("--seed", f"must be an integer with seed + runs <= 2^32, got {seed!r}")
+        raise InputError("seed", f"must be an integer with seed + runs <= 2^32, got {seed!r}")
     return check_out(out_dir)
 
 
 def check_time(time_limit: float) -> None:
     if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)) or not (
             math.isfinite(time_limit) and time_limit > 0):
-        raise InputError("--time", f"must be a positive number of seconds, got {time_limit!r}")
+        raise InputError("time", f"must be a positive number of seconds, got {time_limit!r}")
 
 
 def check_jobs(jobs: int) -> None:
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InputError("--jobs", f"must be a positive integer, got {jobs!r}")
+        raise InputError("jobs", f"must be a positive integer, got {jobs!r}")
 
 
 def check_iterations(iterations: int | None) -> None:
     if iterations is not None and (isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1):
-        raise InputError("--iterations", f"must be a positive integer, got {iterations!r}")
+        raise InputError("iterations", f"must be a positive integer, got {iterations!r}")
 
 
 def check_out(out_dir: str | os.PathLike[str]) -> Path:
-    """out_dir as a Path; InputError("--out") when it exists and is not a directory."""
+    """out_dir as a Path; InputError("out") when it exists and is not a directory."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise InputError("--out", f"{out} exists and is not a directory")
+        raise InputError("out", f"{out} exists and is not a directory")
     return out
 
 

@@ -120,11 +120,11 @@ def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progres
 
 
 def _with_alpha(scene: Scene, alpha: float) -> Scene:
-    """The scene with digits.alpha replaced (Scene.with_digits); InputError("--alpha") if invalid."""
+    """The scene with digits.alpha replaced (Scene.with_digits); InputError("alphas") if invalid."""
     try:
         return scene.with_digits(alpha=alpha)
     except InputError as exc:
-        raise InputError("--alpha", f"{alpha:g}: {exc.reason}") from None
+        raise InputError("alphas", f"{alpha:g}: {exc.reason}") from None
 
 
 __all__ = ["SWEEP_COLUMNS", "SweepPoint", "SweepResult", "run_sweep"]

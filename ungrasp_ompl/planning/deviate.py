@@ -19,7 +19,7 @@ from .verify import LegFailure, verify_leg
 def check_psi_offset(psi_offset: float) -> None:
     """Raises InputError unless psi_offset (rad) is a deviation of the start's psi in (0, 90) deg."""
     if not (math.isfinite(psi_offset) and 0.0 < psi_offset < math.pi / 2):
-        raise InputError("--start-psi-offset-deg", f"must lie in (0, 90) deg, got {math.degrees(psi_offset):g}")
+        raise InputError("start_psi_offset", f"must lie in (0, 90) deg, got {math.degrees(psi_offset):g}")
 
 
 def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
@@ -40,7 +40,7 @@ def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
         if len(ways) >= 2:
             steps.append(replace(p, start=ways[0], end=ways[-1], waypoints=ways))
     if not steps:
-        raise InputError("--start-psi-offset-deg", "leaves nothing of the plan to execute")
+        raise InputError("start_psi_offset", "leaves nothing of the plan to execute")
     return replace(plan, states=[lifted(plan.states[0])] + [lifted(q) for q in plan.states[1:]], primitives=steps)
 
 

@@ -309,12 +309,12 @@ def read_plan(path: str) -> Plan:
     path = Path(path)
     if path.is_dir():
         if not (path / "plan.json").is_file():
-            raise InputError("--plan", "holds no plan.json (plan --out DIR or plan --export DIR writes one)",
+            raise InputError("plan", "holds no plan.json (plan --out DIR or plan --export DIR writes one)",
                              str(path))
         path = path / "plan.json"
     from ..io import read_json_file
 
-    return Plan.from_dict(read_json_file(path, "--plan"), source=str(path))
+    return Plan.from_dict(read_json_file(path, "plan"), source=str(path))
 
 
 def describe_tolerance(tol: dict) -> str:

@@ -116,9 +116,9 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: i
     that error (TaskLost for a worker that died).
     progress is called with each result as it arrives."""
     if trials < 1:
-        raise InputError("--trials", f"must be at least 1, got {trials}")
+        raise InputError("trials", f"must be at least 1, got {trials}")
     if jobs < 1:
-        raise InputError("--jobs", f"must be at least 1, got {jobs}")
+        raise InputError("jobs", f"must be at least 1, got {jobs}")
     results = run_trials([setup], perturbation, trials, seed, jobs, progress, cluster)[0]
     return SimulationReport(scene, perturbation, variant, seed, results,
                             trajectory_duration_s=float(setup.drive.times[-1]))

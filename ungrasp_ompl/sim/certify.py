@@ -59,28 +59,28 @@ class CertifyOptions:
     """Ray cluster address for the trials ("local" starts one here); None: this machine."""
 
     def validated(self) -> "CertifyOptions":
-        """These options checked; InputError naming the command-line flag otherwise."""
+        """These options checked; InputError naming the field otherwise."""
         from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, check_objective
         from ..perturbation import preset
 
-        for flag, value in (("--certify", self.trials), ("--candidates", self.candidates), ("--jobs", self.jobs)):
+        for name, value in (("trials", self.trials), ("candidates", self.candidates), ("jobs", self.jobs)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise InputError(flag, f"must be at least 1, got {value!r}")
+                raise InputError(name, f"must be at least 1, got {value!r}")
         if self.planner != LATTICE and self.planner not in PLANNERS:
-            raise InputError("--planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)}, "
+            raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)}, "
                              f"{LATTICE})")
         why = UNUSABLE_PLANNERS.get(self.planner) or (
             KNOWN_LIMITATIONS[self.planner].value if self.planner in KNOWN_LIMITATIONS else "")
         if why:
-            raise InputError("--planner", f"{self.planner} cannot produce candidates: {why.split(';')[0]}")
+            raise InputError("planner", f"{self.planner} cannot produce candidates: {why.split(';')[0]}")
         try:
             check_objective(self.objective, self.planner)
         except InputError as exc:
-            raise InputError("--objective", exc.reason) from None
+            raise InputError("objective", exc.reason) from None
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
-            raise InputError("--seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
-        preset(self.perturb)  # InputError("--perturb") for an unknown preset
-        candidate_sources(self.planner, self.objective, self.seed, self.candidates)  # --candidates beyond the rule
+            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        preset(self.perturb)  # InputError("perturb") for an unknown preset
+        candidate_sources(self.planner, self.objective, self.seed, self.candidates)  # candidates beyond the rule
         return self
 
 
@@ -101,7 +101,7 @@ class CandidateSource:
 
 
 def candidate_sources(planner: str, objective: str, seed: int, count: int) -> list[CandidateSource]:
-    """The first count candidates of the rule (see the module); InputError("--candidates") when the
+    """The first count candidates of the rule (see the module); InputError("candidates") when the
     rule gives fewer (the lattice planner gives one per objective)."""
     from ..planning.margins import OBJECTIVES
     from ..planning.setup import check_objective
@@ -109,7 +109,7 @@ def candidate_sources(planner: str, objective: str, seed: int, count: int) -> li
     objectives = [objective] + [o for o in OBJECTIVES if o != objective]
     if planner == LATTICE:
         if count > len(objectives):
-            raise InputError("--candidates", f"the lattice planner gives at most {len(objectives)} candidates (one per "
+            raise InputError("candidates", f"the lattice planner gives at most {len(objectives)} candidates (one per "
                              f"objective), got {count}; use an OMPL planner (e.g. RRTstar) for more")
         return [CandidateSource(LATTICE, o, None) for o in objectives[:count]]
 
@@ -254,7 +254,7 @@ def certify(scene: Scene, options: CertifyOptions,
 
     options = options.validated()
     if scene.object_thickness <= 0.0:
-        raise InputError("--certify", "the simulator needs an object with a thickness (object.thickness)")
+        raise InputError("trials", "the simulator needs an object with a thickness (object.thickness)")
     t0 = time.perf_counter()
     sources = candidate_sources(options.planner, options.objective, options.seed, options.candidates)
     atlas = SecurityAtlas(scene, planning_box(scene))  # one secure lattice for every candidate

@@ -107,7 +107,7 @@ def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], pertur
     """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes
     (ungrasp_ompl.runner), or on the Ray cluster at the address cluster."""
     if attempts < 1:
-        raise InputError("--trials", f"must be at least 1, got {attempts}")
+        raise InputError("trials", f"must be at least 1, got {attempts}")
     work = [(layout, setups, perturbation, seed, k) for k in range(attempts)]
     results: list[TilingAttempt] = []
     with trial_runner(jobs, attempts, cluster) as runner, closing(runner.run(_attempt, work)) as outcomes:

@@ -113,12 +113,12 @@ def make_view(directory: PathLike, out: PathLike | None = None, frames: int | No
     from .html import write_page
 
     if frames is not None and not 1 <= frames <= MAX_FRAMES:
-        raise InputError("--frames", f"must be a count of key frames in 1..{MAX_FRAMES}, got {frames}")
+        raise InputError("frames", f"must be a count of key frames in 1..{MAX_FRAMES}, got {frames}")
     page = Path(out) if out is not None else Path(directory) / VIEW_FILE
     if page.suffix.lower() not in (".html", ".htm"):
-        raise InputError("--out", f"must name an .html file, got {page}")
+        raise InputError("out", f"must name an .html file, got {page}")
     if page.is_dir():
-        raise InputError("--out", f"{page} is a directory")
+        raise InputError("out", f"{page} is a directory")
     scene, sources = load_scene(directory)
     write_page(scene, page)
     strip, times = None, []

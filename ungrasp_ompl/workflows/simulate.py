@@ -1,0 +1,265 @@
+"""The ``simulate`` command's workflow: plan (or read) a scene's plan, execute it on the arm, and
+run perturbed trials of it in MuJoCo; or, for a layout, tile it and run whole attempts.
+
+:func:`simulate_scene` returns a :class:`SceneSimulation` and :func:`simulate_layout` a
+:class:`LayoutSimulation`; each has ``summary()`` (what the command prints) and ``write(dir)``
+(what it writes). Lengths in metres, angles in radians, times in seconds.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import InputError
+from ..io import write_text_atomic
+from ..layout import Layout
+from ..perturbation import Perturbation, preset, trial_params
+from ..planning import plan as plan_scene
+from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
+from ..planning.result import Plan, read_plan
+from ..plotting import draw_trials
+from ..robot.export import export_all
+from ..robot.pipeline import Execution, execute, execute_sequence
+from ..scene import Scene
+from ..sim.campaign import SimulationReport, default_jobs, simulate
+from ..sim.poses import record_trial, trial_start_time, write_trial_poses
+from ..sim.setup import Variant, object_outline, trial_setup
+from ..sim.tiling import TilingAttempt, simulate_tiling, tiling_setups
+from ..sim.trial import TrialSetup, trial_mjcf
+from ..tiling import Tiling, TilingOptions, tile
+from ..view.record import write_view_record
+
+
+@dataclass(frozen=True)
+class SimulateOptions:
+    """What ``simulate`` runs and how."""
+
+    trials: int = 10
+    """Trials of the placement (attempts of a layout), >= 1."""
+    perturb: str = "paper"
+    """The errors' preset (perturbation.PRESETS): paper, none, grasp, friction, mass, thickness."""
+    seed: int = 1
+    """Seed of the plan and of the trials' errors."""
+    jobs: int | None = None
+    """Worker processes (>= 1); None: all cores."""
+    cluster: str | None = None
+    """Address of a Ray cluster to run the trials on; None: this machine."""
+    plan: str | os.PathLike[str] | None = None
+    """plan.json (or a directory holding one) to execute; None: plan the scene."""
+    planner: str = "RRTstar"
+    """The planner when planning here (an OMPL planner, or lattice)."""
+    time: float = 1.0
+    """Planning time (s) when planning here."""
+    finger_tip: str | None = None
+    """rounded or flat instead of the scene's finger tip; None: the scene's."""
+    start_psi_offset: float | None = None
+    """Start the plan with psi larger by this (rad; the caging experiment); None: as planned."""
+    friction_scale: float = 1.0
+    """Factor in (0, 1] on every simulated friction coefficient (a control)."""
+    thickness: float | None = None
+    """The simulated object's thickness (m) instead of the scene's, the motion unchanged."""
+    equal_digits: bool = False
+    """Simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)."""
+
+    @property
+    def workers(self) -> int:
+        """The worker processes the trials run on."""
+        return default_jobs() if self.jobs is None else self.jobs
+
+    def perturbation(self) -> Perturbation:
+        """The errors' preset; InputError naming `perturb` for an unknown one."""
+        return preset(self.perturb)
+
+    def validated(self, scene: Scene | None = None) -> "SimulateOptions":
+        """These options checked (against the scene, or for a layout when scene is None);
+        InputError naming the field otherwise."""
+        if self.trials < 1 or self.workers < 1:
+            raise InputError("trials" if self.trials < 1 else "jobs", "must be at least 1")
+        self.perturbation()
+        if scene is None:
+            for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
+                if getattr(self, name) is not None:
+                    raise InputError(name, "applies to a single scene, not to a layout")
+            if self.equal_digits or self.friction_scale != 1.0:
+                raise InputError("equal_digits" if self.equal_digits else "friction_scale",
+                                 "applies to a single scene, not to a layout")
+            return self
+        if not 0.0 < self.friction_scale <= 1.0:
+            raise InputError("friction_scale", f"must lie in (0, 1]: the simulator never grants more friction than "
+                             f"the scene's, got {self.friction_scale:g}")
+        if self.thickness is not None and not 0.0 < self.thickness < 0.05:
+            raise InputError("thickness", f"must be a thickness in metres in (0, 0.05), got {self.thickness:g}")
+        if self.thickness is None and scene.object_thickness <= 0.0:
+            raise InputError("object.thickness", "the simulator needs an object with a thickness (m)", scene.source)
+        if self.start_psi_offset is not None:
+            check_psi_offset(self.start_psi_offset)
+        return self
+
+
+@dataclass
+class SceneSimulation:
+    """A scene's plan, its execution and its simulated trials (see the module)."""
+
+    scene: Scene
+    """The scene simulated (with the finger tip asked for)."""
+    plan: Plan
+    """The plan executed (deviated when asked); unsolved when planning found none."""
+    options: SimulateOptions
+    """What the run used."""
+    problems: list[PlanProblem] = field(default_factory=list)
+    """Why the scene's model rejects the plan (a plan read from a file, a deviated start); empty: it does not."""
+    execution: Execution | None = None
+    """The arm's trajectory and robot (None: no plan)."""
+    setup: TrialSetup | None = None
+    """What every trial starts from (None: no plan)."""
+    report: SimulationReport | None = None
+    """The trials, in order (None: no plan)."""
+
+    def summary(self) -> str:
+        """What the command prints: the success rate, its interval, the errors and the failures."""
+        if self.report is None:
+            return self.plan.summary()
+        report, scene = self.report, self.scene
+        lines = [f"warning: the model rejects this plan for {scene.name}: {p}" for p in self.problems]
+        s = report.to_dict()
+        errs, yaw, (low, high) = s["position_error_mm"], s["yaw_error_deg"], s["success_interval_95"]
+        n = len(report.trials)
+        lines.append(f"{scene.name}: {len(self.plan.primitives)} primitives, {self.setup.drive.times[-1]:.2f} s from the "
+                     f"first primitive to the end of the retreat; errors '{report.perturbation.name}', seed {report.seed}")
+        lines.append(f"success {report.successes}/{n} (95 % interval {100 * low:.0f}-{100 * high:.0f} %; placed within "
+                     f"{1000 * scene.sim.max_error:g} mm of the target)" + (
+                         f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
+                         f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
+        if report.placed != report.successes:
+            placed = s["placed_position_error_mm"]
+            lines.append(f"placed by the paper's criterion (any error) {report.placed}/{n}; their error mean "
+                         f"{placed['mean']:.2f} mm, max {placed['max']:.2f} mm")
+        lines += [f"  {k} x {cause}" for cause, k in report.causes().items()]
+        wall = sum(t.wall_time_s for t in report.trials) / n
+        lines.append(f"real-time factor {report.real_time_factor():.1f} per worker ({wall:.2f} s wall per trial); "
+                     f"deepest sinking into a digit or the table {s['max_penetration_mm']:.3f} mm")
+        return "\n".join(lines)
+
+    def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
+        """Write plan.json, the exported trajectory, trials.csv, summary.json, trials.png,
+        view_scene.json, trial_poses.json (trial 0 recorded) and model.xml (trial 0's world with
+        its keyframe 'start') into out, each atomically; returns their paths by name."""
+        if self.report is None or self.execution is None or self.setup is None:
+            raise ValueError("nothing was simulated: the scene has no plan")
+        out = Path(out)
+        files = {"plan": out / "plan.json", "trials": out / "trials.csv", "summary": out / "summary.json",
+                 "picture": out / "trials.png", "model": out / "model.xml"}
+        write_text_atomic(files["plan"], self.plan.to_json())
+        files.update(export_all(self.execution.trajectory, out))
+        first = trial_params(self.report.perturbation, self.report.seed, 1)[0]
+        write_text_atomic(files["model"], trial_mjcf(self.setup, first))
+        rows = [t.to_row() for t in self.report.trials]
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        write_text_atomic(files["trials"], buf.getvalue())
+        write_text_atomic(files["summary"], json.dumps(self.report.to_dict(), indent=1) + "\n")
+        draw_trials(self.report, object_outline(self.scene), self.setup.target_pose, files["picture"])
+        files["view"] = write_view_record(out, [(self.scene, self.plan)], self.execution, kind="simulation")
+        files["poses"] = write_trial_poses(out, record_trial(
+            self.setup, first, trial_start_time(self.execution.trajectory), 0, self.report.seed, self.report.trials[0]))
+        return files
+
+
+def simulate_scene(scene: Scene, options: SimulateOptions,
+                   progress: Callable[[object], None] | None = None) -> SceneSimulation:
+    """Plan the scene (or read options.plan), execute the plan, and run options.trials perturbed
+    trials of it; progress is called with each trial's result as it arrives. An unsolved plan
+    comes back without trials. InputError naming the field for bad options."""
+    options.validated(scene)
+    perturbation = options.perturbation()
+    if options.finger_tip is not None:
+        scene = scene.with_digits(finger_tip=options.finger_tip)
+    variant = Variant(friction_scale=options.friction_scale, thickness=options.thickness,
+                      equal_digits=options.equal_digits)
+    if options.plan is not None:
+        result = read_plan(options.plan)
+    else:
+        result = plan_scene(scene, planner=options.planner, time=options.time, seed=options.seed)
+        if not result.solved:
+            return SceneSimulation(scene, result, options)
+    if options.start_psi_offset is not None:
+        result = deviated_plan(result, options.start_psi_offset)
+    problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
+    execution = execute(scene, result)
+    setup = trial_setup(scene, result, execution.trajectory, execution.robot, variant)
+    report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
+                      cluster=options.cluster)
+    report.plan_problems = problems
+    return SceneSimulation(scene, result, options, problems, execution, setup, report)
+
+
+@dataclass
+class LayoutSimulation:
+    """A layout's tiling and its simulated attempts (see the module)."""
+
+    layout: Layout
+    """The layout simulated."""
+    tiling: Tiling
+    """Its tiling (unsolved: no attempts)."""
+    options: SimulateOptions
+    """What the run used."""
+    execution: Execution | None = None
+    """The one trajectory putting every piece down (None: no tiling)."""
+    attempts: list[TilingAttempt] = field(default_factory=list)
+    """The attempts, in order."""
+
+    @property
+    def successes(self) -> int:
+        """Attempts that put every piece flat inside the frame."""
+        return sum(a.success for a in self.attempts)
+
+    def summary(self) -> str:
+        """The tiling's summary, then the attempts' success and each failed attempt's cause."""
+        lines = [self.tiling.summary()]
+        if self.attempts:
+            pieces = len(self.attempts[0].names)
+            lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")
+            lines += [f"  attempt {a.attempt}: {a.cause()}" for a in self.attempts if not a.success]
+        return "\n".join(lines)
+
+    def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
+        """Write summary.json and the exported trajectory into out, atomically."""
+        if self.execution is None:
+            raise ValueError("nothing was simulated: the layout has no tiling")
+        out = Path(out)
+        files = export_all(self.execution.trajectory, out)
+        doc = {"layout": self.layout.name, "attempts": len(self.attempts), "successes": self.successes,
+               "results": [{"attempt": a.attempt, "success": a.success, "cause": a.cause(),
+                            "pieces": [dict(name=n, **t.to_row()) for n, t in zip(a.names, a.pieces)]}
+                           for a in self.attempts]}
+        files["summary"] = out / "summary.json"
+        write_text_atomic(files["summary"], json.dumps(doc, indent=1) + "\n")
+        return files
+
+
+def simulate_layout(layout: Layout, options: SimulateOptions,
+                    progress: Callable[[object], None] | None = None) -> LayoutSimulation:
+    """Tile the layout (seed options.seed) and run options.trials attempts of the whole tiling,
+    every piece in turn; an unsolved tiling comes back without attempts."""
+    options.validated(None)
+    tiling = tile(layout, TilingOptions(planner=options.planner, time=options.time, seed=options.seed))
+    if not tiling.solved:
+        return LayoutSimulation(layout, tiling, options)
+    execution = execute_sequence([(p.scene, p.plan) for p in tiling.placements],
+                                 labels=[p.name for p in tiling.placements])
+    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
+    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.seed, options.workers,
+                               progress, cluster=options.cluster)
+    return LayoutSimulation(layout, tiling, options, execution, attempts)
+
+
+__all__ = ["LayoutSimulation", "SceneSimulation", "SimulateOptions", "simulate_layout", "simulate_scene"]
