@@ -636,15 +636,21 @@ _FIELD_FLAGS = {"alphas": "--alpha", "tip_radii": "--tip-radius", "friction_scal
                 "plan.trials": "--certify"}
 
 
-def _as_flag(exc: InputError, parser: argparse.ArgumentParser, command: str) -> InputError:
+def _as_flag(exc: InputError, parser: argparse.ArgumentParser, args: argparse.Namespace) -> InputError:
     """The error of a library option named by the flag a person typed for it, when the command
-    has that flag; any other error (a scene's field, a file's) as it is."""
-    if exc.source is not None or not exc.field.isidentifier():
+    has that flag (an error in a file names the flag when that flag gave the file); any other
+    error (a scene's field) as it is."""
+    if not exc.field.isidentifier():
         return exc
-    flag = _FIELD_FLAGS.get(f"{command}.{exc.field}", _FIELD_FLAGS.get(exc.field, "--" + exc.field.replace("_", "-")))
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
-    known = {o for action in sub._actions for o in action.option_strings}
-    return InputError(flag, exc.reason) if flag in known else exc
+    flag = _FIELD_FLAGS.get(f"{args.command}.{exc.field}", _FIELD_FLAGS.get(exc.field, "--" + exc.field.replace("_", "-")))
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
+    action = next((a for a in sub._actions if flag in a.option_strings), None)
+    if action is None:
+        return exc
+    if exc.source is None:
+        return InputError(flag, exc.reason)
+    given = getattr(args, action.dest, None)
+    return InputError(flag, exc.reason, exc.source) if given and exc.source.startswith(str(given)) else exc
 
 
 def run(argv: list[str] | None = None) -> int:
@@ -661,7 +667,7 @@ def run(argv: list[str] | None = None) -> int:
         for bar in list(_Progress.open):
             bar.close(ok=False)
         if isinstance(exc, InputError) and args is not None:
-            exc = _as_flag(exc, parser, args.command)
+            exc = _as_flag(exc, parser, args)
         print(f"ungrasp-ompl: error: {shipped_names(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
