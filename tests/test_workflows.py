@@ -1,0 +1,75 @@
+"""The commands' workflows as library functions (ungrasp_ompl.workflows): each returns values that
+agree with the floors it chains, writes what it reports, and names an options field (never a
+flag) in its errors; the CLI alone names the flag."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import pytest
+from conftest import run_cli
+
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.planning import plan
+from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.workflows.plan import PlanOptions, plan_scene
+from ungrasp_ompl.workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
+
+
+def test_the_plan_workflow_is_the_planner_s_plan_with_its_tolerance_and_export(tmp_path):
+    scene = Scene.from_file("guitar_pick")
+    run = plan_scene(scene, PlanOptions(planner="lattice"))
+    direct = plan(scene, planner="lattice")
+    assert run.solved and run.plan.states == direct.states and run.plan.cost == direct.cost
+    assert run.plan.tolerance == scene.tolerance(direct).to_dict()
+    written = json.loads(run.write(tmp_path / "out")["plan"].read_text())
+    assert written["states"] == direct.states and "cage" not in written
+    files = run.export(tmp_path / "export")
+    assert {"json", "csv", "urscript", "view", "plan"} <= set(files) and all(p.is_file() for p in files.values())
+    with pytest.raises(InputError) as err:
+        plan_scene(Scene.from_file("reference_asymmetric"), PlanOptions(planner="lattice", cage=True))
+    assert err.value.field == "object.thickness"
+
+
+def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):
+    scene = Scene.from_file("guitar_pick")
+    run = simulate_scene(scene, SimulateOptions(trials=2, perturb="none", jobs=1, planner="lattice"))
+    assert run.report is not None and [t.trial for t in run.report.trials] == [0, 1]
+    assert not run.problems and run.plan.states == plan(scene, planner="lattice").states
+    files = run.write(tmp_path)
+    with open(files["trials"]) as f:
+        rows = list(csv.DictReader(f))
+    assert [r["outcome"] for r in rows] == [t.outcome.name.lower() for t in run.report.trials]
+    summary = json.loads(files["summary"].read_text())
+    assert summary["successes"] == run.report.successes
+    assert all(files[k].is_file() for k in ("model", "view", "poses", "picture"))
+
+
+@pytest.mark.parametrize("options, field", [
+    (SimulateOptions(trials=0), "trials"), (SimulateOptions(jobs=0), "jobs"), (SimulateOptions(perturb="storm"), "perturb"),
+    (SimulateOptions(friction_scale=1.5), "friction_scale"), (SimulateOptions(thickness=0.2), "thickness"),
+    (SimulateOptions(start_psi_offset=math.radians(100)), "start_psi_offset")])
+def test_simulate_options_name_their_field(options, field):
+    with pytest.raises(InputError) as err:
+        simulate_scene(Scene.from_file("guitar_pick"), options)
+    assert err.value.field == field and err.value.source is None
+
+
+def test_a_layout_refuses_the_options_of_a_single_scene():
+    layout = Layout.from_file("tangram")
+    for options, field in ((SimulateOptions(thickness=0.002), "thickness"), (SimulateOptions(equal_digits=True),
+                                                                            "equal_digits")):
+        with pytest.raises(InputError) as err:
+            simulate_layout(layout, options)
+        assert err.value.field == field
+
+
+@pytest.mark.parametrize("args, flag", [(("--trials", "0"), "--trials"), (("--friction-scale", "2"), "--friction-scale"),
+                                        (("--start-psi-offset-deg", "100"), "--start-psi-offset-deg")])
+def test_the_cli_names_the_flag_of_an_options_field(tmp_path, args, flag):
+    proc = run_cli("simulate", "guitar_pick", *args, "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2 and proc.stderr.startswith(f"ungrasp-ompl: error: {flag}: "), proc.stderr
+    assert not (tmp_path / "o").exists()
