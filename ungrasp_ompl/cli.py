@@ -517,13 +517,11 @@ def _tile(args: argparse.Namespace) -> int:
     seed = _seed(args.seed)
     result = tile_layout(layout, dataclasses.replace(options, seed=seed), _tile_progress(_Progress("pieces")))
     print(result.summary())
-    files = result.write(out)
-    pictures = sum(k.startswith("cspace ") for k in files)
-    print(f"wrote {files['tiling']}, {files['layout']} and {pictures} C-space pictures"
-          + ("" if result.execution is None else ", " + ", ".join(str(files[k]) for k in files
-                                                                  if k not in ("tiling", "layout") and not k.startswith("cspace "))))
+    doc, picture, cspaces = result.write(out)
+    print(f"wrote {doc}, {picture} and {len(cspaces)} C-space pictures")
     if result.execution is None:
         return EXIT_NO_SOLUTION
+    print("wrote " + ", ".join(str(p) for p in result.export(out).values()))
     print(f"view it: ungrasp-ompl view {out}  (writes {out / 'view.html'})")
     return EXIT_OK
 

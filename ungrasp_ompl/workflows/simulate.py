@@ -112,14 +112,17 @@ class SceneSimulation:
     """The plan executed (deviated when asked); unsolved when planning found none."""
     options: SimulateOptions
     """What the run used."""
-    problems: list[PlanProblem] = field(default_factory=list)
-    """Why the scene's model rejects the plan (a plan read from a file, a deviated start); empty: it does not."""
     execution: Execution | None = None
     """The arm's trajectory and robot (None: no plan)."""
     setup: TrialSetup | None = None
     """What every trial starts from (None: no plan)."""
     report: SimulationReport | None = None
     """The trials, in order (None: no plan)."""
+
+    @property
+    def problems(self) -> list[PlanProblem]:
+        """Why the scene's model rejects the plan (a plan read from a file, a deviated start); empty: it does not."""
+        return self.report.plan_problems if self.report is not None else []
 
     def summary(self) -> str:
         """What the command prints: the success rate, its interval, the errors and the failures."""
@@ -198,7 +201,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
                       cluster=options.cluster)
     report.plan_problems = problems
-    return SceneSimulation(scene, result, options, problems, execution, setup, report)
+    return SceneSimulation(scene, result, options, execution, setup, report)
 
 
 @dataclass

@@ -2,8 +2,8 @@
 
 :func:`tile_layout` tiles the layout (tiling.tile: an order, an approach and a plan per piece)
 and executes the solved tiling on the arm; the :class:`TiledLayout` it returns has ``summary()``
-and ``write(dir)`` (tiling.json, layout.png, a C-space picture per piece, and the exported
-trajectory with the view's record when solved).
+``write(dir)`` (tiling.json, layout.png, a C-space picture per piece) and, when solved,
+``export(dir)`` (the exported trajectory and the view's record).
 """
 
 from __future__ import annotations
@@ -39,21 +39,28 @@ class TiledLayout:
         """The tiling's summary, then the trajectory's when there is one."""
         return self.tiling.summary() + ("" if self.execution is None else "\n" + self.execution.summary())
 
-    def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
-        """Write tiling.json, layout.png and cspace_K_NAME.png per piece, and when solved the
-        exported trajectory and view_scene.json, into out, each atomically; returns the paths."""
+    def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
+        """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
+        returns their paths (the pictures in the order of the pieces)."""
         out = Path(out)
-        files = {"tiling": out / "tiling.json", "layout": out / "layout.png"}
-        write_text_atomic(files["tiling"], json.dumps(self.tiling.to_dict(), indent=1) + "\n")
-        draw_layout(self.layout, self.tiling, files["layout"])
+        doc, picture = out / "tiling.json", out / "layout.png"
+        write_text_atomic(doc, json.dumps(self.tiling.to_dict(), indent=1) + "\n")
+        draw_layout(self.layout, self.tiling, picture)
+        cspaces = []
         for p in self.tiling.placements:
-            files[f"cspace {p.name}"] = out / f"cspace_{p.order}_{p.name}.png"
-            draw_plan(p.scene, p.plan, files[f"cspace {p.name}"])
-        if self.execution is not None:
-            files.update(export_all(self.execution.trajectory, out))
-            pieces = self.tiling.placements
-            files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
-                                              labels=[p.name for p in pieces], kind="tiling")
+            cspaces.append(out / f"cspace_{p.order}_{p.name}.png")
+            draw_plan(p.scene, p.plan, cspaces[-1])
+        return doc, picture, cspaces
+
+    def export(self, out: str | os.PathLike[str]) -> dict[str, Path]:
+        """Write the exported trajectory (every format robot.export writes) and view_scene.json
+        into out, atomically; returns their paths by kind."""
+        if self.execution is None:
+            raise ValueError("the layout has no tiling to export")
+        pieces = self.tiling.placements
+        files = export_all(self.execution.trajectory, out)
+        files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
+                                          labels=[p.name for p in pieces], kind="tiling")
         return files
 
 
