@@ -150,78 +150,77 @@ class Stillness:
         return t - self.since >= STILL_WINDOW - 1e-9
 
 
+#: What a geom is to the watch: nothing it follows, the finger's body, its dome, the thumb, a wall or piece, the table.
+_OTHER, _FINGER, _DOME, _THUMB, _SOLID, _TABLE = range(6)
+
+
 class _Watch:
-    """The object's contacts per control tick: who touches it, how deep, with what force, where."""
+    """The object's contacts per control tick: who touches it, how deep, with what force, where.
+    One pass over MuJoCo's contact list as plain Python values: with a handful of contacts a
+    tick, numpy's per-call overhead would cost more than the arithmetic (a trial looks at
+    over a thousand ticks)."""
 
     def __init__(self, model, ids: ModelIds):
-        self.ids = ids
-        n = model.ngeom
-        self.finger = np.zeros(n, bool)
-        self.finger[list(ids.finger_geoms)] = True
-        self.thumb = np.zeros(n, bool)
-        self.thumb[list(ids.thumb_geoms)] = True
-        self.solid = np.zeros(n, bool)
-        self.solid[list(ids.solid_geoms)] = True
-        self.sinks = self.finger | self.thumb
-        self.sinks[ids.table_geom] = True
+        self.object = ids.object_geom
+        self.table = ids.table_geom
+        kind = [_OTHER] * model.ngeom
+        for g in ids.finger_geoms:
+            kind[g] = _DOME if g == ids.finger_dome else _FINGER
+        for g in ids.thumb_geoms:
+            kind[g] = _THUMB
+        for g in ids.solid_geoms:
+            kind[g] = _SOLID
+        kind[ids.table_geom] = _TABLE
+        self.kind = kind
 
-    def digit_on_table(self, data) -> bool:
-        """A digit touches the table now."""
-        n = data.ncon
-        if n == 0:
-            return False
-        geoms = data.contact.geom[:n]
-        table = self.ids.table_geom
-        other = np.where(geoms[:, 0] == table, geoms[:, 1], np.where(geoms[:, 1] == table, geoms[:, 0], -1))
-        other = other[other >= 0]
-        return bool(len(other) and (self.finger[other] | self.thumb[other]).any())
-
-    def _mine(self, data) -> tuple[NDArray, NDArray] | None:
-        """(indices of the object's contacts, the other geom of each), None without any."""
-        n = data.ncon
-        if n == 0:
-            return None
-        geoms = data.contact.geom[:n]
-        obj = self.ids.object_geom
-        mine = np.flatnonzero((geoms[:, 0] == obj) | (geoms[:, 1] == obj))
-        if not len(mine):
-            return None
-        g = geoms[mine]
-        return mine, np.where(g[:, 0] == obj, g[:, 1], g[:, 0])
-
-    def flags(self, data) -> tuple[bool, bool, bool, bool]:
-        """(A, B, solid, any digit) touching the object now."""
-        found = self._mine(data)
-        if found is None:
-            return False, False, False, False
-        other = found[1]
-        a, b = bool(self.finger[other].any()), bool(self.thumb[other].any())
-        return a, b, bool(self.solid[other].any()), a or b
-
-    def measure(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick | None:
-        """What the object's contacts are now (None: no contact at all). A is the finger's contact
-        nearest its tip; B is where the thumb's contact region (the hull of its contact points)
-        comes nearest the object's end: where a face lies along the object (psi near 0) MuJoCo
-        spreads the contact over the corners of the overlap, and the plan's B is the end."""
-        found = self._mine(data)
-        if found is None:
-            return None
-        mine, other = found
-        depth = -data.contact.dist[mine]
-        adr = data.contact.efc_address[mine]
-        force = np.where(adr >= 0, data.efc_force[np.maximum(adr, 0)], 0.0)  # elliptic cones: row 0 is normal
-        pos = data.contact.pos[mine]
-        on_a, on_b = self.finger[other], self.thumb[other]
-        dome = other == self.ids.finger_dome
-        tick = _Tick(bool(on_a.any()), bool(on_b.any()), bool(self.solid[other].any()),
-                     float(np.max(depth[self.sinks[other]], initial=0.0)),
-                     float(force[dome].sum()), float(force[on_a & ~dome].sum()))
-        on_a &= force > 0
-        on_b &= force > 0
-        if on_a.any() and on_b.any():
-            along = (pos[on_a] - data.xpos[finger_body]) @ data.xmat[finger_body].reshape(3, 3)[:, 2]
-            tick.a_point = pos[on_a][int(np.argmax(along))]
-            tick.b_points = pos[on_b]
+    def look(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick:
+        """What the object's contacts are now, and whether a digit touches the table. A is the
+        finger's contact nearest its tip; B is where the thumb's contact region (the hull of its
+        contact points) comes nearest the object's end: where a face lies along the object (psi
+        near 0) MuJoCo spreads the contact over the corners of the overlap, and the plan's B is
+        the end."""
+        tick = _Tick()
+        if data.ncon == 0:
+            return tick
+        con, kind, obj, table = data.contact, self.kind, self.object, self.table
+        mine = []
+        for i, (g1, g2) in enumerate(con.geom.tolist()):
+            if g1 == obj or g2 == obj:
+                mine.append((i, kind[g2 if g1 == obj else g1]))
+            elif g1 == table or g2 == table:
+                tick.digit_on_table |= _FINGER <= kind[g2 if g1 == table else g1] <= _THUMB
+        if not mine:
+            return tick
+        tick.touched = True
+        dist, adr, force = con.dist.tolist(), con.efc_address.tolist(), data.efc_force
+        pressing_a, pressing_b = [], []
+        for i, k in mine:
+            if k == _SOLID:
+                tick.solid = True
+            if k in (_OTHER, _SOLID):
+                continue
+            tick.sinking = max(tick.sinking, -dist[i])
+            if k == _TABLE:
+                continue
+            f = float(force[adr[i]]) if adr[i] >= 0 else 0.0  # elliptic cones: row 0 is normal
+            if k == _THUMB:
+                tick.b = True
+                if f > 0:
+                    pressing_b.append(i)
+                continue
+            tick.a = True
+            if k == _DOME:
+                tick.on_dome += f
+            else:
+                tick.off_dome += f
+            if f > 0:
+                pressing_a.append(i)
+        if pressing_a and pressing_b:
+            pos = con.pos
+            axis, origin = data.xmat[finger_body].reshape(3, 3)[:, 2], data.xpos[finger_body]
+            along = [float((pos[i] - origin) @ axis) for i in pressing_a]
+            tick.a_point = pos[pressing_a[along.index(max(along))]].copy()
+            tick.b_points = pos[pressing_b]
             tick.b_end = data.xmat[object_body].reshape(3, 3) @ b_point + data.xpos[object_body]
         return tick
 
@@ -230,12 +229,14 @@ class _Watch:
 class _Tick:
     """The object's contacts at one control tick."""
 
-    a: bool  #: the finger touches it
-    b: bool  #: the thumb touches it
-    solid: bool  #: a wall or a piece touches it
-    sinking: float  #: deepest into a digit or the table (m)
-    on_dome: float  #: A's normal force on a rounded tip's dome (N)
-    off_dome: float  #: A's normal force on the rest of the finger (N)
+    touched: bool = False  #: anything touches the object
+    a: bool = False  #: the finger touches it
+    b: bool = False  #: the thumb touches it
+    solid: bool = False  #: a wall or a piece touches it
+    digit_on_table: bool = False  #: a digit touches the table
+    sinking: float = 0.0  #: deepest into a digit or the table (m)
+    on_dome: float = 0.0  #: A's normal force on a rounded tip's dome (N)
+    off_dome: float = 0.0  #: A's normal force on the rest of the finger (N)
     a_point: NDArray | None = None  #: A (world, m), where both A and B press
     b_points: NDArray | None = None  #: the thumb's contact points (world, m)
     b_end: NDArray | None = None  #: the object's end B (world, m)
@@ -401,18 +402,16 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
             break
         if t >= release or failure is not None:  # after a failure (a crushed or falling object) nothing is measured
             continue
-        now = watch.measure(data, ids.object_body, ids.finger_body, setup.b_point)
-        if now is not None:
-            sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
-        if now is not None and now.a_point is not None and primitive[k] >= 0:
+        now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
+        sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
+        if now.a_point is not None and primitive[k] >= 0:
             rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
             travel.note(int(primitive[k]), np.array([
                 _in_body(data, ids.object_body, now.a_point), _in_body(data, ids.finger_body, now.a_point),
                 np.zeros(3), _in_body(data, ids.thumb_body, now.b_end)]), (now.b_points - origin) @ rot)
-        a, b, solid = (now.a, now.b, now.solid) if now is not None else (False, False, False)
-        if solid:
+        if now.solid:
             solid_seen_at = t
-        if watch.digit_on_table(data):  # a collision: a real arm stops (or the plan's clearance was not there)
+        if now.digit_on_table:  # a collision: a real arm stops (or the plan's clearance was not there)
             failure = (Outcome.DIGIT_HIT_TABLE, t)
             continue
         obj = _pose(data, ids.object_body)
@@ -420,7 +419,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if roll > LEFT_PLANE_DEG:  # held still, but turned out of the plane: the contact modes are lost
             failure = (Outcome.LEFT_PLANE, t)
             continue
-        if a and b:
+        if now.a and now.b:
             missing_since = None
             continue
         missing_since = t if missing_since is None else missing_since
@@ -437,10 +436,10 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
     pos_err, yaw_err = _placement_error(final, setup.target_pose, spec.obj.outline)
     if failure is None:
-        _, _, solid, digit = watch.flags(data)
+        now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
         if tilt > FLAT_TILT_DEG:
-            failure = (Outcome.HIT_SOLID if solid else Outcome.NOT_FLAT, float(drive.times[-1]))
-        elif digit:
+            failure = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
+        elif now.a or now.b:
             failure = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
         elif pos_err > setup.max_error * 1000:
             failure = (Outcome.OFF_TARGET, None)
