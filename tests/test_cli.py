@@ -245,7 +245,7 @@ def test_progress_in_a_pipe_is_a_line_per_tenth(tmp_path):
 def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
     import io
 
-    from ungrasp_ompl.cli import _Progress
+    from ungrasp_ompl.cli.progress import Progress as _Progress
 
     class Terminal(io.StringIO):
         def isatty(self):

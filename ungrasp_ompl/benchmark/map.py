@@ -313,6 +313,22 @@ class MapResult:
         """The cells whose task failed, hung or died."""
         return [c for c in self.cells if c.task_status is not TaskStatus.DONE]
 
+    def summary(self) -> str:
+        """What the map found, in a few lines: cells computed and kept, where a secure path exists
+        and the planner solved, the cells that failed."""
+        o, cells = self.options, self.cells
+        exists = sum(bool(c.secure_path) for c in cells)
+        solved = sum(bool(c.planner_solved) for c in cells)
+        lines = [f"{self.scene}: {len(o.alphas)} x {len(o.friction_scales)} cells (alpha x friction scale), "
+                 f"{self.ran} computed now, {len(cells) - self.ran} kept from {self.files['csv']}",
+                 f"  a secure path exists in {exists}; {o.planner} ({o.time:g} s, seed {o.seed}) solved {solved}"
+                 + (f"; simulated {o.simulate} trials per solved cell ({o.perturb})" if o.simulate else "")]
+        if self.failed:
+            first = self.failed[0]
+            lines.append(f"  {len(self.failed)} cells failed (task_status in map.csv), e.g. alpha {first.alpha:g}, "
+                         f"friction x{first.friction_scale:g}: {first.error}; --resume runs them again")
+        return "\n".join(lines)
+
 
 def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
             progress: Callable[[MapProgress], None] | None = None) -> MapResult:

@@ -88,6 +88,12 @@ class SweepResult:
         """The points as a text table."""
         return format_table(SWEEP_COLUMNS, self.points)
 
+    def summary(self) -> str:
+        """What was swept, and the table."""
+        o = self.options
+        return (f"{self.scene}: {o.planner}, {o.runs} run(s) of {o.time:g} s per alpha; costs in {self.units}\n"
+                + self.table)
+
 
 def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progress: Progress | None = None
               ) -> SweepResult:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from ..mechanics.roll import RollResult, describe_restoring, roll_simulation
 from .model import Scene
 
@@ -75,6 +76,29 @@ class StabilityReport:
                        f"{math.degrees(q[2]):.1f} deg): {verdict}; rolled each way up to "
                        f"{math.degrees(r.result.max_tilt):.0f} deg, restores over tilts {ranges}")
         return out
+
+
+def describe(scene: Scene) -> str:
+    """The stability command's report on a scene's grasp: its manipulation plane, each contact, how
+    x-moments are held, the prism roll at the start and at the goal region's centre, and the
+    verdict. Raises InputError when the scene has no outline."""
+    if scene.plane is None:
+        raise InputError("object.outline", "is missing: the stability analysis needs the object's outline", scene.source)
+    plane = scene.plane
+    g, b = plane.g.point * 1000, plane.b.point * 1000
+    lo, hi = scene.goal.box()
+    report = analyse(scene, [("start", scene.start), ("goal centre", (lo + hi) / 2)])
+    verdict = "self-restoring" if report.self_restoring else "NOT self-restoring"
+    return "\n".join([
+        f"{scene.name}: object {scene.object3d.thickness * 1000:.2f} mm thick, l = |GB| = {plane.length * 1000:.2f} mm",
+        f"  G ({g[0]:.2f}, {g[1]:.2f}) mm, B ({b[0]:.2f}, {b[1]:.2f}) mm, friction margin "
+        f"{math.degrees(plane.margin):.2f} deg{' (fixed by the scene)' if plane.fixed else ''}",
+        f"  effective friction: mu'_G {plane.mu_g:.4f} (from {scene.mu_contacts[0]:.4f}), "
+        f"mu'_B {plane.mu_b:.4f} (from {scene.mu_contacts[2]:.4f})",
+        *report.lines(),
+        "  legs: P_theta and P_psi keep full stability (at most one sliding contact); P_dpsi partial "
+        f"(two sliding, no z-moments){'; forbidden by the scene' if scene.options.forbid_partial else ''}",
+        f"verdict: the grasp is {verdict} in roll; x-moments {'held' if report.x_stable else 'NOT held'}"])
 
 
 def analyse(scene: Scene, states: list[tuple[str, np.ndarray]]) -> StabilityReport:

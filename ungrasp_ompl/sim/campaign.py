@@ -18,9 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..planning.deviate import PlanProblem
-from ..planning.result import Plan
 from ..runner import InlineRunner, LocalRunner, Runner, open_runner
-from ..scene import Scene
 from .outcome import Outcome, TrialResult
 from ..perturbation import Perturbation, TrialParams, trial_params
 from .setup import Variant

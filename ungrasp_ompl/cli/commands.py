@@ -1,0 +1,274 @@
+"""One function per command: options from the parsed arguments, the library's workflow called,
+its summary and the files it wrote printed. Returns the exit code; library errors propagate to
+cli.run, which prints them."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+from pathlib import Path
+
+from ..errors import EXIT_NO_SOLUTION, EXIT_OK, InputError
+from ..shipped import resolve, shipped_scenes
+from .progress import Progress, map_status, tile_progress, trial_progress
+
+
+def plan_command(args: argparse.Namespace) -> int:
+    path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
+    from ..scene import Scene
+    from ..sim.campaign import default_jobs
+    from ..sim.certify import CertifyOptions
+    from ..workflows.plan import PlanOptions, plan_scene
+
+    scene = Scene.from_file(path)
+    out = Path(args.out) if args.out else None
+    export = Path(args.export) if args.export else None
+    for flag, path in (("--out", out), ("--export", export)):
+        if path is not None and path.exists() and not path.is_dir():
+            raise InputError(flag, f"{path} exists and is not a directory")
+    if args.certify is None:
+        for flag in ("candidates", "jobs"):
+            if getattr(args, flag) is not None:
+                raise InputError(f"--{flag}", "applies only with --certify N")
+    if args.cage and scene.object_thickness <= 0.0:  # before a seed is drawn
+        raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
+                         scene.source)
+    seed = _seed(args.seed)
+    certify = None if args.certify is None else CertifyOptions(
+        trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
+        objective=args.objective, time=args.time, iterations=args.iterations, seed=seed,
+        jobs=default_jobs() if args.jobs is None else args.jobs)
+    options = PlanOptions(planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
+                          objective=args.objective, cage=args.cage, certify=certify)
+    bars = {"planning": Progress("candidates", "planning"), "simulating": Progress("trials", "simulate")}
+    result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
+    print(result.summary())
+    if out is not None and (result.certification is None or result.certification.certified):
+        files = result.write(out)
+        print(f"wrote {files['plan']} and {files['cspace']}")
+    if not result.solved:
+        return EXIT_NO_SOLUTION
+    if export is not None:
+        if scene.planar_only:
+            print(f"note: {scene.name} is planar-only: {scene.planar_only}")
+        execution = result.execute()
+        print(execution.summary())
+        paths = result.export(export, execution)
+        print("wrote " + ", ".join(str(p) for p in paths.values()))
+        print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
+    return EXIT_OK
+
+
+def _seed(given: int | None) -> int:
+    """The seed to plan with: the one given, else one drawn at random and printed, so that every run
+    can be repeated."""
+    if given is not None:
+        return given
+    import secrets
+
+    seed = 1 + secrets.randbelow(9999)
+    print(f"seed {seed} (pass --seed {seed} to repeat)")
+    return seed
+
+
+def stability_command(args: argparse.Namespace) -> int:
+    from ..scene import Scene
+    from ..scene.stability import describe
+
+    print(describe(Scene.from_file(resolve(args.scene, "scene"))))
+    return EXIT_OK
+
+
+def cage_command(args: argparse.Namespace) -> int:
+    import math
+
+    from ..cage_report import CageOptions, cage_report
+    from ..scene import Scene
+
+    scene = Scene.from_file(resolve(args.scene, "scene"))
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
+    options = CageOptions(plan=args.plan, planner=args.planner, time=args.time, seed=args.seed, squeeze=args.squeeze,
+                          refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset)
+    report = cage_report(scene, options)
+    print(report.summary())
+    if not report.plan.solved:
+        return EXIT_NO_SOLUTION
+    if out is not None:
+        files = report.write(out)
+        print(f"wrote {files[0]} and {files[1]}")
+    return EXIT_OK
+
+
+def bench_command(args: argparse.Namespace) -> int:
+    from ..benchmark import BenchmarkOptions, run_benchmark
+
+    planners = tuple(p.strip() for p in args.planners.split(",") if p.strip())
+    scenes = [resolve(s, "scene") for s in args.scenes]
+    options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
+                               out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume,
+                               objective=args.objective)
+    result = run_benchmark(scenes, options, progress=Progress("runs", "bench").show)
+    print(result.table)
+    print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")
+    return EXIT_OK
+
+
+def sweep_command(args: argparse.Namespace) -> int:
+    from ..benchmark import SweepOptions, parse_alpha_range, run_sweep
+
+    options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
+                           time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
+                           cluster=_cluster(args), resume=args.resume)
+    result = run_sweep(resolve(args.scene, "scene"), options, progress=Progress("runs", "sweep").show)
+    print(result.summary())
+    print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.options.out}")
+    return EXIT_OK
+
+
+def map_command(args: argparse.Namespace) -> int:
+    from ..benchmark.map import MapOptions, run_map
+    from ..benchmark.ranges import parse_range
+    from ..errors import EXIT_FAILURE
+
+    options = MapOptions(alphas=tuple(parse_range(args.alpha, "--alpha")),
+                         friction_scales=tuple(parse_range(args.friction_scale, "--friction-scale")),
+                         start_theta_deg=args.start_theta, planner=args.planner, time=args.time, seed=args.seed,
+                         simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
+                         resume=args.resume, out=args.out)
+    bar = Progress("cells", "map")
+    result = run_map(resolve(args.scene, "scene"), options,
+                     progress=lambda p: bar.show(p.done, p.total, map_status(p)))
+    print(result.summary())
+    print(f"wrote {result.files['csv']} and {result.files['plot']}")
+    return EXIT_FAILURE if result.failed else EXIT_OK
+
+
+def design_command(args: argparse.Namespace) -> int:
+    from ..benchmark.design import DesignOptions, run_design
+    from ..benchmark.ranges import parse_range
+
+    radii = tuple(r / 1000 for r in parse_range(args.tip_radius, "--tip-radius")) if args.tip_radius else ()
+    options = DesignOptions(alphas=tuple(parse_range(args.alpha, "--alpha")) if args.alpha else (), tip_radii=radii,
+                            finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb, seed=args.seed,
+                            jobs=args.jobs, cluster=_cluster(args), out=args.out)
+    bar = Progress("designs", "design")
+    result = run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total))
+    files = result.write(result.options.out)
+    print(result.summary())
+    print(f"wrote {', '.join(str(p) for p in files.values())}")
+    return EXIT_OK if result.best is not None else EXIT_NO_SOLUTION
+
+
+def _cluster(args: argparse.Namespace) -> str | None:
+    """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
+    return args.cluster or os.environ.get("RAY_ADDRESS") or None
+
+
+def tile_command(args: argparse.Namespace) -> int:
+    from ..layout import Layout
+    from ..tiling import TilingOptions
+    from ..workflows.tile import check_tiling_options, tile_layout
+
+    layout = Layout.from_file(resolve(args.layout, "layout"))
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    options = check_tiling_options(TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
+                                                 range=args.range, approaches=args.approaches))
+    seed = _seed(args.seed)
+    result = tile_layout(layout, dataclasses.replace(options, seed=seed), tile_progress(Progress("pieces")))
+    print(result.summary())
+    doc, picture, cspaces = result.write(out)
+    print(f"wrote {doc}, {picture} and {len(cspaces)} C-space pictures")
+    if result.execution is None:
+        return EXIT_NO_SOLUTION
+    print("wrote " + ", ".join(str(p) for p in result.export(out).values()))
+    print(f"view it: ungrasp-ompl view {out}  (writes {out / 'view.html'})")
+    return EXIT_OK
+
+
+def simulate_command(args: argparse.Namespace) -> int:
+    import math
+
+    from ..layout import Layout
+    from ..scene import Scene, read_yaml
+    from ..workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", f"{out} exists and is not a directory")
+    shipped = next((s for s in shipped_scenes() if s.name == args.scene), None)
+    path = resolve(args.scene, shipped.kind if shipped and not Path(args.scene).exists() else "scene")
+    offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
+    options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
+                              cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
+                              finger_tip=args.finger_tip, start_psi_offset=offset, friction_scale=args.friction_scale,
+                              thickness=args.thickness, equal_digits=args.equal_digits)
+    doc = read_yaml(path, "scene")
+    if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
+        layout = Layout.from_file(path)
+        run = simulate_layout(layout, options, trial_progress(args.trials))
+        print(run.summary())
+        if run.execution is None:
+            return EXIT_NO_SOLUTION
+        files = run.write(out)
+        print(f"wrote {files['summary']} and the trajectory")
+        return EXIT_OK
+    scene = Scene.from_dict(doc, source=str(path), default_name=path.stem)
+    run = simulate_scene(scene, options, trial_progress(args.trials))
+    print(run.summary())
+    if run.report is None:
+        return EXIT_NO_SOLUTION
+    files = run.write(out)
+    print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory, "
+          f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
+          f"'start': python -m mujoco.viewer --mjcf={files['model']})")
+    print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
+    return EXIT_OK
+
+
+def view_command(args: argparse.Namespace) -> int:
+    from ..view import make_view
+
+    files = make_view(args.dir, args.out, args.frames)
+    for note in files.notes:
+        print(f"note: {note}")
+    print(f"wrote {files.page} (open it in a browser; it works offline)")
+    if files.frames is not None:
+        times = ", ".join(f"{t:.2f}" for t in files.key_times)
+        print(f"wrote {files.frames}: {len(files.key_times)} key frames at {times} s")
+    return EXIT_OK
+
+
+def regions_command(args: argparse.Namespace) -> int:
+    from ..plotting import draw_regions
+    from ..scene import Scene
+
+    scene = Scene.from_file(resolve(args.scene, "scene"))
+    if not args.out.lower().endswith(".png"):
+        raise InputError("--out", "must name a .png file")
+    draw_regions(scene, args.out)
+    print(f"wrote {args.out}")
+    return EXIT_OK
+
+
+def scenes_command(args: argparse.Namespace) -> int:
+    shipped = shipped_scenes()
+    width = max([len("name")] + [len(s.name) for s in shipped])
+    print(f"{'name':<{width}}  {'kind':<6}  {'robot':<6}  description")
+    for s in shipped:
+        print(f"{s.name:<{width}}  {s.kind:<6}  {'planar' if s.planar_only else 'ready':<6}  {s.description}")
+        if s.planar_only:
+            print(f"{'':<{width + 18}}planar only: {s.planar_only}")
+    if shipped:
+        print(f"\nrun one by name (ungrasp-ompl plan guitar_pick, ungrasp-ompl tile tangram); "
+              f"the files are in {shipped[0].path.parent}")
+    return EXIT_OK
+
+
+#: The function of each command, by its name on the command line.
+COMMANDS = {"plan": plan_command, "regions": regions_command, "stability": stability_command, "cage": cage_command, "bench": bench_command, "sweep": sweep_command, "map": map_command, "design": design_command, "tile": tile_command, "simulate": simulate_command, "scenes": scenes_command, "view": view_command}

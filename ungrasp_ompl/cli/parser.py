@@ -1,0 +1,237 @@
+"""The command line's arguments: one sub-parser per command, with its help; argparse's complaints
+as one-line InputErrors naming the argument."""
+
+from __future__ import annotations
+
+import argparse
+
+from .. import __version__
+from ..errors import InputError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line naming the argument, exit 2, no usage dump
+        raise _argument_error(message)
+
+
+def _argument_error(message: str) -> InputError:
+    """argparse's complaint as an InputError naming the argument, e.g. "argument --time: invalid float
+    value: 'x'" as "--time: must be a number, got 'x'"."""
+    import re
+
+    if m := re.fullmatch(r"argument (\S+): (.*)", message, re.S):
+        name, reason = m[1].split("/")[-1], m[2]
+        if kind := re.fullmatch(r"invalid (int|float) value: (.*)", reason):
+            reason = f"must be {'an integer' if kind[1] == 'int' else 'a number'}, got {kind[2]}"
+        elif choice := re.fullmatch(r"invalid choice: (.*) \(choose from (.*)\)", reason):
+            reason = f"must be one of {choice[2].replace(chr(39), '')}, got {choice[1]}"
+        return InputError(name, reason)
+    if m := re.fullmatch(r"the following arguments are required: (.*)", message):
+        return InputError(m[1], "is required")
+    if m := re.fullmatch(r"unrecognized arguments: (.*)", message):
+        return InputError(m[1].split()[0], "is not an argument of this command (see --help)")
+    return InputError("arguments", message)
+
+
+def _seconds(text: str) -> float:
+    """A --time value: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    if value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds, got {text}")
+    return value
+
+
+#: Planners `bench` runs by default: OMPL's asymptotically optimal and feasibility planners
+#: that work with Python callbacks, and the exact lattice search as the yardstick.
+BENCH_PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "FMT", "AORRTC", "RRTConnect", "lattice")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ..planning import PLANNERS
+
+    p = _Parser(prog="ungrasp-ompl", description="Plan dexterous ungrasping with OMPL.")
+    p.add_argument("--version", action="version", version=f"ungrasp-ompl {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
+    pl.add_argument("scene", help="scene file (YAML), or the name of a shipped scene (see `scenes`)")
+    pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
+    pl.add_argument("--objective", default="cost", choices=("cost", "margin", "balanced"),
+                    help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
+                         "primitive changes, then the least length spent near that margin, then cost) or balanced "
+                         "(cost plus planning.margin_weight times a penalty growing as the margin shrinks)")
+    pl.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
+    pl.add_argument("--seed", type=int, default=None,
+                    help="seed: the same seed gives the same plan (default: one drawn at random, printed and "
+                         "stored in plan.json)")
+    pl.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations (default with a seed: 6000 per second of --time; "
+                         "1000 for PRM and PRMstar)")
+    pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
+    pl.add_argument("--export", default=None, metavar="DIR",
+                    help="also time the plan on the UR5e and its gripper and write the joint trajectory "
+                         "(CSV, JSON, ROS 2 YAML, URScript) and plan.json to DIR")
+    pl.add_argument("--cage", action="store_true",
+                    help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
+                         "plan and where (takes seconds; in plan.json under cage)")
+    pl.add_argument("--certify", type=int, default=None, metavar="N",
+                    help="plan several candidates (--candidates), simulate N trials of each with the paper "
+                         "perturbation, and keep the one with the highest Wilson 95 %% lower bound on success "
+                         "(in plan.json under certification)")
+    pl.add_argument("--candidates", type=int, default=None, metavar="K",
+                    help="candidate plans with --certify (default 4): objectives in turn (--objective first), "
+                         "for each the planner with --seed then the lattice; then the planner with seed + 1, + 2, ...")
+    pl.add_argument("--jobs", type=int, default=None,
+                    help="parallel trials with --certify (default: all cores)")
+
+    bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
+    bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")
+    bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
+                    help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
+    bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
+    bn.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
+    bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
+    bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
+    bn.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations per run: runs become reproducible like plan --seed (5x --time as a "
+                         "hard cap); default: stop on wall time, like OMPL's Benchmark")
+    bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
+    bn.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    bn.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
+    bn.add_argument("--objective", default="cost", choices=("cost", "margin", "balanced"),
+                    help="what every planner (and the lattice yardstick) optimises, as for plan (default cost)")
+
+    sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
+    sw.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
+    sw.add_argument("--planner", default="RRTstar")
+    sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
+    sw.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
+    sw.add_argument("--jobs", type=int, default=2)
+    sw.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
+    sw.add_argument("--iterations", type=int, default=None,
+                    help="planner iterations per run (reproducible runs); default: stop on wall time")
+    sw.add_argument("--out", default="sweep", help="output directory (default ./sweep)")
+    sw.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    sw.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
+
+    mp = sub.add_parser("map", help="a feasibility map over digit asymmetry and friction: the exact verdict, the "
+                        "planner's success and cost (and simulated success) per cell")
+    mp.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    mp.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
+    mp.add_argument("--friction-scale", default="1", metavar="START:STOP:STEP",
+                    help="factors on every friction coefficient of the scene, e.g. 0.5:1.5:0.1 (default 1)")
+    mp.add_argument("--start-theta", type=float, default=None, metavar="DEG",
+                    help="the start pinch's theta in degrees in every cell (default the scene's)")
+    mp.add_argument("--planner", default="RRTstar", help="planner per cell (an OMPL planner, or lattice)")
+    mp.add_argument("--time", type=_seconds, default=0.5,
+                    help="planning time per cell in seconds, as a seeded iteration budget (default 0.5)")
+    mp.add_argument("--seed", type=int, default=1, help="seed of the planner and the simulated trials (default 1)")
+    mp.add_argument("--simulate", type=int, default=0, metavar="N",
+                    help="also simulate N trials of each cell's plan (needs an object thickness)")
+    mp.add_argument("--perturb", default="paper", help="perturbation preset of the simulated trials (default paper)")
+    mp.add_argument("--jobs", type=int, default=2, help="cells at a time on this machine (default 2)")
+    mp.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    mp.add_argument("--resume", action="store_true", help="keep the cells already done in OUT/map.csv")
+    mp.add_argument("--out", default="map", help="output directory (default ./map): map.csv and map.png")
+
+    dn = sub.add_parser("design", help="the digits for an object: plan a grid of digit asymmetries and finger-tip radii, "
+                        "choose the most tolerant plan (or the most successful with --simulate)")
+    dn.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    dn.add_argument("--alpha", default=None, metavar="START:STOP:STEP",
+                    help="digit asymmetry over the object length (default five values 0.05 apart about the scene's)")
+    dn.add_argument("--tip-radius", default=None, metavar="START:STOP:STEP",
+                    help="the rounded finger tip's dome radius in mm (default 0.5, 0.75, 1, 1.5 and 2 times the scene's)")
+    dn.add_argument("--finger-tip", default="rounded", choices=("rounded", "flat"),
+                    help="rounded (point contact at A, the radius varies) or flat (edge contact)")
+    dn.add_argument("--goal", default="free", choices=("free", "scene"),
+                    help="free: each design lets go wherever its digits can (d and psi within the bounds); scene: "
+                    "the scene's own goal region (default free)")
+    dn.add_argument("--simulate", type=int, default=0, metavar="N",
+                    help="also simulate N trials of each design's plan and choose by success (Wilson lower bound)")
+    dn.add_argument("--perturb", default="paper", help="error preset of the simulated trials (default paper)")
+    dn.add_argument("--seed", type=int, default=1, help="seed of the simulated trials' errors (default 1)")
+    dn.add_argument("--jobs", type=int, default=2, help="designs at a time on this machine (default 2)")
+    dn.add_argument("--cluster", default=None, metavar="ADDRESS",
+                    help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    dn.add_argument("--out", default="design", help="output directory (default ./design): design.csv, design.png, "
+                    "design_scene.yaml")
+
+    st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
+    st.add_argument("scene", help="scene file (YAML) with object.outline, or the name of a shipped scene")
+
+    cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
+    cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
+    cg.add_argument("--plan", default=None, help="plan.json to examine, or a directory holding one (plan --export "
+                    "DIR); default: plan the scene, as plan does")
+    cg.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
+    cg.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds when planning (default 1)")
+    cg.add_argument("--seed", type=int, default=1, help="seed when planning (default 1)")
+    cg.add_argument("--squeeze", type=float, default=0.0,
+                    help="a constant force (N) pressing the object where the finger does (default 0: gravity only)")
+    cg.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
+                    help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
+    cg.add_argument("--start-psi-offset-deg", type=float, default=None,
+                    help="start the plan with psi this much larger (the paper's deviated start, sec. 6.2.3)")
+    cg.add_argument("--refine", type=float, default=1.0, metavar="FACTOR",
+                    help="divide the pose grid's steps (and its penetration tolerance) by FACTOR, to see whether "
+                         "the answer holds on a finer grid (default 1; 2 takes about 8 times as long)")
+    cg.add_argument("--out", default=None, help="directory for cage.png and cage.json")
+
+    tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
+    tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
+    tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
+    tl.add_argument("--time", type=_seconds, default=1.0, help="planning time per piece in seconds (default 1)")
+    tl.add_argument("--seed", type=int, default=None,
+                    help="seed: piece k is planned with seed + k (default: one drawn at random and printed)")
+    tl.add_argument("--range", type=float, default=1.0,
+                    help="the planner's longest motion per piece, state units (default 1.0)")
+    tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
+    tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
+                    "layout.png, a C-space picture per piece and the exported trajectory")
+
+    sm = sub.add_parser("simulate", help="execute a plan in MuJoCo: success rate and placement errors over "
+                        "perturbed trials")
+    sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
+                    "turn), or the name of a shipped one")
+    sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of "
+                    "planning (may be one the model rejects for this scene: a warning says why)")
+    sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
+    sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
+    sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
+    sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
+    sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
+                    "friction, mass, thickness")
+    sm.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
+    sm.add_argument("--out", default="simulation", help="output directory (default ./simulation)")
+    sm.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    sm.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
+                    help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
+    sm.add_argument("--start-psi-offset-deg", type=float, default=None,
+                    help="start the plan with psi this much larger, outside force closure (caging experiment)")
+    sm.add_argument("--friction-scale", type=float, default=1.0,
+                    help="simulate with every friction coefficient times this, in (0, 1] (a control)")
+    sm.add_argument("--thickness", type=float, default=None,
+                    help="simulate an object of this thickness (m) with the motion planned for the scene's")
+    sm.add_argument("--equal-digits", action="store_true",
+                    help="simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)")
+
+    vw = sub.add_parser("view", help="an animated 3D view (one offline HTML page) of what plan --export, tile or "
+                        "simulate wrote")
+    vw.add_argument("dir", metavar="DIR", help="a directory holding trajectory.json (plan --export DIR, tile --out DIR, "
+                    "simulate --out DIR)")
+    vw.add_argument("--out", default=None, help="the HTML file to write (default DIR/view.html)")
+    vw.add_argument("--frames", type=int, default=None, metavar="K",
+                    help="also write a PNG strip of K key frames beside it (view_frames.png)")
+
+    rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
+    rg.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    rg.add_argument("--out", required=True, help="PNG file to write")
+
+    sub.add_parser("scenes", help="list the shipped scenes and layouts, which every command takes by name")
+    return p
