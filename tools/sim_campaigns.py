@@ -42,11 +42,11 @@ sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
-from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
 from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
-from ungrasp_ompl.sim.setup import Variant, trial_setup  # noqa: E402
+from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
+from ungrasp_ompl.sim.setup import Variant  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
@@ -92,8 +92,7 @@ def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, pap
         paper_rate: tuple[int, int] | None = None, variant: Variant = Variant(), model: str | None = None) -> Row:
     """Execute and simulate one plan; the row of the table."""
     problems = plan_problems(scene, result)
-    ex = execute(scene, result)
-    report = simulate(trial_setup(scene, result, ex.trajectory, ex.robot, variant), PRESETS["paper"], trials, seed,
+    report = simulate(placement(scene, result, variant)[1], PRESETS["paper"], trials, seed,
                       jobs, scene=scene.name, variant=variant)
     s = report.to_dict()
     err = s["position_error_mm"]

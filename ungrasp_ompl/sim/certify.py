@@ -248,9 +248,8 @@ def certify(scene: Scene, options: CertifyOptions,
     take (no thickness); a candidate that is not solved or not executable is recorded as such."""
     from ..planning import plan
     from ..planning.atlas import SecurityAtlas, planning_box
-    from ..robot.pipeline import execute
     from ..perturbation import preset
-    from .setup import trial_setup
+    from .plan_trials import placement
 
     options = options.validated()
     if scene.object_thickness <= 0.0:
@@ -272,12 +271,12 @@ def certify(scene: Scene, options: CertifyOptions,
                 cand.status, cand.why, cand.same_as = CandidateStatus.SAME_PATH, "", same.index
             else:
                 try:
-                    execution = execute(scene, result)
+                    _, setup = placement(scene, result)
                 except UngraspError as exc:  # out of reach, a collision of the arm, beyond the joint limits
                     cand.status, cand.why = CandidateStatus.NOT_EXECUTABLE, str(exc)
                 else:
                     cand.status, cand.why = CandidateStatus.SIMULATED, ""
-                    setups.append((k, trial_setup(scene, result, execution.trajectory, execution.robot)))
+                    setups.append((k, setup))
         cand.planning_time_s = time.perf_counter() - t1
         candidates.append(cand)
         if progress:

@@ -1,5 +1,7 @@
-"""A plan's simulated trials, one after another in this process: the one plan -> robot ->
-simulation pipeline that ``map``, ``design`` and certification run per cell or candidate.
+"""The one plan -> robot -> simulation pipeline: ``placement`` executes a plan on the robot and
+sets up its trials (``simulate``, ``map``, ``design`` and certification all go through it), and
+``plan_trials`` runs a plan's trials one after another in this process (a cell of ``map`` or
+``design``).
 
 The plan is executed on the robot (robot.pipeline.execute: placement, IK, timing); when the robot
 cannot execute it (out of reach, an arm collision, beyond the joint limits) there are no trials and
@@ -11,11 +13,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from typing import TYPE_CHECKING
+
 from ..errors import UngraspError
 from ..perturbation import preset, trial_params
 from ..planning.result import Plan
 from ..scene import Scene
 from .outcome import TrialResult
+from .setup import TrialSetup, Variant
+
+if TYPE_CHECKING:
+    from ..robot.pipeline import Execution
 
 
 @dataclass(frozen=True)
@@ -38,23 +46,31 @@ class PlanTrials:
         return sum(r.success for r in self.results)
 
 
-def plan_trials(scene: Scene, plan: Plan, trials: int, perturbation: str = "paper", seed: int = 1) -> PlanTrials:
-    """Execute a solved plan on the robot and simulate trials of it with the named preset's
-    errors; PlanTrials (without results, and the robot's reason, when it cannot be executed)."""
+def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["Execution", TrialSetup]:
+    """A solved plan executed on the robot (placement, IK, timing) and what its trials share, with
+    the variant's changes to the simulated world. Raises the robot's UngraspError when it cannot
+    execute the plan (out of reach, an arm collision, beyond the joint limits)."""
     from ..planning.setup import add_3d_report
     from ..robot.pipeline import execute
     from .setup import trial_setup
-    from .trial import run_trial
 
     if scene.plane is not None and plan.object is None:
         add_3d_report(scene, plan)  # the object and its plane, which the placement needs
+    execution = execute(scene, plan)
+    return execution, trial_setup(scene, plan, execution.trajectory, execution.robot, variant)
+
+
+def plan_trials(scene: Scene, plan: Plan, trials: int, perturbation: str = "paper", seed: int = 1) -> PlanTrials:
+    """Execute a solved plan on the robot and simulate trials of it with the named preset's
+    errors; PlanTrials (without results, and the robot's reason, when it cannot be executed)."""
+    from .trial import run_trial
+
     try:
-        execution = execute(scene, plan)
+        _, setup = placement(scene, plan)
     except UngraspError as exc:
         return PlanTrials((), str(exc))
-    setup = trial_setup(scene, plan, execution.trajectory, execution.robot)
     params = trial_params(preset(perturbation), seed, trials)
     return PlanTrials(tuple(run_trial(setup, p, k, seed) for k, p in enumerate(params)))
 
 
-__all__ = ["PlanTrials", "plan_trials"]
+__all__ = ["PlanTrials", "placement", "plan_trials"]

@@ -25,11 +25,12 @@ from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, pla
 from ..planning.result import Plan, read_plan
 from ..plotting import draw_trials
 from ..robot.export import export_all
-from ..robot.pipeline import Execution, execute, execute_sequence
+from ..robot.pipeline import Execution, execute_sequence
 from ..scene import Scene
 from ..sim.campaign import SimulationReport, default_jobs, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
-from ..sim.setup import Variant, object_outline, trial_setup
+from ..sim.plan_trials import placement
+from ..sim.setup import Variant, object_outline
 from ..sim.tiling import TilingAttempt, simulate_tiling, tiling_setups
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..tiling import Tiling, TilingOptions, tile
@@ -196,8 +197,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.start_psi_offset is not None:
         result = deviated_plan(result, options.start_psi_offset)
     problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
-    execution = execute(scene, result)
-    setup = trial_setup(scene, result, execution.trajectory, execution.robot, variant)
+    execution, setup = placement(scene, result, variant)
     report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
                       cluster=options.cluster)
     report.plan_problems = problems
