@@ -31,7 +31,7 @@ def test_the_plan_workflow_is_the_planner_s_plan_with_its_tolerance_and_export(t
     assert {"json", "csv", "urscript", "view", "plan"} <= set(files) and all(p.is_file() for p in files.values())
     with pytest.raises(InputError) as err:
         plan_scene(Scene.from_file("reference_asymmetric"), PlanOptions(planner="lattice", cage=True))
-    assert err.value.field == "object.thickness"
+    assert err.value.field == "cage" and "object.thickness" in err.value.reason and err.value.source is None
 
 
 def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):

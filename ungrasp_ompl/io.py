@@ -48,3 +48,17 @@ def read_json_file(path: str | os.PathLike[str], field: str) -> Any:
                          f"{exc.colno}", source) from None
     except (OSError, UnicodeDecodeError, RecursionError):
         raise InputError(field, "cannot be read as JSON text", source) from None
+
+
+def read_versioned_json(path: str | os.PathLike[str], field: str, format: str, version: int) -> dict:
+    """The parsed JSON object of a file the commands wrote under a "format" name and a
+    "schema_version" (read_json_file's errors, then InputError naming "format" or
+    "schema_version" when the file is another kind or another version)."""
+    source = str(path)
+    doc = read_json_file(path, field)
+    if not isinstance(doc, dict) or doc.get("format") != format:
+        raise InputError("format", f"expected {format!r}", source)
+    if doc.get("schema_version") != version:
+        raise InputError("schema_version", f"is {doc.get('schema_version')!r}; this reader understands {version}",
+                         source)
+    return doc

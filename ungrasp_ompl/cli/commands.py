@@ -31,16 +31,14 @@ def plan_command(args: argparse.Namespace) -> int:
         for flag in ("candidates", "jobs"):
             if getattr(args, flag) is not None:
                 raise InputError(f"--{flag}", "applies only with --certify N")
-    if args.cage and scene.object_thickness <= 0.0:  # before a seed is drawn
-        raise InputError("--cage", "the cage's potential energy needs an object with a thickness (object.thickness)",
-                         scene.source)
-    seed = _seed(args.seed)
     certify = None if args.certify is None else CertifyOptions(
         trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
-        objective=args.objective, time=args.time, iterations=args.iterations, seed=seed,
+        objective=args.objective, time=args.time, iterations=args.iterations,
         jobs=default_jobs() if args.jobs is None else args.jobs)
-    options = PlanOptions(planner=args.planner, time=args.time, seed=seed, iterations=args.iterations,
-                          objective=args.objective, cage=args.cage, certify=certify)
+    options = PlanOptions(planner=args.planner, time=args.time, iterations=args.iterations,
+                          objective=args.objective, cage=args.cage, certify=certify).validated(scene)
+    seed = _seed(args.seed)  # drawn (and printed) only for options that can run
+    options = dataclasses.replace(options, seed=seed, certify=certify and dataclasses.replace(certify, seed=seed))
     bars = {"planning": Progress("candidates", "planning"), "simulating": Progress("trials", "simulate")}
     result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
     print(result.summary())

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import read_json_file, write_text_atomic
+from ..io import read_versioned_json, write_text_atomic
 from ..perturbation import TrialParams
 from .outcome import TrialResult
 from .trial import TrialSetup, run_trial, trial_spec
@@ -102,12 +102,7 @@ def write_trial_poses(directory: PathLike, poses: TrialPoses) -> Path:
 def read_trial_poses(path: PathLike) -> TrialPoses:
     """Read a trial_poses.json; InputError naming the field for malformed content."""
     source = str(path)
-    doc = read_json_file(path, "trial_poses.json")
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise InputError("format", f"expected {FORMAT!r}", source)
-    if doc.get("schema_version") != SCHEMA_VERSION:
-        raise InputError("schema_version", f"is {doc.get('schema_version')!r}; this reader understands "
-                         f"{SCHEMA_VERSION}", source)
+    doc = read_versioned_json(path, "trial_poses.json", FORMAT, SCHEMA_VERSION)
     try:
         times = np.asarray(doc["times_s"], dtype=float)
         poses = np.asarray(doc["poses"], dtype=float)

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import read_json_file, write_text_atomic
+from ..io import read_versioned_json, write_text_atomic
 from ..robot.model import GripperSpec, tcp_pose
 from ..robot.trajectory import JointTrajectory
 
@@ -222,12 +222,7 @@ def _project(points: NDArray, polyline: NDArray) -> NDArray[np.float64]:
 def read_view_record(path: PathLike) -> ViewRecord:
     """Read a view_scene.json; InputError naming the field for malformed content."""
     source = str(path)
-    doc = read_json_file(path, "view_scene.json")
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise InputError("format", f"expected {FORMAT!r}", source)
-    if doc.get("schema_version") != SCHEMA_VERSION:
-        raise InputError("schema_version", f"is {doc.get('schema_version')!r}; this reader understands "
-                         f"{SCHEMA_VERSION}", source)
+    doc = read_versioned_json(path, "view_scene.json", FORMAT, SCHEMA_VERSION)
     kind = _get(doc, "kind", str, source)
     if kind not in KINDS:
         raise InputError("kind", f"must be one of {', '.join(KINDS)}, got {kind!r}", source)

@@ -49,8 +49,7 @@ class PlanOptions:
     def validated(self, scene: Scene) -> "PlanOptions":
         """These options checked against the scene; InputError naming the field otherwise."""
         if self.cage and scene.object_thickness <= 0.0:
-            raise InputError("object.thickness", "the cage's potential energy needs an object with a thickness (m)",
-                             scene.source)
+            raise InputError("cage", "the cage's potential energy needs an object with a thickness (object.thickness)")
         if self.certify is not None:
             self.certify.validated()
         return self
