@@ -22,7 +22,7 @@ from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
 from ungrasp_ompl.robot.placement import densify
 from ungrasp_ompl.scene import Scene
-from ungrasp_ompl.tiling import DigitsDoNotFit, GoalStates, approach_scene, approaches, screen
+from ungrasp_ompl.tiling import DigitsDoNotFit, GoalStates, TilingOptions, approach_scene, approaches, screen, tile
 
 TANGRAM = SCENES / "tangram.yaml"
 
@@ -208,6 +208,22 @@ def test_frame_too_tight_for_the_thumb_names_the_piece_and_exits_3(tmp_path):
     assert "piece 'square' cannot be placed" in proc.stdout
     assert "wall_" in proc.stdout  # the reasons name the walls the digits would hit
     assert (tmp_path / "out" / "layout.png").exists() and not (tmp_path / "out" / "trajectory.csv").exists()
+    written = json.loads((tmp_path / "out" / "tiling.json").read_text())
+    assert written["failed_piece"] == "square" and written["down_before"] == [] and written["reasons"]
+    assert {r["kind"] for r in written["reasons"]} <= {"ends", "digits_do_not_fit"}  # values, not sentences
+
+
+def test_a_tiling_that_fails_gives_its_reasons_as_values(tmp_path):
+    """The same square, through the library: every reason is a Rejection with the value behind it,
+    and the screen's evidence says which check failed with which solid."""
+    from ungrasp_ompl.planning.setup import EndsProblem
+    from ungrasp_ompl.tiling import Rejection
+
+    result = tile(Layout.from_file(_square_in_frame(tmp_path, 0.0005)), TilingOptions(planner="lattice"))
+    assert not result.solved and result.failed_piece == "square" and result.down_before == []
+    ends = [r for r in result.reasons if r.kind is Rejection.ENDS]
+    assert ends and all(isinstance(r.evidence, EndsProblem) and r.approach is not None for r in ends)
+    assert any("wall_" in json.dumps(r.evidence.evidence) for r in ends)
 
 
 @pytest.mark.slow

@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from enum import Enum
 from typing import Callable, Iterator
 
 import numpy as np
@@ -158,7 +159,12 @@ class Tiling:
     layout: str
     placements: list[Placement] = field(default_factory=list)
     failed_piece: str | None = None
-    reasons: list[str] = field(default_factory=list)
+    reasons: list[ApproachRejected] = field(default_factory=list)
+    """Why the failed piece cannot be placed, approach by approach."""
+    down_before: list[str] | None = None
+    """The pieces down before the failed one in the deepest order tried (None: not a search failure)."""
+    capped: int | None = None
+    """The cap of approach checks, when the search stopped at it before trying every order."""
     checks: int = 0
     time_s: float = 0.0
 
@@ -177,12 +183,18 @@ class Tiling:
         if not self.solved:
             lines.append(f"piece {self.failed_piece!r} cannot be placed:")
             lines += [f"   {r}" for r in self.reasons]
+            if self.down_before is not None:
+                lines.append(f"   (pieces down before it in the deepest order tried: {', '.join(self.down_before) or 'none'})")
+        if self.capped is not None:
+            lines.append(f"   (the search stopped at its cap of {self.capped} approach checks, TilingOptions.max_checks, "
+                         "before trying every order)")
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
         return {"layout": self.layout, "solved": self.solved, "order": [p.name for p in self.placements],
                 "placements": [p.to_dict() for p in self.placements], "failed_piece": self.failed_piece,
-                "reasons": self.reasons, "approaches_checked": self.checks, "time_s": self.time_s}
+                "reasons": [r.to_dict() for r in self.reasons], "down_before": self.down_before,
+                "search_capped_at": self.capped, "approaches_checked": self.checks, "time_s": self.time_s}
 
 
 # -- approaches ----------------------------------------------------------------------
@@ -280,6 +292,44 @@ class DigitsDoNotFit:
 
     def __str__(self) -> str:
         return f"the digits do not fit this plane ({self.field}: {self.reason})"
+
+
+class Rejection(Enum):
+    """Why an approach of a piece was given up (the ``kind`` of tiling.json's reasons)."""
+
+    DIGITS_DO_NOT_FIT = "digits_do_not_fit"  #: the scene refuses the digits on that plane (evidence: DigitsDoNotFit)
+    ENDS = "ends"  #: the start cannot be held, or no goal state can be let go (evidence: EndsProblem)
+    NO_SECURE_PATH = "no_secure_path"  #: the exact lattice search finds no path
+    NOT_PLANNED = "not_planned"  #: the planner found no plan for a proven approach (evidence: the Plan)
+    NO_ANTIPODAL_PAIR = "no_antipodal_pair"  #: no pair of the outline fits the friction (no approach at all)
+    OUT_OF_CHECKS = "out_of_checks"  #: the search's cap of approach checks was reached (evidence: the cap)
+
+
+@dataclass(frozen=True)
+class ApproachRejected:
+    """One reason a piece cannot be placed: what failed, for which approach, with its evidence."""
+
+    kind: Rejection
+    """What failed."""
+    approach: Approach | None = None
+    """The approach that failed (None for a reason about the piece as a whole)."""
+    evidence: DigitsDoNotFit | EndsProblem | Plan | int | None = None
+    """The value behind it, by kind (see Rejection)."""
+
+    def __str__(self) -> str:
+        k, e = self.kind, self.evidence
+        if k is Rejection.NO_ANTIPODAL_PAIR:
+            return "no antipodal pair on its outline fits the friction"
+        if k is Rejection.OUT_OF_CHECKS:
+            return f"stopped after {e} approach checks"
+        what = ("no secure path (exact lattice search)" if k is Rejection.NO_SECURE_PATH
+                else f"{e.planner} found no plan ({e.reason})" if k is Rejection.NOT_PLANNED
+                else describe_outcome(e.outcome, e.evidence) if k is Rejection.ENDS else str(e))
+        return f"{self.approach.describe()}: {what}" if self.approach is not None else what
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind.value, "approach": None if self.approach is None else self.approach.describe(),
+                "detail": str(self)}
 
 
 def approach_scene(layout: Layout, i: int, approach: Approach, placed: list[int]) -> Scene | DigitsDoNotFit:
@@ -418,7 +468,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         if progress is not None:
             progress(TilingProgress(stage, done, n, result.checks, layout.pieces[i].name))
     walls = [wall_contact(layout, i) for i in range(n)]
-    screened: dict[tuple[frozenset, int], tuple[list, list[str]]] = {}
+    screened: dict[tuple[frozenset, int], tuple[list, list[ApproachRejected]]] = {}
     proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
     goals: dict[tuple[int, bytes, bytes], GoalStates] = {}  # by piece and approach, over all pieces down
     deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
@@ -426,7 +476,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     def out_of_checks() -> bool:
         return result.checks >= opts.max_checks
 
-    def viable(i: int, placed: list[int]) -> tuple[list[tuple[Approach, Scene]], list[str]]:
+    def viable(i: int, placed: list[int]) -> tuple[list[tuple[Approach, Scene]], list[ApproachRejected]]:
         """Approaches of piece i that pass the screen with placed down, and why the others fail."""
         key = (frozenset(placed), i)
         if key not in screened:
@@ -436,22 +486,22 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 report("search", len(placed), i)
                 scene = approach_scene(layout, i, a, placed)
                 if isinstance(scene, DigitsDoNotFit):
-                    why.append(f"{a.describe()}: {scene}")
+                    why.append(ApproachRejected(Rejection.DIGITS_DO_NOT_FIT, a, scene))
                     continue
                 plane = (i, a.g.tobytes(), a.b.tobytes())
                 if plane not in goals:
                     goals[plane] = GoalStates(scene)
                 problem = screen(scene, goals[plane])
                 if problem:
-                    why.append(f"{a.describe()}: {describe_outcome(problem.outcome, problem.evidence)}")
+                    why.append(ApproachRejected(Rejection.ENDS, a, problem))
                 else:
                     ok.append((a, scene))
             if not ok and not why:
-                why.append("no antipodal pair on its outline fits the friction")
+                why.append(ApproachRejected(Rejection.NO_ANTIPODAL_PAIR))
             screened[key] = (ok, why)
         return screened[key]
 
-    def fail(i: int, placed: list[int], reasons: list[str]) -> None:
+    def fail(i: int, placed: list[int], reasons: list[ApproachRejected]) -> None:
         if len(placed) > deepest["depth"]:
             deepest.update(depth=len(placed), piece=i, reasons=reasons, placed=list(placed))
 
@@ -474,7 +524,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 why = list(options[i][1])
                 for a, scene in options[i][0]:
                     if out_of_checks():
-                        why.append(f"stopped after {opts.max_checks} approach checks")
+                        why.append(ApproachRejected(Rejection.OUT_OF_CHECKS, evidence=opts.max_checks))
                         break
                     result.checks += 1
                     report("search", len(placed), i)
@@ -482,7 +532,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                     if problem is None:
                         proven[key] = (a, scene, atlas)
                         break
-                    why.append(f"{a.describe()}: no secure path (exact lattice search)")
+                    why.append(ApproachRejected(Rejection.NO_SECURE_PATH, a))
                 if proven[key] is None:  # it cannot be placed now, nor after more pieces
                     fail(i, placed, why)
                     return None
@@ -494,14 +544,12 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     found = search([], [])
     if found is None:
         result.failed_piece = layout.pieces[deepest["piece"]].name if deepest["piece"] is not None else None
-        down = ", ".join(layout.pieces[j].name for j in deepest["placed"]) or "none"
-        result.reasons = deepest["reasons"] + [f"(pieces down before it in the deepest order tried: {down})"]
+        result.reasons = list(deepest["reasons"])
+        result.down_before = [layout.pieces[j].name for j in deepest["placed"]]
         if result.failed_piece is None:
-            result.failed_piece = "?"
-            result.reasons = []
+            result.failed_piece, result.reasons, result.down_before = "?", [], None
         if out_of_checks():
-            result.reasons.append(f"(the search stopped at its cap of {opts.max_checks} approach checks, "
-                                  "TilingOptions.max_checks, before trying every order)")
+            result.capped = opts.max_checks
         result.time_s = time.perf_counter() - t0
         return result
     for k, (i, a, scene, atlas) in enumerate(found):
@@ -515,7 +563,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             p = plan_scene(scene, planner=LATTICE, atlas=atlas)  # the proof's lattice again
         if not p.solved:
             result.failed_piece = layout.pieces[i].name
-            result.reasons = [f"{a.describe()}: {p.planner} found no plan ({p.reason})"]
+            result.reasons = [ApproachRejected(Rejection.NOT_PLANNED, a, p)]
             break
         result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note))
         report("plan", k + 1, i)
