@@ -16,7 +16,7 @@ import yaml
 from conftest import SCENES, run_cli
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.layout import Layout
-from ungrasp_ompl.planning.result import Plan, PlanOutcome, PrimitiveStep
+from ungrasp_ompl.planning.result import Plan, PlanOutcome, PrimitiveStep, Solution
 from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
@@ -129,7 +129,7 @@ def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
         scene = layout.scene([q.name for q in layout.pieces].index(name), (p["approach"]["G"], p["approach"]["B"]))
         steps = [PrimitiveStep(**s) for s in plan["primitives"]]
         states, _ = densify(Plan(outcome=PlanOutcome.SOLVED, scene=name, planner="", seed=None, sliding_model="",
-                                 states=plan["states"], primitives=steps), angle_step=math.radians(0.5))
+                                 solution=Solution(plan["states"], steps)), angle_step=math.radians(0.5))
         for theta in np.unique(states[:, 0]):
             # tilt by theta about the plane's y axis through G (x toward z), then into the world
             c, s = math.cos(theta), math.sin(theta)

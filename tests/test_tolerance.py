@@ -157,7 +157,7 @@ def test_each_component_alone_is_tolerated_at_least_as_much_as_all_together(pick
 
 def test_bad_input_names_the_field(pick):
     scene, result = pick
-    unsolved = replace(result, primitives=[])
+    unsolved = replace(result, solution=replace(result.solution, primitives=[]))
     with pytest.raises(InputError, match="plan"):
         tolerance(scene, unsolved)
     with pytest.raises(InputError, match="perturbation"):

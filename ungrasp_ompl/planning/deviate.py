@@ -41,7 +41,8 @@ def deviated_plan(plan: Plan, psi_offset: float) -> Plan:
             steps.append(replace(p, start=ways[0], end=ways[-1], waypoints=ways))
     if not steps:
         raise InputError("start_psi_offset", "leaves nothing of the plan to execute")
-    return replace(plan, states=[lifted(plan.states[0])] + [lifted(q) for q in plan.states[1:]], primitives=steps)
+    return replace(plan, solution=replace(plan.solution, states=[lifted(plan.states[0])] + [lifted(q) for q in plan.states[1:]],
+                                          primitives=steps))
 
 
 def steeper_start(plan: Plan, theta_offset: float) -> Plan:
@@ -54,7 +55,8 @@ def steeper_start(plan: Plan, theta_offset: float) -> Plan:
     start = list(plan.states[0])
     steep = [start[0] + theta_offset, start[1], start[2]]
     pivot = PrimitiveStep("P_theta", "forward", steep, start, {}, "full", [steep, start])
-    return replace(plan, states=[steep] + list(plan.states), primitives=[pivot] + list(plan.primitives))
+    return replace(plan, solution=replace(plan.solution, states=[steep] + list(plan.states),
+                                          primitives=[pivot] + list(plan.primitives)))
 
 
 @dataclass(frozen=True)

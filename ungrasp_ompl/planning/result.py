@@ -127,38 +127,83 @@ class HoldableMap:
         return cls(tuple(atlas.axes), atlas.holdable)
 
 
-@dataclass
+@dataclass(frozen=True)
+class Solution:
+    """The path of a solved plan (empty otherwise)."""
+
+    states: list[list[float]] = field(default_factory=list)
+    """The corner states [theta rad, d over l, psi rad], the start first."""
+    primitives: list[PrimitiveStep] = field(default_factory=list)
+    """The merged primitives, in order, with their waypoints."""
+    cost: float | None = None
+    """Weighted L1 length plus the penalty of each primitive change (docs/model.md, section 6)."""
+    l1_length: float | None = None
+    """The weighted L1 length alone (theta and psi in degrees)."""
+    mode_switches: int | None = None
+    """Primitive changes along the path (count)."""
+
+
+@dataclass(frozen=True)
+class Diagnostics:
+    """How planning went, and the friction margins it found along the path."""
+
+    time_to_first_solution_s: float | None = None
+    """s from the start of solving to the first path."""
+    planning_time_s: float = 0.0
+    """s of solving."""
+    setup_time_s: float = 0.0
+    """s building the lattice, the space and the planner."""
+    iterations: int = 0
+    """Termination checks while solving (count)."""
+    stopped_by: str = ""
+    """Why solving stopped (a StoppedBy value)."""
+    resolution: list[float] = field(default_factory=list)
+    """The lattice's step in theta (rad), d (over l) and psi (rad)."""
+    lattice_optimum: float | None = None
+    """The exact lattice search's cost, where it was run."""
+    min_margin_deg: float | None = None
+    """Smallest friction margin along the path, the start included (path_friction_margin), deg."""
+    margin_profile_deg: list[float] = field(default_factory=list)
+    """The smallest friction margin of each primitive, in order, deg."""
+    margin_bottleneck_deg: float | None = None
+    """The most friction margin any secure lattice path keeps (robust objectives), deg."""
+    margin_forced: bool | None = None
+    """min_margin_deg is the bottleneck: no secure lattice path passes more."""
+    start_margin_deg: float | None = None
+    """The start's friction margin with every contact sticking, deg."""
+
+
+@dataclass(frozen=True)
+class Report3D:
+    """What a plan of a scene with an outline says in 3D (JSON types, as plan.json holds them)."""
+
+    object: dict
+    """The outline, thickness and target pose."""
+    manipulation_plane: dict
+    """G, B, the friction margin, the effective friction, the frame in the world."""
+    mu_eff: dict
+    """The friction used in the plane at G, A and B."""
+    stability_report: dict
+    """The contacts, how x-moments are held, the prism roll at the start and the end."""
+
+
+@dataclass(frozen=True)
 class Plan:
-    """The result of planning a scene (docs/plan-json.md lists every field)."""
+    """The result of planning a scene (docs/plan-json.md lists every field): how it ended, the
+    path, how planning went and, for a scene with an outline, the 3D report. Frozen: a changed plan
+    is a new one (dataclasses.replace). The parts' fields read as the plan's own (plan.states,
+    plan.cost, plan.stopped_by, plan.mu_eff), as plan.json lists them side by side."""
 
     outcome: PlanOutcome
     scene: str
     planner: str
     seed: int | None
     sliding_model: str
-    states: list[list[float]] = field(default_factory=list)
-    primitives: list[PrimitiveStep] = field(default_factory=list)
-    cost: float | None = None
-    l1_length: float | None = None
-    mode_switches: int | None = None
-    time_to_first_solution_s: float | None = None
-    planning_time_s: float = 0.0
-    setup_time_s: float = 0.0
-    iterations: int = 0
-    stopped_by: str = ""  # a StoppedBy value
-    resolution: list[float] = field(default_factory=list)
-    evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
-    lattice_optimum: float | None = None
-    object: dict | None = None  # outline, thickness, target pose (scenes with an outline)
-    manipulation_plane: dict | None = None  # G, B, margin, effective friction, frame in the world
-    mu_eff: dict | None = None  # friction used in the plane at G, A, B
-    stability_report: dict | None = None  # contacts, x-moment mechanism, prism roll simulation
     objective: str = "cost"  # what the planner optimised: cost, margin or balanced (docs/model.md, section 6)
-    min_margin_deg: float | None = None  # smallest friction margin along the path, start included (path_friction_margin)
-    margin_profile_deg: list[float] = field(default_factory=list)  # the smallest of each primitive, in order
-    margin_bottleneck_deg: float | None = None  # the most any secure lattice path keeps (robust objectives)
-    margin_forced: bool | None = None  # min_margin_deg is the bottleneck: no secure lattice path passes more
-    start_margin_deg: float | None = None  # the start's friction margin with every contact sticking
+    evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
+    solution: Solution = field(default_factory=Solution)
+    diagnostics: Diagnostics = field(default_factory=Diagnostics)
+    report: Report3D | None = None  # scenes with an outline
     tolerance: dict | None = None  # the plan's tolerance of the paper errors (tolerance.Tolerance.to_dict)
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
@@ -173,16 +218,20 @@ class Plan:
         return None if self.solved else describe_outcome(self.outcome, self.evidence, self.planner)
 
     def fail(self, outcome: PlanOutcome, **evidence: Any) -> "Plan":
-        """Mark the plan as ended without a solution, with the evidence; returns it."""
-        self.outcome, self.evidence = outcome, evidence
-        return self
+        """This plan ended without a solution, with the evidence."""
+        return replace(self, outcome=outcome, evidence=evidence)
+
+    def with_diagnostics(self, **changes: Any) -> "Plan":
+        """This plan with some of its diagnostics changed."""
+        return replace(self, diagnostics=replace(self.diagnostics, **changes))
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"solved": self.solved, **asdict(replace(self, holdable_map=None))}
-        del d["holdable_map"]
-        d["outcome"] = self.outcome.value
-        d["reason"] = self.reason
-        d["schema_version"] = JSON_SCHEMA_VERSION
+        """plan.json's mapping: the plan's own fields and its parts' side by side."""
+        report = asdict(self.report) if self.report is not None else {k: None for k in Report3D.__dataclass_fields__}
+        d = {"solved": self.solved, "outcome": self.outcome.value, "scene": self.scene, "planner": self.planner,
+             "seed": self.seed, "sliding_model": self.sliding_model, **asdict(self.solution),
+             **asdict(self.diagnostics), "evidence": self.evidence, **report, "objective": self.objective,
+             "tolerance": self.tolerance, "reason": self.reason, "schema_version": JSON_SCHEMA_VERSION}
         return d
 
     def to_json(self) -> str:
@@ -239,14 +288,20 @@ class Plan:
             if max(abs(a - b) for a, b in zip(st.start, end)) > 1e-9:
                 raise InputError(f"primitives[{i}].waypoints[0]", f"must be where the path is before it, {end}, "
                                  f"got {st.start}", source)
-        known = set(cls.__dataclass_fields__) - {"states", "primitives", "outcome"}
-        rest = {k: v for k, v in doc.items() if k in known}
-        rest.setdefault("scene", "plan")
-        rest.setdefault("planner", "unknown")
-        rest.setdefault("seed", None)
-        rest.setdefault("sliding_model", "relaxed")
-        return cls(outcome=PlanOutcome.SOLVED, states=[state(s, f"states[{k}]") for k, s in enumerate(states)],
-                   primitives=steps, **rest)
+        def part(kind, skip=()):
+            return {k: doc[k] for k in kind.__dataclass_fields__ if k in doc and k not in skip}
+
+        own = part(cls, ("outcome", "solution", "diagnostics", "report", "holdable_map"))
+        own.setdefault("scene", "plan")
+        own.setdefault("planner", "unknown")
+        own.setdefault("seed", None)
+        own.setdefault("sliding_model", "relaxed")
+        report = part(Report3D)
+        solution = Solution(**{**part(Solution, ("states", "primitives")),
+                               "states": [state(s, f"states[{k}]") for k, s in enumerate(states)], "primitives": steps})
+        return cls(outcome=PlanOutcome.SOLVED, solution=solution, diagnostics=Diagnostics(**part(Diagnostics)),
+                   report=Report3D(**report) if len(report) == len(Report3D.__dataclass_fields__)
+                   and None not in report.values() else None, **own)
 
     def summary(self) -> str:
         """A few lines for a person: outcome, cost, the primitive sequence."""
@@ -299,6 +354,18 @@ class Plan:
         if self.margin_forced:
             return ", forced (no secure lattice path passes more)"
         return f", below the {self.margin_bottleneck_deg:.3f} deg some secure lattice path keeps"
+
+
+def _part_field(part: str, name: str) -> property:
+    def get(plan: Plan) -> Any:
+        value = getattr(plan, part)
+        return None if value is None else getattr(value, name)
+    return property(get, doc=f"{part}.{name}")
+
+
+for _part, _kind in (("solution", Solution), ("diagnostics", Diagnostics), ("report", Report3D)):
+    for _name in _kind.__dataclass_fields__:
+        setattr(Plan, _name, _part_field(_part, _name))
 
 
 def read_plan(path: str) -> Plan:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from time import perf_counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 from enum import Enum
 
@@ -36,7 +36,8 @@ from .lattice import lattice_search
 from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins
 from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
-from .result import HoldableMap, Plan, PlanOutcome, StoppedBy, merge_legs, sequence_cost
+from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, merge_legs,
+                     sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -220,13 +221,12 @@ class UngraspSetup:
         """Plan, re-validate the path leg by leg in its travel direction, and report."""
         opts, scene = self.options, self.scene
         plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, setup_time_s=self.setup_time,
-                    resolution=[float(x) for x in self.atlas.res], holdable_map=HoldableMap.of(self.atlas),
-                    objective=opts.objective)
+                    sliding_model=scene.options.sliding_model, objective=opts.objective,
+                    diagnostics=Diagnostics(setup_time_s=self.setup_time, resolution=[float(x) for x in self.atlas.res]),
+                    holdable_map=HoldableMap.of(self.atlas))
         problem = self.ends_problem()
         if problem:
-            plan.stopped_by = StoppedBy.NOT_STARTED
-            return plan.fail(problem.outcome, **problem.evidence)
+            return plan.with_diagnostics(stopped_by=StoppedBy.NOT_STARTED).fail(problem.outcome, **problem.evidence)
         budget = opts.iterations
         cap = opts.time
         if opts.seed is not None:
@@ -263,16 +263,16 @@ class UngraspSetup:
             turns = TakeTurns(self.planner, done, lambda: self.objective.heuristic_calls,
                               either_way=(self.motion_validator, self.objective))
         status = self.planner.solve(ob.PlannerTerminationCondition(turns or done))
-        plan.planning_time_s = perf_counter() - t0
+        planning_time = perf_counter() - t0
         if turns is not None:
             if turns.interrupt is not None:
                 raise turns.interrupt
             if state["first"] is None and self.objective.first_solution is not None:
                 state["first"] = self.objective.first_solution - t0
-        plan.iterations = state["n"]
-        plan.stopped_by = state["stop"] or StoppedBy.PLANNER
+        stopped_by = state["stop"] or StoppedBy.PLANNER
         if not state["stop"] and best_cost and self.objective.isSatisfied(best_cost()):
-            plan.stopped_by = StoppedBy.OPTIMUM  # OMPL stopped at the cost threshold
+            stopped_by = StoppedBy.OPTIMUM  # OMPL stopped at the cost threshold
+        plan = plan.with_diagnostics(planning_time_s=planning_time, iterations=state["n"], stopped_by=stopped_by)
         exact = self.pdef.hasExactSolution() and str(status) in ("Exact solution",)
         if not exact:
             return self._no_path(plan)
@@ -287,10 +287,9 @@ class UngraspSetup:
         legs, problem = self.path_legs(path_states(path))
         if problem:
             return plan.fail(PlanOutcome.INVALID_PATH, **problem.evidence())
-        if plan.time_to_first_solution_s is None:
-            plan.time_to_first_solution_s = state["first"] if state["first"] is not None else plan.planning_time_s
-        fill_solution(plan, self.atlas, legs, self.margins)
-        return plan
+        plan = plan.with_diagnostics(time_to_first_solution_s=state["first"] if state["first"] is not None
+                                     else planning_time)
+        return solved_plan(plan, self.atlas, legs, self.margins)
 
     def _tree_path_cost(self) -> float:
         """The cost, counted as a plan's (merged primitives), of the planner's best path so far,
@@ -346,7 +345,7 @@ class UngraspSetup:
         res = plan.resolution
         if not result.reachable:
             return plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=res)
-        plan.lattice_optimum = result.cost
+        plan = plan.with_diagnostics(lattice_optimum=result.cost)
         limit = f"{plan.iterations} iterations" if plan.stopped_by == StoppedBy.ITERATIONS else f"{plan.planning_time_s:.2f} s"
         return plan.fail(PlanOutcome.NOT_FOUND, resolution=res, stopped_by=plan.stopped_by, limit=limit,
                          lattice_optimum=result.cost)
@@ -408,28 +407,29 @@ OPTIMUM_TOLERANCE = 1e-9
 FORCED_TOLERANCE_DEG = 1e-9
 
 
-def fill_solution(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: LatticeMargins | None = None) -> None:
-    """Record verified legs in a plan: merged primitives, corner states, cost, the friction margins
-    (the smallest of each primitive and of the path, the start's; with the lattice's margins, its
-    bottleneck and whether the path's smallest margin is forced by it); marks it solved."""
+def solved_plan(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: LatticeMargins | None = None) -> Plan:
+    """The plan solved by verified legs: merged primitives, corner states, cost, and the friction
+    margins (the smallest of each primitive and of the path, the start's; with the lattice's
+    margins, its bottleneck and whether the path's smallest margin is forced by it)."""
     from ..mechanics.margin import friction_margin
     from .path_margin import path_friction_margin
 
     steps = merge_legs(atlas, legs)
-    plan.primitives = steps
-    plan.states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
-    plan.cost, plan.l1_length, plan.mode_switches = sequence_cost(atlas, steps)
-    plan.outcome, plan.evidence = PlanOutcome.SOLVED, {}
+    states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
+    cost, l1, switches = sequence_cost(atlas, steps)
+    plan = replace(plan, outcome=PlanOutcome.SOLVED, evidence={},
+                   solution=Solution(states, steps, cost, l1, switches))
     scene = atlas.scene
+    margin: dict = {"start_margin_deg": math.degrees(float(friction_margin(*scene.start, 0, 0, scene.friction)[0]))}
     if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start included
-        plan.margin_profile_deg = [math.degrees(m) for m in path_friction_margin(scene, plan).of_primitives()]
-        plan.min_margin_deg = min(plan.margin_profile_deg)
-    plan.start_margin_deg = math.degrees(float(friction_margin(*scene.start, 0, 0, scene.friction)[0]))
+        margin["margin_profile_deg"] = [math.degrees(m) for m in path_friction_margin(scene, plan).of_primitives()]
+        margin["min_margin_deg"] = min(margin["margin_profile_deg"])
     bottleneck = margins.bottleneck if margins is not None else None
     if bottleneck is not None:
-        plan.margin_bottleneck_deg = math.degrees(bottleneck)
-        if plan.min_margin_deg is not None:
-            plan.margin_forced = plan.min_margin_deg >= plan.margin_bottleneck_deg - FORCED_TOLERANCE_DEG
+        margin["margin_bottleneck_deg"] = math.degrees(bottleneck)
+        if "min_margin_deg" in margin:
+            margin["margin_forced"] = margin["min_margin_deg"] >= margin["margin_bottleneck_deg"] - FORCED_TOLERANCE_DEG
+    return plan.with_diagnostics(**margin)
 
 
 def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | None = None,
@@ -445,18 +445,17 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
     plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=LATTICE, seed=seed,
-                sliding_model=scene.options.sliding_model, setup_time_s=t1 - t0, planning_time_s=t2 - t1,
-                resolution=[float(x) for x in atlas.res], stopped_by=StoppedBy.PLANNER, lattice_optimum=result.cost,
-                holdable_map=HoldableMap.of(atlas), objective=objective)
+                sliding_model=scene.options.sliding_model, objective=objective, holdable_map=HoldableMap.of(atlas),
+                diagnostics=Diagnostics(setup_time_s=t1 - t0, planning_time_s=t2 - t1,
+                                        resolution=[float(x) for x in atlas.res], stopped_by=StoppedBy.PLANNER,
+                                        lattice_optimum=result.cost))
     if not result.reachable:
         problem = ends_problem(scene, atlas)
         return plan.fail(problem.outcome, **problem.evidence) if problem else plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=plan.resolution)
     problem = verify_legs(scene, atlas, result.legs)
     if problem:
         return plan.fail(PlanOutcome.INVALID_PATH, **problem.evidence())
-    plan.time_to_first_solution_s = t2 - t1
-    fill_solution(plan, atlas, result.legs, margins)
-    return plan
+    return solved_plan(plan.with_diagnostics(time_to_first_solution_s=t2 - t1), atlas, result.legs, margins)
 
 
 def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
@@ -491,9 +490,7 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     """
     if planner == LATTICE:
         result = lattice_plan(scene, seed, atlas, options.get("objective", "cost"))
-        if scene.plane is not None:
-            add_3d_report(scene, result)
-        return result
+        return with_3d_report(scene, result) if scene.plane is not None else result
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
     if planner in UNRULY_PLANNERS:
         return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
@@ -503,9 +500,7 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
 def _plan_here(scene: Scene, opts: PlannerOptions, atlas: SecurityAtlas | None = None) -> Plan:
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     result = UngraspSetup(scene, opts, atlas).solve()
-    if scene.plane is not None:
-        add_3d_report(scene, result)
-    return result
+    return with_3d_report(scene, result) if scene.plane is not None else result
 
 
 def seed_ompl(seed: int) -> None:
@@ -520,20 +515,19 @@ def seed_ompl(seed: int) -> None:
         ou.setLogLevel(ou.LogLevel.LOG_ERROR)
 
 
-def add_3d_report(scene: Scene, result: Plan) -> None:
-    """Attach the object, manipulation plane, effective friction and 3D stability to a plan."""
+def with_3d_report(scene: Scene, result: Plan) -> Plan:
+    """The plan with its 3D report: the object, manipulation plane, effective friction and 3D
+    stability of a scene with an outline; each primitive says how x-moments are held."""
     from ..scene.stability import analyse
 
-    result.object = scene.object3d.to_dict()
-    result.manipulation_plane = scene.plane.to_dict()
-    result.mu_eff = dict(zip("GAB", scene.mu))
     states = [("start", scene.start)]
     if result.solved:
         states.append(("end", np.array(result.states[-1])))
     report = analyse(scene, states)
-    result.stability_report = report.to_dict()
-    for p in result.primitives:
-        p.x_moments = report.x_mechanism
+    steps = [replace(p, x_moments=report.x_mechanism) for p in result.primitives]
+    return replace(result, solution=replace(result.solution, primitives=steps),
+                   report=Report3D(scene.object3d.to_dict(), scene.plane.to_dict(), dict(zip("GAB", scene.mu)),
+                                   report.to_dict()))
 
 
 def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = None) -> Plan:
@@ -542,7 +536,8 @@ def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = 
     outcome = run_in_child(_plan_here, scene, opts, deadline=deadline)
     if outcome.status is TaskStatus.HUNG:
         return Plan(outcome=PlanOutcome.HUNG, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, stopped_by=StoppedBy.KILLED, planning_time_s=deadline or 0.0,
+                    sliding_model=scene.options.sliding_model,
+                    diagnostics=Diagnostics(stopped_by=StoppedBy.KILLED, planning_time_s=deadline or 0.0),
                     evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS.get(opts.planner, "")))
     if outcome.status is TaskStatus.DIED:
         raise ToolError(f"the process planning {scene.name} with {opts.planner} ended without an answer")

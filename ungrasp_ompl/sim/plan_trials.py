@@ -50,12 +50,12 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["
     """A solved plan executed on the robot (placement, IK, timing) and what its trials share, with
     the variant's changes to the simulated world. Raises the robot's UngraspError when it cannot
     execute the plan (out of reach, an arm collision, beyond the joint limits)."""
-    from ..planning.setup import add_3d_report
+    from ..planning.setup import with_3d_report
     from ..robot.pipeline import execute
     from .setup import trial_setup
 
     if scene.plane is not None and plan.object is None:
-        add_3d_report(scene, plan)  # the object and its plane, which the placement needs
+        plan = with_3d_report(scene, plan)  # the object and its plane, which the placement needs
     execution = execute(scene, plan)
     return execution, trial_setup(scene, plan, execution.trajectory, execution.robot, variant)
 

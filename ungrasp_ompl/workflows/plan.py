@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -135,7 +136,7 @@ def plan_scene(scene: Scene, options: PlanOptions,
             return ScenePlan(scene, certification.candidates[0].plan, options, certification)
         result = certification.plan
     if result.solved and result.tolerance is None:
-        result.tolerance = scene.tolerance(result).to_dict()
+        result = dataclasses.replace(result, tolerance=scene.tolerance(result).to_dict())
     cage = cage_profile(scene, result).weakest(result) if options.cage and result.solved else None
     return ScenePlan(scene, result, options, certification, cage)
 
