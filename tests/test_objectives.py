@@ -14,7 +14,9 @@ from ungrasp_ompl.mechanics import primitive_sliding_signs
 from ungrasp_ompl.mechanics.margin import friction_margin
 from ungrasp_ompl.planning.atlas import FORWARD, LEG_PRIMITIVE, SecurityAtlas, reference_cost
 from ungrasp_ompl.planning.lattice import lattice_search
-from ungrasp_ompl.planning.margins import TIE_SCALE_DEG, LatticeMargins
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.planning.margins import TIE_SCALE_DEG, LatticeMargins, Objective
+from ungrasp_ompl.planning.result import Plan
 from ungrasp_ompl.planning.setup import lattice_plan, plan
 
 RES = np.array([math.radians(2), 0.02, math.radians(2)])
@@ -127,6 +129,13 @@ def test_lattice_margin_plan_never_narrower_than_the_cost_plan(name):
     # the profile: the smallest margin of each primitive, whose least is the path's
     assert len(margin_plan.margin_profile_deg) == len(margin_plan.primitives)
     assert min(margin_plan.margin_profile_deg) == margin_plan.min_margin_deg
+    # the objective is a value, in the plan and back from its plan.json; a name it does not know is refused
+    assert margin_plan.objective is Objective.MARGIN and cost_plan.objective is Objective.COST
+    doc = margin_plan.to_dict()
+    assert Plan.from_dict(doc).objective is Objective.MARGIN
+    with pytest.raises(InputError, match="objective") as err:
+        Plan.from_dict({**doc, "objective": "steepest"})
+    assert err.value.field == "objective"
 
 
 @pytest.mark.slow

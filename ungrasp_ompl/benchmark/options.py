@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
+from ..planning.margins import Objective
 from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
 
 
@@ -40,7 +41,7 @@ class BenchmarkOptions:
     """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     resume: bool = False
     """Keep the runs already in out/runs.csv (an interrupted benchmark) and run only the others."""
-    objective: str = "cost"
+    objective: Objective = Objective.COST
     """What every planner optimises, the lattice yardstick included (docs/model.md, section 6):
     cost, margin or balanced."""
 
@@ -49,9 +50,10 @@ class BenchmarkOptions:
         check_runs(self.runs, self.time, self.jobs, self.seed, self.out)
         check_iterations(self.iterations)
         planners = tuple(validate_planners(self.planners))
+        objective = check_objective(self.objective, LATTICE)
         for planner in planners:
-            check_objective(self.objective, planner)
-        return replace(self, planners=planners)
+            check_objective(objective, planner)
+        return replace(self, planners=planners, objective=objective)
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from contextlib import closing
 from dataclasses import dataclass
 
 from ..errors import ToolError, UngraspError
+from ..planning.margins import Objective
 from ..planning.result import Plan, PlanOutcome
 from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions
 from ..runner import Runner, TaskStatus
@@ -73,7 +74,7 @@ class Task:
     """Planning time (s): wall time, or with iterations the cap of 5 times it."""
     iterations: int | None = None
     """Planner iterations (count), making the run reproducible; None: stop on wall time."""
-    objective: str = "cost"
+    objective: Objective = Objective.COST
     """What the planner optimises (docs/model.md, section 6): cost, margin or balanced."""
 
     @property
@@ -137,7 +138,7 @@ def _ompl_run(task: Task) -> dict:
                 setup_time_s=plan.setup_time_s, iterations=plan.iterations, min_margin_deg=plan.min_margin_deg)
 
 
-def _lattice_run(scene: Scene, objective: str = "cost") -> dict:
+def _lattice_run(scene: Scene, objective: Objective = Objective.COST) -> dict:
     """The exact optimum on the scene's lattice for an objective; its time is building the lattice
     plus the search. Its cost is the optimum even when the optimum's legs fail re-validation
     (status invalid)."""

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from .atlas import D, FORWARD, PSI, THETA, Leg, SecurityAtlas, reference_cost
 from .edges import LatticeEdges, lattice_edges
-from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, on_some_path
+from .margins import OBJECTIVES, TIE_TOLERANCE, LatticeMargins, Objective, on_some_path
 
 
 @dataclass
@@ -55,7 +55,7 @@ class LatticeResult:
         return self.cost is not None
 
 
-def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objective: str = "cost",
+def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objective: Objective = Objective.COST,
                    margins: LatticeMargins | None = None) -> LatticeResult:
     """Best secure primitive path on the atlas's lattice from the start to any releasable lattice
     state inside goal_box ((2, 3) corners), for an objective (docs/model.md, sections 6 and 6.1):
@@ -72,10 +72,10 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     result's min_margin (rad) and penalty are the path's then."""
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
-    if objective != "cost" and (margins is None or margins.objective != objective or margins.atlas is not atlas
+    if objective != Objective.COST and (margins is None or margins.objective != objective or margins.atlas is not atlas
                                 or not np.array_equal(margins.goal_box, goal_box)):
         raise ValueError(f"the {objective} objective needs the margins of this lattice, objective and goal box")
-    if objective == "cost":
+    if objective == Objective.COST:
         key = tuple(np.asarray(goal_box, dtype=float).ravel().round(12))
         if key in atlas.cost_optima:
             return atlas.cost_optima[key]
@@ -90,7 +90,7 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
     return _search(atlas, margins.edges, goal_box, objective, margins)
 
 
-def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.float64], objective: str,
+def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.float64], objective: Objective,
             margins: LatticeMargins | None) -> LatticeResult:
     """lattice_search over a graph's edges (its legs one lattice step each, Y steps included)."""
     scene = atlas.scene
@@ -112,7 +112,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
     compact[cells] = np.arange(len(cells))
     start_node = len(cells) * n_slot
     keep = (compact[edges.src] >= 0) & (compact[edges.dst] >= 0)
-    if objective == "margin":  # only edges as wide as the bottleneck
+    if objective == Objective.MARGIN:  # only edges as wide as the bottleneck
         bottleneck = margins.bottleneck
         keep &= margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
     # the graph over (lattice state, primitive under way): per edge its cell edge and whether it changes
@@ -154,9 +154,9 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
         out[on_lattice] = values[of_edge[on_lattice]]  # (a lattice may have no secure edge at all)
         return out
 
-    if objective == "balanced":
+    if objective == Objective.BALANCED:
         criteria = [cost + opts.margin_weight * per_edge(edges.length * margins.penalty(margins.edge_margin()))]
-    elif objective == "margin":
+    elif objective == Objective.MARGIN:
         criteria = [changed.astype(float), per_edge(edges.length * margins.penalty(margins.edge_margin())), cost]
     else:
         criteria = [cost]
@@ -185,7 +185,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
             prev_idx = idx
         best_cost = _path_cost(atlas, legs)
     min_margin = penalty = None
-    if objective != "cost" and best_cost is not None:  # the path's smallest margin and penalty
+    if objective != Objective.COST and best_cost is not None:  # the path's smallest margin and penalty
         min_margin = min((margins.leg_margin(leg) for leg in legs), default=math.inf)
         penalty = sum(margins.leg_penalty(leg) for leg in legs)
     return LatticeResult(best_cost, legs, start_node + 1, n_edges, min_margin, penalty, best_cost)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,8 +54,16 @@ TIE_TOLERANCE = 1e-9
 #: Motions whose penalty is remembered before the memory is cleared.
 MOTION_CACHE = 200_000
 
-#: The objectives a plan can optimise (docs/model.md, section 6).
-OBJECTIVES = ("cost", "margin", "balanced")
+class Objective(StrEnum):
+    """What a plan optimises (docs/model.md, section 6)."""
+
+    COST = "cost"  #: the weighted L1 length plus a penalty per primitive change
+    MARGIN = "margin"  #: the smallest friction margin along the path, the cost breaking ties
+    BALANCED = "balanced"  #: the cost plus planning.margin_weight times a penalty growing as the margin shrinks
+
+
+#: The objectives a plan can optimise, in their order.
+OBJECTIVES = tuple(Objective)
 
 
 class LatticeMargins:
@@ -62,13 +71,13 @@ class LatticeMargins:
     a robust objective (``margin`` or ``balanced``; see the module docstring).
     ``computed_states`` counts the margins evaluated so far."""
 
-    def __init__(self, atlas: SecurityAtlas, objective: str = "margin", goal_box: ArrayLike | None = None):
+    def __init__(self, atlas: SecurityAtlas, objective: Objective = Objective.MARGIN, goal_box: ArrayLike | None = None):
         """goal_box: the goal region's (2, 3) corners (theta rad, d over l, psi rad), the scene's by
         default: margins are computed only on secure paths from the start into it."""
         if objective not in OBJECTIVES[1:]:
-            raise ValueError(f"the margins serve the objectives {OBJECTIVES[1:]}, not {objective!r}")
+            raise ValueError(f"the margins serve the objectives {', '.join(OBJECTIVES[1:])}, not {objective!r}")
         self.atlas = atlas
-        self.objective = objective
+        self.objective = Objective(objective)
         self.goal_box = np.asarray(atlas.scene.goal.box() if goal_box is None else goal_box, dtype=float)
         #: The start's lattice index (None outside the lattice).
         self.start = atlas.index(atlas.scene.start)
@@ -203,7 +212,7 @@ class LatticeMargins:
         bottleneck m* in degrees; inf for an insecure step (-inf margin)."""
         deg = np.degrees(np.asarray(margin, dtype=float))
         with np.errstate(over="ignore"):
-            if self.objective == "balanced":
+            if self.objective == Objective.BALANCED:
                 out = 1.0 / np.maximum(deg, MARGIN_FLOOR_DEG)
             else:  # below the bottleneck, BELOW_BOTTLENECK times more: worse than any path above it
                 ref = self.bottleneck
@@ -284,7 +293,7 @@ class LatticeMargins:
         """How the objective ranks a secure leg sequence realising one motion, smaller first:
         (minus its smallest margin, its penalty) for ``margin``, (its penalty,) for ``balanced``."""
         total = sum(self.leg_penalty(leg) for leg in legs)
-        if self.objective == "margin":
+        if self.objective == Objective.MARGIN:
             return (-min((self.leg_margin(leg) for leg in legs), default=math.inf), total)
         return (total,)
 
@@ -339,4 +348,4 @@ def _reached(src: NDArray[np.int_], dst: NDArray[np.int_], n: int, seeds) -> NDA
     return order[order < n]
 
 
-__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "TIE_SCALE_DEG", "TIE_TOLERANCE", "on_some_path"]
+__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "Objective", "TIE_SCALE_DEG", "TIE_TOLERANCE", "on_some_path"]

@@ -5,15 +5,12 @@ section 6)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from ompl import base as ob
 from ompl import geometric as og
 
 from .atlas import D, PSI, THETA, SecurityAtlas
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .margins import LatticeMargins
+from .margins import LatticeMargins, Objective
 
 
 class PrimitiveCostObjective(ob.OptimizationObjective):
@@ -74,7 +71,7 @@ class MarginPenaltyObjective(ob.OptimizationObjective):
     secure staircase's), infinite for a motion against the allowed directions or with no secure
     staircase. Additive and asymmetric."""
 
-    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: "LatticeMargins"):
+    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
         super().__init__(si)
         self.atlas = atlas
         self.margins = margins
@@ -116,9 +113,9 @@ class RobustObjective(ob.MultiOptimizationObjective):
       primitive changes, the tie-break, the cost) as one additive cost.
     """
 
-    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: "LatticeMargins"):
+    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
         super().__init__(si)
-        if margins.objective == "balanced":
+        if margins.objective == Objective.BALANCED:
             self.cost_part = PrimitiveCostObjective(si, atlas)
             penalty_weight = atlas.scene.options.margin_weight
         else:

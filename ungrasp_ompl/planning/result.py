@@ -15,6 +15,7 @@ from ..mechanics import Primitive, primitive_sliding_signs
 from ..mechanics.roll import describe_restoring
 from ..scene import StateClass, StateDiagnosis
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
+from .margins import Objective
 
 JSON_SCHEMA_VERSION = 1
 
@@ -199,7 +200,7 @@ class Plan:
     planner: str
     seed: int | None
     sliding_model: str
-    objective: str = "cost"  # what the planner optimised: cost, margin or balanced (docs/model.md, section 6)
+    objective: Objective = Objective.COST  # what the planner optimised (docs/model.md, section 6)
     evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
     solution: Solution = field(default_factory=Solution)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
@@ -288,6 +289,7 @@ class Plan:
             if max(abs(a - b) for a, b in zip(st.start, end)) > 1e-9:
                 raise InputError(f"primitives[{i}].waypoints[0]", f"must be where the path is before it, {end}, "
                                  f"got {st.start}", source)
+
         def part(kind, skip=()):
             return {k: doc[k] for k in kind.__dataclass_fields__ if k in doc and k not in skip}
 
@@ -296,6 +298,10 @@ class Plan:
         own.setdefault("planner", "unknown")
         own.setdefault("seed", None)
         own.setdefault("sliding_model", "relaxed")
+        if "objective" in own:
+            if own["objective"] not in tuple(Objective):
+                raise InputError("objective", f"must be one of {', '.join(Objective)}, got {own['objective']!r}", source)
+            own["objective"] = Objective(own["objective"])
         report = part(Report3D)
         solution = Solution(**{**part(Solution, ("states", "primitives")),
                                "states": [state(s, f"states[{k}]") for k, s in enumerate(states)], "primitives": steps})

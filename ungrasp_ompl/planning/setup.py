@@ -34,7 +34,7 @@ from .atlas import Leg, SecurityAtlas, goal_behind_start, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search
 from .names import LATTICE, PLANNERS
-from .margins import OBJECTIVES, LatticeMargins
+from .margins import OBJECTIVES, LatticeMargins, Objective
 from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
 from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, merge_legs,
                      sequence_cost)
@@ -121,7 +121,7 @@ class PlannerOptions:
     """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
     """Shorten the path with OMPL's PathSimplifier (shortcuts in travel direction)."""
-    objective: str = "cost"
+    objective: Objective = Objective.COST
     """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
     the path) or balanced (cost plus planning.margin_weight times a penalty growing as it shrinks)."""
 
@@ -144,17 +144,17 @@ class PlannerOptions:
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not 0 <= self.goal_bias <= 1:
             raise InputError("goal_bias", f"must lie in [0, 1], got {self.goal_bias!r}")
-        check_objective(self.objective, self.planner)
-        return self
+        return replace(self, objective=check_objective(self.objective, self.planner))
 
 
-def check_objective(objective: str, planner: str) -> None:
-    """InputError unless objective is one of OBJECTIVES and the planner can optimise it."""
+def check_objective(objective: Objective | str, planner: str) -> Objective:
+    """The objective by its name; InputError unless it is one of OBJECTIVES and the planner can optimise it."""
     if objective not in OBJECTIVES:
         raise InputError("objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
-    if objective != "cost" and planner in ROADMAP_PLANNERS:
+    if objective != Objective.COST and planner in ROADMAP_PLANNERS:
         raise InputError("objective", f"{planner} optimises the cost only (its roadmap objective takes edges "
                          "either way while it grows); use RRTstar or lattice for the margin objectives")
+    return Objective(objective)
 
 
 class UngraspSetup:
@@ -181,7 +181,7 @@ class UngraspSetup:
         self.si.setStateValidityChecker(self.validity_checker)
         self.si.setMotionValidator(self.motion_validator)
         self.si.setup()
-        self.margins = LatticeMargins(self.atlas, self.options.objective) if self.options.objective != "cost" else None
+        self.margins = LatticeMargins(self.atlas, self.options.objective) if self.options.objective != Objective.COST else None
         if self.margins is not None:
             self.margins.prepare()
             self.objective = RobustObjective(self.si, self.atlas, self.margins)
@@ -190,7 +190,7 @@ class UngraspSetup:
         #: The exact lattice search, where it can stop the planner (the cost objective's yardstick,
         #: for an optimising planner; else None, and searched only to explain a failure).
         self.lattice = None
-        if self.options.objective == "cost" and self.options.planner in OPTIMISING_PLANNERS:
+        if self.options.objective == Objective.COST and self.options.planner in OPTIMISING_PLANNERS:
             self.lattice = lattice_search(self.atlas, scene.goal.box())
         if self.lattice is not None and self.lattice.reachable:
             # OMPL's own stop: a path of objective cost below this is the optimum, as every motion
@@ -433,14 +433,14 @@ def solved_plan(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: Latt
 
 
 def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | None = None,
-                 objective: str = "cost") -> Plan:
+                 objective: Objective | str = Objective.COST) -> Plan:
     """The exact optimum on the scene's lattice as a plan (the 'lattice' planner): a Dijkstra search
     with the planners' cost (or a bottleneck search for the margin objective, lattice_search), its
     legs re-validated like any planner's path."""
-    check_objective(objective, LATTICE)
+    objective = check_objective(objective, LATTICE)
     t0 = perf_counter()
     atlas = atlas if atlas is not None else SecurityAtlas(scene, planning_box(scene))
-    margins = LatticeMargins(atlas, objective) if objective != "cost" else None
+    margins = LatticeMargins(atlas, objective) if objective != Objective.COST else None
     t1 = perf_counter()
     result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
@@ -489,7 +489,7 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     scene's secure lattice when built already (used when planning in this process).
     """
     if planner == LATTICE:
-        result = lattice_plan(scene, seed, atlas, options.get("objective", "cost"))
+        result = lattice_plan(scene, seed, atlas, options.get("objective", Objective.COST))
         return with_3d_report(scene, result) if scene.plane is not None else result
     opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
     if planner in UNRULY_PLANNERS:

@@ -23,9 +23,10 @@ import enum
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ..errors import InputError, UngraspError
+from ..planning.margins import Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
 from ..scene import Scene
@@ -43,7 +44,7 @@ class CertifyOptions:
     """Candidate plans (count)."""
     planner: str = "RRTstar"
     """The OMPL planner of the seeded candidates (by name), or ``lattice`` (one candidate per objective)."""
-    objective: str = "cost"
+    objective: Objective = Objective.COST
     """The objective taken first (cost, margin, balanced); the others follow in turn."""
     time: float = 1.0
     """Planning time per planner candidate (s): a seeded run's iteration budget, as for ``plan --seed``."""
@@ -74,14 +75,14 @@ class CertifyOptions:
         if why:
             raise InputError("planner", f"{self.planner} cannot produce candidates: {why.split(';')[0]}")
         try:
-            check_objective(self.objective, self.planner)
+            objective = check_objective(self.objective, self.planner)
         except InputError as exc:
             raise InputError("objective", exc.reason) from None
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
         preset(self.perturb)  # InputError("perturb") for an unknown preset
-        candidate_sources(self.planner, self.objective, self.seed, self.candidates)  # candidates beyond the rule
-        return self
+        candidate_sources(self.planner, objective, self.seed, self.candidates)  # candidates beyond the rule
+        return replace(self, objective=objective)
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,7 @@ class CandidateSource:
 
     planner: str
     """The planner (an OMPL planner's name, or ``lattice``)."""
-    objective: str
+    objective: Objective
     """What it optimised (cost, margin, balanced)."""
     seed: int | None
     """The planner's seed; None for the lattice search (it draws no random numbers)."""
@@ -100,7 +101,7 @@ class CandidateSource:
         return f"{self.planner} {self.objective}" + ("" if self.seed is None else f" seed {self.seed}")
 
 
-def candidate_sources(planner: str, objective: str, seed: int, count: int) -> list[CandidateSource]:
+def candidate_sources(planner: str, objective: Objective, seed: int, count: int) -> list[CandidateSource]:
     """The first count candidates of the rule (see the module); InputError("candidates") when the
     rule gives fewer (the lattice planner gives one per objective)."""
     from ..planning.margins import OBJECTIVES
@@ -113,7 +114,7 @@ def candidate_sources(planner: str, objective: str, seed: int, count: int) -> li
                              f"objective), got {count}; use an OMPL planner (e.g. RRTstar) for more")
         return [CandidateSource(LATTICE, o, None) for o in objectives[:count]]
 
-    def optimises(o: str) -> bool:
+    def optimises(o: Objective) -> bool:
         try:
             check_objective(o, planner)
         except InputError:

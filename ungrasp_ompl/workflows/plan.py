@@ -8,16 +8,17 @@ writes the trajectory, plan.json and the view's record. Lengths in metres, angle
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from collections.abc import Callable
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..planning import plan as plan_planar
+from ..planning.margins import Objective
 from ..planning.result import Plan
 from ..plotting import draw_plan
 from ..robot.export import export_all
@@ -40,7 +41,7 @@ class PlanOptions:
     """The planner's seed."""
     iterations: int | None = None
     """Planner iterations (count); None: from time."""
-    objective: str = "cost"
+    objective: Objective = Objective.COST
     """What the planner optimises: cost, margin or balanced."""
     cage: bool = False
     """Also find the plan's weakest cage (the object needs a thickness)."""
