@@ -8,7 +8,11 @@ Every plan's plan.json and every trial (its outcome, phase and drawn errors) are
 (default tolerance_study/) as they are simulated: plans.csv and trials.csv. A second run with
 the same DIR simulates only the plans not there yet, so the tolerance can be recomputed after a
 change of its definition without simulating again. Prints one markdown row per plan, then
-Spearman's rank correlation of the success count with the tolerance, pooled and per scene.
+Spearman's rank correlation of the success count with the tolerance, pooled and per scene, and
+beside it with B's least distance from the thumb's tip along the path (mm, the kinematic margin
+`thumb_tip`), the measure the failed trials point to (docs/model.md 4.6). Last, per scene, a
+chi-square test of whether its plans' success rates differ at all: where they do not, no measure
+of the plan can rank them, whatever its definition.
 """
 
 from __future__ import annotations
@@ -20,13 +24,16 @@ import math
 import sys
 from pathlib import Path
 
-from scipy.stats import spearmanr
+import numpy as np
+from scipy.stats import chi2_contingency, spearmanr
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.mechanics.margin import kinematic_margins  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
+from ungrasp_ompl.planning.path_margin import plan_samples  # noqa: E402
 from ungrasp_ompl.planning.result import Plan  # noqa: E402
 from ungrasp_ompl.tolerance import tolerance  # noqa: E402
 
@@ -41,14 +48,17 @@ def plan_key(scene: str, planner: str, seed: int | None, objective: str) -> str:
 
 def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
     """The trials of one plan under the paper perturbation, seed 1."""
-    from ungrasp_ompl.robot.pipeline import execute
-    from ungrasp_ompl.sim.campaign import simulate
     from ungrasp_ompl.perturbation import PRESETS
-    from ungrasp_ompl.sim.setup import trial_setup
+    from ungrasp_ompl.sim.campaign import simulate
+    from ungrasp_ompl.sim.plan_trials import placement
 
-    ex = execute(scene, result)
-    return simulate(trial_setup(scene, result, ex.trajectory, ex.robot), PRESETS["paper"], trials, 1, jobs,
-                    scene=scene.name)
+    return simulate(placement(scene, result)[1], PRESETS["paper"], trials, 1, jobs, scene=scene.name)
+
+
+def thumb_tip_mm(scene: Scene, result: Plan) -> float:
+    """B's least distance from the thumb's tip over the plan's sampled states, mm."""
+    q = plan_samples(result, np.asarray(scene.options.resolution)).states
+    return 1000 * float(kinematic_margins(q[:, 0], q[:, 1], q[:, 2], scene.digits, scene.object_length)["thumb_tip"].min())
 
 
 def _append(path: Path, fields: list[str], rows: list[dict]) -> None:
@@ -76,8 +86,8 @@ def main() -> int:
         with (out / "plans.csv").open() as f:
             done = {r["key"]: r for r in csv.DictReader(f)}
     rows = []
-    print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | placed |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | B to thumb tip mm | placed |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     names = args.scenes.split(",")
     scenes = {name: Scene.from_file(ROOT / "scenes" / f"{name}.yaml") for name in names}
     runs = [("lattice", None)] + [("RRTstar", s) for s in range(1, args.seeds + 1)]
@@ -110,19 +120,22 @@ def main() -> int:
                     [{"key": key, "scene": name, "planner": planner, "seed": seed, "objective": objective,
                       "cost": result.cost, "trials": trials, "successes": successes}])
         tol = tolerance(scene, result)
-        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials))
+        tip = thumb_tip_mm(scene, result)
+        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials, tip))
         print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
-              f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | "
+              f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | {tip:.2f} | "
               f"{successes}/{trials} |", flush=True)
     print()
-    print("| scene | plans | rho(tolerance, successes) |")
-    print("|---|---|---|")
+    print("| scene | plans | rho(tolerance, successes) | rho(B to thumb tip, successes) | plans differ (chi-square p) |")
+    print("|---|---|---|---|---|")
     groups = {"pooled": rows, **{n: [r for r in rows if r[0] == n] for n in dict.fromkeys(r[0] for r in rows)}}
     for name, got in groups.items():
-        x = [r[5].scale for r in got]
         y = [r[6] for r in got]
-        rho = spearmanr(x, y).statistic if len(set(x)) > 1 and len(set(y)) > 1 else math.nan
-        print(f"| {name} | {len(got)} | {rho:+.2f} |")
+        rhos = [spearmanr(x, y).statistic if len(set(x)) > 1 and len(set(y)) > 1 else math.nan
+                for x in ([r[5].scale for r in got], [r[8] for r in got])]
+        table = [[r[6], r[7] - r[6]] for r in got]
+        differ = chi2_contingency(table).pvalue if name != "pooled" and 0 < sum(y) < sum(r[7] for r in got) else math.nan
+        print(f"| {name} | {len(got)} | {rhos[0]:+.2f} | {rhos[1]:+.2f} | {differ:.3f} |")
     return 0
 
 
