@@ -161,3 +161,19 @@ def test_unreachable_scene_exits_3(tmp_path):
     assert "unreachable" in proc.stderr and "out of reach" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_a_plan_the_arm_cannot_reach_has_no_trials_and_says_why_as_a_value(tmp_path):
+    from ungrasp_ompl.robot.ik import ReachabilityError, Unreachable
+    from ungrasp_ompl.sim.plan_trials import plan_trials
+
+    data = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    data["robot"] = {"base": {"position": [2.0, 0.0, 0.0]}}
+    path = tmp_path / "far.yaml"
+    path.write_text(yaml.safe_dump(data))
+    scene = Scene.from_file(path)
+    run = plan_trials(scene, plan(scene, planner="lattice"), trials=3)
+    assert not run.executable and run.results == () and run.successes == 0
+    error = run.unexecutable
+    assert isinstance(error, ReachabilityError) and error.kind is Unreachable.OUT_OF_REACH
+    assert error.evidence["distance_m"] > error.evidence["limit_m"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -10,9 +11,9 @@ import pinocchio as pin
 import pytest
 
 from ungrasp_ompl.errors import EXIT_NO_SOLUTION, InputError, UngraspError
-from ungrasp_ompl.robot.ik import ReachabilityError, ik_seed_for, solve_ik, solve_path
+from ungrasp_ompl.robot.ik import MAX_PATH_STEP, ReachabilityError, Unreachable, ik_seed_for, solve_ik, solve_path
 from ungrasp_ompl.robot.model import (GripperSpec, fk_dh, finger_tip, frame_pose, load_ur5e,
-                                      max_flange_distance_from_shoulder, tcp_pose, thumb_tip)
+                                      max_flange_distance_from_shoulder, shoulder_position, tcp_pose, thumb_tip)
 from ungrasp_ompl.robots import ur5e_urdf
 from ungrasp_ompl.robot.trajectory import ARM_JOINTS, GRIPPER_JOINT
 
@@ -175,16 +176,27 @@ def test_out_of_reach_names_the_sample(robot):
     error = info.value
     assert isinstance(error, UngraspError) and error.exit_code == EXIT_NO_SOLUTION == 3
     assert error.index == 3 and np.array_equal(error.target, far)
-    assert "sample 3" in str(error) and "out of reach" in str(error) and "(1200.0, 0.0, 300.0) mm" in str(error)
-    assert "0.85 m" in str(error)
+    assert error.kind is Unreachable.OUT_OF_REACH
+    assert error.evidence["distance_m"] > error.evidence["limit_m"] == max_flange_distance_from_shoulder()
+    flange = far[:3, 3] - robot.gripper.palm_depth * far[:3, 2]  # where the flange would be, from the shoulder
+    assert error.evidence["distance_m"] == pytest.approx(np.linalg.norm(flange - shoulder_position(robot)))
+    assert str(error).startswith("sample 3: palm at (1200.0, 0.0, 300.0) mm unreachable: out of reach")
+    # it reaches a parent process whole, its evidence with it
+    back = pickle.loads(pickle.dumps(error))
+    assert type(back) is ReachabilityError and str(back) == str(error)
+    assert (back.index, back.kind, back.evidence) == (3, Unreachable.OUT_OF_REACH, error.evidence)
 
 
 def test_unreachable_inside_the_workspace_says_why(robot):
     """The flange on the base axis: the shoulder offset keeps the wrist off it, though within reach."""
     target = np.diag([1.0, -1.0, -1.0, 1.0])
     target[:3, 3] = [0.0, 0.0, 0.6]
-    with pytest.raises(ReachabilityError, match=r"sample 7: .* IK did not converge .* residual"):
+    with pytest.raises(ReachabilityError) as info:
         solve_ik(robot, target, [0.0, -1.57, 1.57, -1.57, -1.57, 0.0], index=7)
+    error = info.value
+    assert error.index == 7 and error.kind is Unreachable.NOT_CONVERGED
+    assert error.evidence["residual_m"] > 1e-5  # above the tolerance it was asked for
+    assert 1 <= error.evidence["iterations"] <= 200 and "distance_m" not in error.evidence  # within the rated reach
 
 
 def test_solve_path_along_a_line_is_continuous(robot_on_base):
@@ -203,9 +215,12 @@ def test_solve_path_along_a_line_is_continuous(robot_on_base):
 def test_solve_path_reports_a_branch_flip(robot):
     start = tcp_pose(robot, [0.3, -1.2, 1.5, -1.9, -1.6, 0.4])
     targets = [start, _line(start, np.array([0.0, 1.0, 0.0]), 0.3, 2)[1]]
-    with pytest.raises(ReachabilityError, match=r"sample 1: .* branch flip") as info:
+    with pytest.raises(ReachabilityError) as info:
         solve_path(robot, targets, ik_seed_for(robot, start))
-    assert info.value.index == 1
+    error = info.value
+    assert error.index == 1 and error.kind is Unreachable.BRANCH_FLIP
+    assert error.evidence["jump_rad"] > error.evidence["max_step_rad"] == MAX_PATH_STEP
+    assert error.evidence["joint"] in ARM_JOINTS
 
 
 def test_bad_inputs_are_input_errors():

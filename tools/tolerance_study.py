@@ -86,7 +86,8 @@ def main() -> int:
         with (out / "plans.csv").open() as f:
             done = {r["key"]: r for r in csv.DictReader(f)}
     rows = []
-    print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | B to thumb tip mm | placed |")
+    print("| scene | planner | seed | objective | cost | tolerance | shift mm | binds | component | B to thumb tip mm "
+          "| placed |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     names = args.scenes.split(",")
     scenes = {name: Scene.from_file(ROOT / "scenes" / f"{name}.yaml") for name in names}

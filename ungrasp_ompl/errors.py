@@ -10,9 +10,21 @@ EXIT_NO_SOLUTION = 3
 
 
 class UngraspError(Exception):
-    """Base of the errors the CLI reports as one line without a traceback."""
+    """Base of the errors the CLI reports as one line without a traceback. Its subclasses keep
+    their evidence as attributes; an error pickles with them (a worker process's error arrives
+    whole), whatever its constructor takes."""
 
     exit_code = EXIT_BAD_INPUT
+
+    def __reduce__(self):
+        return _rebuild, (type(self), self.args, self.__dict__)
+
+
+def _rebuild(cls: type, args: tuple, state: dict) -> UngraspError:
+    error = cls.__new__(cls)
+    Exception.__init__(error, *args)
+    error.__dict__.update(state)
+    return error
 
 
 class InputError(UngraspError, ValueError):

@@ -204,7 +204,7 @@ def design_cell(task: DesignTask) -> Design:
 
     run = plan_trials(scene, plan, task.trials, task.perturb, task.seed)
     if not run.executable:
-        return replace(found, trials=task.trials, executable=False, error=f"not executable: {run.not_executable}")
+        return replace(found, trials=task.trials, executable=False, error=f"not executable: {run.unexecutable}")
     return replace(found, trials=task.trials, executable=True, successes=run.successes)
 
 

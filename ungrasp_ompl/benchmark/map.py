@@ -269,7 +269,7 @@ def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
 
     run = plan_trials(task.scene, plan, task.trials, task.perturb, task.seed)
     if not run.executable:
-        return replace(cell, executable=False, error=f"not executable: {run.not_executable}")
+        return replace(cell, executable=False, error=f"not executable: {run.unexecutable}")
     return replace(cell, executable=True, sim_successes=run.successes)
 
 

@@ -8,7 +8,8 @@ ignores it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence
+from enum import Enum
+from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -49,19 +50,35 @@ _SEED_POSTURES = (
 )
 
 
+class Unreachable(Enum):
+    """Why the arm cannot put the palm at a target pose (ReachabilityError.kind)."""
+
+    OUT_OF_REACH = "out of reach"  #: the flange would lie farther from the shoulder than the arm reaches
+    JOINT_LIMIT = "joint limit"  #: the solver stopped with joints held at their limits
+    NOT_CONVERGED = "not converged"  #: the solver stopped with the residual above the tolerance
+    BRANCH_FLIP = "branch flip"  #: a joint jumps between consecutive path samples
+
+
 class ReachabilityError(UngraspError):
     """The arm cannot put the palm at a target pose: out of reach, IK did not converge, a joint
     limit is in the way, or a path's solution jumps branches.
 
     index: the sample index along the path (None for a single target); target: the 4x4 palm pose
-    (world, m); reason: why, in words.
+    (world, m); kind: why (Unreachable); evidence: its figures, by kind: OUT_OF_REACH
+    ``distance_m``, ``limit_m`` (the flange from the shoulder, and the most it can be);
+    JOINT_LIMIT ``joints`` (names), ``residual_m``; NOT_CONVERGED ``iterations``,
+    ``residual_m``, ``residual_rad`` and ``distance_m`` when beyond the rated reach; BRANCH_FLIP
+    ``joint``, ``jump_rad``, ``max_step_rad``; with ``starts`` (count) when no standard start of
+    ik_seed_for converged (the figures are then the closest's). reason: all that in words.
     """
 
     exit_code = EXIT_NO_SOLUTION
 
-    def __init__(self, index: int | None, target: ArrayLike, reason: str):
+    def __init__(self, index: int | None, target: ArrayLike, kind: Unreachable, reason: str, **evidence: Any):
         self.index = index
         self.target = np.array(target, dtype=float)
+        self.kind = kind
+        self.evidence = evidence
         self.reason = reason
         where = "target" if index is None else f"sample {index}"
         x, y, z = 1000.0 * self.target[:3, 3]
@@ -120,9 +137,9 @@ def _check_reach(robot: RobotModel, target: NDArray[np.float64], index: int | No
     distance = _flange_distance(robot, target)
     limit = max_flange_distance_from_shoulder()
     if distance > limit:
-        raise ReachabilityError(index, target, (
+        raise ReachabilityError(index, target, Unreachable.OUT_OF_REACH, (
             f"out of reach: the flange would be {distance:.3f} m from the shoulder, the UR5e reaches "
-            f"{limit:.3f} m at most ({UR5E_REACH} m rated reach)"))
+            f"{limit:.3f} m at most ({UR5E_REACH} m rated reach)"), distance_m=distance, limit_m=limit)
 
 
 def _clik(robot: RobotModel, target: pin.SE3, q0: ArrayLike, tol_pos: float, tol_rot: float,
@@ -169,21 +186,28 @@ def _clik(robot: RobotModel, target: pin.SE3, q0: ArrayLike, tol_pos: float, tol
     return _Solution(q[iq].copy(), pos, rot, converged, iterations)
 
 
-def _failure_reason(robot: RobotModel, target: NDArray[np.float64], solution: _Solution) -> str:
-    """Why ``solution`` failed, in words: a joint held at its limit, or the residual left."""
+def _failure(robot: RobotModel, target: NDArray[np.float64], solution: _Solution
+             ) -> tuple[Unreachable, str, dict[str, Any]]:
+    """Why ``solution`` failed: a joint held at its limit, or the residual left; the kind, the
+    words and the evidence of a ReachabilityError."""
     iq, _ = _arm_indices(robot)
-    at_limit = [f"{name} at {value:+.4f} rad" for name, value, lo, hi in
+    at_limit = [(name, value) for name, value, lo, hi in
                 zip(ARM_JOINTS, solution.q6, robot.q_lower[iq], robot.q_upper[iq])
                 if min(value - lo, hi - value) < 1e-9]
     if at_limit:
-        return f"joint limit: {', '.join(at_limit)} (residual {1000 * solution.pos_residual:.3f} mm)"
+        held = ", ".join(f"{name} at {value:+.4f} rad" for name, value in at_limit)
+        return (Unreachable.JOINT_LIMIT, f"joint limit: {held} (residual {1000 * solution.pos_residual:.3f} mm)",
+                dict(joints=tuple(name for name, _ in at_limit), residual_m=solution.pos_residual))
     reason = (f"IK did not converge ({solution.iterations} iterations): residual "
               f"{1000 * solution.pos_residual:.3f} mm, {solution.rot_residual:.2e} rad")
+    evidence: dict[str, Any] = dict(iterations=solution.iterations, residual_m=solution.pos_residual,
+                                    residual_rad=solution.rot_residual)
     distance = _flange_distance(robot, target)
     if distance > UR5E_REACH:
         reason += (f"; the flange would be {distance:.3f} m from the shoulder, beyond the {UR5E_REACH} m "
                    f"rated reach")
-    return reason
+        evidence["distance_m"] = distance
+    return Unreachable.NOT_CONVERGED, reason, evidence
 
 
 def solve_ik(robot: RobotModel, target: ArrayLike, q0: ArrayLike, tol_pos: float = 1e-5, tol_rot: float = 1e-5,
@@ -196,7 +220,8 @@ def solve_ik(robot: RobotModel, target: ArrayLike, q0: ArrayLike, tol_pos: float
     _check_reach(robot, target, index)
     solution = _clik(robot, pin.SE3(target), q0, tol_pos, tol_rot, max_iter)
     if not solution.converged:
-        raise ReachabilityError(index, target, _failure_reason(robot, target, solution))
+        kind, reason, evidence = _failure(robot, target, solution)
+        raise ReachabilityError(index, target, kind, reason, **evidence)
     return solution.q6
 
 
@@ -229,8 +254,9 @@ def ik_seed_for(robot: RobotModel, target: ArrayLike, tol_pos: float = 1e-5, tol
                 best = (change, q)
     if best is None:
         starts = len(_SHOULDER_OFFSETS) * len(_SEED_POSTURES)
-        raise ReachabilityError(index, target, f"no IK solution from {starts} standard starts; the closest: "
-                                               f"{_failure_reason(robot, target, closest)}")
+        kind, reason, evidence = _failure(robot, target, closest)
+        raise ReachabilityError(index, target, kind, f"no IK solution from {starts} standard starts; the closest: "
+                                                     f"{reason}", starts=starts, **evidence)
     return best[1]
 
 
@@ -253,14 +279,16 @@ def solve_path(robot: RobotModel, targets: Sequence[ArrayLike], q0: ArrayLike, m
         _check_reach(robot, target, i)
         solution = _clik(robot, pin.SE3(target), previous, tol_pos, tol_rot, max_iter)
         if not solution.converged:
-            raise ReachabilityError(i, target, _failure_reason(robot, target, solution))
+            kind, reason, evidence = _failure(robot, target, solution)
+            raise ReachabilityError(i, target, kind, reason, **evidence)
         jump = np.abs(solution.q6 - previous)
         if jump.max() > max_step:
             j = int(jump.argmax())
             where = "the start q0" if i == 0 else f"sample {i - 1}"
-            raise ReachabilityError(i, target, (
+            raise ReachabilityError(i, target, Unreachable.BRANCH_FLIP, (
                 f"branch flip: {ARM_JOINTS[j]} moves {jump[j]:.3f} rad from {where} "
-                f"(at most {max_step} rad per sample); the path crosses a singularity or needs finer sampling"))
+                f"(at most {max_step} rad per sample); the path crosses a singularity or needs finer sampling"),
+                joint=ARM_JOINTS[j], jump_rad=float(jump[j]), max_step_rad=max_step)
         path[i], pos_res[i], rot_res[i] = solution.q6, solution.pos_residual, solution.rot_residual
         previous = solution.q6
     return IKPath(path, pos_res, rot_res)

@@ -23,7 +23,7 @@ from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
 from .placement import contact_points_world, default_plane_frame, densify, palm_poses
-from .timing import Samples, TimingError, ruckig_move, toppra_path
+from .timing import Samples, TimingError, Untimeable, ruckig_move, toppra_path
 from .trajectory import JOINT_NAMES, JointTrajectory
 
 #: Sampling period of the exported trajectory (s); the URScript export resamples at 500 Hz.
@@ -35,9 +35,15 @@ ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 
 
 class CollisionError(UngraspError):
-    """The arm or gripper would hit the table or an obstacle."""
+    """The arm or gripper would hit the table or an obstacle: during ``phase`` (a trajectory
+    segment's name), first at ``time_s`` (s from the trajectory's start), with ``pairs`` the
+    colliding bodies ("link - obstacle")."""
 
     exit_code = EXIT_NO_SOLUTION
+
+    def __init__(self, phase: str, time_s: float, pairs: tuple[str, ...]):
+        super().__init__(f"the robot collides during the {phase} at t = {time_s:.2f} s: " + ", ".join(pairs))
+        self.phase, self.time_s, self.pairs = phase, time_s, pairs
 
 
 @dataclass
@@ -164,14 +170,14 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
             i, pairs = hit
             i += lo
             phase = next(name for name, a, b in spans if a <= i <= b)
-            raise CollisionError(f"the robot collides during the {phase} at t = {trajectory.times[i]:.2f} s: "
-                                 + ", ".join(pairs))
+            raise CollisionError(phase, float(trajectory.times[i]), tuple(pairs))
     ex = Execution(trajectory, robot, res_m, res_rad, contact_error,
                    float(np.max(np.abs(trajectory.velocities) / v_max)),
                    float(np.max(np.abs(trajectory.accelerations) / a_max)))
     ex.violations = check_limits(trajectory, robot)
     if ex.violations:
-        raise TimingError("the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]))
+        raise TimingError(Untimeable.LIMITS, "the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]),
+                          violations=tuple(ex.violations))
     return ex
 
 

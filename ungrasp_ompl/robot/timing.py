@@ -16,6 +16,8 @@ import math
 import sys
 import types
 from dataclasses import dataclass
+from enum import Enum
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,10 +61,25 @@ import toppra.constraint as constraint  # noqa: E402
 TOPPRA_MARGIN = 0.9
 
 
+class Untimeable(Enum):
+    """Why a path cannot be timed (TimingError.kind)."""
+
+    NO_PARAMETERISATION = "no parameterisation"  #: TOPPRA found no timing of the contact path within the limits
+    FREE_MOVE = "free move"  #: Ruckig could not plan a free move
+    LIMITS = "limits"  #: the timed trajectory leaves the robot's limits
+
+
 class TimingError(UngraspError):
-    """A path that cannot be timed within the limits."""
+    """A path that cannot be timed within the limits. kind: why (Untimeable); evidence: its
+    figures (FREE_MOVE ``result``, Ruckig's result's name; LIMITS ``violations``, each limit
+    left, in words)."""
 
     exit_code = EXIT_NO_SOLUTION
+
+    def __init__(self, kind: Untimeable, message: str, **evidence: Any):
+        super().__init__(message)
+        self.kind = kind
+        self.evidence = evidence
 
 
 @dataclass
@@ -104,7 +121,8 @@ def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, con
                            parametrizer="ParametrizeConstAccel")
     traj = instance.compute_trajectory(0, 0)
     if traj is None:
-        raise TimingError("the contact path cannot be timed within the joint limits (TOPPRA found no parameterisation)")
+        raise TimingError(Untimeable.NO_PARAMETERISATION,
+                          "the contact path cannot be timed within the joint limits (TOPPRA found no parameterisation)")
     t = _sample_times(traj.duration, period)
     return Samples(t, traj(t)[:, :-1], traj(t, 1)[:, :-1], traj(t, 2)[:, :-1])
 
@@ -122,7 +140,7 @@ def ruckig_move(q_from: NDArray, q_to: NDArray, v_max: NDArray, a_max: NDArray, 
     traj = Trajectory(dof)
     result = otg.calculate(inp, traj)
     if result not in (Result.Working, Result.Finished):
-        raise TimingError(f"Ruckig could not plan the free move ({result})")
+        raise TimingError(Untimeable.FREE_MOVE, f"Ruckig could not plan the free move ({result})", result=str(result))
     t = _sample_times(traj.duration, period)
     q, qd, qdd = (np.array(x) for x in zip(*(traj.at_time(float(ti)) for ti in t)))
     return Samples(t, q, qd, qdd)

@@ -32,13 +32,14 @@ class PlanTrials:
 
     results: tuple[TrialResult, ...]
     """Each trial's result, in order (empty when the robot cannot execute the plan)."""
-    not_executable: str = ""
-    """The robot's reason when it cannot execute the plan; empty otherwise."""
+    unexecutable: UngraspError | None = None
+    """The robot's error when it cannot execute the plan (robot.ik.ReachabilityError,
+    robot.pipeline.CollisionError, robot.timing.TimingError, each with its evidence); None otherwise."""
 
     @property
     def executable(self) -> bool:
         """The robot could execute the plan, so it was simulated."""
-        return not self.not_executable
+        return self.unexecutable is None
 
     @property
     def successes(self) -> int:
@@ -62,13 +63,13 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["
 
 def plan_trials(scene: Scene, plan: Plan, trials: int, perturbation: str = "paper", seed: int = 1) -> PlanTrials:
     """Execute a solved plan on the robot and simulate trials of it with the named preset's
-    errors; PlanTrials (without results, and the robot's reason, when it cannot be executed)."""
+    errors; PlanTrials (without results, and with the robot's error, when it cannot be executed)."""
     from .trial import run_trial
 
     try:
         _, setup = placement(scene, plan)
     except UngraspError as exc:
-        return PlanTrials((), str(exc))
+        return PlanTrials((), exc)
     params = trial_params(preset(perturbation), seed, trials)
     return PlanTrials(tuple(run_trial(setup, p, k, seed) for k, p in enumerate(params)))
 
