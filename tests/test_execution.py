@@ -111,6 +111,28 @@ def test_every_sample_within_limits_and_continuous(executed):
     assert np.max(np.abs(predicted - traj.positions[1:])) < 2e-3
 
 
+def test_limits_left_are_found_where_furthest_beyond(executed):
+    """A trajectory twice as fast as the robot's limits allow, and one joint moved out of its range:
+    each joint beyond a limit is reported once, at the sample furthest beyond it, with its value."""
+    _, _, ex = executed
+    traj, robot = ex.trajectory, ex.robot
+    peak = np.max(np.abs(traj.velocities) / robot.v_max)  # the fastest joint's share of its limit
+    fast = dataclasses.replace(traj, velocities=traj.velocities * 2 / peak)
+    found = check_limits(fast, robot)
+    assert found and all(v.quantity == "velocity" for v in found)
+    over = np.abs(fast.velocities) > robot.v_max * (1 + 1e-6) + 1e-12
+    assert [v.joint for v in found] == [JOINT_NAMES[j] for j in np.flatnonzero(over.any(axis=0))]
+    for v in found:
+        j = JOINT_NAMES.index(v.joint)
+        k = int(np.argmax(np.abs(fast.velocities[:, j])))
+        assert v.value == fast.velocities[k, j] and v.time_s == traj.times[k]
+        assert (v.low, v.high) == (-robot.v_max[j], robot.v_max[j]) and abs(v.value) > v.high
+    moved = traj.positions.copy()
+    moved[5, 0] = robot.q_upper[0] + 0.1
+    (out,) = check_limits(dataclasses.replace(traj, positions=moved), robot)
+    assert (out.joint, out.quantity, out.value, out.time_s) == (JOINT_NAMES[0], "position", moved[5, 0], traj.times[5])
+
+
 def test_termination_maneuver(executed):
     scene, result, ex = executed
     traj = ex.trajectory

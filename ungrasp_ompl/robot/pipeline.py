@@ -11,7 +11,7 @@ gripper with the table and the obstacles.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,7 +57,6 @@ class Execution:
     contact_error_m: float  # largest distance of a digit tip from its planned place, at and between samples
     velocity_fraction: float  # largest |qd| / limit over samples and joints
     acceleration_fraction: float
-    violations: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
         tr = self.trajectory
@@ -174,10 +173,10 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     ex = Execution(trajectory, robot, res_m, res_rad, contact_error,
                    float(np.max(np.abs(trajectory.velocities) / v_max)),
                    float(np.max(np.abs(trajectory.accelerations) / a_max)))
-    ex.violations = check_limits(trajectory, robot)
-    if ex.violations:
-        raise TimingError(Untimeable.LIMITS, "the trajectory leaves the robot's limits: " + "; ".join(ex.violations[:3]),
-                          violations=tuple(ex.violations))
+    violations = check_limits(trajectory, robot)
+    if violations:
+        raise TimingError(Untimeable.LIMITS, "the trajectory leaves the robot's limits: "
+                          + "; ".join(map(str, violations[:3])), violations=tuple(violations))
     return ex
 
 
@@ -271,16 +270,39 @@ def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDAr
     return worst
 
 
-def check_limits(traj: JointTrajectory, robot: RobotModel, tol: float = 1e-6) -> list[str]:
-    """Every sample within the joint position, velocity and acceleration limits (relative tolerance tol)."""
+@dataclass(frozen=True)
+class LimitViolation:
+    """A joint beyond one of its limits somewhere on a trajectory: where it is furthest beyond."""
+
+    joint: str
+    """The joint's name (JOINT_NAMES)."""
+    quantity: str
+    """position, velocity or acceleration."""
+    value: float
+    """Its value there (rad, rad/s, rad/s^2; m, m/s, m/s^2 for the gripper)."""
+    low: float
+    """The limit's low end, in the same unit."""
+    high: float
+    """The limit's high end, in the same unit."""
+    time_s: float
+    """When (s from the trajectory's start)."""
+
+    def __str__(self) -> str:
+        return (f"{self.joint} {self.quantity} {self.value:.4g} outside [{self.low:.4g}, {self.high:.4g}] "
+                f"at t = {self.time_s:.3f} s")
+
+
+def check_limits(traj: JointTrajectory, robot: RobotModel, tol: float = 1e-6) -> list[LimitViolation]:
+    """The joints leaving their position, velocity or acceleration limits on the trajectory (velocity and
+    acceleration with the relative tolerance tol), each where it is furthest beyond; empty within them."""
     out = []
-    lo, hi = robot.q_lower, robot.q_upper
-    for name, values, bound in (("velocity", traj.velocities, robot.v_max), ("acceleration", traj.accelerations, robot.a_max)):
-        over = np.abs(values) > bound * (1 + tol) + 1e-12
-        for j in np.flatnonzero(over.any(axis=0)):
-            k = int(np.argmax(np.abs(values[:, j])))
-            out.append(f"{JOINT_NAMES[j]} {name} {values[k, j]:.4g} beyond {bound[j]:.4g} at t = {traj.times[k]:.3f} s")
-    bad = (traj.positions < lo - 1e-9) | (traj.positions > hi + 1e-9)
-    for j in np.flatnonzero(bad.any(axis=0)):
-        out.append(f"{JOINT_NAMES[j]} position outside [{lo[j]:.4g}, {hi[j]:.4g}]")
+    v, a = robot.v_max, robot.a_max
+    for name, values, lo, hi, slack in (("position", traj.positions, robot.q_lower, robot.q_upper, 1e-9),
+                                        ("velocity", traj.velocities, -v, v, v * tol + 1e-12),
+                                        ("acceleration", traj.accelerations, -a, a, a * tol + 1e-12)):
+        beyond = np.maximum(values - hi, lo - values)
+        for j in np.flatnonzero((beyond > slack).any(axis=0)):
+            k = int(np.argmax(beyond[:, j]))
+            out.append(LimitViolation(JOINT_NAMES[j], name, float(values[k, j]), float(lo[j]), float(hi[j]),
+                                      float(traj.times[k])))
     return out
