@@ -310,3 +310,12 @@ def test_plan_read_back_is_checked_field_by_field(tmp_path):
     empty.mkdir()
     with pytest.raises(InputError, match="holds no plan.json"):
         read_plan(empty)
+
+
+def test_simulate_help_names_every_perturbation_preset():
+    from ungrasp_ompl.cli.parser import build_parser
+    from ungrasp_ompl.perturbation import PRESETS
+
+    simulate = build_parser()._subparsers._group_actions[0].choices["simulate"]
+    text = " ".join(simulate.format_help().split())
+    assert all(name in text for name in PRESETS), [n for n in PRESETS if n not in text]

@@ -206,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
     sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
-                    "friction, mass, thickness")
+                    "friction, mass, thickness, calibration")
     sm.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
     sm.add_argument("--out", default="simulation", help="output directory (default ./simulation)")
     sm.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
