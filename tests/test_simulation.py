@@ -28,7 +28,9 @@ from ungrasp_ompl.sim.campaign import simulate, wilson_interval
 from ungrasp_ompl.sim.outcome import Outcome
 from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
-from ungrasp_ompl.sim.trial import calibration_offset, perturbed_start, run_trial, trial_mjcf, trial_spec
+from ungrasp_ompl.sim.model import model_ids
+from ungrasp_ompl.sim.trial import (calibration_offset, perturbed_start, run_trial, touch_down, trial_mjcf,
+                                    trial_spec)
 
 
 def _planned(name: str, tip: str | None = None):
@@ -161,11 +163,38 @@ def test_a_calibration_error_offsets_the_whole_commanded_trajectory(pick):
     for k in (len(setup.drive.times) // 2, len(setup.drive.times) - 1):
         rel = np.linalg.inv(setup.drive.palm[0]) @ setup.drive.palm[k]
         assert np.allclose(np.linalg.inv(moved) @ (offset @ setup.drive.palm[k]), rel, atol=1e-12)
-    start = perturbed_start(setup, params, setup.spec.obj.thickness)
-    assert start[2, 3] >= (offset @ setup.start_pose)[2, 3] - 1e-12
+    start, lowering = perturbed_start(setup, params, setup.spec.obj.thickness)
+    assert lowering >= 0.0 and start[2, 3] == pytest.approx((offset @ setup.start_pose)[2, 3] + lowering, abs=1e-12)
     assert trial_spec(setup, params).table_height == pytest.approx(0.0005)
     assert PRESETS["paper"].palm_shift_mm == 1.0 and PRESETS["paper"].palm_turn_deg == 0.5
     assert PRESETS["paper"].table_mm == 0.5
+
+
+def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_a_digit(pick):
+    """Where the calibration and grasp errors would put the object into the table, trial 0's world
+    starts with hand and object raised until it touches the table, nothing inside a digit, and the
+    hand lowers it onto the table: after the settling G rests on the table and no contact reaches
+    deeper than the contacts' own sinking under their loads."""
+    import mujoco
+
+    setup = _setup(pick)
+    lowered = 0
+    for params in trial_params(PRESETS["calibration"], seed=1, trials=8):
+        start, lowering = perturbed_start(setup, params, setup.spec.obj.thickness)
+        lowered += lowering > 0
+        model = mujoco.MjModel.from_xml_string(trial_mjcf(setup, params))
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+        mujoco.mj_forward(model, data)
+        assert min((data.contact[i].dist for i in range(data.ncon)), default=0.0) > -1e-6  # nothing inside anything
+        ids = model_ids(model)
+        touch_down(model, data, ids, calibration_offset(setup.drive, params) @ setup.drive.palm[0], lowering,
+                   setup.settle_time)
+        table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
+        on_table = [data.contact[i] for i in range(data.ncon) if table in (data.contact[i].geom1, data.contact[i].geom2)]
+        assert on_table, f"lowering {lowering * 1000:.3f} mm: the object is not on the table after the settling"
+        assert min(data.contact[i].dist for i in range(data.ncon)) > -2e-4  # a fraction of a millimetre, not a digit's depth
+    assert 0 < lowered < 8  # the draws include hands too low and too high
 
 
 def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp_path):
@@ -190,9 +219,11 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, key)
     mujoco.mj_forward(model, data)
-    start = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness)
+    start, lowering = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness)
     assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
-    mujoco.mj_step(model, data, nstep=round(setup.settle_time / model.opt.timestep))
+    palm = calibration_offset(setup.drive, params) @ setup.drive.palm[0]
+    assert np.allclose(data.mocap_pos[0], palm[:3, 3] + [0.0, 0.0, lowering], atol=1e-12)
+    touch_down(model, data, model_ids(model), palm, lowering, setup.settle_time)
     record: list = []
     run_trial(setup, params, record=record)
     assert np.allclose(data.xpos[obj], record[0][1][:3, 3], atol=1e-9)

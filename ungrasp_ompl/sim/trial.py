@@ -1,8 +1,11 @@
 """One simulated trial: the object in the pinch, the gripper driven open-loop, the outcome judged.
 
-Sequence: the object is put at the plan's start pose (plus the trial's perturbation, lifted
-clear of the table if it would reach into it), the jaws at the planned opening; the world
-settles with the palm still (gravity, the servo squeezing); then every control period the
+Sequence: the object is put at the plan's start pose (plus the trial's perturbation), the jaws
+at the planned opening; where the errors put the object into the table, hand and object start
+that much higher and the hand lowers it onto the table in the first half of the settling, as
+the arm would have set it down (the object slides in the pinch as the contacts let it, never
+through a digit); the world settles with the palm still (gravity, the servo squeezing); then
+every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
 the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
 lifts away and everything free lies still, untouched by the digits, at once: see Stillness). A calibration
@@ -24,6 +27,8 @@ from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from ..perturbation import TrialParams
 
+#: The control period (s) of touch_down's lowering: the arm's, as the drive's samples have it.
+TOUCH_DOWN_TICK = 0.002
 #: A contact at A or B absent this long (s) before the termination is a loss of grip.
 LOSS_WINDOW = 0.05
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
@@ -89,11 +94,14 @@ def calibration_offset(drive: GripperDrive, params: TrialParams) -> NDArray[np.f
     return palm0 @ delta @ np.linalg.inv(palm0)
 
 
-def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) -> NDArray[np.float64]:
-    """The object's start pose with the trial's errors: the calibration offset (the object is in
-    the hand, which is not quite where it is told), then the grasp error (a turn by yaw_deg
-    about the normal through the grasp point and a shift in the object's own plane, along GB and
-    across it), then lifted straight up if any corner of the prism would reach into the table."""
+def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) -> tuple[NDArray[np.float64], float]:
+    """The object's start pose with the trial's errors, and how far (m) the hand must still lower
+    it: the calibration offset (the object is in the hand, which is not quite where it is told),
+    then the grasp error (a turn by yaw_deg about the normal through the grasp point and a shift
+    in the object's own plane, along GB and across it). Where a corner of the prism would then
+    reach into the table, the pose is raised straight up until it touches it, and the depth it
+    reached is the lowering (0 otherwise): the hand starts as much higher, holding the object as
+    it was told to (touch_down lowers both)."""
     local = np.eye(4)
     turn = _rot_z(math.radians(params.yaw_deg))
     p = setup.grasp_point
@@ -103,10 +111,31 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     outline = setup.spec.obj.outline
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     lowest = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2]))
-    table = params.table_height_mm / 1000
-    if lowest < table:
-        pose[2, 3] += table - lowest
-    return pose
+    lowering = max(params.table_height_mm / 1000 - lowest, 0.0)
+    pose[2, 3] += lowering
+    return pose, lowering
+
+
+def touch_down(model, data, ids: ModelIds, palm: NDArray, lowering: float, duration: float) -> None:
+    """Step the world for duration (s) while the palm, lowering (m) above its pose palm (4x4), comes
+    down to it at a constant speed over the first half and then stays (the settling of the trial's
+    start; with lowering 0 the palm never moves). The table meets the object on the way, and the
+    object slides in the pinch as its contacts let it."""
+    import mujoco
+
+    steps = max(1, round(duration / model.opt.timestep))
+    if lowering <= 0.0:
+        mujoco.mj_step(model, data, nstep=steps)
+        return
+    quat = np.zeros(4)
+    moving = steps // 2
+    ticks = max(1, min(moving, round(moving * model.opt.timestep / TOUCH_DOWN_TICK)))
+    pose = palm.copy()
+    for i in range(1, ticks + 1):
+        pose[2, 3] = palm[2, 3] + lowering * (1.0 - i / ticks)
+        _set_palm(data, ids, pose, quat)
+        mujoco.mj_step(model, data, nstep=moving // ticks)
+    mujoco.mj_step(model, data, nstep=steps - ticks * (moving // ticks))
 
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
@@ -324,7 +353,8 @@ def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
 
 def _start(setup: TrialSetup, params: TrialParams):
     """The trial's compiled world at its first state (before the settling): model, data, ids,
-    the commanded palm poses (K, 4, 4) with the calibration error applied."""
+    the commanded palm poses (K, 4, 4) with the calibration error applied, and how far the hand
+    starts above the first of them (perturbed_start's lowering, m)."""
     import mujoco
 
     spec = trial_spec(setup, params)
@@ -333,24 +363,26 @@ def _start(setup: TrialSetup, params: TrialParams):
     ids = model_ids(model)
     drive = setup.drive
     palm = calibration_offset(drive, params) @ drive.palm if not params.calibrated else drive.palm
+    start, lowering = perturbed_start(setup, params, spec.obj.thickness)
     quat = np.zeros(4)
-    _set_palm(data, ids, palm[0], quat)
+    raised = palm[0].copy()
+    raised[2, 3] += lowering
+    _set_palm(data, ids, raised, quat)
     thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_jaw]]
     finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
     data.qpos[thumb_q], data.qpos[finger_q] = -drive.opening[0] / 2, drive.opening[0] / 2
-    start = perturbed_start(setup, params, spec.obj.thickness)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
     data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
     mujoco.mj_forward(model, data)
-    return spec, model, data, ids, palm
+    return spec, model, data, ids, palm, lowering
 
 
 def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:
     """The MJCF of a trial's world with a keyframe 'start' holding its first state and controls
     (the object's pose, the jaws, the palm and the servo's command), for MuJoCo's viewer."""
-    spec, model, data, ids, _ = _start(setup, params)
+    spec, model, data, ids, _, _ = _start(setup, params)
     key = Keyframe("start", data.qpos.copy(), data.ctrl.copy(), data.mocap_pos.copy(), data.mocap_quat.copy())
     return build_mjcf(spec, key)
 
@@ -367,12 +399,12 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     import mujoco
 
     wall = time.perf_counter()
-    spec, model, data, ids, palm = _start(setup, params)
+    spec, model, data, ids, palm, lowering = _start(setup, params)
     drive = setup.drive
     quat = np.zeros(4)
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / spec.timestep))
-    mujoco.mj_step(model, data, nstep=max(1, round(setup.settle_time / spec.timestep)))
+    touch_down(model, data, ids, palm[0], lowering, setup.settle_time)
     if record is not None:
         record.append((0.0, _pose(data, ids.object_body)))
 
