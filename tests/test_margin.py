@@ -131,12 +131,21 @@ def test_relaxed_margin_matches_bisection():
        a=st.sampled_from((-1, 0, 1)), b=st.sampled_from((-1, 0, 1)), model=st.sampled_from(("relaxed", "strict")),
        delta=st.floats(-0.1, 0.1))
 def test_margin_shifts_with_the_cones(theta, d, psi, a, b, model, delta):
-    """Cones narrower by delta leave a margin smaller by delta (while neither window's end bites)."""
+    """Cones narrower by delta leave a margin smaller by delta (while neither window's end bites),
+    where force closure is the same all the way from the new cones to the old margin's threshold:
+    always with relaxed sliding (monotone in the cones); with strict sliding, whose closure can come
+    and go along delta, where force_closure itself says so along that stretch."""
     m = friction_margin(theta, d, psi, a, b, Friction(REFERENCE_MU, model))[0]
     m2 = friction_margin(theta, d, psi, a, b, Friction(_shrunk(REFERENCE_MU, delta), model))[0]
     cap = min(math.atan(x) for x in REFERENCE_MU)
     lo = max(math.atan(x) for x in REFERENCE_MU) - MAX_CONE_HALF_ANGLE
-    if np.isfinite(m) and lo + 0.2 < m < cap - 0.2:
+    if not (np.isfinite(m) and lo + 0.2 < m < cap - 0.2):
+        return
+    stretch = delta + (m - delta) * np.linspace(0.0, 1.0, 101)[:-1]  # from the new cones up to m, m left out
+    closed = [bool(force_closure(theta, d, psi, a, b, Friction(_shrunk(REFERENCE_MU, t), model))[0]) for t in stretch]
+    if model == "relaxed":
+        assert all(c == (m > delta) for c in closed)
+    if all(c == (m > delta) for c in closed):
         assert m2 == pytest.approx(m - delta, abs=1e-7)
 
 
