@@ -221,9 +221,9 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     mujoco.mj_forward(model, data)
     start, lowering = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness)
     assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
-    palm = calibration_offset(setup.drive, params) @ setup.drive.palm[0]
-    assert np.allclose(data.mocap_pos[0], palm[:3, 3] + [0.0, 0.0, lowering], atol=1e-12)
-    touch_down(model, data, model_ids(model), palm, lowering, setup.settle_time)
+    palm, ids = calibration_offset(setup.drive, params) @ setup.drive.palm[0], model_ids(model)
+    assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + [0.0, 0.0, lowering], atol=1e-12)
+    touch_down(model, data, ids, palm, lowering, setup.settle_time)
     record: list = []
     run_trial(setup, params, record=record)
     assert np.allclose(data.xpos[obj], record[0][1][:3, 3], atol=1e-9)

@@ -186,18 +186,19 @@ def _clik(robot: RobotModel, target: pin.SE3, q0: ArrayLike, tol_pos: float, tol
     return _Solution(q[iq].copy(), pos, rot, converged, iterations)
 
 
-def _failure(robot: RobotModel, target: NDArray[np.float64], solution: _Solution
-             ) -> tuple[Unreachable, str, dict[str, Any]]:
-    """Why ``solution`` failed: a joint held at its limit, or the residual left; the kind, the
-    words and the evidence of a ReachabilityError."""
+def _failure(robot: RobotModel, target: NDArray[np.float64], solution: _Solution, index: int | None
+             ) -> ReachabilityError:
+    """Why ``solution`` failed, as the ReachabilityError of sample ``index``: a joint held at its
+    limit, or the residual left."""
     iq, _ = _arm_indices(robot)
     at_limit = [(name, value) for name, value, lo, hi in
                 zip(ARM_JOINTS, solution.q6, robot.q_lower[iq], robot.q_upper[iq])
                 if min(value - lo, hi - value) < 1e-9]
     if at_limit:
         held = ", ".join(f"{name} at {value:+.4f} rad" for name, value in at_limit)
-        return (Unreachable.JOINT_LIMIT, f"joint limit: {held} (residual {1000 * solution.pos_residual:.3f} mm)",
-                dict(joints=tuple(name for name, _ in at_limit), residual_m=solution.pos_residual))
+        return ReachabilityError(index, target, Unreachable.JOINT_LIMIT,
+                                 f"joint limit: {held} (residual {1000 * solution.pos_residual:.3f} mm)",
+                                 joints=tuple(name for name, _ in at_limit), residual_m=solution.pos_residual)
     reason = (f"IK did not converge ({solution.iterations} iterations): residual "
               f"{1000 * solution.pos_residual:.3f} mm, {solution.rot_residual:.2e} rad")
     evidence: dict[str, Any] = dict(iterations=solution.iterations, residual_m=solution.pos_residual,
@@ -207,7 +208,7 @@ def _failure(robot: RobotModel, target: NDArray[np.float64], solution: _Solution
         reason += (f"; the flange would be {distance:.3f} m from the shoulder, beyond the {UR5E_REACH} m "
                    f"rated reach")
         evidence["distance_m"] = distance
-    return Unreachable.NOT_CONVERGED, reason, evidence
+    return ReachabilityError(index, target, Unreachable.NOT_CONVERGED, reason, **evidence)
 
 
 def solve_ik(robot: RobotModel, target: ArrayLike, q0: ArrayLike, tol_pos: float = 1e-5, tol_rot: float = 1e-5,
@@ -220,8 +221,7 @@ def solve_ik(robot: RobotModel, target: ArrayLike, q0: ArrayLike, tol_pos: float
     _check_reach(robot, target, index)
     solution = _clik(robot, pin.SE3(target), q0, tol_pos, tol_rot, max_iter)
     if not solution.converged:
-        kind, reason, evidence = _failure(robot, target, solution)
-        raise ReachabilityError(index, target, kind, reason, **evidence)
+        raise _failure(robot, target, solution, index)
     return solution.q6
 
 
@@ -254,9 +254,9 @@ def ik_seed_for(robot: RobotModel, target: ArrayLike, tol_pos: float = 1e-5, tol
                 best = (change, q)
     if best is None:
         starts = len(_SHOULDER_OFFSETS) * len(_SEED_POSTURES)
-        kind, reason, evidence = _failure(robot, target, closest)
-        raise ReachabilityError(index, target, kind, f"no IK solution from {starts} standard starts; the closest: "
-                                                     f"{reason}", starts=starts, **evidence)
+        near = _failure(robot, target, closest, index)
+        raise ReachabilityError(index, target, near.kind, f"no IK solution from {starts} standard starts; the closest: "
+                                                          f"{near.reason}", starts=starts, **near.evidence)
     return best[1]
 
 
@@ -279,8 +279,7 @@ def solve_path(robot: RobotModel, targets: Sequence[ArrayLike], q0: ArrayLike, m
         _check_reach(robot, target, i)
         solution = _clik(robot, pin.SE3(target), previous, tol_pos, tol_rot, max_iter)
         if not solution.converged:
-            kind, reason, evidence = _failure(robot, target, solution)
-            raise ReachabilityError(i, target, kind, reason, **evidence)
+            raise _failure(robot, target, solution, i)
         jump = np.abs(solution.q6 - previous)
         if jump.max() > max_step:
             j = int(jump.argmax())

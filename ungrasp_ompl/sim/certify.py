@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from ..errors import InputError, UngraspError
-from ..planning.margins import Objective
+from ..planning.margins import OBJECTIVES, Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
 from ..scene import Scene
@@ -104,7 +104,6 @@ class CandidateSource:
 def candidate_sources(planner: str, objective: Objective, seed: int, count: int) -> list[CandidateSource]:
     """The first count candidates of the rule (see the module); InputError("candidates") when the
     rule gives fewer (the lattice planner gives one per objective)."""
-    from ..planning.margins import OBJECTIVES
     from ..planning.setup import check_objective
 
     objectives = [objective] + [o for o in OBJECTIVES if o != objective]
