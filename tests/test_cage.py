@@ -403,7 +403,7 @@ def test_the_cage_workflow_returns_its_profile_as_values(tmp_path):
     escape energy, its smallest margin the plan's own, and write() puts both into cage.json."""
     import json
 
-    from ungrasp_ompl.cage_report import CageOptions, cage_report
+    from ungrasp_ompl.workflows.cage import CageOptions, cage_report
     from ungrasp_ompl.planning.path_margin import path_friction_margin
 
     scene = Scene.from_file("guitar_pick")

@@ -28,19 +28,20 @@ def _wilson_low(successes: int, trials: int) -> float:
 
 
 def test_the_candidates_take_the_objectives_in_turn_then_further_seeds():
-    got = candidate_sources("RRTstar", "margin", 7, 8)
+    got = candidate_sources("RRTstar", "margin", 7, 10)
     assert got == [CandidateSource("RRTstar", "margin", 7), CandidateSource("lattice", "margin", None),
                    CandidateSource("RRTstar", "cost", 7), CandidateSource("lattice", "cost", None),
                    CandidateSource("RRTstar", "balanced", 7), CandidateSource("lattice", "balanced", None),
+                   CandidateSource("RRTstar", "tolerance", 7), CandidateSource("lattice", "tolerance", None),
                    CandidateSource("RRTstar", "margin", 8), CandidateSource("RRTstar", "cost", 8)]
     assert candidate_sources("RRTstar", "margin", 7, 3) == got[:3]
     # PRM optimises the cost only: its seeds under the cost, the lattice under every objective
-    assert [s.label() for s in candidate_sources("PRM", "cost", 1, 5)] == [
-        "PRM cost seed 1", "lattice cost", "lattice margin", "lattice balanced", "PRM cost seed 2"]
+    assert [s.label() for s in candidate_sources("PRM", "cost", 1, 6)] == [
+        "PRM cost seed 1", "lattice cost", "lattice margin", "lattice balanced", "lattice tolerance", "PRM cost seed 2"]
     assert [s.label() for s in candidate_sources("lattice", "balanced", 1, 3)] == [
         "lattice balanced", "lattice cost", "lattice margin"]
     with pytest.raises(InputError) as err:
-        candidate_sources("lattice", "cost", 1, 4)
+        candidate_sources("lattice", "cost", 1, 5)
     assert err.value.field == "candidates"
 
 
@@ -71,7 +72,7 @@ def test_the_kept_candidate_has_the_highest_wilson_lower_bound(rows):
     (["--certify", "2", "--jobs", "0"], "--jobs"),
     (["--certify", "2", "--planner", "FMT"], "--planner"),
     (["--certify", "2", "--planner", "NoSuchPlanner"], "--planner"),
-    (["--certify", "2", "--planner", "lattice", "--candidates", "4"], "--candidates"),
+    (["--certify", "2", "--planner", "lattice", "--candidates", "5"], "--candidates"),
     (["--certify", "2", "--planner", "PRM", "--objective", "margin"], "--objective"),
     (["--candidates", "3"], "--candidates"),
     (["--jobs", "2"], "--jobs"),

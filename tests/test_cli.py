@@ -197,7 +197,7 @@ def test_unknown_command_exits_2():
 @pytest.mark.parametrize("args,line", [
     (("plan", "guitar_pick", "--time", "-1"), "--time: must be > 0, got -1"),
     (("bench", "guitar_pick", "--runs", "x"), "--runs: must be an integer, got 'x'"),
-    (("plan", "guitar_pick", "--objective", "fast"), "--objective: must be one of cost, margin, balanced, got 'fast'"),
+    (("plan", "guitar_pick", "--objective", "fast"), "--objective: must be one of cost, margin, balanced, tolerance, got 'fast'"),
     (("plan",), "scene: is required"),
     (("plan", "guitar_pick", "--bogus"), "--bogus: is not an argument of this command (see --help)"),
 ])
@@ -310,6 +310,13 @@ def test_plan_read_back_is_checked_field_by_field(tmp_path):
     empty.mkdir()
     with pytest.raises(InputError, match="holds no plan.json"):
         read_plan(empty)
+
+
+def test_the_objective_flag_offers_every_objective():
+    from ungrasp_ompl.cli.parser import OBJECTIVE_NAMES
+    from ungrasp_ompl.planning.margins import OBJECTIVES
+
+    assert OBJECTIVE_NAMES == tuple(o.value for o in OBJECTIVES)
 
 
 def test_simulate_help_names_every_perturbation_preset():

@@ -16,10 +16,10 @@ from ungrasp_ompl.mechanics import force_closure, kinematic_checks
 from ungrasp_ompl.mechanics.antipodal import effective_friction
 from ungrasp_ompl.mechanics.kinematics import digit_axis, digit_polygons, thumb_normal
 from ungrasp_ompl.planning import plan
-from ungrasp_ompl.robustness import plan_samples
+from ungrasp_ompl.mechanics.path import plan_samples
 from ungrasp_ompl.planning.deviate import steeper_start
 from ungrasp_ompl.perturbation import PRESETS
-from ungrasp_ompl.tolerance import ToleranceOptions, ToleranceReason, tolerance
+from ungrasp_ompl.scene.tolerance import ToleranceOptions, ToleranceReason, ladder, state_tolerances, tolerance
 
 
 @pytest.fixture(scope="module")
@@ -168,3 +168,125 @@ def test_bad_input_names_the_field(pick):
         tolerance(scene, result, ToleranceOptions(resolution=(0.1, 0.0, 0.1)))
     with pytest.raises(InputError, match="box.table_mm"):
         tolerance(scene, result, ToleranceOptions(box=replace(PRESETS["paper"], table_mm=math.nan)))
+
+
+# -- a state's own tolerance, and the tolerance objective ---------------------------------------------
+
+def test_a_plan_tolerates_the_least_of_its_states_tolerances_to_a_ladder_step(pick):
+    """state_tolerances over a plan's samples (the last one terminal): the least of them is the
+    ladder's last scale at or below the plan's tolerance, and the split into force closure and the
+    other checks loses nothing (a state's tolerance is the smaller of its two parts')."""
+    scene, result = pick
+    smp = plan_samples(result, scene.options.resolution, both_modes=True)
+    terminal = np.zeros(len(smp.states), dtype=bool)
+    terminal[-1] = True
+    args = (scene, smp.states, smp.a_sign, smp.b_sign, terminal, np.asarray(result.states[0]))
+    each = state_tolerances(*args)
+    levels = ladder(ToleranceOptions().max_scale)
+    s = tolerance(scene, result).scale
+    below = levels[levels <= s * (1 + 2e-3)]  # the plan's scale is bisected to 1e-3 of itself
+    assert each.min() == below[-1]
+    assert np.array_equal(each, np.minimum(state_tolerances(*args, closure=False), state_tolerances(*args, kinematic=False)))
+
+
+def test_the_shift_s_ends_bound_every_check_but_force_closure(pick, monkeypatch):
+    """Without force closure, obstacles and the termination every check is linear in the grasp
+    shift or the least of linear functions of it, so the shift's two ends decide: the same
+    tolerances as over the whole grid of shifts."""
+    import ungrasp_ompl.scene.tolerance as module
+
+    scene, result = pick
+    smp = plan_samples(result, scene.options.resolution, both_modes=True)
+    rng = np.random.default_rng(5)
+    q = smp.states + rng.normal(0.0, [0.05, 0.05, 0.05], smp.states.shape)  # around the path, some insecure
+    ends = state_tolerances(scene, q, 0, 0, closure=False)
+    whole = module._Box.face
+    monkeypatch.setattr(module._Box, "face", lambda self, s, on, shift_ends=False: whole(self, s, on, False))
+    assert np.array_equal(ends, state_tolerances(scene, q, 0, 0, closure=False))
+    assert np.isfinite(ends).any() and (ends > 0).any()
+
+
+def test_the_tolerance_search_keeps_the_most_tolerant_path_of_a_small_lattice():
+    """On a small lattice with every secure path enumerated: the tolerance objective's bottleneck is
+    the largest least step tolerance any path keeps, each step's the smaller of its ends', each
+    end's state_tolerances in the step's contact mode (the termination at the goal's states), and
+    the search's path keeps it."""
+    from test_objectives import STEPS, all_paths, small_problem
+
+    from ungrasp_ompl.mechanics import primitive_sliding_signs
+    from ungrasp_ompl.planning.atlas import LEG_PRIMITIVE
+    from ungrasp_ompl.planning.lattice import lattice_search
+    from ungrasp_ompl.planning.margins import TOLERANCE_CAP, LatticeMargins
+
+    # a start low over the table, where the digits' clearance makes the tolerances differ
+    scene = replace(Scene.from_file("puzzle_piece"), start=np.array([math.radians(14.0), 0.78, math.radians(38.0)]))
+    atlas, goal_box = small_problem(scene)
+    margins = LatticeMargins(atlas, "tolerance", goal_box)
+    result = lattice_search(atlas, goal_box, "tolerance", margins)
+    paths = all_paths(atlas, goal_box)
+    assert len(paths) > 50 and result.reachable and set(STEPS)
+    goal = atlas.releasable_in(goal_box)
+
+    def ends(kind, a, b):  # (lattice index, sliding sign at A, at B) of a step's two ends
+        dq = atlas.state(b) - atlas.state(a)
+        return [(i, *(int(x) for x in primitive_sliding_signs(LEG_PRIMITIVE[kind], atlas.state(i)[1],
+                                                                atlas.state(i)[2], dq[1], dq[2]))) for i in (a, b)]
+
+    keys = sorted({e for p in paths for leg in p for e in ends(*leg)})
+    own = {}
+    for mode in {k[1:] for k in keys}:  # every end's own tolerance, one call per contact mode
+        group = [k for k in keys if k[1:] == mode]
+        q = np.array([atlas.state(k[0]) for k in group])
+        values = state_tolerances(scene, q, *mode, np.array([goal[k[0]] for k in group]),
+                                  options=ToleranceOptions(max_scale=TOLERANCE_CAP))
+        own.update(zip(group, values))
+
+    steps = {leg: min(own[e] for e in ends(*leg)) for leg in {leg for p in paths for leg in p}}
+
+    def step(kind, a, b):
+        return steps[(kind, a, b)]
+
+    widest = max(min(step(*leg) for leg in p) for p in paths)
+    assert margins.bottleneck == widest < TOLERANCE_CAP and result.min_margin == widest
+    assert min(step(leg.kind, leg.start, leg.end) for leg in result.legs) == widest
+    assert len({min(step(*leg) for leg in p) for p in paths}) > 1  # the paths differ in tolerance
+
+
+def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_rejects_the_cost_plan(tmp_path):
+    """The lattice's tolerance plan tolerates at least what the cheapest plan does (to a ladder
+    step); with planning.min_tolerance between the two, the cost plan fails with its tolerance as
+    evidence and the tolerance plan is returned with its own."""
+    from ungrasp_ompl.planning.margins import Objective
+    from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
+    from ungrasp_ompl.planning.setup import with_tolerance_floor
+    from ungrasp_ompl.scene.tolerance import LADDER_STEP
+
+    scene = Scene.from_file("puzzle_piece")
+    cheap = plan(scene, planner="lattice")
+    robust = plan(scene, planner="lattice", objective="tolerance")
+    assert robust.solved and robust.objective is Objective.TOLERANCE and robust.margin_bottleneck_deg is None
+    low, high = scene.tolerance(cheap).scale, scene.tolerance(robust).scale
+    assert high >= low / LADDER_STEP
+    assert high > 2 * low  # on this scene the objective has room to act
+    floored = replace(scene, options=replace(scene.options, min_tolerance=math.sqrt(low * high)))
+    rejected = plan(floored, planner="lattice")
+    assert rejected.outcome is PlanOutcome.BELOW_MIN_TOLERANCE and not rejected.solved
+    assert rejected.evidence["tolerance"]["scale"] == pytest.approx(low)
+    assert "below planning.min_tolerance" in describe_outcome(rejected.outcome, rejected.evidence)
+    kept = with_tolerance_floor(floored, robust)  # what plan() does to the tolerance plan under the floor
+    assert kept.solved and kept.tolerance["scale"] == pytest.approx(high)
+
+
+def test_a_scene_s_tolerance_floor_is_checked_by_its_field(tmp_path):
+    from ungrasp_ompl.shipped import resolve
+
+    base = resolve("guitar_pick").read_text()
+    assert "planning:" not in base
+    text = tmp_path / "s.yaml"
+    text.write_text(base + "\nplanning:\n  min_tolerance: 0.25\n")
+    assert Scene.from_file(text).options.min_tolerance == 0.25
+    for bad in ("-0.1", "6", "much"):
+        text.write_text(base + f"\nplanning:\n  min_tolerance: {bad}\n")
+        with pytest.raises(InputError) as err:
+            Scene.from_file(text)
+        assert err.value.field == "planning.min_tolerance"

@@ -4,7 +4,7 @@ asserts nothing.
     python tools/bench_cage.py [SCENE ...] [--repeat 3]
 
 For each scene (default: the shipped objects with a thickness) the exact lattice plan is sampled
-as `cage` samples it (robustness.plan_samples) and Scene.cage runs over all samples (the profile)
+as `cage` samples it (mechanics.path.plan_samples) and Scene.cage runs over all samples (the profile)
 and on each sample alone (one state: median and slowest), best of --repeat. Each figure is wall
 time, and in brackets the process's CPU time, which other work on a shared machine disturbs less.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ungrasp_ompl.planning.setup import lattice_plan
-from ungrasp_ompl.robustness import plan_samples
+from ungrasp_ompl.mechanics.path import plan_samples
 from ungrasp_ompl.scene import Scene
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"

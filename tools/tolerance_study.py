@@ -1,6 +1,6 @@
 """Does a plan's tolerance (docs/model.md, section 4.6) predict its simulated success? Plans of
-each object scene by the lattice and by RRT* over several seeds, with the cost, margin and
-balanced objectives, each simulated under the `paper` perturbation; beside each its tolerance.
+each object scene by the lattice and by RRT* over several seeds, with the cost, margin, balanced
+and tolerance objectives, each simulated under the `paper` perturbation; beside each its tolerance.
 
     python tools/tolerance_study.py [--seeds N] [--trials N] [--jobs N] [--scenes a,b] [--out DIR]
 
@@ -33,12 +33,12 @@ sys.path.insert(0, str(ROOT))
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.mechanics.margin import kinematic_margins  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
-from ungrasp_ompl.planning.path_margin import plan_samples  # noqa: E402
+from ungrasp_ompl.mechanics.path import plan_samples  # noqa: E402
 from ungrasp_ompl.planning.result import Plan  # noqa: E402
-from ungrasp_ompl.tolerance import tolerance  # noqa: E402
+from ungrasp_ompl.scene.tolerance import tolerance  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
-OBJECTIVES = ("cost", "margin", "balanced")
+OBJECTIVES = ("cost", "margin", "balanced", "tolerance")
 PLAN_FIELDS = ("key", "scene", "planner", "seed", "objective", "cost", "trials", "successes")
 
 

@@ -1,5 +1,5 @@
 """Random errors of a trial, of the kinds an open-loop set-up like the paper's has: the simulator
-draws them (sim/), and a plan's tolerance (tolerance.py) scales their box.
+draws them (sim/), and a plan's tolerance (scene/tolerance.py) scales their box.
 
 Every error is drawn uniformly within its bound (a bounded error, as calibration leaves),
 from a numpy Generator seeded per trial, so a campaign is reproducible trial by trial.

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .planning.path_margin import (PROFILE_RESOLUTION, PathMargin, PlanSamples, path_friction_margin,  # noqa: F401
-                                   plan_friction_margins, plan_samples)
+from .mechanics.path import PROFILE_RESOLUTION, PlanSamples, plan_samples  # noqa: F401
+from .planning.path_margin import PathMargin, path_friction_margin, plan_friction_margins  # noqa: F401
 from .planning.result import Plan
 from .scene import Scene
 

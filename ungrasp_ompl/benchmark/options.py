@@ -43,7 +43,7 @@ class BenchmarkOptions:
     """Keep the runs already in out/runs.csv (an interrupted benchmark) and run only the others."""
     objective: Objective = Objective.COST
     """What every planner optimises, the lattice yardstick included (docs/model.md, section 6):
-    cost, margin or balanced."""
+    cost, margin, balanced or tolerance."""
 
     def validated(self) -> "BenchmarkOptions":
         """These options with the planner names checked and duplicates dropped; InputError otherwise."""

@@ -75,7 +75,7 @@ class Task:
     iterations: int | None = None
     """Planner iterations (count), making the run reproducible; None: stop on wall time."""
     objective: Objective = Objective.COST
-    """What the planner optimises (docs/model.md, section 6): cost, margin or balanced."""
+    """What the planner optimises (docs/model.md, section 6): cost, margin, balanced or tolerance."""
 
     @property
     def deadline(self) -> float:

@@ -81,7 +81,7 @@ def stability_command(args: argparse.Namespace) -> int:
 def cage_command(args: argparse.Namespace) -> int:
     import math
 
-    from ..cage_report import CageOptions, cage_report
+    from ..workflows.cage import CageOptions, cage_report
     from ..scene import Scene
 
     scene = Scene.from_file(resolve(args.scene, "scene"))

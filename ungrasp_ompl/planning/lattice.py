@@ -39,7 +39,7 @@ class LatticeResult:
     """The optimum on the lattice: cost (reference units), its legs (planner legs, T, P, D and X,
     realising it), or None when unreachable; legs_cost: the legs' cost, the optimum's unless no
     straight legs realise its Y steps (then the best path without them); with a robust objective,
-    the path's smallest friction margin (rad) and its penalty (the sum over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
+    the path's smallest friction margin (rad; tolerance for the tolerance objective) and its penalty (the sum over its edges of LatticeMargins.leg_penalty: the tie-break for margin, the margin penalty
     for balanced, reference units)."""
 
     cost: float | None
@@ -65,13 +65,16 @@ def lattice_search(atlas: SecurityAtlas, goal_box: NDArray[np.float64], objectiv
       the edges no narrower than it, the fewest primitive changes, then the smallest tie-break
       penalty (LatticeMargins.penalty), then the cheapest;
     - ``balanced``: the cheapest with every edge also charged planning.margin_weight times its
-      weighted L1 length over its margin in degrees.
+      weighted L1 length over its margin in degrees;
+    - ``tolerance``: as ``margin``, with each state's tolerance of the `paper` errors
+      (LatticeMargins, section 4.6) in place of its friction margin.
 
     An edge's margin is the smaller of its ends' in the edge's mode, the start's too. margins (the
     LatticeMargins of this atlas, objective and goal_box) is needed for the last two; the
     result's min_margin (rad) and penalty are the path's then."""
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+    objective = Objective(objective)
     if objective != Objective.COST and (margins is None or margins.objective != objective or margins.atlas is not atlas
                                 or not np.array_equal(margins.goal_box, goal_box)):
         raise ValueError(f"the {objective} objective needs the margins of this lattice, objective and goal box")
@@ -112,7 +115,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
     compact[cells] = np.arange(len(cells))
     start_node = len(cells) * n_slot
     keep = (compact[edges.src] >= 0) & (compact[edges.dst] >= 0)
-    if objective == Objective.MARGIN:  # only edges as wide as the bottleneck
+    if objective.maximin:  # only edges as wide as the bottleneck
         bottleneck = margins.bottleneck
         keep &= margins.edge_margin() >= (bottleneck if bottleneck is not None else np.inf)
     # the graph over (lattice state, primitive under way): per edge its cell edge and whether it changes
@@ -156,7 +159,7 @@ def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.floa
 
     if objective == Objective.BALANCED:
         criteria = [cost + opts.margin_weight * per_edge(edges.length * margins.penalty(margins.edge_margin()))]
-    elif objective == Objective.MARGIN:
+    elif objective.maximin:
         criteria = [changed.astype(float), per_edge(edges.length * margins.penalty(margins.edge_margin())), cost]
     else:
         criteria = [cost]

@@ -1,5 +1,5 @@
-"""Friction margins on the secure lattice, per state and contact mode, and the robust objectives'
-values built from them (docs/model.md, sections 4.4 and 6.1).
+"""Friction margins (or tolerances) on the secure lattice, per state and contact mode, and the
+robust objectives' values built from them (docs/model.md, sections 4.4, 4.6 and 6.1).
 
 :class:`LatticeMargins` keeps, beside a :class:`~ungrasp_ompl.planning.atlas.SecurityAtlas`, the
 friction margin (rad, :func:`~ungrasp_ompl.mechanics.margin.friction_margin`) of the lattice
@@ -17,6 +17,11 @@ mode of the leg that leaves it, as in a plan's margin (planning.path_margin.path
   ``margin`` exp(-(m - m*) / TIE_SCALE_DEG) with m* the bottleneck (deg), BELOW_BOTTLENECK times
   more below it, a steep stand-in for the lexicographic max-min that breaks the ties of the
   smallest margin; a leg's or a motion's penalty is the sum over its steps.
+
+For the ``tolerance`` objective every "margin" above is the state's tolerance instead
+(scene.tolerance.state_tolerances: the largest scale of the `paper` error box, up to
+TOLERANCE_CAP, on its ladder, with the termination at the goal region's states), in
+percent of the box where the ``margin`` objective counts degrees, and the search is the same.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics import primitive_sliding_signs
 from ..mechanics.margin import friction_margin
+from ..scene.tolerance import ToleranceOptions, state_tolerances
 from .atlas import D, LEG_AXES, PSI, Leg, SecurityAtlas, reference_cost
 from .edges import LatticeEdges, lattice_edges
 
@@ -54,12 +60,22 @@ TIE_TOLERANCE = 1e-9
 #: Motions whose penalty is remembered before the memory is cleared.
 MOTION_CACHE = 200_000
 
+#: The largest tolerance the tolerance objective tells apart (a scale of the error box,
+#: dimensionless): a state that tolerates the whole `paper` box is as good as any other.
+TOLERANCE_CAP = 1.0
+
 class Objective(StrEnum):
     """What a plan optimises (docs/model.md, section 6)."""
 
     COST = "cost"  #: the weighted L1 length plus a penalty per primitive change
     MARGIN = "margin"  #: the smallest friction margin along the path, the cost breaking ties
     BALANCED = "balanced"  #: the cost plus planning.margin_weight times a penalty growing as the margin shrinks
+    TOLERANCE = "tolerance"  #: the smallest tolerance of the `paper` errors along the path, the cost breaking ties
+
+    @property
+    def maximin(self) -> bool:
+        """It maximises the path's smallest value (margin or tolerance) first, the cost breaking ties."""
+        return self in (Objective.MARGIN, Objective.TOLERANCE)
 
 
 #: The objectives a plan can optimise, in their order.
@@ -67,9 +83,10 @@ OBJECTIVES = tuple(Objective)
 
 
 class LatticeMargins:
-    """Friction margins (rad) of an atlas's lattice states per contact mode, and the penalties of
-    a robust objective (``margin`` or ``balanced``; see the module docstring).
-    ``computed_states`` counts the margins evaluated so far."""
+    """Friction margins (rad) of an atlas's lattice states per contact mode (tolerances, a scale of
+    the error box, for the ``tolerance`` objective), and the penalties of a robust objective
+    (``margin``, ``balanced`` or ``tolerance``; see the module docstring).
+    ``computed_states`` counts the values evaluated so far."""
 
     def __init__(self, atlas: SecurityAtlas, objective: Objective = Objective.MARGIN, goal_box: ArrayLike | None = None):
         """goal_box: the goal region's (2, 3) corners (theta rad, d over l, psi rad), the scene's by
@@ -78,6 +95,10 @@ class LatticeMargins:
             raise ValueError(f"the margins serve the objectives {', '.join(OBJECTIVES[1:])}, not {objective!r}")
         self.atlas = atlas
         self.objective = Objective(objective)
+        #: The penalty's unit per unit of the values: degrees per radian of margin, percent of the box
+        #: per unit of tolerance.
+        self.unit = 100.0 if self.objective == Objective.TOLERANCE else math.degrees(1.0)
+        self._kinematic_tolerance: NDArray[np.float64] | None = None
         self.goal_box = np.asarray(atlas.scene.goal.box() if goal_box is None else goal_box, dtype=float)
         #: The start's lattice index (None outside the lattice).
         self.start = atlas.index(atlas.scene.start)
@@ -135,10 +156,29 @@ class LatticeMargins:
             if len(idx[0]):
                 th, d, ps = (self.atlas.axes[a][idx[a]] for a in range(3))
                 s = self.atlas.scene
-                out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
+                if self.objective == Objective.TOLERANCE:
+                    closure = state_tolerances(s, np.column_stack([th, d, ps]), key[0], key[1],
+                                               options=ToleranceOptions(max_scale=TOLERANCE_CAP), kinematic=False)
+                    out[idx] = np.minimum(closure, self.kinematic_tolerance()[idx])
+                else:
+                    out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
                 self.computed_states += len(idx[0])
             self._mode[key] = out
         return self._mode[key]
+
+    def kinematic_tolerance(self) -> NDArray[np.float64]:
+        """The tolerance of every relevant lattice state without force closure (the checks that no
+        contact mode changes: B on the thumb, the digits above the table and clear of obstacles,
+        the termination at the goal region's states), -inf elsewhere; shape of the lattice."""
+        if self._kinematic_tolerance is None:
+            out = np.full(self.atlas.shape, -np.inf)
+            idx = np.nonzero(self.relevant)
+            if len(idx[0]):
+                q = np.column_stack([self.atlas.axes[a][idx[a]] for a in range(3)])
+                out[idx] = state_tolerances(self.atlas.scene, q, 0, 0, self.goal.reshape(self.atlas.shape)[idx],
+                                            options=ToleranceOptions(max_scale=TOLERANCE_CAP), closure=False)
+            self._kinematic_tolerance = out
+        return self._kinematic_tolerance
 
     def move(self, kind: str, step: tuple[int, int, int]) -> NDArray[np.float64]:
         """The margin (rad) at every lattice state in the contact mode of a leg of this kind moving
@@ -208,15 +248,16 @@ class LatticeMargins:
 
     def penalty(self, margin: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """The objective's penalty per unit of weighted L1 length of a step with this margin
-        (rad): 1 / max(m, 1e-6) (balanced) or exp(-(m - m*) / TIE_SCALE_DEG) (margin), m and the
-        bottleneck m* in degrees; inf for an insecure step (-inf margin)."""
-        deg = np.degrees(np.asarray(margin, dtype=float))
+        (rad; a tolerance for ``tolerance``): 1 / max(m, 1e-6) (balanced) or exp(-(m - m*) /
+        TIE_SCALE_DEG) (margin, tolerance), m and the bottleneck m* in degrees (percent of the box);
+        inf for an insecure step (-inf margin)."""
+        deg = np.asarray(margin, dtype=float) * self.unit
         with np.errstate(over="ignore"):
             if self.objective == Objective.BALANCED:
                 out = 1.0 / np.maximum(deg, MARGIN_FLOOR_DEG)
             else:  # below the bottleneck, BELOW_BOTTLENECK times more: worse than any path above it
                 ref = self.bottleneck
-                ref = math.degrees(ref) if ref is not None and math.isfinite(ref) else 0.0
+                ref = ref * self.unit if ref is not None and math.isfinite(ref) else 0.0
                 out = np.exp(-(deg - ref) / TIE_SCALE_DEG)
                 out = np.where(deg < ref, BELOW_BOTTLENECK * out, out)
         return np.where(deg == -np.inf, np.inf, out)
@@ -293,7 +334,7 @@ class LatticeMargins:
         """How the objective ranks a secure leg sequence realising one motion, smaller first:
         (minus its smallest margin, its penalty) for ``margin``, (its penalty,) for ``balanced``."""
         total = sum(self.leg_penalty(leg) for leg in legs)
-        if self.objective == Objective.MARGIN:
+        if self.objective.maximin:
             return (-min((self.leg_margin(leg) for leg in legs), default=math.inf), total)
         return (total,)
 

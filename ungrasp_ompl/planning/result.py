@@ -14,6 +14,7 @@ from ..errors import InputError
 from ..mechanics import Primitive, primitive_sliding_signs
 from ..mechanics.roll import describe_restoring
 from ..scene import StateClass, StateDiagnosis
+from ..scene.tolerance import describe_tolerance
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
 from .margins import Objective
 
@@ -75,6 +76,9 @@ class PlanOutcome(Enum):
     INVALID_PATH = "invalid_path"
     #: The planner did not stop and was killed: deadline_s, known.
     HUNG = "hung"
+    #: A path was found, but its tolerance is below planning.min_tolerance: tolerance (the path's,
+    #: scene.tolerance.Tolerance.to_dict), min_tolerance.
+    BELOW_MIN_TOLERANCE = "below_min_tolerance"
 
 
 def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: str = "the planner") -> str:
@@ -104,6 +108,10 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
                 f"{e['lattice_optimum']:.2f}: allow more time or try another planner")
     if outcome is PlanOutcome.INVALID_PATH:
         return f"the returned path fails re-validation: {e['problem']}"
+    if outcome is PlanOutcome.BELOW_MIN_TOLERANCE:
+        return (f"the path found tolerates {e['tolerance']['scale']:.3f} of the {e['tolerance']['perturbation']} errors, "
+                f"below planning.min_tolerance {e['min_tolerance']:g} (bound by "
+                f"{e['tolerance']['reason'].replace('_', ' ')}); try --objective tolerance")
     return f"{planner} did not stop within {e['deadline_s']:.0f} s and was killed: {e['known']}"
 
 
@@ -205,7 +213,7 @@ class Plan:
     solution: Solution = field(default_factory=Solution)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
     report: Report3D | None = None  # scenes with an outline
-    tolerance: dict | None = None  # the plan's tolerance of the paper errors (tolerance.Tolerance.to_dict)
+    tolerance: dict | None = None  # the plan's tolerance of the paper errors (scene.tolerance.Tolerance.to_dict)
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
@@ -388,20 +396,6 @@ def read_plan(path: str) -> Plan:
     from ..io import read_json_file
 
     return Plan.from_dict(read_json_file(path, "plan"), source=str(path))
-
-
-def describe_tolerance(tol: dict) -> str:
-    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) as one line for a person, in
-    millimetres and degrees."""
-    p = tol["physical"]
-    theta, d, psi = tol["state"]
-    where = (f"{tol['reason'].replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
-             f"{math.degrees(psi):.1f} deg) in primitive {tol['primitive'] + 1} ({tol['primitive_type']}), "
-             f"bound by {tol['component'].replace('_', ' ')}")
-    return (f"tolerance {tol['scale']:.3f} of the {tol['perturbation']} errors: grasp shift {p['shift_mm']:.3f} mm, "
-            f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
-            f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
-            + ("nothing fails" if tol["reason"] == "none" else where))
 
 
 def _deg(q: list[float]) -> str:

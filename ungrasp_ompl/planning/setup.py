@@ -88,8 +88,8 @@ KNOWN_LIMITATIONS: dict[str, Limitation] = {"FMT": Limitation.LAZY_ROADMAP, "BFM
 #: The planner's longest motion by objective (state units): the margin objective's steep penalty
 #: needs a finely grown tree to bend around narrow stretches (measured on reference_asymmetric and
 #: the four object scenes, seeds 1-5: with 0.3, 9 of 25 RRT* plans reach the lattice's bottleneck and
-#: 2 stay narrower than the cost plan; with 0.05, 21 and none).
-DEFAULT_RANGE = {"cost": 0.3, "balanced": 0.3, "margin": 0.05}
+#: 2 stay narrower than the cost plan; with 0.05, 21 and none). The tolerance objective is as steep.
+DEFAULT_RANGE = {"cost": 0.3, "balanced": 0.3, "margin": 0.05, "tolerance": 0.05}
 
 #: Iterations per second of --time that a seeded run is given (measured: RRT* runs
 #: 8,000-11,000 iterations per second on the reference scenes and 4,000-5,000 on the
@@ -123,7 +123,8 @@ class PlannerOptions:
     """Shorten the path with OMPL's PathSimplifier (shortcuts in travel direction)."""
     objective: Objective = Objective.COST
     """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
-    the path) or balanced (cost plus planning.margin_weight times a penalty growing as it shrinks)."""
+    the path), balanced (cost plus planning.margin_weight times a penalty growing as it shrinks) or
+    tolerance (the smallest tolerance of the `paper` errors along the path, section 4.6)."""
 
     def __post_init__(self) -> None:
         if self.range is None:
@@ -153,7 +154,7 @@ def check_objective(objective: Objective | str, planner: str) -> Objective:
         raise InputError("objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if objective != Objective.COST and planner in ROADMAP_PLANNERS:
         raise InputError("objective", f"{planner} optimises the cost only (its roadmap objective takes edges "
-                         "either way while it grows); use RRTstar or lattice for the margin objectives")
+                         "either way while it grows); use RRTstar or lattice for the robust objectives")
     return Objective(objective)
 
 
@@ -424,7 +425,7 @@ def solved_plan(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: Latt
     if steps:  # every state the legs pass at the lattice's resolution, in its leg's mode, the start included
         margin["margin_profile_deg"] = [math.degrees(m) for m in path_friction_margin(scene, plan).of_primitives()]
         margin["min_margin_deg"] = min(margin["margin_profile_deg"])
-    bottleneck = margins.bottleneck if margins is not None else None
+    bottleneck = margins.bottleneck if margins is not None and margins.objective != Objective.TOLERANCE else None
     if bottleneck is not None:
         margin["margin_bottleneck_deg"] = math.degrees(bottleneck)
         if "min_margin_deg" in margin:
@@ -486,15 +487,33 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     With a seed the result is reproducible: the same seed gives the same plan
     (timing fields aside). A planner known to ignore its time limit runs in a
     child process that is stopped HANG_GRACE_S seconds after its cap. atlas: the
-    scene's secure lattice when built already (used when planning in this process).
+    scene's secure lattice when built already (used when planning in this process). With the
+    scene's planning.min_tolerance above 0, the plan found carries its tolerance, and one below
+    that floor fails (PlanOutcome.BELOW_MIN_TOLERANCE).
     """
     if planner == LATTICE:
         result = lattice_plan(scene, seed, atlas, options.get("objective", Objective.COST))
-        return with_3d_report(scene, result) if scene.plane is not None else result
-    opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
-    if planner in UNRULY_PLANNERS:
-        return _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
-    return _plan_here(scene, opts, atlas)
+        result = with_3d_report(scene, result) if scene.plane is not None else result
+    else:
+        opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
+        if planner in UNRULY_PLANNERS:
+            result = _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
+        else:
+            result = _plan_here(scene, opts, atlas)
+    return with_tolerance_floor(scene, result)
+
+
+def with_tolerance_floor(scene: Scene, result: Plan) -> Plan:
+    """A solved plan held to the scene's planning.min_tolerance (docs/model.md 4.6): with its
+    tolerance measured, and failed (BELOW_MIN_TOLERANCE, path kept) below the floor; unchanged
+    without a floor or a solution."""
+    floor = scene.options.min_tolerance
+    if floor <= 0 or not result.solved:
+        return result
+    tol = scene.tolerance(result).to_dict()
+    result = replace(result, tolerance=tol)
+    return result if tol["scale"] >= floor else result.fail(PlanOutcome.BELOW_MIN_TOLERANCE, tolerance=tol,
+                                                             min_tolerance=floor)
 
 
 def _plan_here(scene: Scene, opts: PlannerOptions, atlas: SecurityAtlas | None = None) -> Plan:

@@ -27,12 +27,12 @@ from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinemat
 from ..mechanics.force_closure import SLIDING_MODELS, Friction, SlidingModel
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
+from .tolerance import Tolerance, ToleranceOptions, tolerance
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanics.cage import Cage, CageGrid
     from ..mechanics.margin import Margins
     from ..planning.result import Plan
-    from ..tolerance import Tolerance, ToleranceOptions
 
 __all__ = ["Box", "GoalSpec", "Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass",
            "StateDiagnosis", "read_yaml"]
@@ -259,7 +259,8 @@ class Scene:
 
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
-                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight"})
+                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
+                                 "min_tolerance"})
         margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -290,6 +291,7 @@ class Scene:
             reverse_primitives=reverse,
             forbid_partial=forbid_partial,
             margin_weight=r.margin_weight(pl),
+            min_tolerance=r.number(pl, "planning.min_tolerance", "min_tolerance", minimum=0.0, maximum=5.0, default=0.0),
             resolution=resolution,
             d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
@@ -380,13 +382,11 @@ class Scene:
         except GridTooLarge as exc:
             raise InputError("grid", f"{exc}; choose coarser steps") from None
 
-    def tolerance(self, plan: "Plan", options: "ToleranceOptions | None" = None) -> "Tolerance":
+    def tolerance(self, plan: "Plan", options: ToleranceOptions | None = None) -> Tolerance:
         """The tolerance of a solved plan of this scene (docs/model.md, section 4.6): the largest
         scale s of the `paper` error box (or options.perturbation's) such that every state of the
         plan, moved by any error within s times the box, stays secure; with the check and the
         error component that bind it. InputError for an unsolved plan or bad options."""
-        from ..tolerance import ToleranceOptions, tolerance
-
         return tolerance(self, plan, options or ToleranceOptions())
 
     def collision_model(self) -> CollisionModel:

@@ -44,6 +44,8 @@ class PlanningOptions:
     """No leg with two sliding contacts (P_dpsi), so every leg keeps full 3D stability."""
     margin_weight: float = 1.0
     """The balanced objective's weight on friction margin (cost x deg): a step costs this times its L1 length over its margin in deg."""
+    min_tolerance: float = 0.0
+    """The least tolerance of the `paper` errors (a scale of their box, dimensionless; docs/model.md 4.6) a plan must have; 0: no floor."""
 
 
 @dataclass(frozen=True)

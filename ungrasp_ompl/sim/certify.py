@@ -3,7 +3,7 @@ with the highest Wilson 95 % lower bound on success kept.
 
 Which candidates (a fixed rule, reproducible from the seed s; :func:`candidate_sources`): the
 objectives are taken in turn, the plan's own first, then the others of
-:data:`~ungrasp_ompl.planning.margins.OBJECTIVES` in their order (cost, margin, balanced). First,
+:data:`~ungrasp_ompl.planning.margins.OBJECTIVES` in their order (cost, margin, balanced, tolerance). First,
 for each objective in turn, the planner with seed s under it, then the exact lattice search under
 it; after that the planner with seed s + 1 under each objective in turn, then s + 2, and so on,
 until there are K. A planner that optimises the cost only (PRM, PRM*) is run under the cost only;
@@ -45,7 +45,7 @@ class CertifyOptions:
     planner: str = "RRTstar"
     """The OMPL planner of the seeded candidates (by name), or ``lattice`` (one candidate per objective)."""
     objective: Objective = Objective.COST
-    """The objective taken first (cost, margin, balanced); the others follow in turn."""
+    """The objective taken first (cost, margin, balanced, tolerance); the others follow in turn."""
     time: float = 1.0
     """Planning time per planner candidate (s): a seeded run's iteration budget, as for ``plan --seed``."""
     iterations: int | None = None
@@ -92,7 +92,7 @@ class CandidateSource:
     planner: str
     """The planner (an OMPL planner's name, or ``lattice``)."""
     objective: Objective
-    """What it optimised (cost, margin, balanced)."""
+    """What it optimised (cost, margin, balanced, tolerance)."""
     seed: int | None
     """The planner's seed; None for the lattice search (it draws no random numbers)."""
 

@@ -42,7 +42,7 @@ class PlanOptions:
     iterations: int | None = None
     """Planner iterations (count); None: from time."""
     objective: Objective = Objective.COST
-    """What the planner optimises: cost, margin or balanced."""
+    """What the planner optimises: cost, margin, balanced or tolerance."""
     cage: bool = False
     """Also find the plan's weakest cage (the object needs a thickness)."""
     certify: CertifyOptions | None = None

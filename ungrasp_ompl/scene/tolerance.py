@@ -33,19 +33,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .mechanics import force_closure, s_b
-from .mechanics.antipodal import effective_friction
-from .mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
+from ..errors import InputError
+from ..geometry.collision import CollisionChecker
+from ..mechanics import force_closure, s_b
+from ..mechanics.antipodal import effective_friction
+from ..mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
                                    housing_offsets, thumb_normal, thumb_tip)
-from .mechanics.margin import kinematic_margins
-from .planning.path_margin import PlanSamples, plan_samples
-from .planning.result import describe_tolerance
-from .perturbation import PRESETS, Perturbation
+from ..mechanics.margin import kinematic_margins
+from ..mechanics.path import PlanSamples, plan_samples
+from ..perturbation import PRESETS, Perturbation
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .planning.result import Plan
-    from .scene import Scene
+    from ..planning.result import Plan
+    from .model import Scene
 
 
 class ToleranceReason(Enum):
@@ -140,17 +140,17 @@ class Tolerance:
 
 
 class _Box:
-    """The error box of one plan, ready to move its states at any scale (the module docstring)."""
+    """The error box of a set of states moved from one start, ready to move them at any scale (the
+    module docstring): samples holds the states and their contact modes, terminal marks those from
+    which the gripper must still be able to let go."""
 
-    def __init__(self, scene: Scene, plan: Plan, box: Perturbation, samples: PlanSamples,
-                 resolution: NDArray[np.float64], housing: bool = False):
-        from .geometry.collision import CollisionChecker
-
-        self.scene, self.plan, self.box, self.samples, self.housing = scene, plan, box, samples, housing
+    def __init__(self, scene: Scene, start: NDArray[np.float64], box: Perturbation, samples: PlanSamples,
+                 terminal: NDArray[np.bool_], resolution: NDArray[np.float64], housing: bool = False):
+        self.scene, self.box, self.samples, self.terminal, self.housing = scene, box, samples, terminal, housing
         l, dg = scene.object_length, scene.digits
         self.l = l
         self.res = resolution
-        th0, d0, ps0 = (float(x) for x in plan.states[0])
+        th0, d0, ps0 = (float(x) for x in start)
         # the palm's origin and axes at the start (robot.placement.palm_poses), over l
         tip = thumb_tip(th0, d0, ps0, dg.alpha, dg.object_thickness, dg.finger_tip_radius)
         e0, n0 = digit_axis(th0, ps0), thumb_normal(th0, ps0)
@@ -175,25 +175,31 @@ class _Box:
                       for m, b in zip((mg, mb), self.beta))
         return max(mg, 0.0), max(ma, 0.0), max(mb, 0.0)
 
-    def face(self, s: float, on: dict[str, bool]) -> tuple[NDArray, NDArray]:
+    def face(self, s: float, on: dict[str, bool], shift_ends: bool = False) -> tuple[NDArray, NDArray]:
         """The grid over the box's face of the two components the states depend on nonlinearly, at
         scale s: the palm's turn about y (rad) and the grasp shift along GB (over l), each from -s
-        to s times its bound at no coarser a step than the sampling resolution, ends included."""
+        to s times its bound at no coarser a step than the sampling resolution, ends included; with
+        shift_ends, the shift's two ends alone."""
         b = self.box
         phi = s * math.radians(b.palm_turn_deg) if on["palm_turn"] else 0.0
         shift = s * b.shift_mm / 1000 / self.l if on["shift_along"] else 0.0
         n_phi = 1 if phi == 0 else 2 * int(math.ceil(phi / min(self.res[0], self.res[2]))) + 1
-        n_d = 1 if shift == 0 else 2 * int(math.ceil(shift / self.res[1])) + 1
+        n_d = 1 if shift == 0 else 2 if shift_ends else 2 * int(math.ceil(shift / self.res[1])) + 1
         p, a = np.meshgrid(np.linspace(-phi, phi, n_phi), np.linspace(-shift, shift, n_d), indexing="ij")
         return p.ravel(), a.ravel()
 
-    def failures(self, s: float, rows: NDArray, on: dict[str, bool]) -> NDArray[np.int8]:
+    def failures(self, s: float, rows: NDArray, on: dict[str, bool], closure: bool = True,
+                 kinematic: bool = True) -> NDArray[np.int8]:
         """For the samples rows: 0 where every error of s times the box (components on) leaves the
-        state secure, else the ToleranceReason index (in its order) of the first check failing."""
+        state secure, else the ToleranceReason index (in its order) of the first check failing;
+        with closure or kinematic False, that part of the checks (force closure; everything
+        else) is left out."""
         b, sc, dg = self.box, self.scene, self.scene.digits
         q = self.samples.states[rows]
         n = len(q)
-        phi, shift = self.face(s, on)
+        # without force closure, obstacles and the termination, every check is linear in d or (the
+        # digits' lowest point) the least of linear functions of it: the shift's ends are its worst
+        phi, shift = self.face(s, on, not closure and not self.obstacles and not self.terminal[rows].any())
         g = len(phi)
         th = (q[:, 0:1] + phi[None, :]).ravel()
         d = (q[:, 1:2] + shift[None, :]).ravel()
@@ -206,7 +212,7 @@ class _Box:
         loss = s * b.friction if on["friction"] else 0.0
         yaw = s * math.radians(b.yaw_deg) if on["yaw"] else 0.0
         fc = np.ones(len(th), dtype=bool)
-        if not any(on[c] for c in ("shift_along", "palm_turn", "friction", "yaw")):
+        if not closure or not any(on[c] for c in ("shift_along", "palm_turn", "friction", "yaw")):
             corners = []  # nothing moves what force closure depends on: it holds as at scale 0
         elif sc.options.sliding_model == "relaxed":
             corners = [(loss, yaw)]
@@ -214,6 +220,8 @@ class _Box:
             corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
             fc &= force_closure(th, d, ps, sa, sb, sc.friction.with_mu(self.mu(lo, y)))
+        if not kinematic:
+            return (~fc).reshape(n, g).any(axis=1).astype(np.int8)
         # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
         # about P0 exactly on the face's grid; the palm's shift, the table's height and the plane's
         # tip at their worst corners, as they enter linearly)
@@ -244,11 +252,9 @@ class _Box:
                       low + lift < 0.0, near - moved < 0.0)
             for i, bad in enumerate(checks):
                 code = np.where((code == 0) & bad, i + 1, code)
-        last = self.samples.states.shape[0] - 1
-        ends = np.flatnonzero(rows == last)
-        if len(ends):
-            i = ends[0]
-            sl = slice(i * g, (i + 1) * g)
+        ends = np.flatnonzero(self.terminal[rows])
+        if len(ends):  # every moved copy of a terminal state
+            sl = (ends[:, None] * g + np.arange(g)[None, :]).ravel()
             r = sc.robot
             amount = r.termination_opening if r.termination == "open" else r.termination_angle
             stuck = self.checker.termination_collides(np.column_stack([th[sl], d[sl], ps[sl]]), r.termination, amount)
@@ -292,6 +298,20 @@ class _Box:
         return lo, codes
 
 
+def describe_tolerance(tol: dict) -> str:
+    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) as one line for a person, in
+    millimetres and degrees."""
+    p = tol["physical"]
+    theta, d, psi = tol["state"]
+    where = (f"{tol['reason'].replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
+             f"{math.degrees(psi):.1f} deg) in primitive {tol['primitive'] + 1} ({tol['primitive_type']}), "
+             f"bound by {tol['component'].replace('_', ' ')}")
+    return (f"tolerance {tol['scale']:.3f} of the {tol['perturbation']} errors: grasp shift {p['shift_mm']:.3f} mm, "
+            f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
+            f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
+            + ("nothing fails" if tol["reason"] == "none" else where))
+
+
 def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> NDArray[np.float64]:
     """The height over the table of the lowest point of the thumb, the finger and the housing
     (over l): kinematic_margins' table margin, without the polygons' orientation it does not need."""
@@ -303,11 +323,8 @@ def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> 
     return low
 
 
-def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
-    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
-    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
-    if not plan.solved or not plan.primitives:
-        raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
+def _checked(scene: Scene, options: ToleranceOptions) -> tuple[Perturbation, NDArray[np.float64]]:
+    """The box at scale 1 and the sampling resolution of options; InputError naming a bad field."""
     if options.box is None and options.perturbation not in PRESETS:
         raise InputError("perturbation", f"unknown preset {options.perturbation!r} (one of: {', '.join(PRESETS)})")
     if not (math.isfinite(options.max_scale) and options.max_scale > 0):
@@ -324,8 +341,19 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
         (["friction"] if box.friction > 1 else [])
     if bad:
         raise InputError(f"box.{bad[0]}", f"must be a finite bound >= 0 (friction at most 1), got {bounds[bad[0]]!r}")
+    return box, res
+
+
+def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
+    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
+    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
+    if not plan.solved or not plan.primitives:
+        raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
+    box, res = _checked(scene, options)
     samples = plan_samples(plan, res, both_modes=True)
-    ctx = _Box(scene, plan, box, samples, res, options.housing)
+    terminal = np.zeros(len(samples.states), dtype=bool)
+    terminal[-1] = True
+    ctx = _Box(scene, np.asarray(plan.states[0], dtype=float), box, samples, terminal, res, options.housing)
     every = np.arange(len(samples.states))
     all_on = {c: True for c in COMPONENTS}
     s, codes = ctx.scale(every, all_on, options.scale_tolerance, options.max_scale)
@@ -349,4 +377,66 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
                      plan.primitives[p].type, solo, physical, len(samples.states))
 
 
-__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "tolerance"]
+#: The scales state_tolerances tells apart (dimensionless): 0, then from FIRST_SCALE / 4 up by a
+#: factor 2^(1/4) (19 % apart), the last at most ToleranceOptions.max_scale.
+LADDER_STEP = 2.0 ** 0.25
+
+#: Moved states per batch of state_tolerances (bounds its memory: a few hundred bytes each).
+BATCH_MOVED_STATES = 200_000
+
+
+def ladder(max_scale: float) -> NDArray[np.float64]:
+    """state_tolerances' scales: 0, FIRST_SCALE / 4 * LADDER_STEP^k up to max_scale."""
+    n = int(math.floor(math.log(max_scale / (FIRST_SCALE / 4)) / math.log(LADDER_STEP) + 1e-9)) + 1
+    return np.concatenate([[0.0], FIRST_SCALE / 4 * LADDER_STEP ** np.arange(n)])
+
+
+def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray, b_sign: NDArray,
+                     terminal: NDArray[np.bool_] | None = None, start: NDArray[np.float64] | None = None,
+                     options: ToleranceOptions = ToleranceOptions(), closure: bool = True,
+                     kinematic: bool = True) -> NDArray[np.float64]:
+    """Each state's own tolerance in its contact mode (states (n, 3): theta rad, d over l, psi rad;
+    the sliding signs at A and B, (n,) each): the largest scale of ladder(options.max_scale) at which
+    every error within that scale of the box leaves it secure, as a plan's tolerance checks a state
+    (the termination at the terminal ones; the calibration's turn about the palm's origin at the
+    start, the scene's by default). A state insecure without any error has -inf; one secure at every
+    scale has the ladder's top. A plan's tolerance is at least the least of its states' in ladder
+    steps (the plan's own is found to options.scale_tolerance instead). closure or kinematic False
+    leaves that part of the checks out (a state's tolerance is the smaller of the two parts', since
+    both ask of the same box)."""
+    box, res = _checked(scene, options)
+    q = np.asarray(states, dtype=float).reshape(-1, 3)
+    n = len(q)
+    samples = PlanSamples(q, np.zeros(n, dtype=np.int64), np.broadcast_to(np.asarray(a_sign, dtype=np.int8), (n,)),
+                          np.broadcast_to(np.asarray(b_sign, dtype=np.int8), (n,)))
+    terminal = np.zeros(n, dtype=bool) if terminal is None else np.broadcast_to(np.asarray(terminal, dtype=bool), (n,))
+    ctx = _Box(scene, np.asarray(scene.start if start is None else start, dtype=float), box, samples, terminal, res,
+               options.housing)
+    levels = ladder(options.max_scale)
+    on = {c: True for c in COMPONENTS}
+    # per state, a bisection over the ladder's indices: levels[lo] passes (lo = -1: not even 0),
+    # levels[hi] fails (hi = len(levels): none fails); the boxes nest, so passing is monotone. The
+    # top is tried first: most states of a lattice pass it and are done
+    lo = np.full(n, -1)
+    hi = np.full(n, len(levels))
+    first = True
+    while True:
+        live = np.flatnonzero(hi - lo > 1)
+        if not len(live):
+            break
+        mid = np.full(len(live), len(levels) - 1) if first else (lo[live] + hi[live]) // 2
+        first = False
+        for level in np.unique(mid):
+            rows = live[mid == level]
+            g = len(ctx.face(levels[level], on)[0])
+            batch = max(1, BATCH_MOVED_STATES // g)
+            for group in (rows[~terminal[rows]], rows[terminal[rows]]):  # the terminal ones need the whole face
+                for k in range(0, len(group), batch):
+                    part = group[k:k + batch]
+                    bad = ctx.failures(float(levels[level]), part, on, closure, kinematic) > 0
+                    hi[part[bad]] = level
+                    lo[part[~bad]] = level
+    return np.where(lo >= 0, levels[np.maximum(lo, 0)], -np.inf)
+
+
+__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "describe_tolerance", "ladder", "state_tolerances", "tolerance"]

@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .io import write_text_atomic
-from .planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
-from .planning.result import Plan, read_plan
-from .robustness import CageMinimum, CageProfile, cage_profile
-from .scene import Scene
+from ..errors import InputError
+from ..io import write_text_atomic
+from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
+from ..planning.result import Plan, read_plan
+from ..robustness import CageMinimum, CageProfile, cage_profile
+from ..scene import Scene
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ class CageReport:
 
     def write(self, directory: str | os.PathLike[str]) -> list[Path]:
         """Write cage.json and cage.png into directory (atomically); returns their paths."""
-        from .robustness_plot import draw_cage_profile
+        from ..robustness_plot import draw_cage_profile
 
         out = Path(directory)
         if out.exists() and not out.is_dir():
@@ -148,9 +148,9 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions()) -> CageRepor
     """Plan the scene (or read options.plan), deviate its start if asked, and profile its cage
     and friction margins; a report without a profile when planning finds no plan. Raises
     InputError naming the option or the scene field before any work."""
-    from .mechanics.cage import CageGrid
-    from .planning import plan as plan_scene
-    from .planning.path_margin import path_friction_margin, plan_friction_margins
+    from ..mechanics.cage import CageGrid
+    from ..planning import plan as plan_scene
+    from ..planning.path_margin import path_friction_margin, plan_friction_margins
 
     o = options.validated(scene)
     if o.plan is not None:
