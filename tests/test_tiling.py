@@ -234,6 +234,34 @@ def test_the_same_square_with_room_is_placed(tmp_path):
     assert "1. square: G (" in proc.stdout
 
 
+
+@pytest.mark.slow
+def test_each_piece_takes_the_approach_whose_plan_tolerates_most(tmp_path):
+    """Ranked by tolerance, a piece's approach is the one whose exact lattice plan has the largest
+    tolerance among its approaches that pass the screen and the proof, recomputed here approach by
+    approach through the public steps; ranked first, the search's choice, which tolerates no more."""
+    from ungrasp_ompl.planning import plan
+    from ungrasp_ompl.tiling import Rank, prove
+
+    layout = Layout.from_file(_square_in_frame(tmp_path, 0.015))
+    best = -math.inf
+    for a in approaches(layout, 0, [], TilingOptions().approaches):
+        scene = approach_scene(layout, 0, a, [])
+        if isinstance(scene, DigitsDoNotFit) or screen(scene) is not None or prove(scene)[0] is not None:
+            continue
+        best = max(best, scene.tolerance(plan(scene, planner="lattice")).scale)
+    ranked = tile(layout, TilingOptions(planner="lattice"))
+    first = tile(layout, TilingOptions(planner="lattice", rank="first"))
+    (chosen,), (searched,) = ranked.placements, first.placements
+    assert chosen.tolerance == pytest.approx(best, rel=1e-12) and chosen.ranked > 1
+    assert chosen.tolerance == chosen.scene.tolerance(chosen.plan).scale
+    assert searched.tolerance <= chosen.tolerance and searched.ranked == 1
+    assert ranked.to_dict()["placements"][0]["tolerance"] == chosen.tolerance
+    with pytest.raises(InputError) as err:
+        tile(layout, TilingOptions(rank="loosest"))
+    assert err.value.field == "rank" and Rank("first") is Rank.FIRST
+
+
 # -- the approaches -------------------------------------------------------------------------
 def test_an_approach_whose_plane_the_digits_do_not_fit_is_a_reason_not_an_error():
     """With a grippy thumb (friction B 1.2) some pairs G, B are so short that the finger's extra

@@ -16,11 +16,18 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
    pieces), then by the friction margin; near-duplicates are dropped;
 3. an approach is screened (the start grasp holdable, some goal state holdable
    with room for the gripper to let go), then proved by the exact lattice
-   search; the first approach proved places the piece;
+   search; the first approach proved places the piece in the search;
 4. a piece that none of its approaches can place now cannot be placed by them
    later either (more pieces only add obstacles), so the search goes back one
    step at once. Only the best `approaches` planes of a piece are tried: the
    search is complete over orders, not over every antipodal pair.
+
+Once an order is found, each piece's approach is chosen again, with the same
+pieces down before it (which an approach does not change: a piece down lies at
+its target whichever way it came): among its approaches that pass the screen and
+the proof, the one whose exact lattice plan has the largest tolerance of the
+`paper` errors (docs/model.md 4.6), the search's order breaking ties
+(TilingOptions.rank; "first" keeps the search's choice).
 
 Results are memoised by (pieces down, piece), so no check is repeated, and what
 a screen learns that holds with other pieces down (the goal states' kinematics
@@ -37,7 +44,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from enum import Enum
+from enum import Enum, StrEnum
 from typing import Callable, Iterator
 
 import numpy as np
@@ -59,6 +66,13 @@ from .scene import Scene
 ROOM_CAP = 0.02
 
 
+class Rank(StrEnum):
+    """How a piece's approach is chosen once an order is found."""
+
+    TOLERANCE = "tolerance"  #: the largest tolerance of its exact lattice plan among those proved
+    FIRST = "first"  #: the first proved in the search's order (room, then margin)
+
+
 @dataclass(frozen=True)
 class TilingOptions:
     """How to tile a layout."""
@@ -77,6 +91,8 @@ class TilingOptions:
     """Manipulation planes (G, B pairs) tried per piece."""
     max_checks: int = 400
     """Cap on approach checks over the whole search for an order."""
+    rank: Rank = Rank.TOLERANCE
+    """How each piece's approach is chosen once the order is found (Rank)."""
 
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
@@ -85,7 +101,9 @@ class TilingOptions:
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not isinstance(self.max_checks, int) or self.max_checks < 1:
             raise InputError("max_checks", f"must be a positive integer, got {self.max_checks!r}")
-        return self
+        if self.rank not in tuple(Rank):
+            raise InputError("rank", f"must be one of {', '.join(Rank)}, got {self.rank!r}")
+        return replace(self, rank=Rank(self.rank))
 
 
 @dataclass(frozen=True)
@@ -129,6 +147,10 @@ class Placement:
     scene: Scene
     plan: Plan
     note: str | None = None  # how the plan was made, when not by the planner asked for
+    tolerance: float | None = None
+    """The plan's tolerance of the `paper` errors (scale of their box; docs/model.md 4.6)."""
+    ranked: int = 1
+    """How many approaches were proved and measured when this one was chosen (Rank.TOLERANCE)."""
 
     def summary(self) -> str:
         p, sc = self.plan, self.scene
@@ -141,7 +163,8 @@ class Placement:
         return (f"{self.order}. {self.name}: G ({g.point[0] * 1000:.1f}, {g.point[1] * 1000:.1f}) mm {g.kind}, "
                 f"B ({b.point[0] * 1000:.1f}, {b.point[1] * 1000:.1f}) mm {b.kind}, l {sc.object_length * 1000:.1f} mm, "
                 f"GB toward {math.degrees(self.approach.yaw):.0f} deg\n"
-                f"   {prims}; cost {p.cost:.2f}; 3D stability full"
+                f"   {prims}; cost {p.cost:.2f}; tolerance {self.tolerance:.3f}"
+                + (f" (the most of {self.ranked} approaches proved)" if self.ranked > 1 else "") + "; 3D stability full"
                 f"{' except on ' + ', '.join(partial) + ' (partial)' if partial else ' on every leg'}; "
                 f"x-moments by {xm}; {restoring}" + (f"\n   note: {self.note}" if self.note else ""))
 
@@ -149,7 +172,8 @@ class Placement:
         return {"order": self.order, "piece": self.name, "approach": {
             "G": self.approach.g.tolist(), "B": self.approach.b.tolist(), "yaw_rad": self.approach.yaw,
             "margin_rad": self.approach.margin, "room_beyond_B_m": self.approach.room_b,
-            "room_behind_G_m": self.approach.room_g}, "note": self.note, "plan": self.plan.to_dict()}
+            "room_behind_G_m": self.approach.room_g}, "note": self.note, "tolerance": self.tolerance,
+                "approaches_ranked": self.ranked, "plan": self.plan.to_dict()}
 
 
 @dataclass
@@ -541,6 +565,30 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 return found
         return None
 
+    def most_tolerant(i: int, placed: list[int], first: tuple[Approach, Scene, SecurityAtlas]
+                      ) -> tuple[Approach, Scene, SecurityAtlas, int]:
+        """Of piece i's approaches that pass the screen and the proof with placed down, the one
+        whose exact lattice plan tolerates most (the first in the search's order among equals),
+        and how many were measured."""
+        best, best_tol, measured = first, -math.inf, 0
+        for a, scene in viable(i, placed)[0]:
+            if a is first[0]:
+                atlas = first[2]
+            else:
+                result.checks += 1
+                report("plan", len(placed), i)
+                problem, atlas = prove(scene)
+                if problem is not None:
+                    continue
+            p = plan_scene(scene, planner=LATTICE, atlas=atlas)
+            if not p.solved:
+                continue
+            measured += 1
+            tol = scene.tolerance(p).scale
+            if tol > best_tol:
+                best, best_tol = (a, scene, atlas), tol
+        return (*best, max(measured, 1))
+
     found = search([], [])
     if found is None:
         result.failed_piece = layout.pieces[deepest["piece"]].name if deepest["piece"] is not None else None
@@ -552,8 +600,13 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             result.capped = opts.max_checks
         result.time_s = time.perf_counter() - t0
         return result
+    placed_before: list[int] = []
     for k, (i, a, scene, atlas) in enumerate(found):
         report("plan", k, i)
+        ranked = 1
+        if opts.rank is Rank.TOLERANCE:
+            a, scene, atlas, ranked = most_tolerant(i, placed_before, (a, scene, atlas))
+        placed_before.append(i)
         seed = None if opts.seed is None else opts.seed + k
         p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range,
                        atlas=atlas)  # the lattice the proof searched
@@ -565,7 +618,8 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             result.failed_piece = layout.pieces[i].name
             result.reasons = [ApproachRejected(Rejection.NOT_PLANNED, a, p)]
             break
-        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note))
+        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note,
+                                           scene.tolerance(p).scale, ranked))
         report("plan", k + 1, i)
     result.time_s = time.perf_counter() - t0
     return result

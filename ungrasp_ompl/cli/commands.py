@@ -176,7 +176,7 @@ def tile_command(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     options = check_tiling_options(TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
-                                                 range=args.range, approaches=args.approaches))
+                                                 range=args.range, approaches=args.approaches, rank=args.rank))
     seed = _seed(args.seed)
     result = tile_layout(layout, dataclasses.replace(options, seed=seed), tile_progress(Progress("pieces")))
     print(result.summary())
