@@ -27,7 +27,7 @@ pieces down before it (which an approach does not change: a piece down lies at
 its target whichever way it came): among its approaches that pass the screen and
 the proof, the one whose exact lattice plan has the largest tolerance of the
 `paper` errors (docs/model.md 4.6), the search's order breaking ties
-(TilingOptions.rank; "first" keeps the search's choice).
+(TilingOptions.rank "tolerance"; the default, "first", keeps the search's choice).
 
 Results are memoised by (pieces down, piece), so no check is repeated, and what
 a screen learns that holds with other pieces down (the goal states' kinematics
@@ -91,8 +91,10 @@ class TilingOptions:
     """Manipulation planes (G, B pairs) tried per piece."""
     max_checks: int = 400
     """Cap on approach checks over the whole search for an order."""
-    rank: Rank = Rank.TOLERANCE
-    """How each piece's approach is chosen once the order is found (Rank)."""
+    rank: Rank = Rank.FIRST
+    """How each piece's approach is chosen once the order is found (Rank). The search's own choice
+    by default: on the tangram the most tolerant approaches placed fewer pieces in simulation
+    (docs/results.md)."""
 
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:

@@ -196,9 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
     tl.add_argument("--range", type=float, default=1.0,
                     help="the planner's longest motion per piece, state units (default 1.0)")
     tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
-    tl.add_argument("--rank", default="tolerance", choices=("tolerance", "first"),
-                    help="once an order is found, each piece's approach: the one whose lattice plan tolerates most "
-                         "(default) or the first the search proved")
+    tl.add_argument("--rank", default="first", choices=("first", "tolerance"),
+                    help="once an order is found, each piece's approach: the first the search proved (default) or "
+                         "the one whose lattice plan tolerates most of the paper errors")
     tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
                     "layout.png, a C-space picture per piece and the exported trajectory")
 

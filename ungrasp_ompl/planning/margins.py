@@ -159,7 +159,9 @@ class LatticeMargins:
                 if self.objective == Objective.TOLERANCE:
                     closure = state_tolerances(s, np.column_stack([th, d, ps]), key[0], key[1],
                                                options=ToleranceOptions(max_scale=TOLERANCE_CAP), kinematic=False)
-                    out[idx] = np.minimum(closure, self.kinematic_tolerance()[idx])
+                    # at least 0 where the atlas finds the state secure: the two checks' geometry may
+                    # differ by rounding at a boundary, which must not cut a path the planner may take
+                    out[idx] = np.maximum(np.minimum(closure, self.kinematic_tolerance()[idx]), 0.0)
                 else:
                     out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
                 self.computed_states += len(idx[0])
