@@ -14,6 +14,7 @@ from conftest import run_cli
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.layout import Layout
 from ungrasp_ompl.planning import plan
+from ungrasp_ompl.planning.margins import Objective
 from ungrasp_ompl.scene import Scene
 from ungrasp_ompl.workflows.plan import PlanOptions, plan_scene
 from ungrasp_ompl.workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
@@ -48,10 +49,19 @@ def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):
     assert all(files[k].is_file() for k in ("model", "view", "poses", "picture"))
 
 
+def test_the_simulate_workflow_plans_with_the_objective_asked_for():
+    scene = Scene.from_file("guitar_pick")
+    run = simulate_scene(scene, SimulateOptions(trials=1, perturb="none", jobs=1, planner="lattice", objective="margin"))
+    assert run.plan.objective is Objective.MARGIN
+    assert run.plan.states == plan(scene, planner="lattice", objective="margin").states
+    assert run.plan.states != plan(scene, planner="lattice").states  # the objectives choose different paths here
+
+
 @pytest.mark.parametrize("options, field", [
     (SimulateOptions(trials=0), "trials"), (SimulateOptions(jobs=0), "jobs"), (SimulateOptions(perturb="storm"), "perturb"),
     (SimulateOptions(friction_scale=1.5), "friction_scale"), (SimulateOptions(thickness=0.2), "thickness"),
-    (SimulateOptions(start_psi_offset=math.radians(100)), "start_psi_offset")])
+    (SimulateOptions(start_psi_offset=math.radians(100)), "start_psi_offset"),
+    (SimulateOptions(objective="steepest"), "objective")])
 def test_simulate_options_name_their_field(options, field):
     with pytest.raises(InputError) as err:
         simulate_scene(Scene.from_file("guitar_pick"), options)
@@ -61,7 +71,8 @@ def test_simulate_options_name_their_field(options, field):
 def test_a_layout_refuses_the_options_of_a_single_scene():
     layout = Layout.from_file("tangram")
     for options, field in ((SimulateOptions(thickness=0.002), "thickness"), (SimulateOptions(equal_digits=True),
-                                                                            "equal_digits")):
+                                                                            "equal_digits"),
+                           (SimulateOptions(objective="margin"), "objective")):
         with pytest.raises(InputError) as err:
             simulate_layout(layout, options)
         assert err.value.field == field

@@ -204,7 +204,7 @@ def simulate_command(args: argparse.Namespace) -> int:
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
     options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
                               cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
-                              finger_tip=args.finger_tip, start_psi_offset=offset, friction_scale=args.friction_scale,
+                              objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset, friction_scale=args.friction_scale,
                               thickness=args.thickness, equal_digits=args.equal_digits)
     doc = read_yaml(path, "scene")
     if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:

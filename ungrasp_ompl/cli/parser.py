@@ -210,6 +210,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "planning (may be one the model rejects for this scene: a warning says why)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
     sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
+    sm.add_argument("--objective", default="cost", choices=OBJECTIVE_NAMES,
+                    help="what the plan optimises when no --plan is given, as for plan (default cost)")
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
     sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "

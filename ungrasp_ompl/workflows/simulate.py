@@ -22,6 +22,7 @@ from ..layout import Layout
 from ..perturbation import Perturbation, preset, trial_params
 from ..planning import plan as plan_scene
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
+from ..planning.margins import Objective
 from ..planning.result import Plan, read_plan
 from ..plotting import draw_trials
 from ..robot.export import export_all
@@ -57,6 +58,8 @@ class SimulateOptions:
     """The planner when planning here (an OMPL planner, or lattice)."""
     time: float = 1.0
     """Planning time (s) when planning here."""
+    objective: Objective = Objective.COST
+    """What the plan optimises when planning here (docs/model.md, section 6; a scene only)."""
     finger_tip: str | None = None
     """rounded or flat instead of the scene's finger tip; None: the scene's."""
     start_psi_offset: float | None = None
@@ -87,9 +90,10 @@ class SimulateOptions:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
                     raise InputError(name, "applies to a single scene, not to a layout")
-            if self.equal_digits or self.friction_scale != 1.0:
-                raise InputError("equal_digits" if self.equal_digits else "friction_scale",
-                                 "applies to a single scene, not to a layout")
+            if self.equal_digits or self.friction_scale != 1.0 or self.objective != Objective.COST:
+                name = "equal_digits" if self.equal_digits else "friction_scale" if self.friction_scale != 1.0 \
+                    else "objective"
+                raise InputError(name, "applies to a single scene, not to a layout")
             return self
         if not 0.0 < self.friction_scale <= 1.0:
             raise InputError("friction_scale", f"must lie in (0, 1]: the simulator never grants more friction than "
@@ -191,7 +195,8 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.plan is not None:
         result = read_plan(options.plan)
     else:
-        result = plan_scene(scene, planner=options.planner, time=options.time, seed=options.seed)
+        result = plan_scene(scene, planner=options.planner, time=options.time, seed=options.seed,
+                            objective=options.objective)
         if not result.solved:
             return SceneSimulation(scene, result, options)
     if options.start_psi_offset is not None:
