@@ -439,4 +439,5 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     return np.where(lo >= 0, levels[np.maximum(lo, 0)], -np.inf)
 
 
-__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "describe_tolerance", "ladder", "state_tolerances", "tolerance"]
+__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "describe_tolerance", "ladder",
+           "state_tolerances", "tolerance"]
