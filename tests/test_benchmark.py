@@ -93,6 +93,29 @@ def test_margin_objective_bench_keeps_no_planner_above_the_lattice_bottleneck(tm
     assert all(r.min_margin_deg == pytest.approx(widest) for r in solved if r.planner == LATTICE)
     with open(tmp_path / "b" / "runs.csv") as f:
         assert {row["objective"] for row in csv.DictReader(f)} == {"margin"}
+    assert all(r.tolerance is None for r in result.runs)  # measured under the tolerance objective only
+
+
+def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
+    """bench --objective tolerance: each solved run carries its path's tolerance, the lattice's is
+    the tolerance plan's own, the summary's median is the runs', and runs.csv reads back whole."""
+    from ungrasp_ompl.benchmark.statistics import median
+    from ungrasp_ompl.benchmark.tasks import result_from_row
+    from ungrasp_ompl.planning.setup import lattice_plan
+
+    guitar = SCENES / "guitar_pick.yaml"
+    options = BenchmarkOptions(planners=("RRTstar",), runs=1, time=0.3, jobs=2, iterations=1500,
+                               objective="tolerance", out=tmp_path / "b")
+    result = run_benchmark([guitar], options)
+    scene = Scene.from_file(guitar)
+    (row,) = result.summary
+    assert row.lattice_tolerance == scene.tolerance(lattice_plan(scene, objective="tolerance")).scale
+    solved = [r for r in result.runs if r.solved and r.planner == "RRTstar"]
+    assert solved and all(r.tolerance is not None and r.tolerance >= 0 for r in solved)
+    assert row.tolerance_median == median([r.tolerance for r in solved])
+    with open(tmp_path / "b" / "runs.csv") as f:
+        rows = list(csv.reader(f))[1:]
+    assert [result_from_row(r) for r in rows if r[1] == "RRTstar"] == [r for r in result.runs if r.planner == "RRTstar"]
 
 
 def test_a_cost_only_planner_is_refused_a_robust_objective(tmp_path):

@@ -108,10 +108,11 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])
 
-    experiments, margins = [], {}
+    experiments, margins, tolerances = [], {}, {}
     for key, scene in scenes.items():
         lattice = lattice_yardstick(results, key)
         margins[key] = lattice.min_margin_deg
+        tolerances[key] = lattice.tolerance
         by_planner = {name: [r for r in results if r.group == key and r.planner == name and r.run >= 0]
                       for name in names}
         experiments.append(Experiment(key, scene, names, by_planner, lattice.cost, lattice.status, options.seed,
@@ -123,7 +124,7 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     files["db"] = out / "benchmark.db"
     logs_to_database([p for k, p in files.items() if k.startswith("log:")], files["db"])
 
-    summary = [summarise(exp.key, name, exp.runs[name], exp.optimum, margins[exp.key])
+    summary = [summarise(exp.key, name, exp.runs[name], exp.optimum, margins[exp.key], tolerances[exp.key])
                for exp in experiments for name in names]
     files["summary"] = out / "summary.csv"
     write_csv(files["summary"], SUMMARY_COLUMNS, summary)

@@ -71,12 +71,18 @@ class SummaryRow:
     objective, the most any secure lattice path keeps."""
     limitation: str | None = None
     """0% success where a path exists: the code of the planner's known limitation."""
+    tolerance_median: float | None = None
+    """Median over the solved runs of the path's tolerance of the `paper` errors (scale of their
+    box), under the tolerance objective; None otherwise."""
+    lattice_tolerance: float | None = None
+    """The tolerance of the lattice optimum's path under the tolerance objective (scale)."""
 
 
 def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: float | None,
-              optimum_margin: float | None = None) -> SummaryRow:
+              optimum_margin: float | None = None, optimum_tolerance: float | None = None) -> SummaryRow:
     """The summary row of one planner's runs on one scene; optimum_margin: the smallest friction
-    margin (deg) of the lattice optimum's path."""
+    margin (deg) of the lattice optimum's path; optimum_tolerance: its tolerance (tolerance
+    objective)."""
     solved = [r for r in runs if r.solved]
     cost = median([r.cost for r in solved])
     return SummaryRow(
@@ -93,6 +99,8 @@ def summarise(scene: str, planner: str, runs: Sequence[RunResult], optimum: floa
         lattice_optimum=optimum,
         margin_median=median([r.min_margin_deg for r in solved if r.min_margin_deg is not None]),
         lattice_margin=optimum_margin,
+        tolerance_median=median([r.tolerance for r in solved if r.tolerance is not None]),
+        lattice_tolerance=optimum_tolerance,
         limitation=KNOWN_LIMITATIONS[planner].code
         if planner in KNOWN_LIMITATIONS and not solved and optimum is not None else None)
 
@@ -121,6 +129,8 @@ SUMMARY_COLUMNS = (
     Column("lattice optimum", "lattice_optimum", lambda r: r.lattice_optimum, ".2f"),
     Column("margin median deg", "smallest_margin_median_deg", lambda r: r.margin_median, ".3f"),
     Column("lattice margin deg", "lattice_smallest_margin_deg", lambda r: r.lattice_margin, ".3f"),
+    Column("tolerance median", "tolerance_median", lambda r: r.tolerance_median, ".3f"),
+    Column("lattice tolerance", "lattice_tolerance", lambda r: r.lattice_tolerance, ".3f"),
     Column("known limitation", "known_limitation", lambda r: r.limitation),
 )
 

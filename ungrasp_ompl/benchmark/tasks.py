@@ -106,6 +106,9 @@ class RunResult:
     wall_time_s: float
     min_margin_deg: float | None = None
     """The path's smallest friction margin (deg), each leg in its contact mode; None: no path."""
+    tolerance: float | None = None
+    """The path's tolerance of the `paper` errors (a scale of their box), measured under the
+    tolerance objective; None: another objective, or no path."""
 
     @property
     def solved(self) -> bool:
@@ -135,7 +138,13 @@ def _ompl_run(task: Task) -> dict:
     plan = UngraspSetup(task.scene, options).solve()
     return dict(status=run_status(plan), cost=plan.cost, mode_switches=plan.mode_switches,
                 time_to_first_solution_s=plan.time_to_first_solution_s, planning_time_s=plan.planning_time_s,
-                setup_time_s=plan.setup_time_s, iterations=plan.iterations, min_margin_deg=plan.min_margin_deg)
+                setup_time_s=plan.setup_time_s, iterations=plan.iterations, min_margin_deg=plan.min_margin_deg,
+                tolerance=_tolerance(task.scene, plan, task.objective))
+
+
+def _tolerance(scene: Scene, plan: Plan, objective: Objective) -> float | None:
+    """The plan's tolerance under the tolerance objective (what it optimised), else None."""
+    return scene.tolerance(plan).scale if objective == Objective.TOLERANCE and plan.solved else None
 
 
 def _lattice_run(scene: Scene, objective: Objective = Objective.COST) -> dict:
@@ -148,7 +157,8 @@ def _lattice_run(scene: Scene, objective: Objective = Objective.COST) -> dict:
     elapsed = plan.setup_time_s + plan.planning_time_s
     return dict(status=run_status(plan), cost=plan.lattice_optimum, mode_switches=plan.mode_switches,
                 time_to_first_solution_s=elapsed if plan.solved else None, planning_time_s=elapsed,
-                setup_time_s=0.0, iterations=None, min_margin_deg=plan.min_margin_deg)
+                setup_time_s=0.0, iterations=None, min_margin_deg=plan.min_margin_deg,
+                tolerance=_tolerance(scene, plan, objective))
 
 
 def run_task(task: Task) -> RunResult:
@@ -204,7 +214,7 @@ def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None =
 #: runs.csv's columns: a task's key (the first six), then what it measured.
 RUN_COLUMNS = ("group", "planner", "run", "seed", "time_limit_s", "iteration_budget", "objective", "status", "cost",
                "mode_switches", "time_to_first_solution_s", "planning_time_s", "setup_time_s", "iterations",
-               "wall_time_s", "min_margin_deg")
+               "wall_time_s", "min_margin_deg", "tolerance")
 #: How many leading RUN_COLUMNS identify a task.
 RUN_KEY_COLUMNS = 7
 
@@ -218,7 +228,7 @@ def task_key(task: Task) -> tuple[str, ...]:
 def run_row(task: Task, r: RunResult) -> list[object]:
     """A run's row of runs.csv (RUN_COLUMNS)."""
     return [*task_key(task), r.status.value, r.cost, r.mode_switches, r.time_to_first_solution_s, r.planning_time_s,
-            r.setup_time_s, r.iterations, r.wall_time_s, r.min_margin_deg]
+            r.setup_time_s, r.iterations, r.wall_time_s, r.min_margin_deg, r.tolerance]
 
 
 def result_from_row(row: Sequence[str]) -> RunResult:
@@ -226,14 +236,14 @@ def result_from_row(row: Sequence[str]) -> RunResult:
     named = dict(zip(RUN_COLUMNS, row))
 
     def number(key: str, kind: type = float):
-        return kind(named[key]) if named[key] else None
+        return kind(named[key]) if named.get(key) else None
 
     return RunResult(group=named["group"], planner=named["planner"], run=int(named["run"]), seed=int(named["seed"]),
                      status=RunStatus(named["status"]), cost=number("cost"), mode_switches=number("mode_switches", int),
                      time_to_first_solution_s=number("time_to_first_solution_s"),
                      planning_time_s=float(named["planning_time_s"]), setup_time_s=float(named["setup_time_s"]),
                      iterations=number("iterations", int), wall_time_s=float(named["wall_time_s"]),
-                     min_margin_deg=number("min_margin_deg"))
+                     min_margin_deg=number("min_margin_deg"), tolerance=number("tolerance"))
 
 
 def hung_result(task: Task, wall: float) -> RunResult:
