@@ -75,9 +75,9 @@ class SecurityAtlas:
         self.shape = tuple(len(ax) for ax in self.axes)
         if min(self.shape) < 1:
             raise ValueError("the box holds no lattice state")
-        th, d, ps = self._lattice = tuple(np.reshape(ax, s) for ax, s in zip(self.axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
+        th, d, ps = (np.reshape(ax, s) for ax, s in zip(self.axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
         self.kinematic = np.broadcast_to(kinematic_validity(th, d, ps, scene.digits), self.shape).copy()
-        check = self.kinematic & self._fc(0, 0)
+        check = self._fc(0, 0, self.kinematic)
         self._checker = CollisionChecker(scene.collision_model())
         self._releasable: dict[tuple, NDArray[np.bool_]] = {}
         self.collision = self._checker.in_collision_lattice(self.axes, where=check)
@@ -153,13 +153,15 @@ class SecurityAtlas:
         return self._checker.termination_collides(q, r.termination, amount)
 
     # -- per-mode security -------------------------------------------------------
-    def _fc(self, sa: int, sb: int, psi_from: int = 0) -> NDArray[np.bool_]:
-        """Force closure in contact mode (sa, sb) at every lattice state (shape of the lattice),
-        computed from the psi index psi_from on (False below it)."""
-        th, d, ps = self._lattice
-        s = self.scene
+    def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """Force closure in contact mode (sa, sb) at the lattice states where is True (False at
+        the others), shape of the lattice. Only those states are computed: a tenth or so of the
+        lattice is kinematically valid, so this costs about a quarter of the whole lattice's
+        broadcast test, and force closure is decided state by state, so the answer is the same."""
+        idx = np.nonzero(where)
         out = np.zeros(self.shape, dtype=bool)
-        out[:, :, psi_from:] = force_closure(th, d, ps[:, :, psi_from:], sa, sb, s.friction)
+        if len(idx[0]):
+            out[idx] = force_closure(*(ax[i] for ax, i in zip(self.axes, idx)), sa, sb, self.scene.friction)
         return out
 
     def mode_ok(self, sa: int, sb: int) -> NDArray[np.bool_]:
@@ -170,10 +172,10 @@ class SecurityAtlas:
         """
         key = (sa, sb)
         if key not in self._mode_ok:
-            first = 0
+            where = self.holdable.copy()
             if sa != 0 and sb != sa:
-                first = int(np.searchsorted(self.axes[PSI], math.pi / 2 - 1e-9))
-            self._mode_ok[key] = self.holdable & self._fc(sa, sb, first)
+                where[:, :, :int(np.searchsorted(self.axes[PSI], math.pi / 2 - 1e-9))] = False
+            self._mode_ok[key] = self._fc(sa, sb, where)
         return self._mode_ok[key]
 
     def leg_ok(self, kind: str, direction: int) -> NDArray[np.bool_]:
