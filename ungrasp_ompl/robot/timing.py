@@ -11,6 +11,7 @@ to rest with Ruckig under velocity, acceleration and jerk limits.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 import sys
@@ -33,28 +34,28 @@ class _Deferred(types.ModuleType):
         return getattr(importlib.import_module(self.__name__), attr)
 
 
-def _import_toppra():
-    """Import TOPPRA without matplotlib. TOPPRA imports matplotlib.pyplot at its own import only
-    for plotting helpers that nothing here calls, and loading it costs 0.6 s of every export;
+@functools.cache
+def _toppra() -> tuple[types.ModuleType, types.ModuleType, types.ModuleType]:
+    """TOPPRA and its algorithm and constraint modules, imported at the first timing: with SciPy's
+    interpolation they cost about 0.9 s, which planning without an export need not pay. Imported
+    without matplotlib: TOPPRA imports matplotlib.pyplot at its own import only for plotting helpers that nothing here calls, and loading it costs 0.6 s of every export;
     while TOPPRA is imported, stand-ins take its place (TOPPRA's helpers still work: their first
     use imports the real pyplot), then the module table is left as it was."""
+    def load():
+        return tuple(importlib.import_module(m) for m in ("toppra", "toppra.algorithm", "toppra.constraint"))
+
     names = ("matplotlib", "matplotlib.pyplot")
     if any(n in sys.modules for n in names):
-        return importlib.import_module("toppra")
+        return load()
     package, pyplot = _Deferred(names[0]), _Deferred(names[1])
     package.pyplot = pyplot
     sys.modules.update(zip(names, (package, pyplot)))
     try:
-        return importlib.import_module("toppra")
+        return load()
     finally:
         for name, stand_in in zip(names, (package, pyplot)):
             if sys.modules.get(name) is stand_in:
                 del sys.modules[name]
-
-
-ta = _import_toppra()
-import toppra.algorithm as algo  # noqa: E402
-import toppra.constraint as constraint  # noqa: E402
 
 
 #: Share of the joint limits TOPPRA plans against (the rest absorbs its between-grid-point error).
@@ -110,6 +111,7 @@ def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, con
     aug = aug[keep]
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(aug, axis=0), axis=1))])
     s /= s[-1]
+    ta, algo, constraint = _toppra()
     path = ta.SplineInterpolator(s, aug)
     # TOPPRA holds the limits at its grid points; between them the spline may go a little
     # beyond, so it plans against a margin and every sample is checked after
