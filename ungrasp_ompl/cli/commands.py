@@ -17,8 +17,6 @@ from .progress import Progress, map_status, tile_progress, trial_progress
 def plan_command(args: argparse.Namespace) -> int:
     path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
     from ..scene import Scene
-    from ..sim.campaign import default_jobs
-    from ..sim.certify import CertifyOptions
     from ..workflows.plan import PlanOptions, plan_scene
 
     scene = Scene.from_file(path)
@@ -31,10 +29,15 @@ def plan_command(args: argparse.Namespace) -> int:
         for flag in ("candidates", "jobs"):
             if getattr(args, flag) is not None:
                 raise InputError(f"--{flag}", "applies only with --certify N")
-    certify = None if args.certify is None else CertifyOptions(
-        trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
-        objective=args.objective, time=args.time, iterations=args.iterations,
-        jobs=default_jobs() if args.jobs is None else args.jobs)
+    certify = None
+    if args.certify is not None:
+        from ..sim.campaign import default_jobs
+        from ..sim.certify import CertifyOptions
+
+        certify = CertifyOptions(
+            trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
+            objective=args.objective, time=args.time, iterations=args.iterations,
+            jobs=default_jobs() if args.jobs is None else args.jobs)
     options = PlanOptions(planner=args.planner, time=args.time, iterations=args.iterations,
                           objective=args.objective, cage=args.cage, certify=certify).validated(scene)
     seed = _seed(args.seed)  # drawn (and printed) only for options that can run

@@ -14,19 +14,20 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..planning import plan as plan_planar
 from ..planning.margins import Objective
 from ..planning.result import Plan
-from ..plotting import draw_plan
-from ..robot.export import export_all
-from ..robot.pipeline import Execution, execute
-from ..robustness import CageMinimum, cage_profile
 from ..scene import Scene
-from ..sim.certify import CertifyOptions, CertifyProgress, CertifyResult, certify
-from ..view.record import write_view_record
+
+if TYPE_CHECKING:  # the arm, the simulator, the cage and the pictures are imported where used:
+    # planning alone need not load Pinocchio, MuJoCo's trial code or matplotlib (0.4 s)
+    from ..robot.pipeline import Execution
+    from ..robustness import CageMinimum
+    from ..sim.certify import CertifyOptions, CertifyProgress, CertifyResult
 
 
 @dataclass(frozen=True)
@@ -101,6 +102,8 @@ class ScenePlan:
         out = Path(out)
         files = {"plan": out / "plan.json", "cspace": out / "cspace.png"}
         write_text_atomic(files["plan"], json.dumps(self.document(), indent=2) + "\n")
+        from ..plotting import draw_plan
+
         draw_plan(self.scene, self.plan, files["cspace"])
         return files
 
@@ -108,11 +111,16 @@ class ScenePlan:
         """The plan on the arm: inverse kinematics, timing and the gripper's openings."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
+        from ..robot.pipeline import execute
+
         return execute(self.scene, self.plan)
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
         """Write the executed trajectory (every format robot.export writes), the view's record
         and plan.json into out, atomically; returns their paths by kind."""
+        from ..robot.export import export_all
+        from ..view.record import write_view_record
+
         out = Path(out)
         execution = execution or self.execute()
         files = export_all(execution.trajectory, out)
@@ -132,13 +140,19 @@ def plan_scene(scene: Scene, options: PlanOptions,
         result = plan_planar(scene, planner=options.planner, time=options.time, seed=options.seed,
                              iterations=options.iterations, objective=options.objective)
     else:
+        from ..sim.certify import certify
+
         certification = certify(scene, options.certify, progress)
         if not certification.certified:
             return ScenePlan(scene, certification.candidates[0].plan, options, certification)
         result = certification.plan
     if result.solved and result.tolerance is None:
         result = dataclasses.replace(result, tolerance=scene.tolerance(result).to_dict())
-    cage = cage_profile(scene, result).weakest(result) if options.cage and result.solved else None
+    cage = None
+    if options.cage and result.solved:
+        from ..robustness import cage_profile
+
+        cage = cage_profile(scene, result).weakest(result)
     return ScenePlan(scene, result, options, certification, cage)
 
 
