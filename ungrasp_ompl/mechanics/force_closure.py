@@ -16,6 +16,8 @@ open sides of n. Everything is vectorised over states.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 from itertools import combinations
@@ -70,6 +72,9 @@ FC_TOLERANCE = 1e-9
 
 _PAIRS = list(combinations(range(6), 2))
 _CHUNK = 8192
+#: Up to this many states, force_closure takes every triple product at once (_spans_stacked);
+#: above it, per product at the shapes of what it depends on (_spans).
+STACKED_STATES = 256
 
 
 def cone_edges(normal: ArrayLike, tangent: ArrayLike, mu: float) -> tuple[NDArray, NDArray]:
@@ -248,7 +253,8 @@ def force_closure(
     args = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign)))
     slots, masks = _slots(theta, d, psi, a_sign, b_sign, friction)
     unit = [w for w, m in zip(_unit(slots, masks), masks) if np.any(m)]  # an absent slot spans nothing
-    ok, unsure = _spans(unit, args[0].shape)
+    shape = args[0].shape
+    ok, unsure = (_spans_stacked if math.prod(shape) <= STACKED_STATES else _spans)(unit, shape)
     if unsure.any():
         ok[unsure] = force_closure_margin(*(x[unsure] for x in args), friction) > FC_TOLERANCE
     return ok
@@ -261,35 +267,85 @@ def _spans(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]
     its sign to decide (within twice FC_TOLERANCE). Each product is taken through the cross
     product of the two wrenches that vary least."""
     n = len(unit)
+    shapes = [np.broadcast_shapes(*(np.shape(c) for c in w)) for w in unit]
+    size: dict[tuple[int, int], int] = {}
     cross: dict[tuple[int, int], tuple] = {}
 
-    def crossed(i: int, j: int) -> tuple:
-        if (i, j) not in cross:
-            a, b = unit[i], unit[j]
-            cross[i, j] = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-        return cross[i, j]
-
-    shapes = [np.broadcast_shapes(*(np.shape(c) for c in w)) for w in unit]
+    def pair_size(pair: tuple[int, int]) -> int:
+        if pair not in size:
+            size[pair] = _broadcast_size(shapes[pair[0]], shapes[pair[1]])
+        return size[pair]
 
     positive, negative = {}, {}
     unsure = np.zeros(shape, dtype=bool)
     band = 2.0 * FC_TOLERANCE
     for i, j, k in combinations(range(n), 3):  # det(w_i, w_j, w_k) = (w_i x w_j) . w_k = -(w_i x w_k) . w_j = ...
         options = (((i, j), k, False), ((i, k), j, True), ((j, k), i, False))
-        (a, b), other, odd = min(options, key=lambda o: np.prod(np.broadcast_shapes(shapes[o[0][0]], shapes[o[0][1]])))
-        c, w = crossed(a, b), unit[other]
+        (a, b), other, odd = min(options, key=lambda o: pair_size(o[0]))
+        if (a, b) not in cross:
+            u, v = unit[a], unit[b]
+            cross[a, b] = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+        c, w = cross[a, b], unit[other]
         v = c[0] * w[0] + c[1] * w[1] + c[2] * w[2]
         above, below = v > 0.0, v < 0.0
         positive[i, j, k], negative[i, j, k] = (below, above) if odd else (above, below)
         unsure |= np.abs(v) <= band
     ok = np.ones(shape, dtype=bool)
-    for i, j in combinations(range(n), 2):
+    for others in _pair_triples(n):
         pos = neg = False
-        for k in range(n):
-            if k != i and k != j:
-                key = tuple(sorted((i, j, k)))
-                odd = i < k < j  # (i, j, k) is an odd permutation of its sorted order
-                pos = pos | (negative[key] if odd else positive[key])
-                neg = neg | (positive[key] if odd else negative[key])
+        for key, odd in others:
+            pos = pos | (negative[key] if odd else positive[key])
+            neg = neg | (positive[key] if odd else negative[key])
         ok &= pos & neg
     return ok, unsure
+
+
+def _spans_stacked(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]
+                   ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """_spans for a few states: the wrenches stacked at the states' shape and every triple product
+    taken at once, so that a call costs a dozen array operations instead of some three hundred
+    (a leg's or a tolerance check's handful of states pays numpy's per-operation overhead, not its
+    arithmetic)."""
+    n = len(unit)
+    w = np.empty((n, 3, *shape))
+    for k, components in enumerate(unit):
+        for c in range(3):
+            w[k, c] = components[c]
+    i, j, k, pairs, odd = _stacked_index(n)
+    a, b, o = w[i], w[j], w[k]
+    det = ((a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]) * o[:, 0] + (a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]) * o[:, 1]
+           + (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) * o[:, 2])  # (triples, *shape), sorted triples
+    unsure = np.any(np.abs(det) <= 2.0 * FC_TOLERANCE, axis=0)
+    flip = odd.reshape(odd.shape + (1,) * len(shape))
+    above, below = det[pairs] > 0.0, det[pairs] < 0.0  # (pairs, others, *shape)
+    pos, neg = np.where(flip, below, above), np.where(flip, above, below)
+    return np.all(pos.any(axis=1) & neg.any(axis=1), axis=0), unsure
+
+
+@functools.cache
+def _stacked_index(n: int) -> tuple[NDArray[np.int_], ...]:
+    """_spans_stacked's tables for n wrenches: the sorted triples (i, j, k) as three index arrays,
+    and for each pair the indices of its triples and whether each is an odd permutation of the
+    pair and its third wrench (as _pair_triples)."""
+    triples = list(combinations(range(n), 3))
+    where = {t: m for m, t in enumerate(triples)}
+    table = _pair_triples(n)
+    pairs = np.array([[where[key] for key, _ in others] for others in table], dtype=np.intp)
+    odd = np.array([[flag for _, flag in others] for others in table], dtype=bool)
+    i, j, k = (np.array(x, dtype=np.intp) for x in zip(*triples))
+    return i, j, k, pairs, odd
+
+
+def _broadcast_size(a: tuple[int, ...], b: tuple[int, ...]) -> int:
+    """The number of elements of two broadcast-compatible shapes broadcast together."""
+    n = max(len(a), len(b))
+    a, b = (1,) * (n - len(a)) + a, (1,) * (n - len(b)) + b
+    return math.prod(max(x, y) for x, y in zip(a, b))
+
+
+@functools.cache
+def _pair_triples(n: int) -> tuple[tuple[tuple[tuple[int, int, int], bool], ...], ...]:
+    """For each pair (i, j) of n wrenches, every other wrench k as its sorted triple and whether
+    (i, j, k) is an odd permutation of it (i < k < j): the triple products _spans reads per pair."""
+    return tuple(tuple((tuple(sorted((i, j, k))), i < k < j) for k in range(n) if k != i and k != j)
+                 for i, j in combinations(range(n), 2))
