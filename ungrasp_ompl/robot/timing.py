@@ -37,10 +37,12 @@ class _Deferred(types.ModuleType):
 @functools.cache
 def _toppra() -> tuple[types.ModuleType, types.ModuleType, types.ModuleType]:
     """TOPPRA and its algorithm and constraint modules, imported at the first timing: with SciPy's
-    interpolation they cost about 0.9 s, which planning without an export need not pay. Imported
-    without matplotlib: TOPPRA imports matplotlib.pyplot at its own import only for plotting helpers that nothing here calls, and loading it costs 0.6 s of every export;
-    while TOPPRA is imported, stand-ins take its place (TOPPRA's helpers still work: their first
-    use imports the real pyplot), then the module table is left as it was."""
+    interpolation they cost about 0.9 s, which planning without an export need not pay.
+
+    Imported without matplotlib: TOPPRA imports matplotlib.pyplot at its own import only for
+    plotting helpers that nothing here calls, and loading it costs 0.6 s of every export; while
+    TOPPRA is imported, stand-ins take its place (TOPPRA's helpers still work: their first use
+    imports the real pyplot), then the module table is left as it was."""
     def load():
         return tuple(importlib.import_module(m) for m in ("toppra", "toppra.algorithm", "toppra.constraint"))
 
