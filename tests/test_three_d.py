@@ -128,6 +128,25 @@ def test_prism_roll_thin_smooth_object_restores():
     assert res.self_restoring
 
 
+def test_a_remembered_roll_is_the_roll_and_is_not_shared():
+    """roll_simulation remembers its results by their inputs: asked again it answers as a fresh
+    simulation does (the cache emptied), and what one caller does to its result does not reach the
+    next caller's."""
+    from ungrasp_ompl.mechanics.roll import _remembered_roll
+
+    args = (rhombus().vertices, 0.003, np.array([0, 0.0]), np.array([0.04, 0.0]), np.array([1.0, 0]),
+            np.array([-1.0, 0]), 0.016, math.radians(10), math.radians(20), math.radians(17))
+    first = roll_simulation(*args)
+    first.directions[0].restoring[:] = ~first.directions[0].restoring
+    first.directions[1].events.append(1.0)
+    again = roll_simulation(*args)
+    _remembered_roll.cache_clear()
+    fresh = roll_simulation(*args)
+    for d, f in zip(again.directions, fresh.directions):
+        assert np.array_equal(d.tilts, f.tilts) and np.array_equal(d.restoring, f.restoring) and d.events == f.events
+    assert not np.array_equal(first.directions[0].restoring, again.directions[0].restoring)
+
+
 def test_stability_command_tall_prism_and_puzzle_piece():
     tall = run_cli("stability", str(ROOT / "tests" / "scenes" / "tall_prism.yaml"))
     assert tall.returncode == 0, tall.stderr

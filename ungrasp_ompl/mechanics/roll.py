@@ -21,6 +21,8 @@ carries A past its rolling axis, where no ray restores (paper fig. 5d).
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -111,6 +113,11 @@ def _cone_rays(axis: NDArray, half_angle: float, rays: int) -> NDArray:
     return np.vstack([a, ring])
 
 
+#: How many roll simulations are remembered by their inputs (every plan of a scene rolls its
+#: start, and most of a planner's plans end at the same few goal states).
+ROLL_CACHE = 256
+
+
 def roll_simulation(
     outline: NDArray,
     thickness: float,
@@ -133,7 +140,23 @@ def roll_simulation(
     a_from_g: distance of A from G along GB; theta, psi: inclination of the table and of the
     thumb face to the object (clamped to at least 1 deg); phi_a: friction angle at A. The
     grasp counts as self-restoring when it restores at every tilt from onset to max_tilt.
+    The same inputs give the same result, remembered for the last ROLL_CACHE of them (a copy is
+    returned).
     """
+    vectors = tuple(tuple(float(v) for v in np.ravel(a)) for a in (g, b, normal_g, normal_b))
+    outline = np.ascontiguousarray(outline, dtype=float)
+    key = (outline.tobytes(), outline.shape, float(thickness), vectors, float(a_from_g), float(theta), float(psi),
+           float(phi_a), float(max_tilt), float(step), float(onset), int(rays))
+    return copy.deepcopy(_remembered_roll(key))
+
+
+@functools.lru_cache(maxsize=ROLL_CACHE)
+def _remembered_roll(key: tuple) -> RollResult:
+    """roll_simulation for its inputs packed as a key (see there)."""
+    outline_bytes, shape, thickness, (g, b, normal_g, normal_b), a_from_g, theta, psi, phi_a, max_tilt, step, onset, \
+        rays = key
+    outline = np.frombuffer(outline_bytes).reshape(shape)
+    g, b, normal_g, normal_b = (np.array(v) for v in (g, b, normal_g, normal_b))
     x = (b - g) / np.linalg.norm(b - g)
     y = np.array([-x[1], x[0]])
     local = np.column_stack([(outline - g) @ x, (outline - g) @ y])
