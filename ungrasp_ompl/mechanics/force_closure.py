@@ -273,7 +273,7 @@ def _spans(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]
 
     def pair_size(pair: tuple[int, int]) -> int:
         if pair not in size:
-            size[pair] = _broadcast_size(shapes[pair[0]], shapes[pair[1]])
+            size[pair] = math.prod(np.broadcast_shapes(shapes[pair[0]], shapes[pair[1]]))
         return size[pair]
 
     positive, negative = {}, {}
@@ -334,13 +334,6 @@ def _stacked_index(n: int) -> tuple[NDArray[np.int_], ...]:
     odd = np.array([[flag for _, flag in others] for others in table], dtype=bool)
     i, j, k = (np.array(x, dtype=np.intp) for x in zip(*triples))
     return i, j, k, pairs, odd
-
-
-def _broadcast_size(a: tuple[int, ...], b: tuple[int, ...]) -> int:
-    """The number of elements of two broadcast-compatible shapes broadcast together."""
-    n = max(len(a), len(b))
-    a, b = (1,) * (n - len(a)) + a, (1,) * (n - len(b)) + b
-    return math.prod(max(x, y) for x, y in zip(a, b))
 
 
 @functools.cache
