@@ -86,7 +86,8 @@ def _report(successes: list[bool]):
     for k, (ok, params) in enumerate(zip(successes, trial_params(preset("paper"), 3, len(successes)))):
         pose = np.eye(4)
         pose[0, 3] = 0.0 if ok else 0.005
-        trials.append(TrialResult(Outcome.SUCCESS if ok else Outcome.GRIP_LOST, None, None, None, 0.0, 0.0, 0.0, 0.0,
+        outcome = Outcome.SUCCESS if ok else Outcome.GRIP_LOST
+        trials.append(TrialResult(outcome, outcome, None, None, None, 0.0, 0.0, 0.0, 0.0,
                                   params=params.to_dict(), trial=k, final_pose=pose.tolist()))
     return SimulationReport("demo", preset("paper"), Variant(), 3, trials)
 

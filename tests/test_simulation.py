@@ -25,7 +25,8 @@ from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
 from ungrasp_ompl.planning.deviate import deviated_plan, plan_problems, steeper_start
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval
-from ungrasp_ompl.sim.outcome import Outcome
+from ungrasp_ompl.sim.outcome import Outcome, TrialResult
+from ungrasp_ompl.sim.tiling import TilingAttempt
 from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.model import model_ids
@@ -49,13 +50,19 @@ def pick():
 
 
 @pytest.fixture(scope="module")
-def base_trials():
-    """One trial without error of each object's lattice plan, rounded tip: (scene name, result)."""
+def base_setups():
+    """Each object's lattice plan, rounded tip, ready to simulate: (scene name, trial setup)."""
     out = []
     for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
         scene, result, ex = _planned(name)
-        out.append((name, run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), TrialParams())))
+        out.append((name, trial_setup(scene, result, ex.trajectory, ex.robot)))
     return out
+
+
+@pytest.fixture(scope="module")
+def base_trials(base_setups):
+    """One trial without error of each object's lattice plan, rounded tip: (scene name, result)."""
+    return [(name, run_trial(setup, TrialParams())) for name, setup in base_setups]
 
 
 def _setup(pick, variant=Variant(), **sim):
@@ -95,6 +102,7 @@ def test_the_planned_piece_is_put_down_flat_near_its_target(pick):
     r = run_trial(_setup(pick), TrialParams())
     assert r.outcome is Outcome.SUCCESS, r.cause()
     assert r.position_error_mm < 3.0 and r.tilt_deg < 2.0 and r.roll_deg < 5.0
+    assert r.digit_table_force_n == 0.0  # no digit touched the table
 
 
 def test_a_rounded_tip_touches_the_object_with_its_dome_alone(base_trials):
@@ -233,12 +241,51 @@ def test_a_fifth_of_the_friction_loses_the_grip_in_a_named_primitive(pick):
     r = run_trial(_setup(pick, Variant(friction_scale=0.2)), TrialParams())
     assert r.outcome in (Outcome.GRIP_LOST, Outcome.LEFT_PLANE, Outcome.B_PAST_THUMB_TIP), r.cause()
     assert r.phase.startswith("P_") and f"primitive {r.phase_index + 1} ({r.phase})" in r.cause()
+    assert r.paper_outcome is r.outcome  # a lost grip fails the paper's criterion too, for the same cause
 
 
 def test_equal_digits_cannot_place_the_piece(pick):
-    """The paper's negative result: with the thumb as long as the finger the same motion fails."""
+    """The paper's negative result: with the thumb as long as the finger the same motion fails,
+    by the paper's criterion as well as by the strict verdict."""
     r = run_trial(_setup(pick, Variant(equal_digits=True)), TrialParams())
-    assert not r.success
+    assert not r.success and not r.placed, r.cause()
+    if r.outcome is Outcome.DIGIT_HIT_TABLE:  # the thumb, as long as the finger, is driven into the table
+        assert r.digit_table_force_n > 1.0
+
+
+def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone(base_setups, base_trials):
+    """A digit on the table or a turn out of the plane while held fail the strict verdict at once,
+    and the trial goes on to decide the paper's criterion: the unperturbed pick turns out of the
+    plane in a P_theta but is still held when the termination begins. Either verdict is the one a
+    whole trial, simulated to its end, gives; a strict success is placed, and a lost grip fails
+    both verdicts for the same cause."""
+    strict_only = (Outcome.DIGIT_HIT_TABLE, Outcome.LEFT_PLANE)
+    for (name, setup), (_, r) in zip(base_setups, base_trials):
+        if r.success:
+            assert r.placed
+        elif r.outcome not in strict_only:
+            assert r.paper_outcome is r.outcome, name
+        whole = run_trial(setup, TrialParams(), stop_at_failure=False)
+        assert (whole.outcome, whole.paper_outcome) == (r.outcome, r.paper_outcome), name
+    _, pick = base_trials[0]
+    assert pick.outcome is Outcome.LEFT_PLANE and pick.roll_deg > 10
+    assert pick.paper_outcome not in strict_only and pick.paper_outcome is not Outcome.LEFT_PLANE
+    assert pick.tilt_deg < 2.0  # let go, and lying flat: it was simulated past its strict failure
+
+
+def _piece(outcome: Outcome, paper: Outcome) -> TrialResult:
+    return TrialResult(outcome, paper, None, None, None, 1.0, 0.0, 0.0, 0.0)
+
+
+def test_a_tangram_attempt_is_placed_by_the_papers_criterion_when_every_piece_is():
+    held = _piece(Outcome.DIGIT_HIT_TABLE, Outcome.OFF_TARGET)  # strict failure alone, placed
+    lost = _piece(Outcome.GRIP_LOST, Outcome.GRIP_LOST)
+    good = _piece(Outcome.SUCCESS, Outcome.SUCCESS)
+    attempt = TilingAttempt(0, [good, held], ["a", "b"], [True, True])
+    assert attempt.placed and not attempt.success and attempt.cause().startswith("b: a digit hit the table")
+    assert not TilingAttempt(0, [good, held], ["a", "b"], [True, False]).placed
+    assert not TilingAttempt(0, [held, lost], ["a", "b"], []).placed
+    assert TilingAttempt(0, [good, good], ["a", "b"], [True, True]).success
 
 
 def test_the_same_seed_gives_the_same_trials(pick):

@@ -45,7 +45,7 @@ class SimulationReport:
     @property
     def placed(self) -> int:
         """Trials placed by the paper's criterion, however far from the target."""
-        return sum(t.outcome.placed for t in self.trials)
+        return sum(t.placed for t in self.trials)
 
     def causes(self) -> dict[str, int]:
         """Failures counted by outcome and phase ('grip lost in P_dpsi': 3)."""
@@ -53,7 +53,7 @@ class SimulationReport:
 
     def errors_mm(self, placed: bool = False) -> np.ndarray:
         """Placement errors (mm) of the successful trials (of every placed trial, with placed)."""
-        return np.array([t.position_error_mm for t in self.trials if (t.outcome.placed if placed else t.success)])
+        return np.array([t.position_error_mm for t in self.trials if (t.placed if placed else t.success)])
 
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second, over all trials (per worker)."""

@@ -62,6 +62,9 @@ FLAT_TILT_DEG = 2.0
 class TrialResult:
     """One trial: the outcome and its evidence.
 
+    outcome: the strict verdict (Outcome), which success counts; paper_outcome: the paper's
+    criterion alone, the same but that a digit on the table or a turn out of the plane while held
+    fails it only if the grip is then lost (docs/model.md 11.4).
     phase / phase_index / time_s: where the failure began (the primitive, 'termination' or
     'retreat', and the time in s from the first primitive's start); None on success.
     position_error_mm: distance in the table's plane between the object's final outline
@@ -75,6 +78,7 @@ class TrialResult:
     """
 
     outcome: Outcome
+    paper_outcome: Outcome  #: by the paper's criterion alone: only a grip lost before the termination, or the checks after the retreat, fail it
     phase: str | None
     phase_index: int | None
     time_s: float | None
@@ -92,10 +96,17 @@ class TrialResult:
     max_penetration_mm: float = 0.0
     a_off_dome_share: float | None = None
     contacts: list[ContactTravel] = field(default_factory=list)
+    digit_table_force_n: float = 0.0  #: the largest normal force (N) a digit pressed the table with before the termination (0: it never touched)
 
     @property
     def success(self) -> bool:
         return self.outcome.success
+
+    @property
+    def placed(self) -> bool:
+        """Placed by the paper's criterion, whatever the error; a digit that touched the table or a
+        turn out of the plane while held fail only the strict verdict (outcome)."""
+        return self.paper_outcome.placed
 
     def cause(self) -> str:
         """The outcome for a person: 'grip lost in primitive 3 (P_dpsi) at 4.21 s'."""
@@ -113,6 +124,7 @@ class TrialResult:
         """A flat dict for trials.csv (the perturbation's fields prefixed with p_)."""
         row = asdict(self)
         row["outcome"] = self.outcome.name.lower()
+        row["paper_outcome"] = self.paper_outcome.name.lower()
         row["cause"] = self.cause()
         params = row.pop("params")
         row.pop("final_pose")

@@ -216,8 +216,10 @@ class _Watch:
         for i, (g1, g2) in enumerate(con.geom.tolist()):
             if g1 == obj or g2 == obj:
                 mine.append((i, kind[g2 if g1 == obj else g1]))
-            elif g1 == table or g2 == table:
-                tick.digit_on_table |= _FINGER <= kind[g2 if g1 == table else g1] <= _THUMB
+            elif (g1 == table or g2 == table) and _FINGER <= kind[g2 if g1 == table else g1] <= _THUMB:
+                tick.digit_on_table = True
+                a = con.efc_address[i]
+                tick.table_push = max(tick.table_push, float(data.efc_force[a]) if a >= 0 else 0.0)
         if not mine:
             return tick
         tick.touched = True
@@ -263,6 +265,7 @@ class _Tick:
     b: bool = False  #: the thumb touches it
     solid: bool = False  #: a wall or a piece touches it
     digit_on_table: bool = False  #: a digit touches the table
+    table_push: float = 0.0  #: the largest normal force (N) of a digit's contact on the table
     sinking: float = 0.0  #: deepest into a digit or the table (m)
     on_dome: float = 0.0  #: A's normal force on a rounded tip's dome (N)
     off_dome: float = 0.0  #: A's normal force on the rest of the finger (N)
@@ -392,10 +395,12 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
     (time s from the drive's start, 4x4 world pose of the object) is appended after the settling
     (time 0), after every control tick, and once after the rest (the 3D view shows it). Without
-    it a trial stops at its failure, since nothing after it can change the verdict (a failed
+    it a trial stops once its grip is lost, since nothing after it can change the verdicts (a failed
     trial's final pose is where the object was then; stop_at_failure=False goes on, as a
     benchmark of a whole trial does), and once the world is still during the retreat
-    (Stillness), where nothing after it can either."""
+    (Stillness), where nothing after it can either. A failure of the strict verdict alone (a
+    digit on the table, a turn out of the plane while held) does not stop it: the paper's
+    criterion (paper_outcome) is decided by what follows."""
     import mujoco
 
     wall = time.perf_counter()
@@ -418,10 +423,11 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     settled = False
     missing_since: float | None = None
     solid_seen_at = -math.inf
-    roll = sinking = dome = off_dome = 0.0
-    failure: tuple[Outcome, float] | None = None
+    roll = sinking = dome = off_dome = table_push = 0.0
+    failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
+    lost: tuple[Outcome, float] | None = None  # a grip lost before the termination: the paper's criterion fails too
     for k in range(1, len(drive.times)):
-        if failure is not None and record is None and stop_at_failure:  # nothing after it changes the verdict
+        if lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
             break
         _set_palm(data, ids, palm[k], quat)
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
@@ -432,33 +438,33 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if record is None and t >= lifting and stillness.settled(data, t):
             settled = True  # nothing left can move what lies on the table
             break
-        if t >= release or failure is not None:  # after a failure (a crushed or falling object) nothing is measured
+        if t >= release or lost is not None:  # after a loss of grip (a falling object) nothing is measured
             continue
         now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
-        sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
-        if now.a_point is not None and primitive[k] >= 0:
-            rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
-            travel.note(int(primitive[k]), np.array([
-                _in_body(data, ids.object_body, now.a_point), _in_body(data, ids.finger_body, now.a_point),
-                np.zeros(3), _in_body(data, ids.thumb_body, now.b_end)]), (now.b_points - origin) @ rot)
+        if failure is None:  # the contacts' figures are those of the plan's contact modes, until they are lost
+            sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
+            if now.a_point is not None and primitive[k] >= 0:
+                rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
+                travel.note(int(primitive[k]), np.array([
+                    _in_body(data, ids.object_body, now.a_point), _in_body(data, ids.finger_body, now.a_point),
+                    np.zeros(3), _in_body(data, ids.thumb_body, now.b_end)]), (now.b_points - origin) @ rot)
         if now.solid:
             solid_seen_at = t
-        if now.digit_on_table:  # a collision: a real arm stops (or the plan's clearance was not there)
+        table_push = max(table_push, now.table_push)
+        if now.digit_on_table and failure is None:  # a collision: a real arm stops (or the plan's clearance was not there)
             failure = (Outcome.DIGIT_HIT_TABLE, t)
-            continue
         obj = _pose(data, ids.object_body)
         roll = max(roll, _roll(obj, plane_y))
-        if roll > LEFT_PLANE_DEG:  # held still, but turned out of the plane: the contact modes are lost
+        if roll > LEFT_PLANE_DEG and failure is None:  # held, but turned out of the plane: the contact modes are lost
             failure = (Outcome.LEFT_PLANE, t)
-            continue
         if now.a and now.b:
             missing_since = None
             continue
         missing_since = t if missing_since is None else missing_since
         if t - missing_since >= LOSS_WINDOW:
-            failure = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= missing_since - 0.2),
-                       missing_since)
-    if ((failure is None or not stop_at_failure) and not settled) or record is not None:
+            lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= missing_since - 0.2), missing_since)
+            failure = failure or lost
+    if ((lost is None or not stop_at_failure) and not settled) or record is not None:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
@@ -467,20 +473,22 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     others = [_pose(data, body).tolist() for body in ids.placed_bodies]
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
     pos_err, yaw_err = _placement_error(final, setup.target_pose, spec.obj.outline)
-    if failure is None:
+    if lost is None:  # the checks after the retreat, which both verdicts make
         now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
         if tilt > FLAT_TILT_DEG:
-            failure = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
+            lost = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
         elif now.a or now.b:
-            failure = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
+            lost = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
         elif pos_err > setup.max_error * 1000:
-            failure = (Outcome.OFF_TARGET, None)
+            lost = (Outcome.OFF_TARGET, None)
+        failure = failure or lost
     outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
+    paper = lost[0] if lost is not None else Outcome.SUCCESS
     phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
     share = off_dome / (dome + off_dome) if ids.finger_dome >= 0 and dome + off_dome > 0 else None
-    return TrialResult(outcome, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
+    return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
                        trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others,
-                       sinking * 1000, share, travel.travels(setup.planned))
+                       sinking * 1000, share, travel.travels(setup.planned), table_push)
 
 
 def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
