@@ -181,15 +181,31 @@ def test_a_calibration_error_offsets_the_whole_commanded_trajectory(pick):
 def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_a_digit(pick):
     """Where the calibration and grasp errors would put the object into the table, trial 0's world
     starts with hand and object raised until it touches the table, nothing inside a digit, and the
-    hand lowers it onto the table: after the settling G rests on the table and no contact reaches
-    deeper than the contacts' own sinking under their loads."""
+    hand lowers it onto the table; where they leave it above the table, it starts slid along GB in
+    the pinch until its lowest corner touches the table, the hand where it was told: after the
+    settling G rests on the table and no contact reaches deeper than the contacts' own sinking
+    under their loads."""
     import mujoco
 
     setup = _setup(pick)
+    thickness = setup.spec.obj.thickness
+    outline = setup.spec.obj.outline
+    corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     lowered = 0
     for params in trial_params(PRESETS["calibration"], seed=1, trials=8):
-        start, lowering = perturbed_start(setup, params, setup.spec.obj.thickness)
+        start, lowering = perturbed_start(setup, params, thickness)
         lowered += lowering > 0
+        lowest = np.min((corners @ start[:3, :3].T + start[:3, 3])[:, 2])
+        assert lowest == pytest.approx(params.table_height_mm / 1000, abs=1e-12)  # raised or slid: on the table
+        if lowering == 0:  # slid toward G along GB (body x) from where the hand holds it with the grasp error
+            turn, p = np.eye(4), setup.grasp_point
+            c, s = math.cos(math.radians(params.yaw_deg)), math.sin(math.radians(params.yaw_deg))
+            turn[:2, :2] = [[c, -s], [s, c]]
+            turn[:3, 3] = p - turn[:3, :3] @ p + np.array([params.shift_along_mm, params.shift_across_mm, 0.0]) / 1000
+            held = calibration_offset(setup.drive, params) @ setup.start_pose @ turn
+            moved = start[:3, 3] - held[:3, 3]
+            assert np.allclose(start[:3, :3], held[:3, :3], atol=1e-12)
+            assert np.linalg.norm(np.cross(moved, start[:3, 0])) < 1e-12 and moved @ start[:3, 0] <= 0
         model = mujoco.MjModel.from_xml_string(trial_mjcf(setup, params))
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, 0)

@@ -4,7 +4,8 @@ Sequence: the object is put at the plan's start pose (plus the trial's perturbat
 at the planned opening; where the errors put the object into the table, hand and object start
 that much higher and the hand lowers it onto the table in the first half of the settling, as
 the arm would have set it down (the object slides in the pinch as the contacts let it, never
-through a digit); the world settles with the palm still (gravity, the servo squeezing); then
+through a digit); where they leave it above the table, it starts slid along GB in the pinch
+until it rests on the table, as q_init has it; the world settles with the palm still (gravity, the servo squeezing); then
 every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
 the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
@@ -29,6 +30,8 @@ from ..perturbation import TrialParams
 
 #: The control period (s) of touch_down's lowering: the arm's, as the drive's samples have it.
 TOUCH_DOWN_TICK = 0.002
+#: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
+SLIDE_MIN_RISE = 0.1
 #: A contact at A or B absent this long (s) before the termination is a loss of grip.
 LOSS_WINDOW = 0.05
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
@@ -100,8 +103,11 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     then the grasp error (a turn by yaw_deg about the normal through the grasp point and a shift
     in the object's own plane, along GB and across it). Where a corner of the prism would then
     reach into the table, the pose is raised straight up until it touches it, and the depth it
-    reached is the lowering (0 otherwise): the hand starts as much higher, holding the object as
-    it was told to (touch_down lowers both)."""
+    reached is the lowering: the hand starts as much higher, holding the object as it was told to
+    (touch_down lowers both). Where the prism would stay above the table, it is slid along GB
+    toward G in the pinch until its lowest corner touches the table (set there as the start
+    q_init has it, docs/model.md 11.3), unless it is tilted too little to reach it so; the
+    lowering is then 0."""
     local = np.eye(4)
     turn = _rot_z(math.radians(params.yaw_deg))
     p = setup.grasp_point
@@ -110,8 +116,11 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     pose = calibration_offset(setup.drive, params) @ setup.start_pose @ local
     outline = setup.spec.obj.outline
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
-    lowest = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2]))
-    lowering = max(params.table_height_mm / 1000 - lowest, 0.0)
+    gap = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2])) - params.table_height_mm / 1000
+    rise = float(pose[2, 0])  # the height gained per metre along GB (body x, from G to B): sin of the tilt
+    if gap > 0.0 and rise >= SLIDE_MIN_RISE:
+        pose[:3, 3] -= pose[:3, 0] * (gap / rise)
+    lowering = max(-gap, 0.0)
     pose[2, 3] += lowering
     return pose, lowering
 
