@@ -115,3 +115,8 @@ class SimOptions:
     max_error: float = 0.003
     """Largest placement error (m) of a trial that counts as placed: the outline centroid's
     distance in the table's plane from its target's; beyond it, the outcome is 'placed off target'."""
+    handed_over: bool = False
+    """How the object comes to the start (bool): false, carried there in the hand, so that a hand
+    too high leaves it hanging with G above the table; true, set into the open gripper at the start
+    pose with its end on the table, so that it starts slid along GB in the pinch until it rests
+    there (docs/model.md 11.3)."""

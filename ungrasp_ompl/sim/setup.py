@@ -114,4 +114,4 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
                       start_pose=tilted(frame, theta0), target_pose=frame.copy(),
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
                       squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
-                      max_error=opts.max_error, planned=planned_travel(scene, plan))
+                      max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over)

@@ -4,8 +4,9 @@ Sequence: the object is put at the plan's start pose (plus the trial's perturbat
 at the planned opening; where the errors put the object into the table, hand and object start
 that much higher and the hand lowers it onto the table in the first half of the settling, as
 the arm would have set it down (the object slides in the pinch as the contacts let it, never
-through a digit); where they leave it above the table, it starts slid along GB in the pinch
-until it rests on the table, as q_init has it; the world settles with the palm still (gravity, the servo squeezing); then
+through a digit); where they leave it above the table it hangs there, or, when it was handed
+over at the start (sim.handed_over), it starts slid along GB in the pinch until it rests on the
+table; the world settles with the palm still (gravity, the servo squeezing); then
 every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
 the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
@@ -63,7 +64,9 @@ class TrialSetup:
     (m) about which a perturbed grasp turns (A at the start); b_point: B in the body frame (m);
     squeeze: how far inside the planned opening the servo is commanded (m); settle_time and
     rest_time: s of stillness before the drive and after it; max_error: the largest placement
-    error (m) that counts as placed; planned: per primitive, how far the plan moves A and B.
+    error (m) that counts as placed; planned: per primitive, how far the plan moves A and B;
+    handed_over: the object was set into the gripper at the start pose with its end on the table
+    (perturbed_start slides it down to the table instead of leaving it hanging).
     """
 
     spec: SimModelSpec
@@ -77,6 +80,7 @@ class TrialSetup:
     rest_time: float = 0.5
     max_error: float = 0.003
     planned: tuple[PlannedTravel, ...] = ()
+    handed_over: bool = False
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
@@ -104,10 +108,10 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     in the object's own plane, along GB and across it). Where a corner of the prism would then
     reach into the table, the pose is raised straight up until it touches it, and the depth it
     reached is the lowering: the hand starts as much higher, holding the object as it was told to
-    (touch_down lowers both). Where the prism would stay above the table, it is slid along GB
-    toward G in the pinch until its lowest corner touches the table (set there as the start
-    q_init has it, docs/model.md 11.3), unless it is tilted too little to reach it so; the
-    lowering is then 0."""
+    (touch_down lowers both). Where the prism would stay above the table, it hangs there, unless
+    the object was handed over (setup.handed_over): it is then slid along GB toward G in the pinch
+    until its lowest corner touches the table (docs/model.md 11.3), if it is tilted enough to reach
+    it so; the lowering is then 0."""
     local = np.eye(4)
     turn = _rot_z(math.radians(params.yaw_deg))
     p = setup.grasp_point
@@ -118,7 +122,7 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     gap = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2])) - params.table_height_mm / 1000
     rise = float(pose[2, 0])  # the height gained per metre along GB (body x, from G to B): sin of the tilt
-    if gap > 0.0 and rise >= SLIDE_MIN_RISE:
+    if setup.handed_over and gap > 0.0 and rise >= SLIDE_MIN_RISE:
         pose[:3, 3] -= pose[:3, 0] * (gap / rise)
     lowering = max(-gap, 0.0)
     pose[2, 3] += lowering
