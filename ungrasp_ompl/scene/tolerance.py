@@ -175,17 +175,21 @@ class _Box:
                       for m, b in zip((mg, mb), self.beta))
         return max(mg, 0.0), max(ma, 0.0), max(mb, 0.0)
 
-    def face(self, s: float, on: dict[str, bool], shift_ends: bool = False) -> tuple[NDArray, NDArray]:
-        """The grid over the box's face of the two components the states depend on nonlinearly, at
-        scale s: the palm's turn about y (rad) and the grasp shift along GB (over l), each from -s
-        to s times its bound at no coarser a step than the sampling resolution, ends included; with
-        shift_ends, the shift's two ends alone."""
+    def face_axes(self, s: float, on: dict[str, bool], shift_ends: bool = False) -> tuple[NDArray, NDArray]:
+        """The axes of the grid over the box's face of the two components the states depend on
+        nonlinearly, at scale s: the palm's turn about y (rad) and the grasp shift along GB (over
+        l), each from -s to s times its bound at no coarser a step than the sampling resolution,
+        ends included; with shift_ends, the shift's two ends alone."""
         b = self.box
         phi = s * math.radians(b.palm_turn_deg) if on["palm_turn"] else 0.0
         shift = s * b.shift_mm / 1000 / self.l if on["shift_along"] else 0.0
         n_phi = 1 if phi == 0 else 2 * int(math.ceil(phi / min(self.res[0], self.res[2]))) + 1
         n_d = 1 if shift == 0 else 2 if shift_ends else 2 * int(math.ceil(shift / self.res[1])) + 1
-        p, a = np.meshgrid(np.linspace(-phi, phi, n_phi), np.linspace(-shift, shift, n_d), indexing="ij")
+        return np.linspace(-phi, phi, n_phi), np.linspace(-shift, shift, n_d)
+
+    def face(self, s: float, on: dict[str, bool], shift_ends: bool = False) -> tuple[NDArray, NDArray]:
+        """The grid of face_axes, flattened: (turn, shift) per point, the shift varying fastest."""
+        p, a = np.meshgrid(*self.face_axes(s, on, shift_ends), indexing="ij")
         return p.ravel(), a.ravel()
 
     def failures(self, s: float, rows: NDArray, on: dict[str, bool], closure: bool = True,
@@ -199,7 +203,8 @@ class _Box:
         n = len(q)
         # without force closure, obstacles and the termination, every check is linear in d or (the
         # digits' lowest point) the least of linear functions of it: the shift's ends are its worst
-        phi, shift = self.face(s, on, not closure and not self.obstacles and not self.terminal[rows].any())
+        phi_axis, shift_axis = self.face_axes(s, on, not closure and not self.obstacles and not self.terminal[rows].any())
+        phi, shift = (x.ravel() for x in np.meshgrid(phi_axis, shift_axis, indexing="ij"))
         g = len(phi)
         th = (q[:, 0:1] + phi[None, :]).ravel()
         d = (q[:, 1:2] + shift[None, :]).ravel()
@@ -207,8 +212,6 @@ class _Box:
         flat = th < 0.0
         ps = np.where(flat, ps + th, ps)
         th = np.where(flat, 0.0, th)
-        sa = np.repeat(self.samples.a_sign[rows], g)
-        sb = np.repeat(self.samples.b_sign[rows], g)
         loss = s * b.friction if on["friction"] else 0.0
         yaw = s * math.radians(b.yaw_deg) if on["yaw"] else 0.0
         fc = np.ones(len(th), dtype=bool)
@@ -218,8 +221,16 @@ class _Box:
             corners = [(loss, yaw)]
         else:
             corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
+        if corners:  # the same moved states as (state, turn, shift), the order of th, d and ps: force
+            # closure then costs B's wrenches per turn, not per shift (A's vary with all three)
+            th3 = q[:, 0, None, None] + phi_axis[None, :, None]
+            d3 = q[:, 1, None, None] + shift_axis[None, None, :]
+            ps3 = np.where(th3 < 0.0, q[:, 2, None, None] + th3, q[:, 2, None, None])
+            th3 = np.maximum(th3, 0.0)
+            sa3 = self.samples.a_sign[rows][:, None, None]
+            sb3 = self.samples.b_sign[rows][:, None, None]
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
-            fc &= force_closure(th, d, ps, sa, sb, sc.friction.with_mu(self.mu(lo, y)))
+            fc &= force_closure(th3, d3, ps3, sa3, sb3, sc.friction.with_mu(self.mu(lo, y))).ravel()
         if not kinematic:
             return (~fc).reshape(n, g).any(axis=1).astype(np.int8)
         # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
