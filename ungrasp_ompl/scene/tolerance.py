@@ -206,12 +206,15 @@ class _Box:
         phi_axis, shift_axis = self.face_axes(s, on, not closure and not self.obstacles and not self.terminal[rows].any())
         phi, shift = (x.ravel() for x in np.meshgrid(phi_axis, shift_axis, indexing="ij"))
         g = len(phi)
-        th = (q[:, 0:1] + phi[None, :]).ravel()
-        d = (q[:, 1:2] + shift[None, :]).ravel()
-        ps = np.repeat(q[:, 2], g)
-        flat = th < 0.0
-        ps = np.where(flat, ps + th, ps)
-        th = np.where(flat, 0.0, th)
+        # the moved states as (state, turn, shift), which force closure takes as they are (B's
+        # wrenches then cost one per turn, not per shift) and the other checks flat in that order; a
+        # state turned below theta 0 lies flat with the hand turned against it
+        th3 = q[:, 0, None, None] + phi_axis[None, :, None]
+        d3 = q[:, 1, None, None] + shift_axis[None, None, :]
+        ps3 = np.where(th3 < 0.0, q[:, 2, None, None] + th3, q[:, 2, None, None])
+        th3 = np.where(th3 < 0.0, 0.0, th3)
+        full = (n, len(phi_axis), len(shift_axis))
+        th, d, ps = (np.broadcast_to(x, full).ravel() for x in (th3, d3, ps3))
         loss = s * b.friction if on["friction"] else 0.0
         yaw = s * math.radians(b.yaw_deg) if on["yaw"] else 0.0
         fc = np.ones(len(th), dtype=bool)
@@ -221,14 +224,7 @@ class _Box:
             corners = [(loss, yaw)]
         else:
             corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
-        if corners:  # the same moved states as (state, turn, shift), the order of th, d and ps: force
-            # closure then costs B's wrenches per turn, not per shift (A's vary with all three)
-            th3 = q[:, 0, None, None] + phi_axis[None, :, None]
-            d3 = q[:, 1, None, None] + shift_axis[None, None, :]
-            ps3 = np.where(th3 < 0.0, q[:, 2, None, None] + th3, q[:, 2, None, None])
-            th3 = np.maximum(th3, 0.0)
-            sa3 = self.samples.a_sign[rows][:, None, None]
-            sb3 = self.samples.b_sign[rows][:, None, None]
+        sa3, sb3 = self.samples.a_sign[rows][:, None, None], self.samples.b_sign[rows][:, None, None]
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
             fc &= force_closure(th3, d3, ps3, sa3, sb3, sc.friction.with_mu(self.mu(lo, y))).ravel()
         if not kinematic:
