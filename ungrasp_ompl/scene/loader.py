@@ -224,9 +224,8 @@ class SceneReader:
         m = self.mapping(value, "sim")
         d = SimOptions()
         self.known(m, "sim", set(d.__dataclass_fields__))
-        out = {k: self.number(m, f"sim.{k}", k, positive=True, default=getattr(d, k)) for k in m if k != "handed_over"}
-        if "handed_over" in m:
-            out["handed_over"] = self.flag(m, "sim.handed_over", "handed_over")
+        out = {k: self.flag(m, f"sim.{k}", k) if isinstance(getattr(d, k), bool)
+               else self.number(m, f"sim.{k}", k, positive=True, default=getattr(d, k)) for k in m}
         if out.get("density", d.density) > 25000:
             self.fail("sim.density", f"must be at most 25000 kg/m^3 (denser than any solid), got {out['density']:g}")
         if out.get("timestep", d.timestep) > 0.002:
