@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
-from scipy.sparse import block_diag, csr_matrix, hstack, identity
+from scipy.sparse import coo_matrix
 
 from ungrasp_ompl.mechanics.cage import _component
 from ungrasp_ompl.mechanics.force_closure import REFERENCE_FRICTION, Friction
@@ -31,14 +31,18 @@ def lp_force_closure(w: np.ndarray, mask: np.ndarray, batch: int = 500) -> np.nd
     for lo in range(0, n, batch):
         ws, ms = w[lo : lo + batch], mask[lo : lo + batch]
         k = len(ws)
-        blocks = [csr_matrix(np.where(m[None, :], wi.T, 0.0)) for wi, m in zip(ws, ms)]
-        a_lambda = block_diag(blocks, format="csr")  # (3k, 6k)
-        eye = identity(3 * k, format="csr")
-        a_eq = hstack([a_lambda, eye, -eye], format="csr")
-        c = np.concatenate([np.zeros(6 * k), np.ones(6 * k)])
-        lam_bounds = [(1.0, None) if m else (0.0, 0.0) for m in ms.ravel()]
-        bounds = lam_bounds + [(0.0, None)] * (6 * k)
-        res = linprog(c, A_eq=a_eq, b_eq=np.zeros(3 * k), bounds=bounds, method="highs")
+        # [block_diag(W_i^T) | I | -I] (3k, 12k): state i's rows 3i..3i+2, its lambdas 6i..6i+5
+        i, c, r = np.meshgrid(np.arange(k), np.arange(6), np.arange(3), indexing="ij")
+        eye = np.arange(3 * k)
+        rows = np.concatenate([(3 * i + r).ravel(), eye, eye])
+        cols = np.concatenate([(6 * i + c).ravel(), 6 * k + eye, 9 * k + eye])
+        vals = np.concatenate([np.where(ms[..., None], ws, 0.0).ravel(), np.ones(3 * k), -np.ones(3 * k)])
+        a_eq = coo_matrix((vals, (rows, cols)), shape=(3 * k, 12 * k)).tocsr()
+        c_obj = np.concatenate([np.zeros(6 * k), np.ones(6 * k)])
+        lam = ms.ravel()
+        bounds = np.column_stack([np.concatenate([np.where(lam, 1.0, 0.0), np.zeros(6 * k)]),
+                                  np.concatenate([np.where(lam, np.inf, 0.0), np.full(6 * k, np.inf)])])
+        res = linprog(c_obj, A_eq=a_eq, b_eq=np.zeros(3 * k), bounds=bounds, method="highs")
         assert res.status == 0, res.message
         slack = res.x[6 * k :].reshape(2, k, 3).sum(axis=(0, 2))
         out[lo : lo + k] = (slack <= 1e-9) & (ranks[lo : lo + k] == 3)
