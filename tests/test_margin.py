@@ -68,6 +68,7 @@ def test_threshold_flips_the_lp_oracle(model):
     th, d, ps = rng.uniform(0, math.pi / 2, n), rng.uniform(0.05, 1, n), rng.uniform(0, math.radians(140), n)
     eps = 1e-6
     checked = {True: 0, False: 0}
+    cases, wrenches, masks = [], [], []
     for mode in MODES:
         m = friction_margin(th, d, ps, *mode, Friction(REFERENCE_MU, model))
         cap = min(math.atan(x) for x in REFERENCE_MU)
@@ -76,39 +77,39 @@ def test_threshold_flips_the_lp_oracle(model):
         for i in np.flatnonzero(use):
             for delta, closed in ((m[i] - eps, True), (m[i] + eps, False)):
                 w, mask = contact_wrenches(th[i], d[i], ps[i], *mode, Friction(_shrunk(REFERENCE_MU, delta), model))
-                assert lp_force_closure(w, mask)[0] == closed, (mode, th[i], d[i], ps[i], m[i], delta)
+                cases.append((mode, th[i], d[i], ps[i], m[i], delta, closed))
+                wrenches.append(w[0])
+                masks.append(mask[0])
             checked[bool(m[i] > 0)] += 1
+    lp = lp_force_closure(np.array(wrenches), np.array(masks))  # each state its own block of one LP
+    assert [case for case, closed in zip(cases, lp) if closed != case[-1]] == []
     assert checked[True] > 50 and checked[False] > 50  # thresholds inside and outside force closure
 
 
 def test_states_near_the_boundary_against_the_lp_oracle():
     """States a hair's breadth from losing force closure (along theta) have margins of about zero
-    and the oracle's sign."""
+    and the oracle's sign. Every state is bisected at once, 60 halvings of its first flip."""
     rng = np.random.default_rng(3)
     d, ps = rng.uniform(0.3, 1, 300), rng.uniform(0, math.radians(60), 300)
     th = np.linspace(0, math.pi / 2, 2001)
-    done = 0
-    for k in range(len(d)):
-        fc = force_closure(th, d[k], ps[k], 0, -1)
-        flips = np.flatnonzero(fc[1:] != fc[:-1])
-        if not len(flips):
-            continue
-        a, b = th[flips[0]], th[flips[0] + 1]  # bisect theta to the boundary
-        fa = fc[flips[0]]
-        for _ in range(60):
-            mid = 0.5 * (a + b)
-            if force_closure(mid, d[k], ps[k], 0, -1)[0] == fa:
-                a = mid
-            else:
-                b = mid
-        for t in (a, b):
-            m = friction_margin(t, d[k], ps[k], 0, -1)[0]
-            assert abs(m) < 1e-5
-            w, mask = contact_wrenches(t, d[k], ps[k], 0, -1)
-            if abs(m) > 1e-7:  # clear of the LP's own tolerance
-                assert lp_force_closure(w, mask)[0] == (m > 0)
-        done += 1
-    assert done > 100
+    fc = force_closure(th[None, :], d[:, None], ps[:, None], 0, -1)
+    flips = fc[:, 1:] != fc[:, :-1]
+    has = flips.any(axis=1)
+    first = np.argmax(flips, axis=1)[has]
+    d, ps = d[has], ps[has]
+    a, b = th[first], th[first + 1]  # bisect theta to the boundary
+    fa = fc[has, first]
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        same = force_closure(mid, d, ps, 0, -1) == fa
+        a, b = np.where(same, mid, a), np.where(same, b, mid)
+    for t in (a, b):
+        m = friction_margin(t, d, ps, 0, -1)
+        assert np.all(np.abs(m) < 1e-5)
+        w, mask = contact_wrenches(t, d, ps, 0, -1)
+        for k in np.flatnonzero(np.abs(m) > 1e-7):  # clear of the LP's own tolerance
+            assert lp_force_closure(w[k:k + 1], mask[k:k + 1])[0] == (m[k] > 0)
+    assert len(d) > 100
 
 
 def test_relaxed_margin_matches_bisection():
