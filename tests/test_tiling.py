@@ -25,9 +25,13 @@ from ungrasp_ompl.scene import Scene
 from ungrasp_ompl.tiling import DigitsDoNotFit, GoalStates, TilingOptions, approach_scene, approaches, screen, tile
 
 TANGRAM = SCENES / "tangram.yaml"
+#: The tangram's pieces.
+PIECES = ("large_triangle_1", "large_triangle_2", "medium_triangle", "small_triangle_1", "square",
+          "small_triangle_2", "parallelogram")
 
 
 # -- an independent 3D model of the table top: triangle meshes built here, not by the library ---
+
 
 def _mesh(vertices: np.ndarray, triangles: list[tuple[int, int, int]]) -> fcl.BVHModel:
     model = fcl.BVHModel()
@@ -233,6 +237,33 @@ def test_the_same_square_with_room_is_placed(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "1. square: G (" in proc.stdout
 
+
+
+@pytest.mark.slow
+def test_a_piece_unprovable_after_two_others_goes_before_them(monkeypatch):
+    """The proof of large_triangle_1 made to fail whenever the parallelogram and the square are
+    both down (NO_SECURE_PATH, as the lattice search answers where no secure path exists): the
+    search backs out of every order that puts both before it, meets the same set of pieces again
+    in another order, and finds one that puts large_triangle_1 down earlier. Each (pieces down,
+    piece) is proved once. (A set met again used to end the command with a TypeError.)"""
+    import ungrasp_ompl.tiling as tiling
+
+    real, proved = tiling.prove, []
+
+    def prove(scene):
+        down = frozenset(s.name for s in scene.solids if s.name in PIECES)
+        proved.append((scene.name, down))
+        if "large_triangle_1" in scene.name and {"parallelogram", "square"} <= down:
+            return PlanOutcome.NO_SECURE_PATH, real(scene)[1]
+        return real(scene)
+
+    monkeypatch.setattr(tiling, "prove", prove)
+    result = tile(Layout.from_file(TANGRAM), TilingOptions(planner="lattice", approaches=1))
+    order = [p.name for p in result.placements]
+    assert result.solved and sorted(order) == sorted(PIECES)
+    assert order.index("large_triangle_1") < max(order.index("parallelogram"), order.index("square"))
+    assert len(proved) == len(set(proved))
+    assert any("large_triangle_1" in name and {"parallelogram", "square"} <= down for name, down in proved)
 
 
 @pytest.mark.slow

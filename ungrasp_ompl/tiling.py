@@ -531,7 +531,21 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         if len(placed) > deepest["depth"]:
             deepest.update(depth=len(placed), piece=i, reasons=reasons, placed=list(placed))
 
+    dead: set[frozenset[int]] = set()  # sets of pieces down from which no order completes the layout
+
     def search(placed: list[int], chosen: list) -> list | None:
+        """chosen extended to every piece after placed, or None. Whether it can be depends on the
+        set of pieces down, not on their order (the screens and proofs are kept by that set), so a
+        set that failed in one order is not searched again in another."""
+        down = frozenset(placed)
+        if down in dead:
+            return None
+        found = extend(placed, chosen)
+        if found is None:
+            dead.add(down)
+        return found
+
+    def extend(placed: list[int], chosen: list) -> list | None:
         if len(placed) == n:
             return chosen
         if out_of_checks():
