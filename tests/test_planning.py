@@ -67,9 +67,11 @@ def test_a_path_that_is_not_secure_says_why_in_values(setup):
 def test_reverse_primitives_allow_the_way_back(scenes):
     """With reverse primitives a tree planner's motion validator passes a motion both ways (RRT's:
     RRT*'s is the same validator, and would search the lattice optimum first, to no use here)."""
+    from ungrasp_ompl.planning.validity import PrimitiveMotionValidator
+
     scene = scenes["reference_asymmetric"].with_options(reverse_primitives=True)
     s = UngraspSetup(scene, PlannerOptions(planner="RRT"))
-    assert s.lattice is None and type(s.motion_validator) is type(UngraspSetup(scenes["reference_asymmetric"]).motion_validator)
+    assert s.lattice is None and type(s.motion_validator) is PrimitiveMotionValidator
     a = scene.start
     b = a + np.array([-math.radians(5), 0, math.radians(3)])
     assert s.motion_validator.checkMotion(state(s.space, a), state(s.space, b))

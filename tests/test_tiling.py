@@ -32,7 +32,6 @@ PIECES = ("large_triangle_1", "large_triangle_2", "medium_triangle", "small_tria
 
 # -- an independent 3D model of the table top: triangle meshes built here, not by the library ---
 
-
 def _mesh(vertices: np.ndarray, triangles: list[tuple[int, int, int]]) -> fcl.BVHModel:
     model = fcl.BVHModel()
     model.beginModel(len(vertices), len(triangles))
