@@ -19,8 +19,10 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
    search; the first approach proved places the piece in the search;
 4. a piece that none of its approaches can place now cannot be placed by them
    later either (more pieces only add obstacles), so the search goes back one
-   step at once. Only the best `approaches` planes of a piece are tried: the
-   search is complete over orders, not over every antipodal pair.
+   step at once; a set of pieces down from which no order completes the layout
+   is not searched again when another order puts the same pieces down. Only
+   the best `approaches` planes of a piece are tried: the search is complete
+   over orders, not over every antipodal pair.
 
 Once an order is found, each piece's approach is chosen again, with the same
 pieces down before it (which an approach does not change: a piece down lies at
