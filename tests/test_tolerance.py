@@ -200,9 +200,15 @@ def test_the_shift_s_ends_bound_every_check_but_force_closure(pick, monkeypatch)
     rng = np.random.default_rng(5)
     q = smp.states + rng.normal(0.0, [0.05, 0.05, 0.05], smp.states.shape)  # around the path, some insecure
     ends = state_tolerances(scene, q, 0, 0, closure=False)
-    whole = module._Box.face
-    monkeypatch.setattr(module._Box, "face", lambda self, s, on, shift_ends=False: whole(self, s, on, False))
+    whole, asked = module._Box.face_axes, []
+
+    def whole_grid(self, s, on, shift_ends=False):
+        asked.append(shift_ends)
+        return whole(self, s, on, False)
+
+    monkeypatch.setattr(module._Box, "face_axes", whole_grid)
     assert np.array_equal(ends, state_tolerances(scene, q, 0, 0, closure=False))
+    assert any(asked)  # the shift's ends alone were asked for, and the whole grid given instead
     assert np.isfinite(ends).any() and (ends > 0).any()
 
 

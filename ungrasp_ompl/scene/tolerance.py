@@ -187,11 +187,6 @@ class _Box:
         n_d = 1 if shift == 0 else 2 if shift_ends else 2 * int(math.ceil(shift / self.res[1])) + 1
         return np.linspace(-phi, phi, n_phi), np.linspace(-shift, shift, n_d)
 
-    def face(self, s: float, on: dict[str, bool], shift_ends: bool = False) -> tuple[NDArray, NDArray]:
-        """The grid of face_axes, flattened: (turn, shift) per point, the shift varying fastest."""
-        p, a = np.meshgrid(*self.face_axes(s, on, shift_ends), indexing="ij")
-        return p.ravel(), a.ravel()
-
     def failures(self, s: float, rows: NDArray, on: dict[str, bool], closure: bool = True,
                  kinematic: bool = True) -> NDArray[np.int8]:
         """For the samples rows: 0 where every error of s times the box (components on) leaves the
@@ -435,7 +430,7 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
         first = False
         for level in np.unique(mid):
             rows = live[mid == level]
-            g = len(ctx.face(levels[level], on)[0])
+            g = math.prod(len(axis) for axis in ctx.face_axes(levels[level], on))  # the face's points
             batch = max(1, BATCH_MOVED_STATES // g)
             for group in (rows[~terminal[rows]], rows[terminal[rows]]):  # the terminal ones need the whole face
                 for k in range(0, len(group), batch):
