@@ -186,3 +186,19 @@ def test_the_map_command_writes_its_csv_and_picture(tmp_path):
         ("0.3", "1.0", "0", "goal_empty"), ("0.4", "1.0", "1", "solved"), ("0.5", "1.0", "1", "solved")]
     assert "map: 3/3 cells" in proc.stderr and "a secure path exists in 2" in proc.stdout
     assert_picture(out / "map.png", colours=((0.8, 0.8, 0.8),))
+
+
+def test_a_map_with_a_planner_that_does_not_optimise_gives_the_optimum_beside_it(tmp_path):
+    """RRTConnect's setup does not search the lattice optimum (nothing stops there), so each cell
+    searches it to report it: every cell used to fail with an AttributeError instead."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
+    from ungrasp_ompl.planning.lattice import lattice_search
+
+    result = run_map(SCENE, MapOptions(alphas=(0.47,), planner="RRTConnect", time=0.3, jobs=1, out=tmp_path / "m"))
+    (cell,) = result.cells
+    assert cell.task_status is TaskStatus.DONE, cell.error
+    scene = Scene.from_file(SCENE)
+    assert cell.lattice_optimum == pytest.approx(lattice_search(SecurityAtlas(scene, planning_box(scene)),
+                                                                scene.goal.box()).cost, abs=1e-9)
+    assert cell.planner_cost is not None and cell.planner_cost >= cell.lattice_optimum - 1e-9

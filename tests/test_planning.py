@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, run_cli
+from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics import Friction, kinematic_checks
 from ungrasp_ompl.planning.atlas import FORWARD, SecurityAtlas, planning_box, reference_cost
-from ungrasp_ompl.planning.lattice import lattice_search
+from ungrasp_ompl.planning.lattice import lattice_search, optimum_cost
 from ungrasp_ompl.planning.result import merge_legs, sequence_cost
 from ungrasp_ompl.planning.setup import PlannerOptions, UngraspSetup
 from ungrasp_ompl.planning.verify import LegCheck, PathCheck, verify_leg
@@ -71,7 +72,7 @@ def test_reverse_primitives_allow_the_way_back(scenes):
 
     scene = scenes["reference_asymmetric"].with_options(reverse_primitives=True)
     s = UngraspSetup(scene, PlannerOptions(planner="RRT"))
-    assert s.lattice is None and type(s.motion_validator) is PrimitiveMotionValidator
+    assert not s.stop_at_optimum and type(s.motion_validator) is PrimitiveMotionValidator
     a = scene.start
     b = a + np.array([-math.radians(5), 0, math.radians(3)])
     assert s.motion_validator.checkMotion(state(s.space, a), state(s.space, b))
@@ -145,17 +146,31 @@ def test_lattice_search_equals_brute_force(scenes, name, reachable):
     comparison would be empty), with and without a secure path."""
     scene = scenes[name]
     atlas = SecurityAtlas(scene, planning_box(scene), resolution=BRUTE_FORCE)
+    alone = optimum_cost(atlas, scene.goal.box())  # first: lattice_search's result is not there to read
     result = lattice_search(atlas, scene.goal.box())
     expected = brute_force_optimum(atlas, scene.goal.box())
     assert (expected is not None) == reachable
-    assert (result.cost is None) == (expected is None)
+    assert (result.cost is None) == (expected is None) and (alone is None) == (expected is None)
     if expected is not None:
         assert result.cost == pytest.approx(expected, abs=1e-9)
+        assert alone == pytest.approx(expected, abs=1e-9)
         # its legs are planner legs, secure, and add up to the cost
         assert all(leg.kind in "TPDX" and atlas.leg_secure(leg.kind, leg.start, leg.end) for leg in result.legs)
         steps = merge_legs(atlas, result.legs)
         assert sequence_cost(atlas, steps)[0] == pytest.approx(result.legs_cost, abs=1e-9)
         assert result.legs_cost == pytest.approx(result.cost, abs=1e-9)
+
+
+@pytest.mark.parametrize("name, options", [("guitar_pick", {}), ("fabric_chalk_designed", {}),
+                                           ("reference_asymmetric", {"forbid_partial": True})])
+def test_the_optimum_s_cost_alone_is_the_search_s(name, options):
+    """optimum_cost's sweep over the lattice's levels finds lattice_search's optimum on the planning
+    lattice of scenes with other objects and digits, and without P_dpsi."""
+    scene = Scene.from_file(name).with_options(**options)
+    atlas = SecurityAtlas(scene, planning_box(scene))
+    alone = optimum_cost(atlas, scene.goal.box())
+    assert not atlas.cost_optima  # searched, not read from lattice_search's results
+    assert alone == pytest.approx(lattice_search(atlas, scene.goal.box()).cost, abs=1e-9)
 
 
 def golden(name):

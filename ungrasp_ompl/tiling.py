@@ -59,7 +59,7 @@ from .planning import plan as plan_scene
 from .geometry.collision import CollisionChecker
 from .mechanics import kinematic_validity
 from .planning.atlas import SecurityAtlas, lattice_axes, planning_box
-from .planning.lattice import lattice_search
+from .planning.lattice import optimum_cost
 from .planning.result import Plan, PlanOutcome, describe_outcome
 from .planning.setup import LATTICE, EndsProblem
 from .scene import Scene
@@ -471,10 +471,10 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> EndsProblem | None:
 
 
 def prove(scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
-    """Whether the exact lattice search finds a secure path (None, or NO_SECURE_PATH) and the
-    secure lattice it searched, which planning the piece then reuses."""
+    """Whether the exact lattice optimum exists, i.e. a secure path (None, or NO_SECURE_PATH), and
+    the secure lattice searched, which planning the piece then reuses."""
     atlas = SecurityAtlas(scene, planning_box(scene))
-    if not lattice_search(atlas, scene.goal.box()).reachable:
+    if optimum_cost(atlas, scene.goal.box()) is None:
         return PlanOutcome.NO_SECURE_PATH, atlas
     return None, atlas
 

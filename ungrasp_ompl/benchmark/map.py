@@ -252,11 +252,11 @@ def run_cell(task: MapTask) -> MapCell:
         problem = setup.ends_problem()
         if problem:
             return MapCell(**done, lattice_outcome=problem.outcome)
-        found = setup.lattice  # the exact search, the planner's yardstick
-        if not found.reachable:
+        optimum = setup.lattice_optimum  # the exact search, the planner's yardstick
+        if optimum is None:
             return MapCell(**done, lattice_outcome=PlanOutcome.NO_SECURE_PATH)
         plan = setup.solve()
-        cell = MapCell(**done, lattice_outcome=PlanOutcome.SOLVED, lattice_optimum=found.cost,
+        cell = MapCell(**done, lattice_outcome=PlanOutcome.SOLVED, lattice_optimum=optimum,
                        planner_outcome=plan.outcome, planner_cost=plan.cost)
     if task.trials and plan.solved:
         cell = _simulated(cell, task, plan)

@@ -93,9 +93,12 @@ class SecurityAtlas:
         self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
         self._reverse = scene.options.reverse_primitives
         self._no_dpsi = scene.options.forbid_partial  # P_dpsi slides A and B: partial 3D stability
-        #: lattice_search's cost optima by goal box (planning.lattice fills it: tiling's proof,
-        #: the planner's stop at the optimum and the lattice planner search once).
+        #: lattice_search's cost optima by goal box (planning.lattice fills it: the lattice planner
+        #: and a failure's explanation search once).
         self.cost_optima: dict[tuple, object] = {}
+        #: optimum_cost's optima (their costs alone) by goal box: tiling's proof and the planner's
+        #: stop at the optimum search once.
+        self.optimum_costs: dict[tuple, float | None] = {}
         self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
             tuple(int(x) for x in self.lo_index), self.shape)
 

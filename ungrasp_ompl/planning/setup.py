@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from time import perf_counter
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 from enum import Enum
 
@@ -32,7 +33,7 @@ from ..runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
 from .atlas import Leg, SecurityAtlas, goal_behind_start, planning_box
 from .goal import LatticeGoalRegion
-from .lattice import lattice_search
+from .lattice import lattice_search, optimum_cost
 from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins, Objective
 from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
@@ -188,15 +189,13 @@ class UngraspSetup:
             self.objective = RobustObjective(self.si, self.atlas, self.margins)
         else:
             self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
-        #: The exact lattice search, where it can stop the planner (the cost objective's yardstick,
-        #: for an optimising planner; else None, and searched only to explain a failure).
-        self.lattice = None
-        if self.options.objective == Objective.COST and self.options.planner in OPTIMISING_PLANNERS:
-            self.lattice = lattice_search(self.atlas, scene.goal.box())
-        if self.lattice is not None and self.lattice.reachable:
+        # the lattice optimum stops an optimising planner (the cost objective's yardstick); other
+        # planners search it only to explain a failure
+        self.stop_at_optimum = self.options.objective == Objective.COST and self.options.planner in OPTIMISING_PLANNERS
+        if self.stop_at_optimum and self.lattice_optimum is not None:
             # OMPL's own stop: a path of objective cost below this is the optimum, as every motion
             # pays at least one leg's penalty, so the objective exceeds the plan's cost by one or more
-            self.objective.setCostThreshold(ob.Cost(self.lattice.cost + self.objective.penalty + OPTIMUM_TOLERANCE))
+            self.objective.setCostThreshold(ob.Cost(self.lattice_optimum + self.objective.penalty + OPTIMUM_TOLERANCE))
         self.goal = LatticeGoalRegion(self.si, self.atlas, scene.goal, np.random.default_rng(options.seed))
         self.pdef = ob.ProblemDefinition(self.si)
         self._start = self.space.allocState()
@@ -211,6 +210,12 @@ class UngraspSetup:
         self.planner.setProblemDefinition(self.pdef)
         self.planner.setup()
         self.setup_time = perf_counter() - t0
+
+    @cached_property
+    def lattice_optimum(self) -> float | None:
+        """The cost of the exact optimum on the secure lattice (reference units; None: no secure
+        path reaches the goal), searched once (planning.lattice.optimum_cost)."""
+        return optimum_cost(self.atlas, self.scene.goal.box())
 
     # -- diagnosis -----------------------------------------------------------------
     def ends_problem(self) -> EndsProblem | None:
@@ -236,7 +241,7 @@ class UngraspSetup:
             cap = 5.0 * opts.time
         best_cost = getattr(self.planner, "bestCost", None)
         state = {"n": 0, "first": None, "stop": "", "best": math.inf}
-        optimum = self.lattice.cost if self.lattice is not None and opts.planner in TREE_PLANNERS else None
+        optimum = self.lattice_optimum if self.stop_at_optimum and opts.planner in TREE_PLANNERS else None
         t0 = perf_counter()
 
         def done() -> bool:
@@ -342,14 +347,14 @@ class UngraspSetup:
     def _no_path(self, plan: Plan) -> Plan:
         """The plan failed with the exact lattice search's verdict: no secure path, or one the
         planner did not find (its cost recorded as lattice_optimum)."""
-        result = self.lattice or lattice_search(self.atlas, self.scene.goal.box())
+        optimum = self.lattice_optimum
         res = plan.resolution
-        if not result.reachable:
+        if optimum is None:
             return plan.fail(PlanOutcome.NO_SECURE_PATH, resolution=res)
-        plan = plan.with_diagnostics(lattice_optimum=result.cost)
+        plan = plan.with_diagnostics(lattice_optimum=optimum)
         limit = f"{plan.iterations} iterations" if plan.stopped_by == StoppedBy.ITERATIONS else f"{plan.planning_time_s:.2f} s"
         return plan.fail(PlanOutcome.NOT_FOUND, resolution=res, stopped_by=plan.stopped_by, limit=limit,
-                         lattice_optimum=result.cost)
+                         lattice_optimum=optimum)
 
 
 @dataclass(frozen=True)
