@@ -18,7 +18,9 @@ and the proof that no secure path exists at a resolution. The robust
 objectives (docs/model.md, section 6.1) search the one-step graph without Y
 steps: balanced with the margin penalty added to the cost, margin over the
 edges as wide as the lattice's bottleneck with one Dijkstra per criterion in
-turn (primitive changes, tie-break, cost).
+turn (primitive changes, tie-break, cost). Where only the cost optimum's value is
+wanted (a planner's stop there, tiling's proof), optimum_cost finds it by a sweep
+over the same graph, which has no cycle when the primitives run forward only.
 """
 
 from __future__ import annotations
