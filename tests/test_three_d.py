@@ -264,3 +264,64 @@ def test_refined_outline_lies_on_the_rounded_corners(sagitta):
                if abs(np.linalg.norm(a - c) - r) < 1e-12 and abs(np.linalg.norm(b - c) - r) < 1e-12]
         if off:
             assert min(off) <= sagitta * (1 + 1e-9)
+
+
+def test_a_fixed_contact_between_samples_lies_on_the_curve_with_its_own_normal():
+    """The pick's apex (its 3 mm tip's topmost point, on the axis of symmetry) lies between two arc
+    samples: fixed there, G is that point of the circle (the centre found from the corner's
+    geometry) and its normal points to the centre; B, half a millimetre from the base side's middle
+    (between its samples), is on that side with its normal, so both make the chord's angle with
+    their normals. Off the outline by more than the tolerance, it is refused."""
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.geometry.plane import FIXED_TOLERANCE, choose_plane
+
+    corners, radii = np.array([[-0.018, 0], [0.018, 0], [0, 0.036]]), np.array([0.008, 0.008, 0.003])
+    u1, u2 = corners[0] - corners[2], corners[1] - corners[2]
+    u1, u2 = u1 / np.linalg.norm(u1), u2 / np.linalg.norm(u2)
+    centre = corners[2] + (u1 + u2) / np.linalg.norm(u1 + u2) * radii[2] / math.sin(math.acos(float(u1 @ u2)) / 2)
+    apex = centre + [0.0, radii[2]]
+    outline = rounded_polygon(corners, radii)
+    assert np.min(np.linalg.norm(outline.candidates().points - apex, axis=1)) > FIXED_TOLERANCE
+    plane = choose_plane(outline, 0.25, 0.35, fixed=(apex + [0.0, 0.5 * FIXED_TOLERANCE], [0.0005, 0.0]))
+    assert np.allclose(plane.g.point, apex, atol=1e-12) and plane.g.kind == "smooth"
+    assert plane.g.radius == pytest.approx(radii[2], rel=1e-9)
+    tilt = math.atan2(0.0005, apex[1])  # the chord's angle with the axis
+    assert np.allclose(plane.g.normal, [0.0, -1.0], atol=1e-9) and plane.g.beta == pytest.approx(tilt, abs=1e-9)
+    assert np.allclose(plane.b.point, [0.0005, 0.0], atol=1e-12) and plane.b.kind == "edge"
+    assert np.allclose(plane.b.normal, [0.0, 1.0], atol=1e-12) and plane.b.beta == pytest.approx(tilt, abs=1e-9)
+    assert plane.margin == pytest.approx(math.atan(0.25) - tilt, abs=1e-9)
+    with pytest.raises(InputError, match="contacts.G"):
+        choose_plane(outline, 0.25, 0.35, fixed=(apex + [0.0, 2 * FIXED_TOLERANCE], [0.0005, 0.0]))
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "fabric_chalk"])
+def test_the_thumb_touches_a_smooth_b_where_the_outline_reaches_furthest_along_gb(name):
+    """The thumb's face, normal to GB in the object's plane, touches a smooth B of radius R whose
+    normal is beta off GB at R sin(beta) across GB and R (1 - cos(beta)) further out (the circle's
+    own geometry); the finely refined outline reaches no further; plan.json and the stability
+    report carry it."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.scene.stability import analyse
+
+    scene = Scene.from_file(name)
+    b = scene.plane.b
+    assert b.kind == "smooth" and b.beta > 0
+    along, across = b.touch
+    assert along == pytest.approx(b.radius * (1 - math.cos(b.beta)), rel=1e-6)
+    assert abs(across) == pytest.approx(b.radius * math.sin(b.beta), rel=1e-6)
+    u = (b.point - scene.plane.g.point) / scene.plane.length
+    fine = scene.object3d.outline.refined(1e-9)
+    assert np.max((fine - b.point) @ u) <= along + 1e-12 and np.max((fine - b.point) @ u) > along - 1e-8
+    assert scene.plane.to_dict()["contacts"]["B"]["touched_from_m"] == {"along": along, "across": across}
+    report = analyse(scene, [])
+    assert report.contacts["B"]["touched_from_m"]["across"] == across
+    assert any("thumb's face touches the outline" in line for line in report.lines())
+
+
+def test_a_contact_where_its_face_touches_has_no_offset():
+    """The puzzle piece's G lies on a straight side along which the table rests, its B at a corner
+    whose normal range holds GB: both faces touch at the contacts."""
+    from ungrasp_ompl import Scene
+
+    plane = Scene.from_file("puzzle_piece").plane
+    assert plane.g.touch == (0.0, 0.0) and plane.b.touch == (0.0, 0.0)

@@ -93,13 +93,10 @@ class Outline:
         out = []
         for i in range(n):
             out.append(v[i])
-            if self.straight[i]:
-                continue
-            a, b = v[i], v[(i + 1) % n]
-            third = v[(i + 2) % n] if not self.straight[(i + 1) % n] else v[i - 1] if not self.straight[i - 1] else None
-            centre = None if third is None else _circumcentre(a, b, third)
+            centre = self._arc_centre(i)
             if centre is None:
                 continue
+            a, b = v[i], v[(i + 1) % n]
             r = float(np.linalg.norm(a - centre))
             a0 = math.atan2(*(a - centre)[::-1])
             turn = (math.atan2(*(b - centre)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi
@@ -109,6 +106,58 @@ class Outline:
                 ang = a0 + turn * j / k
                 out.append(centre + r * np.array([math.cos(ang), math.sin(ang)]))
         return np.array(out)
+
+    def _arc_centre(self, i: int) -> NDArray[np.float64] | None:
+        """Centre of the circle that side i (a chord of a sampled curve) follows: through its ends
+        and the next sample on the same curve; None for a straight side (or collinear samples)."""
+        v, n = self.vertices, len(self.vertices)
+        if self.straight[i]:
+            return None
+        third = v[(i + 2) % n] if not self.straight[(i + 1) % n] else v[i - 1] if not self.straight[i - 1] else None
+        return None if third is None else _circumcentre(v[i], v[(i + 1) % n], third)
+
+    def support(self, direction: ArrayLike) -> NDArray[np.float64]:
+        """The point of the outline (m) furthest along a direction, its sampled curves taken as the
+        circles refined draws: where a plane normal to the direction first touches it."""
+        u = np.asarray(direction, dtype=float)
+        u = u / np.linalg.norm(u)
+        v, n = self.vertices, len(self.vertices)
+        points = [v[int(np.argmax(v @ u))]]
+        for i in range(n):
+            centre = self._arc_centre(i)
+            if centre is None:
+                continue
+            a, b = v[i] - centre, v[(i + 1) % n] - centre
+            p = np.linalg.norm(a) * u  # the circle's furthest point, if it lies on this side's arc
+            turn = a[0] * b[1] - a[1] * b[0]
+            if turn * (a[0] * p[1] - a[1] * p[0]) >= 0 and turn * (p[0] * b[1] - p[1] * b[0]) >= 0 and p @ (a + b) > 0:
+                points.append(centre + p)
+        return max(points, key=lambda q: float(q @ u))
+
+    def contact_at(self, point: ArrayLike, tol: float) -> tuple[NDArray[np.float64], NDArray[np.float64], str, float] | None:
+        """The contact at the outline's point nearest to point (m), where it lies within tol (m) of
+        the outline, else None: that point of the curve (on a sampled curve, on the circle its
+        chord follows, as refined draws it), its inward normal, its kind ('smooth' on a curve,
+        'edge' on a straight side) and radius of curvature (m). Where the nearest point is a
+        vertex, None: candidates() describes the vertices."""
+        p = np.asarray(point, dtype=float)
+        v = self.vertices
+        edge = np.roll(v, -1, axis=0) - v
+        t = np.clip(np.einsum("ij,ij->i", p - v, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
+        i = int(np.argmin(np.linalg.norm(v + t[:, None] * edge - p, axis=1)))
+        length = float(np.linalg.norm(edge[i]))
+        if not 1e-9 < t[i] * length < length - 1e-9:
+            return None
+        inward = np.array([-edge[i, 1], edge[i, 0]]) / length  # left of a counter-clockwise side
+        centre = self._arc_centre(i)
+        if centre is None:  # a straight side
+            on, normal, kind, radius = v[i] + t[i] * edge[i], inward, "edge", math.inf
+        else:
+            radius = float(np.linalg.norm(v[i] - centre))
+            radial = (p - centre) / np.linalg.norm(p - centre)
+            on, kind = centre + radius * radial, "smooth"
+            normal = -radial if -radial @ inward > 0 else radial  # toward the centre where the curve is convex
+        return (on, normal, kind, radius) if np.linalg.norm(on - p) <= tol else None
 
     def candidates(self, edge_samples: int = 9) -> ContactCandidates:
         """Contact candidates: every vertex, plus edge_samples points inside each straight side."""

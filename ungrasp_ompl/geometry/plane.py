@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..mechanics.antipodal import antipodal_pairs, effective_friction, pair_angles
-from .outline import Outline
+from .outline import ContactCandidates, Outline
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,18 @@ class ContactPoint:
     kind: str  # corner, edge or smooth
     radius: float  # of curvature, metres: 0 at a corner (cusp), inf on a straight side
     beta: float  # angle between GB and the inward normal, rad
+    touch: tuple[float, float] = (0.0, 0.0)
+    """Where the table (at G) or the thumb's face (at B) first touches the outline, from the contact
+    (m): how much further out along GB, and how far across it (docs/model.md 11.7). The faces
+    contain the plane's normal, so they touch where the outline reaches furthest along GB: (0, 0)
+    where the contact does (its normal range holds GB); a smooth contact with beta > 0 is passed
+    by R sin(beta) across GB, where the thumb's force has a moment about GB the plan does not count."""
+
+    def to_dict(self) -> dict:
+        """The contact as plan.json and the stability report give it (metres)."""
+        return {"kind": self.kind, "radius_m": None if math.isinf(self.radius) else self.radius,
+                "edge_contact": self.edge_contact, "point": self.point.tolist(),
+                "touched_from_m": {"along": self.touch[0], "across": self.touch[1]}}
 
     @property
     def edge_contact(self) -> bool:
@@ -61,10 +73,31 @@ class ManipulationPlane:
             "length_m": self.length, "margin_rad": self.margin,
             "mu_eff": {"G": self.mu_g, "B": self.mu_b},
             "beta_rad": {"G": self.g.beta, "B": self.b.beta},
-            "contacts": {k: {"kind": c.kind, "radius_m": (None if math.isinf(c.radius) else c.radius),
-                             "edge_contact": c.edge_contact} for k, c in (("G", self.g), ("B", self.b))},
+            "contacts": {"G": self.g.to_dict(), "B": self.b.to_dict()},
             "frame": self.frame.tolist(), "fixed_by_user": self.fixed,
         }
+
+
+#: How far from the outline (m) a contact fixed by the scene may lie: it is taken at the outline's
+#: nearest contact candidate within this, else at the nearest point of the outline's curve or side.
+FIXED_TOLERANCE = 1e-4
+
+
+def _with_candidate(cand: ContactCandidates, point: NDArray, normal: NDArray, kind: str, radius: float) -> ContactCandidates:
+    """The candidates with one more (a single inward normal)."""
+    return ContactCandidates(np.vstack([cand.points, point]), np.vstack([cand.normal_lo, normal]),
+                             np.vstack([cand.normal_hi, normal]), np.append(cand.kind, kind), np.append(cand.radius, radius))
+
+
+def _touch(outline: Outline, point: NDArray, out: NDArray) -> tuple[float, float]:
+    """ContactPoint.touch of a contact at point whose face presses from direction out (unit, in the
+    object's plane): (along, across) from the contact to where the face first touches, (0, 0) where
+    the contact reaches as far as any point of the outline (to 1 nm)."""
+    reach = outline.support(out) - point
+    along = float(reach @ out)
+    if along <= 1e-9:
+        return 0.0, 0.0
+    return along, float(reach @ np.array([-out[1], out[0]]))
 
 
 def plane_frame(g: NDArray, b: NDArray, position: ArrayLike, yaw: float) -> NDArray[np.float64]:
@@ -106,9 +139,14 @@ def choose_plane(
         for name, p in zip("GB", fixed):
             dist = np.linalg.norm(cand.points - np.asarray(p, dtype=float), axis=1)
             k = int(np.argmin(dist))
-            if dist[k] > 1e-4:
-                raise InputError(f"contacts.{name}", f"is {dist[k] * 1000:.2f} mm from the outline's nearest contact "
-                                 "candidate (a vertex or a point on a straight side)", source)
+            if dist[k] > FIXED_TOLERANCE:  # not at a candidate: the point of the outline's curve or side there
+                at = outline.contact_at(p, FIXED_TOLERANCE)
+                if at is None:
+                    raise InputError(f"contacts.{name}", f"is {dist[k] * 1000:.2f} mm from the outline's nearest "
+                                     f"contact candidate and more than {FIXED_TOLERANCE * 1000:.1f} mm from the outline",
+                                     source)
+                cand = _with_candidate(cand, *at)
+                k = len(cand.points) - 1
             idx.append(k)
         i, j = idx
         beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
@@ -133,7 +171,10 @@ def choose_plane(
         best = np.lexsort((-lengths, ~edge_g, -np.round(margins, 9), ~x_stable))[0]
         i, j, margin = int(gi[best]), int(bi[best]), float(margins[best])
         beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
-    g = ContactPoint(cand.points[i], n_g, str(cand.kind[i]), float(cand.radius[i]), float(beta_g))
-    b = ContactPoint(cand.points[j], n_b, str(cand.kind[j]), float(cand.radius[j]), float(beta_b))
+    u = (cand.points[j] - cand.points[i]) / np.linalg.norm(cand.points[j] - cand.points[i])
+    g = ContactPoint(cand.points[i], n_g, str(cand.kind[i]), float(cand.radius[i]), float(beta_g),
+                     _touch(outline, cand.points[i], -u))
+    b = ContactPoint(cand.points[j], n_b, str(cand.kind[j]), float(cand.radius[j]), float(beta_b),
+                     _touch(outline, cand.points[j], u))
     return ManipulationPlane(g, b, margin, float(effective_friction(mu_g, beta_g)), float(effective_friction(mu_b, beta_b)),
                              plane_frame(g.point, b.point, position, yaw), fixed is not None)

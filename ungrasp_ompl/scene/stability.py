@@ -20,6 +20,11 @@ from ..mechanics.roll import RollResult, describe_restoring, roll_simulation
 from .model import Scene
 
 
+#: The least offset (m) across GB between a contact and where its face touches the outline that the
+#: stability report names: half the Hertz indentation of the simulated contacts (docs/model.md 11.2).
+FELT_OFFSET = 1e-5
+
+
 @dataclass
 class RollReport:
     """The prism roll simulation at one state of the plan."""
@@ -66,6 +71,11 @@ class StabilityReport:
             line = f"  contact {name}: {c['kind']} ({'edge' if c['edge_contact'] else 'point'} contact)"
             if name != "A":
                 line += ", radius of curvature " + ("inf" if radius is None else f"{radius * 1000:.2f} mm")
+                along, across = c["touched_from_m"]["along"], c["touched_from_m"]["across"]
+                if abs(across) >= FELT_OFFSET:
+                    face = "the table" if name == "G" else "the thumb's face"
+                    line += (f"; {face} touches the outline {abs(across) * 1000:.3f} mm across GB from it "
+                             f"({along * 1000:.4f} mm further out): a moment about GB the plan does not count")
             out.append(line)
         out.append(f"  x-moments: {self.x_mechanism} -> {'held' if self.x_stable else 'NOT held'}")
         for r in self.rolls:
@@ -106,10 +116,7 @@ def analyse(scene: Scene, states: list[tuple[str, np.ndarray]]) -> StabilityRepo
     if scene.plane is None or scene.object3d is None:
         raise ValueError("the scene has no object outline")
     plane, obj = scene.plane, scene.object3d
-    contacts = {}
-    for name, c in (("G", plane.g), ("B", plane.b)):
-        contacts[name] = {"kind": c.kind, "radius_m": None if math.isinf(c.radius) else c.radius,
-                          "edge_contact": c.edge_contact, "point": c.point.tolist()}
+    contacts = {"G": plane.g.to_dict(), "B": plane.b.to_dict()}
     flat = scene.digits.flat_finger_tip
     contacts["A"] = {"kind": "flat finger tip" if flat else "rounded finger tip", "radius_m": None,
                      "edge_contact": flat, "point": None}
