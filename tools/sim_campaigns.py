@@ -9,6 +9,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
 * handed: the same, the object handed over at the start (sim.handed_over: set into the gripper
   with its end on the table, not carried there);
 * edge: the same with a flat (edge-contact) tip;
+* axis: the pick with G and B fixed on its axis of symmetry (G the apex of its tip, B mid base
+  side), where the table and the thumb's face touch them (docs/model.md 11.7), rounded and flat tip;
 * subset: the 1.5 mm pick run with the 0.96 mm pick's motion;
 * caging: the pick's plan started steeper, by the smallest theta offset (whole degrees) that
   puts the start outside force closure in the model, rounded against flat tip; the row prints
@@ -77,13 +79,25 @@ class Row:
                 f"{self.placed}/{self.trials} ({self.placed_error}) | {self.errors} | {self.paper} | {self.model} | {self.causes} |")
 
 
-def _scene(name: str, tip: str | None = None) -> Scene:
-    scene = Scene.from_file(SCENES / f"{name}.yaml")
+def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
+    """A shipped scene, its finger tip rounded or flat (or its own), its contacts fixed (or its own)."""
+    if contacts is None:
+        scene = Scene.from_file(SCENES / f"{name}.yaml")
+    else:
+        import yaml
+
+        doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
+        scene = Scene.from_dict({**doc, "contacts": contacts}, source=f"{name}.yaml, contacts {contacts}")
     if tip is not None:
         dg = scene.digits
         scene = replace(scene, digits=replace(dg, flat_finger_tip=tip == "flat",
                                               finger_tip_radius=0.0 if tip == "flat" else dg.finger_tip_thickness / 2))
     return scene
+
+
+#: The pick's contacts on its axis of symmetry (m): G the apex of its 3 mm tip, B mid base side,
+#: where the table and the thumb's face touch them (docs/model.md 11.7).
+PICK_AXIS = {"G": [0.0, 0.0322918], "B": [0.0, 0.0]}
 
 
 def _plan(scene: Scene, seed: int):
@@ -187,7 +201,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=40, help="trials per row (default 40)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--only", default="base,handed,edge,subset,caging,controls,tangram,designed")
+    ap.add_argument("--only", default="base,axis,handed,edge,subset,caging,controls,tangram,designed")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
@@ -214,6 +228,11 @@ def main() -> None:
             ok = sum(r.successes for r in rows[-3:])
             show(Row("base: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-", "109/120",
                             (109, 120), "secure", "-"))
+    if "axis" in only:  # where the table and the thumb's face touch G and B (docs/model.md 11.7)
+        for tip, paper in (("rounded", "109/120 over the objects, mean < 2.6 mm"), ("flat", "better than point contact")):
+            scene = _scene("guitar_pick", tip, PICK_AXIS)
+            show(run(f"axis: guitar_pick, G at the tip's apex, B mid base side, {tip} tip", scene, _plan(scene, s),
+                     n, j, s, paper))
     if "handed" in only:  # the other start (docs/model.md 11.3): the object set into the gripper on the table
         for name in OBJECTS:
             scene = _scene(name, "rounded")
