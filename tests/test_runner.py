@@ -117,19 +117,27 @@ def test_run_in_child():
 
 def test_an_interrupt_in_the_parent_kills_the_children(tmp_path):
     files = [tmp_path / f"pid{k}" for k in range(2)]
+    # Ctrl-C as a terminal sends it: Python's own handler, the signal at the main thread (a signal
+    # sent to the process may land on this test's other thread, which leaves the main thread
+    # asleep in its wait until the children answer)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    main = threading.main_thread().ident
 
     def interrupt() -> None:
         end = time.monotonic() + 20
         while not all(f.exists() and f.read_text() for f in files) and time.monotonic() < end:
             time.sleep(0.05)
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.pthread_kill(main, signal.SIGINT)
 
     thread = threading.Thread(target=interrupt)
     thread.start()
     t0 = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        list(LocalRunner(2, fresh=False).run(_work, [("nap", (f, 60)) for f in files]))
-    thread.join()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            list(LocalRunner(2, fresh=False).run(_work, [("nap", (f, 60)) for f in files]))
+    finally:
+        thread.join()
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - t0 < 30
     assert all(_gone(int(f.read_text())) for f in files)
 
