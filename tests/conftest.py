@@ -14,14 +14,14 @@ SCENES = ROOT / "scenes"
 REFERENCE_SCENES = ("reference_asymmetric", "reference_upper_obstacle", "reference_equal_digits")
 
 
-#: The longest test files first (their total time on two cores, `pytest --durations=0`, about 100 s
-#: down to 25 s): xdist hands each worker whole files in collection order (pyproject passes
+#: The longest test files first (their total time on two cores, `pytest --durations=0`, about 95 s
+#: down to 15 s): xdist hands each worker whole files in collection order (pyproject passes
 #: --no-loadscope-reorder, else it orders them by their number of tests), so a long file that
 #: started last would leave the other core idle for its whole length. The rest keep their order.
-LONGEST_FILES = ("test_bad_input.py", "test_yardstick.py", "test_cli.py", "test_tiling.py", "test_scenes.py",
-                 "test_simulation.py", "test_objectives.py", "test_cluster.py", "test_certify.py",
-                 "test_benchmark.py", "test_view.py", "test_planning.py", "test_workflows.py", "test_tolerance.py",
-                 "test_cage.py")
+LONGEST_FILES = ("test_bad_input.py", "test_objectives.py", "test_yardstick.py", "test_simulation.py",
+                 "test_tiling.py", "test_cli.py", "test_benchmark.py", "test_cluster.py", "test_certify.py",
+                 "test_scenes.py", "test_view.py", "test_tolerance.py", "test_planning.py", "test_force_closure.py",
+                 "test_workflows.py", "test_lattice_build.py", "test_design.py", "test_cage.py")
 
 
 def pytest_collection_modifyitems(items):
@@ -36,7 +36,26 @@ def scenes():
     return {name: Scene.from_file(SCENES / f"{name}.yaml") for name in REFERENCE_SCENES}
 
 
-def run_cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    """Run the command line ARGS in this process (``cli.run``, what the console script calls before
+    it leaves), its stdout and stderr caught: the whole command, without a new interpreter's second of imports.
+    What only a new process shows (C libraries' own output, the working directory, the installed
+    entry point) is tested through run_process."""
+    import contextlib
+    import io
+
+    from ungrasp_ompl.cli import run
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = run(list(args))
+        except SystemExit as exc:  # argparse's --help and --version
+            code = exc.code if isinstance(exc.code, int) else 0
+    return subprocess.CompletedProcess(["ungrasp-ompl", *args], code, out.getvalue(), err.getvalue())
+
+
+def run_process(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     """Run `python -m ungrasp_ompl ARGS` as a new process, as a user would."""
     env = dict(os.environ)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")

@@ -9,7 +9,7 @@ import re
 import pytest
 import yaml
 
-from conftest import SCENES, assert_picture, run_cli
+from conftest import SCENES, assert_picture, run_cli, run_process
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -34,7 +34,7 @@ def assert_one_line_error(proc, *words):
 
 def test_plan_writes_plan_and_picture(tmp_path):
     out = tmp_path / "p"
-    proc = run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", "1", "--time", "1", "--out", str(out))
+    proc = run_process("plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", "1", "--time", "1", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     plan = json.loads((out / "plan.json").read_text())
     for key in ("solved", "states", "primitives", "cost", "mode_switches", "planner", "seed", "sliding_model",
@@ -150,26 +150,26 @@ def test_bad_scene_exits_2_naming_the_field(tmp_path, case):
     change, field = BAD_SCENES[case]
     path = write_scene(tmp_path, change)
     before = path.read_text()
-    proc = run_cli("plan", str(path), "--out", str(tmp_path / "out"))
+    proc = run_process("plan", str(path), "--out", str(tmp_path / "out"))
     assert_one_line_error(proc, field)
     assert path.read_text() == before
     assert not (tmp_path / "out").exists()
 
 
 def test_missing_scene_file():
-    assert_one_line_error(run_cli("plan", "no/such/scene.yaml"), "no such file")
+    assert_one_line_error(run_process("plan", "no/such/scene.yaml"), "no such file")
 
 
 def test_malformed_yaml(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text("object: {length: 0.06\nfriction: [")
-    assert_one_line_error(run_cli("plan", str(path)), "YAML")
+    assert_one_line_error(run_process("plan", str(path)), "YAML")
 
 
 def test_scene_not_a_mapping(tmp_path):
     path = tmp_path / "list.yaml"
     path.write_text("- 1\n- 2\n")
-    assert_one_line_error(run_cli("plan", str(path)), "mapping")
+    assert_one_line_error(run_process("plan", str(path)), "mapping")
 
 
 @pytest.mark.parametrize("args,word", [
@@ -180,18 +180,18 @@ def test_scene_not_a_mapping(tmp_path):
     (("--time", "soon"), "--time: must be a number"),
 ])
 def test_bad_options_exit_2(args, word):
-    assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
+    assert_one_line_error(run_process("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
 
 
 def test_out_must_be_a_directory(tmp_path):
     existing = tmp_path / "file"
     existing.write_text("keep me")
-    assert_one_line_error(run_cli("plan", str(SCENES / "reference_asymmetric.yaml"), "--out", str(existing)), "--out")
+    assert_one_line_error(run_process("plan", str(SCENES / "reference_asymmetric.yaml"), "--out", str(existing)), "--out")
     assert existing.read_text() == "keep me"
 
 
 def test_unknown_command_exits_2():
-    assert_one_line_error(run_cli("fly"), "command: must be one of plan, ")
+    assert_one_line_error(run_process("fly"), "command: must be one of plan, ")
 
 
 @pytest.mark.parametrize("args,line", [
@@ -203,7 +203,7 @@ def test_unknown_command_exits_2():
 ])
 def test_argument_errors_name_the_argument(args, line):
     """argparse's complaints read like every other bad input: the argument, then the reason."""
-    proc = run_cli(*args)
+    proc = run_process(*args)
     assert proc.returncode == 2 and proc.stderr == f"ungrasp-ompl: error: {line}\n", proc.stderr
 
 
@@ -226,7 +226,7 @@ def test_bench_and_sweep_commands(tmp_path):
 
 def test_errors_name_a_shipped_scene_by_its_name():
     """A shipped scene's error names it as the user typed it, not by its path inside the package."""
-    proc = run_cli("simulate", "reference_asymmetric")
+    proc = run_process("simulate", "reference_asymmetric")
     assert proc.returncode == 2
     assert proc.stderr == ("ungrasp-ompl: error: reference_asymmetric: object.thickness: the simulator needs an "
                            "object with a thickness (m)\n")

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, SCENES, run_cli
+from conftest import SCENES, run_cli, run_process
 from ungrasp_ompl.benchmark import BenchmarkOptions, run_benchmark
 from ungrasp_ompl.benchmark.map import MapOptions, run_map
 from ungrasp_ompl.benchmark.tasks import RUN_COLUMNS
@@ -168,7 +168,7 @@ def test_a_stream_keeps_whole_rows_and_drops_a_cut_one(tmp_path):
     (("--alpha", "0.4", "--cluster", "127.0.0.1:1"), "--cluster"),
 ])
 def test_map_answers_bad_input_with_one_line(tmp_path, args, option):
-    proc = run_cli("map", str(SCENE), *args, "--out", str(tmp_path / "m"))
+    proc = run_process("map", str(SCENE), *args, "--out", str(tmp_path / "m"))  # no Ray connected yet
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert proc.stderr.startswith("ungrasp-ompl: error: " + option) and "Traceback" not in proc.stderr
     assert not (tmp_path / "m").exists()
@@ -178,8 +178,7 @@ def test_the_map_command_writes_its_csv_and_picture(tmp_path):
     from conftest import assert_picture
 
     out = tmp_path / "m"
-    proc = run_cli("map", "reference_asymmetric", "--alpha", "0.3:0.5:0.1", "--time", "0.3", "--out", str(out),
-                   cwd=ROOT)
+    proc = run_cli("map", "reference_asymmetric", "--alpha", "0.3:0.5:0.1", "--time", "0.3", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     rows = _rows(out / "map.csv")
     assert [(r["alpha"], r["friction_scale"], r["secure_path"], r["lattice_outcome"]) for r in rows] == [

@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 import ungrasp_ompl
-from conftest import ROOT, SCENES, run_cli
+from conftest import ROOT, SCENES, run_process
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.layout import Layout
 from ungrasp_ompl.robot.model import GripperSpec, load_ur5e
@@ -89,7 +89,7 @@ def test_paths_and_existing_files_are_taken_as_given(tmp_path, monkeypatch):
 
 
 def test_scenes_command_lists_every_shipped_file():
-    proc = run_cli("scenes")
+    proc = run_process("scenes")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     rows = {line.split()[0]: (line.split(maxsplit=3), "".join(lines[k + 2:k + 3])) for k, line in enumerate(lines[1:])
@@ -128,13 +128,13 @@ def test_scene_repr_is_one_line_in_si_units():
 
 
 def test_commands_take_a_shipped_name_from_any_directory(tmp_path):
-    proc = run_cli("stability", "guitar_pick", cwd=tmp_path)
+    proc = run_process("stability", "guitar_pick", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("guitar_pick:")
-    proc = run_cli("plan", "no_such_scene", cwd=tmp_path)
+    proc = run_process("plan", "no_such_scene", cwd=tmp_path)
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "scene" in proc.stderr and "guitar_pick" in proc.stderr
-    proc = run_cli("tile", "guitar_pick", "--out", str(tmp_path / "tiles"), cwd=tmp_path)
+    proc = run_process("tile", "guitar_pick", "--out", str(tmp_path / "tiles"), cwd=tmp_path)
     assert proc.returncode == 2 and "not a layout" in proc.stderr
     assert not (tmp_path / "tiles").exists()
 
