@@ -5,7 +5,7 @@ by nan, -1, an absurd number, a string, null, a list or an arbitrary number, or 
 plausible one near it, and run each
 command that reads such a file. The command ends with exit 0 (done), 2 (bad input: one line on
 stderr, naming a field, and nothing in the output directory) or 3 (no solution), and never
-with a traceback. Commands run in this process through ``cli.run`` with small budgets, so an
+with a traceback. Commands run in this process through ``cli.run`` (conftest.run_cli) with small budgets, so an
 uncaught exception fails the test with its own traceback.
 
 The files the commands read back (plan.json for simulate --plan and cage --plan, trajectory.json
@@ -16,8 +16,6 @@ CI runs the small default profile; ``python tools/fuzz_inputs.py`` runs the long
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 import os
@@ -30,8 +28,7 @@ import yaml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from conftest import ROOT
-from ungrasp_ompl.cli import run
+from conftest import ROOT, run_cli
 from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
 SHIPPED = sorted((ROOT / "scenes").glob("*.yaml"))
@@ -122,12 +119,9 @@ def run_mutated(command, template, doc):
         scene = Path(tmp) / "scene.yaml"
         scene.write_text(yaml.safe_dump(doc))
         out = Path(tmp) / "out"
-        argv = [command, str(scene), *(a.format(out=out) for a in template)]
-        err = io.StringIO()
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-            code = run(argv)
+        proc = run_cli(command, str(scene), *(a.format(out=out) for a in template))
         written = sorted(p.name for p in out.rglob("*")) if out.exists() else []
-        return code, err.getvalue(), written
+        return proc.returncode, proc.stderr, written
 
 
 def check(code, stderr, written, path):
@@ -182,12 +176,9 @@ def test_broken_files_exit_2(tmp_path, command, content):
     scene.write_bytes(content)
     out = tmp_path / "out"
     template = {**SCENE_COMMANDS, **LAYOUT_COMMANDS}[command]
-    argv = [command, str(scene), *(a.format(out=out) for a in template)]
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-        code = run(argv)
-    assert code == EXIT_BAD_INPUT, err.getvalue()
-    check(code, err.getvalue(), sorted(out.rglob("*")) if out.exists() else [], "file")
+    proc = run_cli(command, str(scene), *(a.format(out=out) for a in template))
+    assert proc.returncode == EXIT_BAD_INPUT, proc.stderr
+    check(proc.returncode, proc.stderr, sorted(out.rglob("*")) if out.exists() else [], "file")
 
 
 # --- files read back: plan.json (simulate --plan, cage --plan), the exported trajectory (view) ---
@@ -196,8 +187,7 @@ def test_broken_files_exit_2(tmp_path, command, content):
 def exported(tmp_path_factory):
     """What plan --export DIR writes for guitar_pick: plan.json, trajectory.json, view_scene.json."""
     out = tmp_path_factory.mktemp("exported")
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        assert run(["plan", "guitar_pick", "--seed", "1", "--time", "0.2", "--export", str(out)]) == EXIT_OK
+    assert run_cli("plan", "guitar_pick", "--seed", "1", "--time", "0.2", "--export", str(out)).returncode == EXIT_OK
     return out
 
 
@@ -256,12 +246,9 @@ def run_edited(exported, name, template, change):
         text, where = edit((exported / name).read_text(), change)
         (src / name).write_text(text)
         out = Path(tmp) / "out"
-        argv = [a.format(dir=src, out=out) for a in template]
-        err = io.StringIO()
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-            code = run(argv)
+        proc = run_cli(*(a.format(dir=src, out=out) for a in template))
         written = sorted(p.name for p in out.rglob("*")) if out.exists() else []
-        return code, err.getvalue(), written, where
+        return proc.returncode, proc.stderr, written, where
 
 
 @pytest.mark.slow
