@@ -186,7 +186,16 @@ def test_a_plan_tolerates_the_least_of_its_states_tolerances_to_a_ladder_step(pi
     s = tolerance(scene, result).scale
     below = levels[levels <= s * (1 + 2e-3)]  # the plan's scale is bisected to 1e-3 of itself
     assert each.min() == below[-1]
-    assert np.array_equal(each, np.minimum(state_tolerances(*args, closure=False), state_tolerances(*args, kinematic=False)))
+    kinematic = state_tolerances(*args, closure=False)
+    assert np.array_equal(each, np.minimum(kinematic, state_tolerances(*args, kinematic=False)))
+    # the closure part searched no higher than the other part, as the tolerance objective asks it:
+    # the same least of the two; and where upto is below the ladder, nothing is checked
+    assert np.array_equal(each, np.minimum(kinematic, state_tolerances(*args, kinematic=False, upto=kinematic)))
+    between = np.where(np.arange(len(each)) % 3 == 0, -np.inf, 0.5 * (kinematic + levels[-1]))  # off the ladder
+    capped = state_tolerances(*args, kinematic=False, upto=between)
+    assert np.all(np.isneginf(capped[::3]))
+    on_ladder = levels[np.searchsorted(levels, between[1::3], side="right") - 1]  # upto taken down to the ladder
+    assert np.array_equal(capped[1::3], np.minimum(state_tolerances(*args, kinematic=False)[1::3], on_ladder))
 
 
 def test_the_shift_s_ends_bound_every_check_but_force_closure(pick, monkeypatch):

@@ -157,11 +157,13 @@ class LatticeMargins:
                 th, d, ps = (self.atlas.axes[a][idx[a]] for a in range(3))
                 s = self.atlas.scene
                 if self.objective == Objective.TOLERANCE:
+                    kinematic = self.kinematic_tolerance()[idx]
                     closure = state_tolerances(s, np.column_stack([th, d, ps]), key[0], key[1],
-                                               options=ToleranceOptions(max_scale=TOLERANCE_CAP), kinematic=False)
+                                               options=ToleranceOptions(max_scale=TOLERANCE_CAP), kinematic=False,
+                                               upto=kinematic)  # the smaller of the two is wanted
                     # at least 0 where the atlas finds the state secure: the two checks' geometry may
                     # differ by rounding at a boundary, which must not cut a path the planner may take
-                    out[idx] = np.maximum(np.minimum(closure, self.kinematic_tolerance()[idx]), 0.0)
+                    out[idx] = np.maximum(np.minimum(closure, kinematic), 0.0)
                 else:
                     out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
                 self.computed_states += len(idx[0])

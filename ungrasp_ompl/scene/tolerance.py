@@ -396,7 +396,7 @@ def ladder(max_scale: float) -> NDArray[np.float64]:
 def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray, b_sign: NDArray,
                      terminal: NDArray[np.bool_] | None = None, start: NDArray[np.float64] | None = None,
                      options: ToleranceOptions = ToleranceOptions(), closure: bool = True,
-                     kinematic: bool = True) -> NDArray[np.float64]:
+                     kinematic: bool = True, upto: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Each state's own tolerance in its contact mode (states (n, 3): theta rad, d over l, psi rad;
     the sliding signs at A and B, (n,) each): the largest scale of ladder(options.max_scale) at which
     every error within that scale of the box leaves it secure, as a plan's tolerance checks a state
@@ -405,7 +405,10 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     scale has the ladder's top. A plan's tolerance is at least the least of its states' in ladder
     steps (the plan's own is found to options.scale_tolerance instead). closure or kinematic False
     leaves that part of the checks out (a state's tolerance is the smaller of the two parts', since
-    both ask of the same box)."""
+    both ask of the same box). upto (n,), scales: where only the least of a state's tolerance and
+    its upto is wanted (upto its other part's, say), that least, upto taken down to the ladder
+    like every value: the search starts there and looks no higher, where boxes are larger and
+    cost more moved states. -inf leaves a state unchecked (-inf)."""
     box, res = _checked(scene, options)
     q = np.asarray(states, dtype=float).reshape(-1, 3)
     n = len(q)
@@ -418,15 +421,19 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     on = {c: True for c in COMPONENTS}
     # per state, a bisection over the ladder's indices: levels[lo] passes (lo = -1: not even 0),
     # levels[hi] fails (hi = len(levels): none fails); the boxes nest, so passing is monotone. The
-    # top is tried first: most states of a lattice pass it and are done
+    # top (or upto) is tried first: most states of a lattice pass it and are done
     lo = np.full(n, -1)
     hi = np.full(n, len(levels))
+    top = np.full(n, len(levels) - 1)
+    if upto is not None:  # the highest ladder level at most upto; -1: below the ladder, not searched
+        top = np.searchsorted(levels, np.broadcast_to(np.asarray(upto, dtype=float), (n,)), side="right") - 1
+        hi = np.where(top < 0, 0, top + 1)
     first = True
     while True:
         live = np.flatnonzero(hi - lo > 1)
         if not len(live):
             break
-        mid = np.full(len(live), len(levels) - 1) if first else (lo[live] + hi[live]) // 2
+        mid = top[live] if first else (lo[live] + hi[live]) // 2
         first = False
         for level in np.unique(mid):
             rows = live[mid == level]
