@@ -405,10 +405,10 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     scale has the ladder's top. A plan's tolerance is at least the least of its states' in ladder
     steps (the plan's own is found to options.scale_tolerance instead). closure or kinematic False
     leaves that part of the checks out (a state's tolerance is the smaller of the two parts', since
-    both ask of the same box). upto (n,), scales: where only the least of a state's tolerance and
-    its upto is wanted (upto its other part's, say), that least, upto taken down to the ladder
-    like every value: the search starts there and looks no higher, where boxes are larger and
-    cost more moved states. -inf leaves a state unchecked (-inf)."""
+    both ask of the same box). upto (n,), scales: where only min(tolerance, upto) is wanted (upto
+    the state's kinematic part, as the tolerance objective asks), that minimum, with upto taken
+    down to the ladder as every value is: the search starts there and looks no higher, where the
+    boxes are larger and cost more moved states. Where upto is -inf the state is not checked (-inf)."""
     box, res = _checked(scene, options)
     q = np.asarray(states, dtype=float).reshape(-1, 3)
     n = len(q)
