@@ -1,4 +1,5 @@
-"""The command line as a user runs it: exit codes, one-line errors, outputs, reproducibility."""
+"""The command line: exit codes, one-line errors, outputs, reproducibility. The README's main job and
+the one-line errors run in a new process, as a user runs them; the rest through cli.run (conftest)."""
 
 from __future__ import annotations
 
