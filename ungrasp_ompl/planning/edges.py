@@ -90,25 +90,60 @@ class LatticeEdges:
     length: NDArray[np.float64]  #: weighted L1 length of each edge (reference units)
 
 
-def lattice_edges(atlas: SecurityAtlas, turns: bool = False) -> LatticeEdges:
-    """The secure moves of the atlas's lattice (what lattice_search searches, without the last
-    primitive): every allowed move (forward, or either way with reverse primitives; no P_dpsi when
-    partial stability is forbidden) from every state where it is secure at both ends; turns: with
+@dataclass(frozen=True)
+class LatticeMove:
+    """One allowed move of the lattice and where it arrives."""
+
+    kind: str  #: leg kind: T, P, D, X, or Y (a P_dpsi's psi step)
+    slot: int  #: primitive slot (0 P_theta, 1 P_psi, 2 P_dpsi; 3-5 the same reversed)
+    step: list[int]  #: index step (theta, d, psi)
+    length: float  #: weighted L1 length of a step (reference units)
+    arrives: NDArray[np.bool_]  #: per lattice state: the move's edge into it is secure at both ends
+
+
+def lattice_moves(atlas: SecurityAtlas, turns: bool = False) -> list[LatticeMove]:
+    """The lattice's allowed moves (forward, or either way with reverse primitives; no P_dpsi when
+    partial stability is forbidden), each with the states its secure edges arrive at; turns: with
     the P_dpsi's Y steps, its steps secure in dpsi_region (the cost objective's graph)."""
     opts = atlas.scene.options
+    out = []
+    for kind, slot, step in _moves(opts.reverse_primitives, turns):
+        if opts.forbid_partial and kind in "DXY":
+            continue
+        ok = _move_ok(atlas, kind, step, turns)
+        src, dst = _shifted(atlas.shape, step)
+        arrives = np.zeros(atlas.shape, dtype=bool)
+        arrives[dst] = ok[src] & ok[dst]
+        out.append(LatticeMove(kind, slot, step, float(reference_cost(np.asarray(step) * atlas.res, opts.d_weight)),
+                               arrives))
+    return out
+
+
+def lattice_edges(atlas: SecurityAtlas, turns: bool = False) -> LatticeEdges:
+    """The secure moves of the atlas's lattice (what lattice_search searches, without the last
+    primitive) as edges: lattice_moves' moves from every state where they are secure at both ends."""
     shape = atlas.shape
     cell = np.arange(int(np.prod(shape))).reshape(shape)
-    moves = [m for m in _moves(opts.reverse_primitives, turns) if not (opts.forbid_partial and m[0] in "DXY")]
+    moves = lattice_moves(atlas, turns)
     srcs, dsts, lengths = [], [], []
-    for kind, _, step in moves:
-        ok = _move_ok(atlas, kind, step, turns)
-        src, dst = _shifted(shape, step)
-        good = ok[src] & ok[dst]
+    for move in moves:
+        src, dst = _shifted(shape, move.step)
+        good = move.arrives[dst]
         srcs.append(cell[src][good])
         dsts.append(cell[dst][good])
-        lengths.append(np.full(len(srcs[-1]), float(reference_cost(np.asarray(step) * atlas.res, opts.d_weight))))
+        lengths.append(np.full(len(srcs[-1]), move.length))
     offsets = np.concatenate([[0], np.cumsum([len(x) for x in srcs])])
-    return LatticeEdges(moves, offsets, np.concatenate(srcs), np.concatenate(dsts), np.concatenate(lengths))
+    return LatticeEdges([(m.kind, m.slot, m.step) for m in moves], offsets, np.concatenate(srcs), np.concatenate(dsts),
+                        np.concatenate(lengths))
 
 
-__all__ = ["LatticeEdges", "dpsi_region", "lattice_edges"]
+def moved_from(shape: tuple[int, ...], step: list[int], index: NDArray[np.int_], none: int) -> NDArray[np.int_]:
+    """Per lattice state: index's value at the state a move by step comes from, none where no
+    state of the lattice is that far back; index has the lattice's shape."""
+    src, dst = _shifted(shape, step)
+    out = np.full(shape, none, dtype=index.dtype)
+    out[dst] = index[src]
+    return out
+
+
+__all__ = ["LatticeEdges", "LatticeMove", "dpsi_region", "lattice_edges", "lattice_moves", "moved_from"]
