@@ -31,9 +31,12 @@ from hypothesis import strategies as st
 from conftest import ROOT, run_cli
 from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
-SHIPPED = sorted((ROOT / "scenes").glob("*.yaml"))
-LAYOUTS = [p for p in SHIPPED if "frame" in (yaml.safe_load(p.read_text()) or {})]
-SCENES = [p for p in SHIPPED if p not in LAYOUTS]
+SHIPPED = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "scenes").glob("*.yaml"))]
+SCENES = [doc for doc in SHIPPED if "frame" not in doc]
+#: The shipped layouts, each cut to two of its pieces: every field of the layout format is still
+#: there to be mutated (each piece has the same fields), and a valid mutant tiles in about 4 s
+#: instead of the seven-piece tangram's 12-16 s. test_tiling runs the whole tangram.
+LAYOUTS = [{**doc, "pieces": doc["pieces"][3:5]} for doc in SHIPPED if "frame" in doc]
 
 #: Small budgets: a valid mutated file runs the whole command.
 SCENE_COMMANDS = {
@@ -97,12 +100,11 @@ def nearby(value, how):
 
 
 @st.composite
-def mutation(draw, files, commands):
-    """(command, its arguments' template, mutated document, the path changed): one value replaced by
-    a bad one or, for a number, by a plausible one nearby (which reaches the planners and the
-    simulator with scenes no test wrote)."""
-    source = draw(st.sampled_from(files))
-    doc = yaml.safe_load(source.read_text())
+def mutation(draw, docs, commands):
+    """(command, its arguments' template, mutated document, the path changed): one value of one of
+    docs replaced by a bad one or, for a number, by a plausible one nearby (which reaches the
+    planners and the simulator with scenes no test wrote)."""
+    doc = draw(st.sampled_from(docs))
     path = draw(st.sampled_from(list(paths(doc))))
     command = draw(st.sampled_from(sorted(commands)))
     old = leaf(doc, path)
