@@ -305,3 +305,21 @@ def test_a_scene_s_tolerance_floor_is_checked_by_its_field(tmp_path):
         with pytest.raises(InputError) as err:
             Scene.from_file(text)
         assert err.value.field == "planning.min_tolerance"
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece_designed", "fabric_chalk"])
+def test_the_lowest_point_is_the_lowest_vertex_of_the_digits_and_the_housing(name):
+    """The tolerance's table check takes the heights alone: they agree with the lowest vertex of
+    digit_polygons and of the housing's outline (housing_centre + housing_offsets), with and
+    without the housing, over random states including ones no plan reaches."""
+    from ungrasp_ompl.mechanics.kinematics import housing_centre, housing_offsets
+    from ungrasp_ompl.scene.tolerance import _lowest
+
+    rng = np.random.default_rng(7)
+    theta, d, psi = rng.uniform(-0.5, 2.0, 5000), rng.uniform(-0.2, 1.2, 5000), rng.uniform(-0.5, 3.2, 5000)
+    digits = Scene.from_file(name).digits
+    thumb, finger = digit_polygons(theta, d, psi, digits)
+    digits_low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
+    housing = (housing_centre(theta, d, psi, digits)[:, None, 1] + housing_offsets(theta, psi, digits)[..., 1]).min(axis=-1)
+    assert np.allclose(_lowest(theta, d, psi, digits), np.minimum(digits_low, housing), rtol=0, atol=1e-12)
+    assert np.allclose(_lowest(theta, d, psi, replace(digits, palm_width=0.0)), digits_low, rtol=0, atol=1e-12)

@@ -37,8 +37,7 @@ from ..errors import InputError
 from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, s_b
 from ..mechanics.antipodal import effective_friction
-from ..mechanics.kinematics import (DigitGeometry, aperture, digit_axis, digit_polygons, housing_centre,
-                                   housing_offsets, thumb_normal, thumb_tip)
+from ..mechanics.kinematics import DigitGeometry, aperture, contact_d, digit_axis, thumb_normal, thumb_tip
 from ..mechanics.margin import kinematic_margins
 from ..mechanics.path import PlanSamples, plan_samples
 from ..perturbation import PRESETS, Perturbation
@@ -316,12 +315,25 @@ def describe_tolerance(tol: dict) -> str:
 
 def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> NDArray[np.float64]:
     """The height over the table of the lowest point of the thumb, the finger and the housing
-    (over l): kinematic_margins' table margin, without the polygons' orientation it does not need."""
-    thumb, finger = digit_polygons(theta, d, psi, digits)
-    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
-    if digits.palm_width > 0 and digits.palm_length > 0:
-        centre = housing_centre(theta, d, psi, digits, thumb[..., 0, :])
-        low = np.minimum(low, (centre[..., None, 1] + housing_offsets(theta, psi, digits)[..., 1]).min(axis=-1))
+    (over l): kinematic_margins' table margin, from the heights alone of digit_polygons' and the
+    housing's vertices (with e = -(cos, sin)(theta + psi) and n_B = (-sin, cos)(theta + psi), a
+    vertex's height is its tip's plus the vertical parts of its offsets along them)."""
+    c, s = np.cos(theta + psi), np.sin(theta + psi)  # -e's and n_B's vertical parts: s and c
+    r, t = digits.finger_tip_radius, digits.object_thickness
+    thumb = np.sin(theta) - s_b(d, psi, digits.alpha, t, r) * s  # thumb_tip: B + s_B e
+    # finger_corner: the dome's centre (contact_point + r n_top) + r (e - n_B)
+    finger = (1.0 - contact_d(d, psi, r)) * np.sin(theta) + (t + r) * np.cos(theta) - r * (s + c)
+
+    def below(length: float, t_tip: float, t_base: float, side: float) -> NDArray[np.float64]:
+        """The lowest of digit_offsets' vertex heights: 0 (the tip), the base, its back corner, the tip's back corner."""
+        return np.minimum(np.minimum(0.0, length * s), np.minimum(length * s + side * t_base * c, side * t_tip * c))
+
+    low = np.minimum(thumb + below(digits.thumb_length, digits.thumb_tip_thickness, digits.thumb_base_thickness, -1.0),
+                     finger + below(digits.finger_length, digits.finger_tip_thickness, digits.finger_base_thickness,
+                                    1.0))
+    if digits.palm_width > 0 and digits.palm_length > 0:  # housing_centre, then housing_offsets' lowest
+        centre = thumb + (digits.thumb_length + digits.palm_length / 2) * s + aperture(d, psi, t, r) / 2 * c
+        low = np.minimum(low, centre - np.abs(digits.palm_length / 2 * s) - np.abs(digits.palm_width / 2 * c))
     return low
 
 
