@@ -9,8 +9,9 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
 * handed: the same, the object handed over at the start (sim.handed_over: set into the gripper
   with its end on the table, not carried there);
 * edge: the same with a flat (edge-contact) tip;
-* axis: the pick with G and B fixed on its axis of symmetry (G the apex of its tip, B mid base
-  side), where the table and the thumb's face touch them (docs/model.md 11.7), rounded and flat tip;
+* smooth B: each object with the pair the plane chooser took before it knew the outlines' double
+  normals (B on a rounded shoulder or corner, or G on the hypotenuse; docs/model.md 5.1 and 11.7),
+  rounded tip;
 * subset: the 1.5 mm pick run with the 0.96 mm pick's motion;
 * caging: the pick's plan started steeper, by the smallest theta offset (whole degrees) that
   puts the start outside force closure in the model, rounded against flat tip; the row prints
@@ -95,9 +96,12 @@ def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> S
     return scene
 
 
-#: The pick's contacts on its axis of symmetry (m): G the apex of its 3 mm tip, B mid base side,
-#: where the table and the thumb's face touch them (docs/model.md 11.7).
-PICK_AXIS = {"G": [0.0, 0.0322918], "B": [0.0, 0.0]}
+#: The pairs the plane chooser took before it knew the outlines' double normals (m, object frame):
+#: the thumb on a rounded shoulder (pick) or corner (chalk, puzzle piece), G across from it
+#: (docs/model.md 11.7).
+OLD_PAIRS = {"guitar_pick": ("G near the tip, B on a shoulder", {"G": [0.000718, 0.032210], "B": [-0.007146, 0.000281]}),
+             "puzzle_piece": ("G on the hypotenuse, B at the right angle", {"G": [0.025, 0.025], "B": [0.0, 0.0]}),
+             "fabric_chalk": ("G on a side, B on a rounded corner", {"G": [0.033752, 0.019497], "B": [0.003374, 0.002159]})}
 
 
 def _plan(scene: Scene, seed: int):
@@ -201,7 +205,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=40, help="trials per row (default 40)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--only", default="base,axis,handed,edge,subset,caging,controls,tangram,designed")
+    ap.add_argument("--only", default="base,smooth,handed,edge,subset,caging,controls,tangram,designed")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
@@ -228,11 +232,15 @@ def main() -> None:
             ok = sum(r.successes for r in rows[-3:])
             show(Row("base: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-", "109/120",
                             (109, 120), "secure", "-"))
-    if "axis" in only:  # where the table and the thumb's face touch G and B (docs/model.md 11.7)
-        for tip, paper in (("rounded", "109/120 over the objects, mean < 2.6 mm"), ("flat", "better than point contact")):
-            scene = _scene("guitar_pick", tip, PICK_AXIS)
-            show(run(f"axis: guitar_pick, G at the tip's apex, B mid base side, {tip} tip", scene, _plan(scene, s),
-                     n, j, s, paper))
+    if "smooth" in only:  # the pairs chosen before the double normals (docs/model.md 11.7)
+        for name in OBJECTS:
+            what, contacts = OLD_PAIRS[name]
+            scene = _scene(name, "rounded", contacts)
+            show(run(f"previous pair: {name}, {what}, rounded tip", scene, _plan(scene, s), n, j, s,
+                     "109/120 over the objects, mean < 2.6 mm"))
+        ok = sum(r.successes for r in rows[-3:])
+        show(Row("previous pairs: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-", "109/120",
+                 (109, 120), "secure", "-"))
     if "handed" in only:  # the other start (docs/model.md 11.3): the object set into the gripper on the table
         for name in OBJECTS:
             scene = _scene(name, "rounded")

@@ -186,6 +186,34 @@ class Outline:
                 kind.append("edge"), radius.append(math.inf)
         return ContactCandidates(np.array(pts), np.array(lo), np.array(hi), np.array(kind), np.array(radius))
 
+    def double_normals(self) -> ContactCandidates:
+        """The outline's double normals with its straight sides, as contact candidates: for each
+        straight side, the point of the outline furthest along the side's inward normal (support,
+        on the circles of its sampled curves) and that point's foot on the side, where the foot lies
+        inside the side. A pair of them has GB along both contacts' normals (beta 0 at each end), so
+        the table's or the thumb's face lies flush with the side and touches the far point exactly
+        where the plan puts it. The far point's normal is the side's, reversed; a far point at a
+        vertex is left to candidates() (its kind and normal cone are the vertex's)."""
+        v = self.vertices
+        n = len(v)
+        pts, nrm, kind, radius = [], [], [], []
+        for i in range(n):
+            if not self.straight[i]:
+                continue
+            edge = v[(i + 1) % n] - v[i]
+            length = float(np.linalg.norm(edge))
+            inward = np.array([-edge[1], edge[0]]) / length
+            far = self.support(inward)
+            along = float((far - v[i]) @ edge) / length ** 2
+            if not 1e-9 < along < 1.0 - 1e-9:
+                continue  # the foot falls on a corner or off the side
+            pts.append(v[i] + along * edge), nrm.append(inward), kind.append("edge"), radius.append(math.inf)
+            at = None if np.min(np.linalg.norm(v - far, axis=1)) < 1e-12 else self.contact_at(far, 1e-9)
+            if at is not None:
+                pts.append(far), nrm.append(-inward), kind.append(at[2]), radius.append(at[3])
+        pts, nrm = np.reshape(pts, (-1, 2)), np.reshape(nrm, (-1, 2))
+        return ContactCandidates(pts, nrm, nrm.copy(), np.array(kind, dtype=str), np.array(radius, dtype=float))
+
 
 def _signed_area(v: NDArray) -> float:
     x, y = v[:, 0], v[:, 1]

@@ -125,14 +125,22 @@ def choose_plane(
 ) -> ManipulationPlane:
     """The antipodal pair with the largest friction margin that fits the task, or the user's fixed pair.
 
-    Among the pairs that fit, those whose contacts can hold x-moments (an edge
-    contact at G or B, or no cusp at either) come first, then the largest
-    margin, then an edge contact at G (resting on the table), then the longest.
+    The candidates are the outline's (Outline.candidates) and its double normals with its
+    straight sides (Outline.double_normals). Among the pairs that fit, those whose contacts can
+    hold x-moments (an edge contact at G or B, or no cusp at either) come first, then the largest
+    margin, then an edge contact at B (the thumb's face flush with a straight side, rather than
+    on a point of small curvature that turns with the thumb instead of sliding on it; docs/model.md
+    11.7), then the longest.
 
     Raises InputError when no pair is antipodal (friction too low) or a fixed
     pair breaks Assumption 2 or does not lie on the outline.
     """
     cand = outline.candidates()
+    if fixed is None:
+        extra = outline.double_normals()
+        cand = ContactCandidates(*(np.concatenate([a, b]) for a, b in zip(
+            (cand.points, cand.normal_lo, cand.normal_hi, cand.kind, cand.radius),
+            (extra.points, extra.normal_lo, extra.normal_hi, extra.kind, extra.radius))))
     phi_g, phi_b = math.atan(mu_g), math.atan(mu_b)
     if fixed is not None:
         idx = []
@@ -167,8 +175,8 @@ def choose_plane(
         edge_b = cand.kind[bi] == "edge"
         no_cusp = (cand.radius[gi] > 0) & (cand.radius[bi] > 0)
         x_stable = edge_g | edge_b | no_cusp  # x-moments from an edge contact or from A's restoring effect
-        # rank: x-moment support first, then the friction margin, an edge resting on the table, length
-        best = np.lexsort((-lengths, ~edge_g, -np.round(margins, 9), ~x_stable))[0]
+        # rank: x-moment support first, then the friction margin, an edge on the thumb, length
+        best = np.lexsort((-lengths, ~edge_b, -np.round(margins, 9), ~x_stable))[0]
         i, j, margin = int(gi[best]), int(bi[best]), float(margins[best])
         beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
     u = (cand.points[j] - cand.points[i]) / np.linalg.norm(cand.points[j] - cand.points[i])
