@@ -37,6 +37,11 @@ class ContactCandidates:
     kind: NDArray[np.str_]
     radius: NDArray[np.float64]
 
+    def joined(self, other: "ContactCandidates") -> "ContactCandidates":
+        """These candidates, then other's."""
+        return ContactCandidates(*(np.concatenate([getattr(self, f), getattr(other, f)])
+                                   for f in ("points", "normal_lo", "normal_hi", "kind", "radius")))
+
 
 @dataclass(frozen=True)
 class Outline:

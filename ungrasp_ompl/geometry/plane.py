@@ -85,8 +85,7 @@ FIXED_TOLERANCE = 1e-4
 
 def _with_candidate(cand: ContactCandidates, point: NDArray, normal: NDArray, kind: str, radius: float) -> ContactCandidates:
     """The candidates with one more (a single inward normal)."""
-    return ContactCandidates(np.vstack([cand.points, point]), np.vstack([cand.normal_lo, normal]),
-                             np.vstack([cand.normal_hi, normal]), np.append(cand.kind, kind), np.append(cand.radius, radius))
+    return cand.joined(ContactCandidates(point[None], normal[None], normal[None], np.array([kind]), np.array([radius])))
 
 
 def _touch(outline: Outline, point: NDArray, out: NDArray) -> tuple[float, float]:
@@ -135,12 +134,7 @@ def choose_plane(
     Raises InputError when no pair is antipodal (friction too low) or a fixed
     pair breaks Assumption 2 or does not lie on the outline.
     """
-    cand = outline.candidates()
-    if fixed is None:
-        extra = outline.double_normals()
-        cand = ContactCandidates(*(np.concatenate([a, b]) for a, b in zip(
-            (cand.points, cand.normal_lo, cand.normal_hi, cand.kind, cand.radius),
-            (extra.points, extra.normal_lo, extra.normal_hi, extra.kind, extra.radius))))
+    cand = outline.candidates() if fixed is not None else outline.candidates().joined(outline.double_normals())
     phi_g, phi_b = math.atan(mu_g), math.atan(mu_b)
     if fixed is not None:
         idx = []
