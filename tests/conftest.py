@@ -13,6 +13,21 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenes"
 REFERENCE_SCENES = ("reference_asymmetric", "reference_upper_obstacle", "reference_equal_digits")
 
+#: The pairs the plane chooser took before it knew the outlines' double normals (contacts, object
+#: frame, m): G near the pick's tip and on the chalk's straight side, B on a rounded shoulder or corner.
+PREVIOUS_PAIRS = {"guitar_pick": {"G": [0.000718, 0.032210], "B": [-0.007146, 0.000281]},
+                  "fabric_chalk": {"G": [0.033752, 0.019497], "B": [0.003374, 0.002159]}}
+
+
+def with_previous_pair(name: str):
+    """The shipped scene NAME with its contacts fixed at PREVIOUS_PAIRS[name]."""
+    import yaml
+
+    from ungrasp_ompl import Scene
+
+    doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
+    return Scene.from_dict({**doc, "contacts": PREVIOUS_PAIRS[name]}, source=f"{name}.yaml, previous pair")
+
 
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 95 s
 #: down to 15 s): xdist hands each worker whole files in collection order (pyproject passes

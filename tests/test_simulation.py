@@ -15,9 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import yaml
 
-from conftest import SCENES, assert_picture, run_cli
+from conftest import SCENES, assert_picture, run_cli, with_previous_pair
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import Plan
@@ -35,10 +34,8 @@ from ungrasp_ompl.sim.trial import (calibration_offset, perturbed_start, run_tri
                                     trial_spec)
 
 
-def _planned(name: str, tip: str | None = None, contacts: dict | None = None):
-    scene = Scene.from_file(SCENES / f"{name}.yaml")
-    if contacts is not None:
-        scene = Scene.from_dict({**yaml.safe_load((SCENES / f"{name}.yaml").read_text()), "contacts": contacts})
+def _planned(name: str, tip: str | None = None, previous_pair: bool = False):
+    scene = with_previous_pair(name) if previous_pair else Scene.from_file(SCENES / f"{name}.yaml")
     if tip == "flat":
         scene = replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
     result = plan(scene, planner="lattice")
@@ -50,11 +47,6 @@ def _planned(name: str, tip: str | None = None, contacts: dict | None = None):
 def pick():
     """The positive control (the name is the fixture's history: it is the puzzle piece now)."""
     return _planned("puzzle_piece")
-
-
-#: The pick's pair before the plane chooser knew the outline's double normals (object frame, m):
-#: G near the tip, B on a rounded shoulder.
-PREVIOUS_PICK_PAIR = {"G": [0.000718, 0.032210], "B": [-0.007146, 0.000281]}
 
 
 @pytest.fixture(scope="module")
@@ -293,7 +285,7 @@ def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone
     when the termination begins. Either verdict is the one a whole trial, simulated to its end,
     gives; a strict success is placed, and a lost grip fails both verdicts for the same cause."""
     strict_only = (Outcome.DIGIT_HIT_TABLE, Outcome.LEFT_PLANE)
-    scene, result, ex = _planned("guitar_pick", contacts=PREVIOUS_PICK_PAIR)
+    scene, result, ex = _planned("guitar_pick", previous_pair=True)
     previous = ("guitar_pick, previous pair", trial_setup(scene, result, ex.trajectory, ex.robot))
     pick = run_trial(previous[1], TrialParams())
     for (name, setup), r in zip(base_setups + [previous], [r for _, r in base_trials] + [pick]):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import ROOT, SCENES, run_cli
+from conftest import PREVIOUS_PAIRS, ROOT, SCENES, run_cli, with_previous_pair
 from ungrasp_ompl.geometry.outline import ellipse, polygon, rounded_polygon
 from ungrasp_ompl.mechanics.antipodal import antipodal_pairs, effective_friction
 from ungrasp_ompl.mechanics.roll import roll_simulation
@@ -294,23 +294,15 @@ def test_a_fixed_contact_between_samples_lies_on_the_curve_with_its_own_normal()
         choose_plane(outline, 0.25, 0.35, fixed=(apex + [0.0, 2 * FIXED_TOLERANCE], [0.0005, 0.0]))
 
 
-#: Pairs the plane chooser took before it knew the outlines' double normals (contacts, object frame,
-#: m): G near the pick's tip and the chalk's straight side, B on a rounded shoulder or corner.
-SMOOTH_B = {"guitar_pick": {"G": [0.000718, 0.032210], "B": [-0.007146, 0.000281]},
-            "fabric_chalk": {"G": [0.033752, 0.019497], "B": [0.003374, 0.002159]}}
-
-
-@pytest.mark.parametrize("name", sorted(SMOOTH_B))
+@pytest.mark.parametrize("name", sorted(PREVIOUS_PAIRS))
 def test_the_thumb_touches_a_smooth_b_where_the_outline_reaches_furthest_along_gb(name):
     """The thumb's face, normal to GB in the object's plane, touches a smooth B of radius R whose
     normal is beta off GB at R sin(beta) across GB and R (1 - cos(beta)) further out (the circle's
     own geometry); the finely refined outline reaches no further; plan.json and the stability
     report carry it."""
-    from ungrasp_ompl import Scene
     from ungrasp_ompl.scene.stability import analyse
 
-    doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-    scene = Scene.from_dict({**doc, "contacts": SMOOTH_B[name]})
+    scene = with_previous_pair(name)  # the thumb on a rounded shoulder or corner
     b = scene.plane.b
     assert b.kind == "smooth" and b.beta > 0
     along, across = b.touch
