@@ -165,8 +165,8 @@ def _sweep(atlas: SecurityAtlas, goal_box: NDArray[np.float64]) -> float | None:
         came = moved_from(shape, moves[kind].step, row, rows).ravel()
         came[~moves[kind].arrives.ravel()] = rows
         reads[k] = came[ahead] + k * (rows + 1)
-    arrive = [(slot, slice(ks[0], ks[-1] + 1)) for slot in range(4)
-              for ks in [[k for k, o in enumerate(offers) if o[1] == slot]] if ks]  # offers are grouped by slot
+    slots = [o[1] for o in offers]  # grouped: each slot's offers are a run
+    arrive = [(slot, slice(slots.index(slot), len(slots) - slots[::-1].index(slot))) for slot in dict.fromkeys(slots)]
     own = [o[2] for o in offers]
     change = [o[3] for o in offers]
     length = np.array([[moves[o[0]].length] for o in offers])
