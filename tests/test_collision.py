@@ -140,7 +140,8 @@ def test_solids_agree_with_a_world_frame_oracle():
 
 def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
     """A small block 3 mm beyond the finger tip's back corner, along n_B: clear at rest, hit when
-    the gripper opens by 5 mm (the finger moves along n_B), clear when it opens by 2 mm."""
+    the gripper opens by 5 mm (the finger moves along n_B), clear when it opens by 2 mm; opened
+    about the palm (open_symmetric, the finger moving half as far), hit at 6 mm, clear at 4 mm."""
     from ungrasp_ompl.mechanics.kinematics import finger_tip, thumb_normal
 
     scene = scenes["reference_asymmetric"]
@@ -154,6 +155,9 @@ def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
     assert not checker.in_collision(q)[0]
     assert checker.termination_collides(q, "open", 0.005)[0]
     assert not checker.termination_collides(q, "open", 0.002)[0]
+    # the gripper's own opening moves the finger by half of it
+    assert checker.termination_collides(q, "open_symmetric", 0.006)[0]
+    assert not checker.termination_collides(q, "open_symmetric", 0.004)[0]
 
 
 def test_planar_hull_agrees_with_qhull():
@@ -227,3 +231,49 @@ def test_exact_planar_narrow_phase_agrees_with_fcl():
             solid_hits += int((got & ~bare).sum())  # decided against the walls and pieces
             states += len(q)
     assert 0 < solid_hits and hits < states
+
+
+def test_table_clearance_keeps_every_body_that_far_above_the_table():
+    """planning.table_clearance c: a state is valid with it exactly when it is valid without it
+    and no digit nor the housing reaches below the height c (shapely on their outlines); the
+    lattice's collision check, the kinematic margin and the loader agree."""
+    import yaml
+
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.mechanics.kinematics import housing_centre, housing_offsets
+
+    from conftest import SCENES
+
+    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    doc.setdefault("planning", {})["table_clearance"] = 0.0
+    base = Scene.from_dict(doc)
+    c = 0.0015
+    doc["planning"]["table_clearance"] = c
+    scene = Scene.from_dict(doc)
+    l, dg = scene.object_length, scene.digits
+    rng = np.random.default_rng(5)
+    n = 2000
+    q = np.column_stack([rng.uniform(0.0, math.radians(40), n), rng.uniform(0.3, 1.0, n),
+                         rng.uniform(0.0, math.radians(80), n)])
+    thumb, finger = digit_polygons(q[:, 0], q[:, 1], q[:, 2], dg)
+    housing = housing_centre(q[:, 0], q[:, 1], q[:, 2], dg)[:, None, :] + housing_offsets(q[:, 0], q[:, 2], dg)
+    raised = shapely.box(-1e3, -1e3, 1e3, c)
+    below = np.array([any(shapely.Polygon(p[i] * l).intersection(raised).area > 1e-14 for p in (thumb, finger, housing))
+                      for i in range(n)])
+    valid, valid0 = scene.is_valid(q), base.is_valid(q)
+    assert 0.02 < (valid0 & below).mean() < 0.5  # the clearance matters on a fair share of the states
+    disagree = np.flatnonzero(valid != (valid0 & ~below))
+    assert len(disagree) <= 2, q[disagree]  # at most states grazing the height c
+    margin = scene.margin(q).kinematic["table"]
+    assert np.allclose(margin, base.margin(q).kinematic["table"] - c)
+    # the lattice's check, state by state, as in_collision's
+    axes = (np.linspace(0.05, 0.6, 12), np.linspace(0.4, 1.0, 7), np.linspace(0.0, 1.2, 13))
+    checker = CollisionChecker(scene.collision_model())
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    lattice = checker.in_collision_lattice(axes)
+    assert lattice.any() and not lattice.all()
+    assert np.array_equal(lattice.ravel(), checker.in_collision(grid))
+    doc["planning"]["table_clearance"] = -0.001
+    with pytest.raises(InputError, match="planning.table_clearance"):
+        Scene.from_dict(doc)

@@ -27,7 +27,7 @@ def pick():
     return scene, result
 
 
-@pytest.fixture(scope="module", params=["open", "rotate"])
+@pytest.fixture(scope="module", params=["open", "open_symmetric", "rotate"])
 def executed(request, pick):
     scene, result = pick
     scene = dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, termination=request.param))
@@ -137,13 +137,24 @@ def test_termination_maneuver(executed):
     scene, result, ex = executed
     traj = ex.trajectory
     name, a, b = next(s for s in traj.segments if s[0] == "termination")
-    tips = np.array([thumb_tip(ex.robot, q) for q in traj.positions[a:b + 1]])
-    assert np.max(np.linalg.norm(tips - tips[0], axis=1)) < 1e-4  # the thumb stays on B
-    opening = traj.positions[a:b + 1, 6]
-    if scene.robot.termination == "open":
-        assert opening[-1] - opening[0] == pytest.approx(scene.robot.termination_opening, abs=1e-6)
-    else:
+    qs = traj.positions[a:b + 1]
+    tips = np.array([thumb_tip(ex.robot, q) for q in qs])
+    opening = qs[:, 6]
+    if scene.robot.termination == "rotate":
         assert np.ptp(opening) < 1e-9
+    else:
+        assert opening[-1] - opening[0] == pytest.approx(scene.robot.termination_opening, abs=1e-6)
+    if scene.robot.termination != "open_symmetric":
+        assert np.max(np.linalg.norm(tips - tips[0], axis=1)) < 1e-4  # the thumb stays on B
+        return
+    # the gripper's own opening: the palm stays, each tip moves by half the opening across the gap
+    palm = np.array([tcp_pose(ex.robot, q) for q in qs])
+    assert np.max(np.abs(palm - palm[0])) < 1e-6
+    fingers = np.array([finger_tip(ex.robot, q) for q in qs])
+    across = palm[0][:3, 0]  # palm x: from the thumb toward the finger
+    half = (opening - opening[0])[:, None] / 2 * across
+    assert np.max(np.linalg.norm(tips - (tips[0] - half), axis=1)) < 1e-6
+    assert np.max(np.linalg.norm(fingers - (fingers[0] + half), axis=1)) < 1e-6
 
 
 @pytest.mark.slow

@@ -433,7 +433,7 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> EndsProblem | None:
         return EndsProblem(PlanOutcome.GOAL_EMPTY, {"outside_box": True})
     names = frozenset(s.name for s in scene.solids)
     r = scene.robot
-    amount = r.termination_opening if r.termination == "open" else r.termination_angle
+    amount = r.termination_amount
     checker = None
     if goal.witness is not None:  # the start is held and the witness let go among goal.free_of
         new = tuple(s for s in scene.solids if s.name not in goal.free_of)

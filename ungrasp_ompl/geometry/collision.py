@@ -220,6 +220,8 @@ class CollisionChecker:
                     heights = (bottom - frame[2, 3], top - frame[2, 3])
                     self._rect[solid.name] = {body: _slab_rect(local_foot, heights, *self._y_range[body])
                                               for body in prisms}
+        #: How far a body may reach below the table's top (m): minus the scene's clearance over it.
+        self._table_gap = _TABLE_GAP - dg.table_clearance * l
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
@@ -291,7 +293,7 @@ class CollisionChecker:
                          zip(angle[idx].tolist(), origin[idx, 0].tolist(), origin[idx, 1].tolist())], dtype=bool)
 
     @staticmethod
-    def _below_table(outline: NDArray, gap: float = _TABLE_GAP) -> NDArray[np.bool_]:
+    def _below_table(outline: NDArray, gap: float) -> NDArray[np.bool_]:
         """Bodies (N, 4, 2) reaching into the table (z < -gap): exact for prisms normal to the plane."""
         return outline[:, :, 1].min(axis=1) < -gap
 
@@ -333,7 +335,7 @@ class CollisionChecker:
         frames = self._frames(th, d, ps)
         hit = np.zeros(shape, dtype=bool)
         for _, ref, offsets in frames.values():
-            hit |= (ref[..., 1] + offsets[..., 1].min(axis=-1)) * l < -_TABLE_GAP
+            hit |= (ref[..., 1] + offsets[..., 1].min(axis=-1)) * l < -self._table_gap
         hit &= todo
         if self._targets:
             todo &= ~hit
@@ -355,10 +357,12 @@ class CollisionChecker:
                 hit.flat[idx] = self._hits(self._digit_poses(q))
         return hit
 
-    def _hits(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]], table_gap: float = _TABLE_GAP
+    def _hits(self, poses: dict[str, tuple[NDArray, NDArray, NDArray]], table_gap: float | None = None
               ) -> NDArray[np.bool_]:
         """Per state of poses (bodies in the plane, as _poses gives them): any body in collision;
-        a body reaching more than table_gap (m) below the table's top collides with the table."""
+        a body reaching more than table_gap (m; default: the scene's clearance over the table)
+        below the table's top collides with the table."""
+        table_gap = self._table_gap if table_gap is None else table_gap
         n = len(next(iter(poses.values()))[0])
         hit = np.zeros(n, dtype=bool)
         for body, (_, _, outline) in poses.items():
@@ -373,7 +377,8 @@ class CollisionChecker:
         """Whether the gripper hits something while it lets go from states q (N, 3) (paper fig. 10d).
 
         kind 'open': the finger moves away from the thumb by amount (m) along n_B, the housing by
-        half of it, the thumb stays on B. kind 'rotate': the gripper turns by amount (rad) about
+        half of it, the thumb stays on B. kind 'open_symmetric': the finger moves by half of it
+        along n_B, the thumb by half of it against n_B, the housing stays. kind 'rotate': the gripper turns by amount (rad) about
         the thumb tip, the way that lifts the finger. Checked at steps poses along the way; the
         digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
         """
@@ -382,7 +387,9 @@ class CollisionChecker:
         pivot = poses["thumb"][1]  # the thumb tip
         lift = np.where(poses["finger"][1][:, 0] < pivot[:, 0], -1.0, 1.0)  # turning sign that raises the finger
         n_b = thumb_normal(q[:, 0], q[:, 2])
-        share = {"thumb": 0.0, "finger": 1.0, "palm": 0.5}
+        # how far along n_B each body moves, per unit of opening
+        share = ({"thumb": -0.5, "finger": 0.5, "palm": 0.0} if kind == "open_symmetric" else
+                 {"thumb": 0.0, "finger": 1.0, "palm": 0.5})
         hit = np.zeros(len(q), dtype=bool)
         for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
             moved = {}
@@ -401,6 +408,6 @@ class CollisionChecker:
         q = np.atleast_2d(np.asarray(q, dtype=float))[:1]
         poses = self._poses(q)
         out = [f"{body}/table" for body, (_, _, outline) in poses.items()
-               if body != "object" and self._below_table(outline)[0]]
+               if body != "object" and self._below_table(outline, self._table_gap)[0]]
         return out + [f"{body}/{name}" for body, name, idx, exact, target in self._pairs(poses)
                       if len(idx) and (exact or self._fcl_hits(body, poses, idx, target)[0])]

@@ -33,6 +33,9 @@ class DigitGeometry:
     finger turns against it (see contact_d), not the planar force analysis.
     thumb_tip_margin: how far B must stay from the thumb's tip (s_B >= it);
     0 lets a plan end with B on the tip's edge, which a real thumb loses.
+    table_clearance: how far above the table the digits and the housing must
+    stay (their lowest point >= it); 0 lets a plan graze the table, which an
+    arm calibrated to a millimetre hits.
     object_thickness: the object's thickness t. G and B are on its bottom face
     and the finger presses its top face, so the digits stand t cos(psi)
     further apart and the whole gripper t sin(psi) further back along the
@@ -53,6 +56,7 @@ class DigitGeometry:
     palm_thickness: float = 0.0  # the housing normal to the plane (0: as wide as the digits)
     finger_tip_radius: float = 0.0  # the rounded finger tip's radius (0: a flat tip)
     thumb_tip_margin: float = 0.0  # B kept at least this far from the thumb's tip (s_B >= margin)
+    table_clearance: float = 0.0  # the digits and the housing kept at least this far above the table
     object_thickness: float = 0.0  # the object's thickness: the finger presses its top face
 
     @property
@@ -227,7 +231,7 @@ def kinematic_checks(
     - ``d``: 0 < d_A <= 1 (A lies on the object; d_A = contact_d);
     - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face (and at least
       ``thumb_tip_margin`` from its tip);
-    - ``thumb clearance``: the thumb tip stays above the table;
+    - ``thumb clearance``: the thumb tip stays ``table_clearance`` above the table;
     - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke).
     """
     theta, d, psi = _arrays(theta, d, psi)
@@ -239,7 +243,7 @@ def kinematic_checks(
         "d": (d_a > 0.0) & (d_a <= 1.0 + tol),
         "s_B >= 0": sb >= digits.thumb_tip_margin - tol,
         "s_B <= thumb_length": sb <= digits.thumb_length + tol,
-        "thumb clearance": thumb_clearance(theta, d, psi, digits) >= -tol,
+        "thumb clearance": thumb_clearance(theta, d, psi, digits) >= digits.table_clearance - tol,
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
     }
 

@@ -40,8 +40,8 @@ wrenches here come from :func:`~ungrasp_ompl.mechanics.force_closure.contact_wre
 closure is decided by its own test, so the two never disagree on the sign.
 
 Kinematic margins (metres, or over l with length 1): how far B sits from the thumb's tip (beyond
-``thumb_tip_margin``) and from its base, the digits' and housing's lowest point above the table,
-and their distance from the scene's obstacles: each is 0 where the corresponding check of
+``thumb_tip_margin``) and from its base, the digits' and housing's lowest point above the table
+(beyond ``table_clearance``), and their distance from the scene's obstacles: each is 0 where the corresponding check of
 kinematics.py or the collision check flips, positive inside.
 
 Frame: the manipulation plane, G at the origin, x along the table toward B, z up.
@@ -330,9 +330,9 @@ def kinematic_margins(
     - ``thumb_tip``: B's distance from the thumb's tip along its face beyond ``thumb_tip_margin``
       (s_B - margin);
     - ``thumb_base``: B's distance from the thumb's base (thumb_length - s_B);
-    - ``table``: the lowest point of the thumb, the finger and the housing above the table
-      (their polygons as the collision check sees them; the thumb tip's corner is
-      :func:`~ungrasp_ompl.mechanics.kinematics.thumb_clearance`);
+    - ``table``: the lowest point of the thumb, the finger and the housing above the table,
+      beyond ``table_clearance`` (their polygons as the collision check sees them; the thumb
+      tip's corner is :func:`~ungrasp_ompl.mechanics.kinematics.thumb_clearance`);
     - ``obstacles``: the signed distance of the digits and the housing from the nearest obstacle
       polygon (each (k, 2), CCW, over l like the digits), +inf without obstacles.
     """
@@ -349,7 +349,7 @@ def kinematic_margins(
     return {
         "thumb_tip": (sb - digits.thumb_tip_margin) * length,
         "thumb_base": (digits.thumb_length - sb) * length,
-        "table": lowest * length,
+        "table": (lowest - digits.table_clearance) * length,
         "obstacles": near * length,
     }
 

@@ -157,9 +157,8 @@ class SecurityAtlas:
     def _no_let_go(self, idx: NDArray) -> NDArray[np.bool_]:
         """For flat lattice indices: the scene's termination maneuver would collide."""
         r = self.scene.robot
-        amount = r.termination_opening if r.termination == "open" else r.termination_angle
         q = np.column_stack([ax[i] for ax, i in zip(self.axes, np.unravel_index(idx, self.shape))])
-        return self._checker.termination_collides(q, r.termination, amount)
+        return self._checker.termination_collides(q, r.termination, r.termination_amount)
 
     # -- per-mode security -------------------------------------------------------
     def _fc(self, sa: int, sb: int, where: NDArray[np.bool_]) -> NDArray[np.bool_]:

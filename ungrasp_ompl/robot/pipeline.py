@@ -96,11 +96,12 @@ def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel)
     """Palm poses and openings of the termination maneuver, from the last pinch state."""
     opts = scene.robot
     n = 40
-    if opts.termination == "open":  # the thumb stays on B: the palm follows half the opening
+    if opts.termination != "rotate":
         openings = np.minimum(opening + np.linspace(0.0, opts.termination_opening, n + 1)[1:],
                               robot.gripper.max_opening)
         poses = np.repeat(pose[None], n, axis=0)
-        poses[:, :3, 3] += (openings - opening)[:, None] / 2 * pose[:3, 0]
+        if opts.termination == "open":  # the thumb stays on B: the palm follows half the opening
+            poses[:, :3, 3] += (openings - opening)[:, None] / 2 * pose[:3, 0]
         return poses, openings
     # turn the palm about the thumb tip, about the plane's normal (palm y), the way that lifts the finger
     tip = _tips(robot, pose[None], np.array([opening]))[0][0]

@@ -196,7 +196,7 @@ class SceneReader:
             home = tuple(math.radians(self.angle({0: v}, "robot.home_deg", 0, -360.0, 360.0)) for v in h)
         term = m.get("termination", d.termination)
         if term not in tuple(Termination):
-            self.fail("robot.termination", f"must be open or rotate, got {term!r}")
+            self.fail("robot.termination", f"must be one of {', '.join(Termination)}, got {term!r}")
         obj_pos, obj_yaw = d.object_position, d.object_yaw
         if "object" in m:
             o = self.mapping(m["object"], "robot.object")

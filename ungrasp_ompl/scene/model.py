@@ -260,11 +260,13 @@ class Scene:
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                                  "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                                 "min_tolerance"})
+                                 "min_tolerance", "table_clearance"})
         margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
-        digits = replace(digits, thumb_tip_margin=margin / length, object_thickness=thickness / length)
+        clearance = r.length(pl, "planning.table_clearance", "table_clearance", zero=True, default=0.0)
+        digits = replace(digits, thumb_tip_margin=margin / length, table_clearance=clearance / length,
+                         object_thickness=thickness / length)
         model = pl.get("sliding_model", "relaxed")
         if model not in SLIDING_MODELS:
             raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)

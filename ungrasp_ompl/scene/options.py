@@ -19,8 +19,12 @@ from ..mechanics.force_closure import SlidingModel
 class Termination(StrEnum):
     """How the gripper lets go at the end of a plan (a member is its name as a string)."""
 
-    #: The jaws open by robot.termination_opening.
+    #: The jaws open by robot.termination_opening, the arm moving the palm by half of it so that
+    #: the thumb stays on B.
     OPEN = "open"
+    #: The jaws open by robot.termination_opening about the palm, which stays where it is (the
+    #: gripper's own opening): the thumb backs off B by half of it as the finger leaves A.
+    OPEN_SYMMETRIC = "open_symmetric"
     #: The hand turns about the thumb's tip by robot.termination_angle.
     ROTATE = "rotate"
 
@@ -82,7 +86,8 @@ class RobotOptions:
     contact_speed: float = 0.01
     """Cap on the digit tips' speed along the primitives (m/s)."""
     termination: Termination = Termination.OPEN
-    """How the gripper lets go: open (by termination_opening) or rotate (about the thumb tip)."""
+    """How the gripper lets go: open or open_symmetric (by termination_opening) or rotate (about the
+    thumb tip)."""
     termination_opening: float = 0.01
     """How far the gripper opens to let go (m)."""
     termination_angle: float = math.radians(10.0)
@@ -94,6 +99,11 @@ class RobotOptions:
     its target pose)."""
     object_yaw: float = 0.0
     """Direction of GB on the table (world yaw, rad) for scenes without an outline."""
+
+    @property
+    def termination_amount(self) -> float:
+        """How far the termination goes: the opening (m) or, for rotate, the turn (rad)."""
+        return self.termination_angle if self.termination == Termination.ROTATE else self.termination_opening
 
 
 @dataclass(frozen=True)

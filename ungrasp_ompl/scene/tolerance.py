@@ -257,8 +257,8 @@ class _Box:
         if len(ends):  # every moved copy of a terminal state
             sl = (ends[:, None] * g + np.arange(g)[None, :]).ravel()
             r = sc.robot
-            amount = r.termination_opening if r.termination == "open" else r.termination_angle
-            stuck = self.checker.termination_collides(np.column_stack([th[sl], d[sl], ps[sl]]), r.termination, amount)
+            stuck = self.checker.termination_collides(np.column_stack([th[sl], d[sl], ps[sl]]), r.termination,
+                                                      r.termination_amount)
             code[sl] = np.where((code[sl] == 0) & stuck, list(ToleranceReason).index(ToleranceReason.NO_TERMINATION) + 1,
                                 code[sl])
         code = code.reshape(n, g)
