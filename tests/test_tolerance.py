@@ -19,7 +19,8 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.mechanics.path import plan_samples
 from ungrasp_ompl.planning.deviate import steeper_start
 from ungrasp_ompl.perturbation import PRESETS
-from ungrasp_ompl.scene.tolerance import ToleranceOptions, ToleranceReason, ladder, state_tolerances, tolerance
+from ungrasp_ompl.scene.tolerance import (LADDER_STEP, ToleranceOptions, ToleranceReason, ladder, state_tolerances,
+                                         tolerance)
 
 
 @pytest.fixture(scope="module")
@@ -117,8 +118,9 @@ def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pic
     inside = oracle_insecure(scene, result, tol.scale, _draw(rng, 300, corners=True))
     assert not inside.any()
     smp = plan_samples(result, scene.options.resolution, both_modes=True)
-    k = int(np.flatnonzero(np.all(np.isclose(smp.states, tol.state), axis=1))[0])
-    beyond = oracle_insecure(scene, result, 1.1 * tol.scale, _draw(rng, 3000, corners=True), rows=np.array([k]))
+    k = np.flatnonzero(np.all(np.isclose(smp.states, tol.state), axis=1))  # in each contact mode it is sampled in
+    # the search found the state insecure at the ladder's next step (the true bound lies below it)
+    beyond = oracle_insecure(scene, result, LADDER_STEP * tol.scale, _draw(rng, 3000, corners=True), rows=k)
     assert beyond.any()
 
 
@@ -239,7 +241,7 @@ def test_the_tolerance_search_keeps_the_most_tolerant_path_of_a_small_lattice():
     margins = LatticeMargins(atlas, "tolerance", goal_box)
     result = lattice_search(atlas, goal_box, "tolerance", margins)
     paths = all_paths(atlas, goal_box)
-    assert len(paths) > 50 and result.reachable
+    assert len(paths) > 20 and result.reachable
     goal = atlas.releasable_in(goal_box)
 
     def ends(kind, a, b):  # (lattice index, sliding sign at A, at B) of a step's two ends
@@ -274,7 +276,7 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.margins import Objective
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
     from ungrasp_ompl.planning.setup import with_tolerance_floor
-    from ungrasp_ompl.scene.tolerance import LADDER_STEP
+
 
     scene = Scene.from_file("puzzle_piece")
     cheap = plan(scene, planner="lattice")
@@ -282,7 +284,7 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     assert robust.solved and robust.objective is Objective.TOLERANCE and robust.margin_bottleneck_deg is None
     low, high = scene.tolerance(cheap).scale, scene.tolerance(robust).scale
     assert high >= low / LADDER_STEP
-    assert high > 2 * low  # on this scene the objective has room to act
+    assert high > LADDER_STEP ** 2 * low  # two ladder steps apart: a floor between them tells them apart
     floored = replace(scene, options=replace(scene.options, min_tolerance=math.sqrt(low * high)))
     rejected = plan(floored, planner="lattice")
     assert rejected.outcome is PlanOutcome.BELOW_MIN_TOLERANCE and not rejected.solved
@@ -296,12 +298,12 @@ def test_a_scene_s_tolerance_floor_is_checked_by_its_field(tmp_path):
     from ungrasp_ompl.shipped import resolve
 
     base = resolve("guitar_pick").read_text()
-    assert "planning:" not in base
+    assert "planning:\n" in base and "min_tolerance" not in base
     text = tmp_path / "s.yaml"
-    text.write_text(base + "\nplanning:\n  min_tolerance: 0.25\n")
+    text.write_text(base.replace("planning:\n", "planning:\n  min_tolerance: 0.25\n"))
     assert Scene.from_file(text).options.min_tolerance == 0.25
     for bad in ("-0.1", "6", "much"):
-        text.write_text(base + f"\nplanning:\n  min_tolerance: {bad}\n")
+        text.write_text(base.replace("planning:\n", f"planning:\n  min_tolerance: {bad}\n"))
         with pytest.raises(InputError) as err:
             Scene.from_file(text)
         assert err.value.field == "planning.min_tolerance"

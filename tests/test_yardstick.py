@@ -38,13 +38,13 @@ def test_no_planner_beats_the_yardstick(name):
 
 
 def test_rrt_star_stops_at_the_optimum_reproducibly():
-    """Seeded RRT* on guitar_pick reaches the lattice optimum within its budget: it stops there
-    (stopped_by says so, long before the budget), and the same seed stops at the same iteration
-    with the same plan."""
+    """Seeded RRT* (seed 2) on guitar_pick reaches the lattice optimum within its budget: it stops
+    there (stopped_by says so, long before the budget), and the same seed stops at the same
+    iteration with the same plan."""
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     atlas = SecurityAtlas(scene, planning_box(scene))
     optimum = lattice_plan(scene, atlas=atlas).lattice_optimum
-    runs = [plan(scene, "RRTstar", time=1.0, seed=1, atlas=atlas) for _ in range(2)]
+    runs = [plan(scene, "RRTstar", time=1.0, seed=2, atlas=atlas) for _ in range(2)]
     for run in runs:
         assert run.stopped_by == StoppedBy.OPTIMUM and run.iterations < 6000
         assert run.cost == pytest.approx(optimum, abs=1e-9)
