@@ -41,8 +41,8 @@ closure is decided by its own test, so the two never disagree on the sign.
 
 Kinematic margins (metres, or over l with length 1): how far B sits from the thumb's tip (beyond
 ``thumb_tip_margin``) and from its base, the digits' and housing's lowest point above the table
-(beyond ``table_clearance``), and their distance from the scene's obstacles: each is 0 where the corresponding check of
-kinematics.py or the collision check flips, positive inside.
+(beyond ``table_clearance``), and their distance from the scene's obstacles: each is 0 where the
+corresponding check of kinematics.py or the collision check flips, positive inside.
 
 Frame: the manipulation plane, G at the origin, x along the table toward B, z up.
 """
