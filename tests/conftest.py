@@ -19,14 +19,21 @@ PREVIOUS_PAIRS = {"guitar_pick": {"G": [0.000718, 0.032210], "B": [-0.007146, 0.
                   "fabric_chalk": {"G": [0.033752, 0.019497], "B": [0.003374, 0.002159]}}
 
 
-def with_previous_pair(name: str):
-    """The shipped scene NAME with its contacts fixed at PREVIOUS_PAIRS[name]."""
+#: The set-up of the object scenes before their clearances (the pick's reference goal, theta up to
+#: 3 deg, no clearances, the default termination): top-level sections of the scene file.
+BEFORE_CLEARANCES = {"goal": {"theta_max_deg": 3, "d": [0.57, 0.63], "psi_deg": [36, 42]}, "planning": {},
+                     "robot": {}}
+
+
+def with_previous_pair(name: str, **sections):
+    """The shipped scene NAME with its contacts fixed at PREVIOUS_PAIRS[name], and any top-level
+    sections of its file replaced by SECTIONS."""
     import yaml
 
     from ungrasp_ompl import Scene
 
     doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-    return Scene.from_dict({**doc, "contacts": PREVIOUS_PAIRS[name]}, source=f"{name}.yaml, previous pair")
+    return Scene.from_dict({**doc, **sections, "contacts": PREVIOUS_PAIRS[name]}, source=f"{name}.yaml, previous pair")
 
 
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 95 s

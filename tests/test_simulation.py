@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from conftest import SCENES, assert_picture, run_cli, with_previous_pair
+from conftest import BEFORE_CLEARANCES, SCENES, assert_picture, run_cli, with_previous_pair
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import Plan
@@ -34,8 +34,12 @@ from ungrasp_ompl.sim.trial import (calibration_offset, perturbed_start, run_tri
                                     trial_spec)
 
 
-def _planned(name: str, tip: str | None = None, previous_pair: bool = False):
-    scene = with_previous_pair(name) if previous_pair else Scene.from_file(SCENES / f"{name}.yaml")
+def _planned(name: str, tip: str | None = None, previous_pair: dict | None = None):
+    """NAME's lattice plan, executed; previous_pair: on PREVIOUS_PAIRS[name], with these sections."""
+    if previous_pair is not None:
+        scene = with_previous_pair(name, **previous_pair)
+    else:
+        scene = Scene.from_file(SCENES / f"{name}.yaml")
     if tip == "flat":
         scene = replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
     result = plan(scene, planner="lattice")
@@ -281,11 +285,11 @@ def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone
     """A digit on the table or a turn out of the plane while held fail the strict verdict at once,
     and the trial goes on to decide the paper's criterion: the unperturbed pick, planned on the pair
     the plane chooser took before it knew the outline's double normals (the thumb on a rounded
-    shoulder, 0.19 mm off GB where it touches), turns out of the plane in a P_theta but is still held
-    when the termination begins. Either verdict is the one a whole trial, simulated to its end,
+    shoulder, 0.19 mm off GB where it touches), with the set-up before the clearances, turns out of
+    the plane in a P_theta but is still held when the termination begins. Either verdict is the one a whole trial, simulated to its end,
     gives; a strict success is placed, and a lost grip fails both verdicts for the same cause."""
     strict_only = (Outcome.DIGIT_HIT_TABLE, Outcome.LEFT_PLANE)
-    scene, result, ex = _planned("guitar_pick", previous_pair=True)
+    scene, result, ex = _planned("guitar_pick", previous_pair=BEFORE_CLEARANCES)
     previous = ("guitar_pick, previous pair", trial_setup(scene, result, ex.trajectory, ex.robot))
     pick = run_trial(previous[1], TrialParams())
     for (name, setup), r in zip(base_setups + [previous], [r for _, r in base_trials] + [pick]):

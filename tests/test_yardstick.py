@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from conftest import SCENES
+from conftest import BEFORE_CLEARANCES, SCENES
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
 from ungrasp_ompl.planning.result import StoppedBy
@@ -43,7 +43,7 @@ def test_rrt_star_stops_at_the_optimum_reproducibly():
     lattice optimum within its budget: it stops there (stopped_by says so, long before the
     budget), and the same seed stops at the same iteration with the same plan."""
     doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
-    doc.update(goal={"theta_max_deg": 3, "d": [0.57, 0.63], "psi_deg": [36, 42]}, planning={}, robot={})
+    doc.update(BEFORE_CLEARANCES)
     scene = Scene.from_dict(doc)
     atlas = SecurityAtlas(scene, planning_box(scene))
     optimum = lattice_plan(scene, atlas=atlas).lattice_optimum
