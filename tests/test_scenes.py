@@ -65,3 +65,23 @@ def test_upper_obstacle_block_acts_as_the_reference_quadrant():
     blocked = _collisions(Scene.from_dict(doc))
     assert blocked.sum() > 10**5
     assert np.array_equal(blocked, _collisions(Scene.from_dict(quadrant)))
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
+def test_object_plans_keep_their_clearances_between_lattice_states(name):
+    """Each object's lattice plan, sampled ten times finer than its lattice, keeps the digits and
+    the housing planning.table_clearance above the table and B planning.thumb_tip_margin from the
+    thumb's tip all along (the kinematic margins, 0 where a check flips), and the plan ends lower
+    than the scene's theta_max."""
+    from ungrasp_ompl.mechanics.path import plan_samples
+    from ungrasp_ompl.planning import plan
+
+    scene = Scene.from_file(SCENES / f"{name}.yaml")
+    assert scene.digits.table_clearance > 0 and scene.digits.thumb_tip_margin > 0
+    result = plan(scene, planner="lattice")
+    assert result.solved
+    states = plan_samples(result, np.asarray(scene.options.resolution) / 10).states
+    margins = scene.margin(states).kinematic
+    assert margins["table"].min() >= -1e-9 and margins["thumb_tip"].min() >= -1e-9
+    assert margins["table"].min() < 1e-4  # the clearance binds somewhere: the check is not idle
+    assert result.states[-1][0] <= scene.goal.theta_max + 1e-12
