@@ -33,7 +33,8 @@ def with_previous_pair(name: str, **sections):
     from ungrasp_ompl import Scene
 
     doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-    return Scene.from_dict({**doc, **sections, "contacts": PREVIOUS_PAIRS[name]}, source=f"{name}.yaml, previous pair")
+    return Scene.from_dict({**doc, **sections, "contacts": PREVIOUS_PAIRS[name]},
+                           source=f"{name}.yaml, previous pair")
 
 
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 95 s

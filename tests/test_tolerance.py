@@ -277,7 +277,6 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
     from ungrasp_ompl.planning.setup import with_tolerance_floor
 
-
     scene = Scene.from_file("puzzle_piece")
     cheap = plan(scene, planner="lattice")
     robust = plan(scene, planner="lattice", objective="tolerance")

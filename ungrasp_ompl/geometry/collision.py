@@ -379,8 +379,9 @@ class CollisionChecker:
         kind 'open': the finger moves away from the thumb by amount (m) along n_B, the housing by
         half of it, the thumb stays on B. kind 'open_symmetric': the finger moves by half of it
         along n_B, the thumb by half of it against n_B, the housing stays. kind 'rotate': the
-        gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked at steps poses along the way; the
-        digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
+        gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked
+        at steps poses along the way; the digits may press into the table by RELEASE_TABLE_GAP,
+        as the robot's own check allows.
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         poses = self._digit_poses(q)
