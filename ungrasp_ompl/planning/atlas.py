@@ -167,11 +167,11 @@ class SecurityAtlas:
         lattice is kinematically valid), only those are computed; otherwise the whole lattice from
         its axes, which shares the work of every state with the same theta and d or theta and psi
         (force_closure). Force closure is decided state by state, so both give the same answer."""
+        if np.count_nonzero(where) > SUBSET_SHARE * where.size:
+            return force_closure(*self._lattice, sa, sb, self.scene.friction) & where
         idx = np.nonzero(where)
         out = np.zeros(self.shape, dtype=bool)
-        if len(idx[0]) > SUBSET_SHARE * where.size:
-            out[idx] = np.broadcast_to(force_closure(*self._lattice, sa, sb, self.scene.friction), self.shape)[idx]
-        elif len(idx[0]):
+        if len(idx[0]):
             out[idx] = force_closure(*(ax[i] for ax, i in zip(self.axes, idx)), sa, sb, self.scene.friction)
         return out
 
