@@ -277,3 +277,10 @@ def test_table_clearance_keeps_every_body_that_far_above_the_table():
     doc["planning"]["table_clearance"] = -0.001
     with pytest.raises(InputError, match="planning.table_clearance"):
         Scene.from_dict(doc)
+    # a start press runs the digits that much lower: no deeper than the clearance
+    doc["planning"]["table_clearance"] = c
+    doc.setdefault("robot", {})["start_press"] = c
+    assert Scene.from_dict(doc).robot.start_press == c
+    doc["robot"]["start_press"] = 1.5 * c
+    with pytest.raises(InputError, match=r"robot.start_press: must not exceed planning.table_clearance"):
+        Scene.from_dict(doc)

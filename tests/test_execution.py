@@ -157,6 +157,35 @@ def test_termination_maneuver(executed):
     assert np.max(np.linalg.norm(fingers - (fingers[0] + half), axis=1)) < 1e-6
 
 
+def test_a_start_press_comes_straight_down_and_runs_the_plan_that_much_lower(pick):
+    """robot.start_press p: the trajectory's 'press' goes from the planned start pinch (where the
+    approach ends) straight down by p, and every primitive and the termination start and end p
+    below where they do without it (forward kinematics of the palm); the termination's check meets
+    the table p higher (CollisionModel.lowered)."""
+    scene, _ = pick
+    p = scene.digits.table_clearance * scene.object_length / 2
+    pressed = dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, start_press=p))
+    result = plan(pressed, seed=2, time=0.3)  # its goal lets go with the table p higher
+    assert result.solved
+    plain, low = execute(scene, result), execute(pressed, result)
+    palm = {}
+    for key, ex in (("plain", plain), ("low", low)):
+        palm[key] = {name: (tcp_pose(ex.robot, ex.trajectory.positions[a, :6]),
+                            tcp_pose(ex.robot, ex.trajectory.positions[b, :6])) for name, a, b in ex.trajectory.segments}
+    assert "press" in palm["low"] and "press" not in palm["plain"]
+    down = np.array([0.0, 0.0, -p])
+    first, last = palm["low"]["press"]
+    assert np.allclose(first[:3, 3], palm["plain"]["approach"][1][:3, 3], atol=2e-5)
+    assert np.allclose(last[:3, 3] - first[:3, 3], down, atol=2e-5)
+    assert np.allclose(last[:3, :3], first[:3, :3], atol=1e-5)
+    phases = [name for name in palm["plain"] if name.startswith("P_") or name == "termination"]
+    assert len(phases) >= 2
+    for name in phases:
+        for k in (0, 1):
+            assert np.allclose(palm["low"][name][k][:3, 3] - palm["plain"][name][k][:3, 3], down, atol=2e-5), name
+    assert pressed.collision_model().lowered == p and scene.collision_model().lowered == 0.0
+
+
 @pytest.mark.slow
 def test_export_command_writes_the_trajectory_files_within_limits(tmp_path):
     out = tmp_path / "t"

@@ -223,14 +223,45 @@ def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_
         mujoco.mj_forward(model, data)
         assert min((data.contact[i].dist for i in range(data.ncon)), default=0.0) > -1e-6  # nothing inside anything
         ids = model_ids(model)
-        touch_down(model, data, ids, calibration_offset(setup.drive, params) @ setup.drive.palm[0], lowering,
-                   setup.settle_time)
+        touch_down(model, data, ids, calibration_offset(setup.drive, params) @ setup.drive.palm[0],
+                   np.array([0.0, 0.0, lowering]), setup.settle_time)
         assert min((data.contact[i].dist for i in range(data.ncon)), default=0.0) > -2e-4  # a fraction of a millimetre
         table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
         on_table = any(table in (data.contact[i].geom1, data.contact[i].geom2) for i in range(data.ncon))
         assert on_table or (not handed_over and lowering == 0 and lowest > 0), \
             f"lowering {lowering * 1000:.3f} mm: the object is not on the table after the settling"
     assert 0 < lowered < 8  # the draws include hands too low and too high
+
+
+def test_a_start_press_starts_the_hand_at_the_planned_pinch_and_brings_it_down(pick):
+    """robot.start_press p: the trial's hand starts at the planned start pinch (the press's first
+    pose, as the trial's keyframe holds it), the drive's first pose p straight below it, and a hand
+    0.45 mm too high (the table that much lower) still leaves the object on the table after the
+    settling. Without the press the hand starts at the drive's first pose."""
+    import mujoco
+
+    scene, _, _ = pick
+    depth = scene.digits.table_clearance * scene.object_length / 2
+    pressed = replace(scene, robot=replace(scene.robot, start_press=depth))
+    result = plan(pressed, planner="lattice")  # its goal lets go with the table 0.5 mm higher
+    assert result.solved and depth == pytest.approx(0.0005)
+    for sc in (scene, pressed):
+        ex = execute(sc, result)
+        setup = trial_setup(sc, result, ex.trajectory, ex.robot)
+        drive = setup.drive
+        model = mujoco.MjModel.from_xml_string(trial_mjcf(setup, TrialParams()))
+        first = model.key_mpos[0, :3]
+        if sc is scene:
+            assert drive.press_from is None and np.allclose(first, drive.palm[0][:3, 3], atol=1e-12)
+            continue
+        assert np.allclose(drive.press_from[:3, 3] - drive.palm[0][:3, 3], [0.0, 0.0, depth], atol=2e-5)
+        assert np.allclose(first, drive.press_from[:3, 3], atol=1e-12)
+        outline, thickness = setup.spec.obj.outline, setup.spec.obj.thickness
+        corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
+        record: list = []
+        run_trial(setup, TrialParams(table_height_mm=-0.45), record=record)
+        settled = corners @ record[0][1][:3, :3].T + record[0][1][:3, 3]
+        assert float(np.min(settled[:, 2])) == pytest.approx(-0.00045, abs=5e-5)  # on the lowered table
 
 
 def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp_path):
@@ -259,7 +290,7 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
     palm, ids = calibration_offset(setup.drive, params) @ setup.drive.palm[0], model_ids(model)
     assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + [0.0, 0.0, lowering], atol=1e-12)
-    touch_down(model, data, ids, palm, lowering, setup.settle_time)
+    touch_down(model, data, ids, palm, np.array([0.0, 0.0, lowering]), setup.settle_time)
     record: list = []
     run_trial(setup, params, record=record)
     assert np.allclose(data.xpos[obj], record[0][1][:3, 3], atol=1e-9)

@@ -153,6 +153,9 @@ class CollisionModel:
     solids: tuple[Solid, ...] = ()
     #: The manipulation plane's pose in the world (4 x 4); needed with solids.
     frame: NDArray[np.float64] | None = None
+    #: How much lower than planned the hand runs (robot.start_press), m: the release's check
+    #: meets the table as much higher.
+    lowered: float = 0.0
 
 
 class CollisionChecker:
@@ -222,6 +225,7 @@ class CollisionChecker:
                                               for body in prisms}
         #: How far a body may reach below the table's top (m): minus the scene's clearance over it.
         self._table_gap = _TABLE_GAP - dg.table_clearance * l
+        self._release_gap = RELEASE_TABLE_GAP - model.lowered
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
@@ -381,7 +385,7 @@ class CollisionChecker:
         along n_B, the thumb by half of it against n_B, the housing stays. kind 'rotate': the
         gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked
         at steps poses along the way; the digits may press into the table by RELEASE_TABLE_GAP,
-        as the robot's own check allows.
+        as the robot's own check allows, less how much lower the hand runs (CollisionModel.lowered).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         poses = self._digit_poses(q)
@@ -401,7 +405,7 @@ class CollisionChecker:
                 else:
                     shift = n_b * (amount * f * share[body])
                     moved[body] = (angle, origin + shift, outline + shift[:, None, :])
-            hit |= self._hits(moved, RELEASE_TABLE_GAP)
+            hit |= self._hits(moved, self._release_gap)
         return hit
 
     def contacts(self, q: ArrayLike) -> list[str]:

@@ -1,8 +1,9 @@
 """The execution pipeline: plan -> palm poses -> IK -> timed joint trajectory (-> export).
 
 Phases: approach (Ruckig, from the home configuration to the start pinch, the
-object held), each primitive (dense Cartesian IK, then TOPPRA along the fixed
-path), the termination maneuver (paper fig. 10d: open the gripper, or turn it
+object held), with robot.start_press the press (the palm straight down by
+start_press, the object's end held by the table; TOPPRA), each primitive (dense
+Cartesian IK, then TOPPRA along the fixed path, as much lower), the termination maneuver (paper fig. 10d: open the gripper, or turn it
 about the thumb tip; TOPPRA), the retreat (the palm lifted straight up; TOPPRA). Every
 sample is checked against the joint limits and for collision of the arm and
 gripper with the table and the obstacles.
@@ -30,6 +31,8 @@ from .trajectory import JOINT_NAMES, JointTrajectory
 SAMPLE_PERIOD = 0.008
 #: The retreat: the palm lifted straight up in this many IK steps, at most this fast (m/s).
 RETREAT_STEPS, RETREAT_SPEED = 20, 0.05
+#: Poses of the start press (robot.start_press), the planned start pinch excluded.
+PRESS_STEPS = 10
 #: Jerk limits of the free moves: arm (rad/s^3) and gripper (m/s^3).
 ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 
@@ -145,17 +148,17 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     current = None
     for k, (scene, plan) in enumerate(jobs):
         prefix = f"{labels[k]}/" if labels else ""
-        parts, path, checks = _job(scene, plan, robot)
+        parts, start, checks = _job(scene, plan, robot)
         res_m, res_rad = max(res_m, checks[0]), max(res_rad, checks[1])
         contact_error = max(contact_error, checks[2])
         if current is None:
-            current = np.append(home_arm, path[0][-1])
+            current = np.append(home_arm, start[-1])
         else:  # back home with the gripper as it was left
             home = np.append(home_arm, current[-1])
             pieces.append((prefix + "return", ruckig_move(current, home, v_max, a_max, j_max, SAMPLE_PERIOD)))
             owners.append(k)
             current = home
-        pieces.append((prefix + "approach", ruckig_move(current, path[0], v_max, a_max, j_max, SAMPLE_PERIOD)))
+        pieces.append((prefix + "approach", ruckig_move(current, start, v_max, a_max, j_max, SAMPLE_PERIOD)))
         owners.append(k)
         for name, samples in parts:
             pieces.append((prefix + name, samples))
@@ -181,11 +184,21 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     return ex
 
 
+def press_shift(scene: Scene) -> NDArray[np.float64]:
+    """World translation (3,) of the pressed hand from the planned one (robot.start_press): straight
+    down by start_press (m), so that a push the object's end feels lies inside the table's friction
+    cone (docs/model.md 11.8); zero without a press."""
+    return np.array([0.0, 0.0, -scene.robot.start_press])
+
+
 def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
-    """One plan on the robot: the timed primitives, termination and retreat; the joint path of the
-    primitives and termination (N, 7); and (IK residual m, rad, contact error m)."""
+    """One plan on the robot: the timed press (robot.start_press), primitives, termination and
+    retreat; the joints and opening (7,) the approach ends at; and (IK residual m, rad, contact
+    error m)."""
     opts = scene.robot
-    frame = plane_frame(scene)
+    shift = press_shift(scene)
+    frame = plane_frame(scene).copy()
+    frame[:3, 3] += shift  # the plan is run as much lower as the press took it (zero without one)
     states, segments = densify(plan)
     poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)
     term_poses, term_openings = _termination(scene, poses[-1], openings[-1], robot)
@@ -194,11 +207,21 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
     q_arm, res_m, res_rad = solve_path(robot, list(all_poses), ik_seed_for(robot, all_poses[0]))
 
     path = np.column_stack([q_arm, all_open])
+    parts: list[tuple[str, Samples]] = []
+    v_max, a_max = robot.v_max, robot.a_max
+    start = path[0]
+    if shift.any():  # the press: from the planned start pinch straight down, solved back from the plan's start
+        back = np.repeat(all_poses[:1], PRESS_STEPS, axis=0)
+        back[:, :3, 3] -= np.linspace(1.0, PRESS_STEPS, PRESS_STEPS)[:, None] / PRESS_STEPS * shift
+        q_back, back_m, back_rad = solve_path(robot, list(back), q_arm[0])
+        res_m, res_rad = np.append(res_m, back_m), np.append(res_rad, back_rad)
+        q_press = np.column_stack([np.vstack([q_back[::-1], q_arm[:1]]), np.full(PRESS_STEPS + 1, openings[0])])
+        travel = np.linspace(0.0, float(np.linalg.norm(shift)), PRESS_STEPS + 1)
+        parts.append(("press", toppra_path(q_press, travel, v_max, a_max, opts.contact_speed, SAMPLE_PERIOD)))
+        start = q_press[0]
     thumb, finger = _tips(robot, all_poses, all_open)
     travel = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(np.diff(thumb, axis=0), axis=1),
                                                          np.linalg.norm(np.diff(finger, axis=0), axis=1)))])
-    v_max, a_max = robot.v_max, robot.a_max
-    parts: list[tuple[str, Samples]] = []
     for name, first, last in segments + [("termination", len(states) - 1, len(path) - 1)]:
         # a primitive that bends (a P_dpsi's corners) is timed leg by leg, at rest at each corner:
         # a time-optimal pass through a corner would need a jump in the joint velocities
@@ -215,7 +238,7 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
         q_up = np.column_stack([np.vstack([q_arm[-1], q_up]), np.full(len(lift), all_open[-1])])
         parts.append(("retreat", toppra_path(q_up, lift, v_max, a_max, RETREAT_SPEED, SAMPLE_PERIOD)))
     contact_error = _contact_error(scene, robot, states, frame, q_arm[: len(states)], openings)
-    return parts, path, (float(np.max(res_m)), float(np.max(res_rad)), contact_error)
+    return parts, start, (float(np.max(res_m)), float(np.max(res_rad)), contact_error)
 
 
 def _corners(states: NDArray, first: int, last: int) -> list[int]:

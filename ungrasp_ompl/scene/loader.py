@@ -174,7 +174,8 @@ class SceneReader:
     def robot(self, value: Any) -> RobotOptions:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
-                                "termination_opening", "termination_angle_deg", "retreat_height", "object"})
+                                "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
+                                "object"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -216,6 +217,7 @@ class SceneReader:
                                                        positive=True, maximum=90.0, unit=" deg",
                                                        default=math.degrees(d.termination_angle))),
             retreat_height=self.length(m, "robot.retreat_height", "retreat_height", zero=True, default=d.retreat_height),
+            start_press=self.length(m, "robot.start_press", "start_press", zero=True, default=d.start_press),
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )

@@ -300,6 +300,9 @@ class Scene:
                                          minimum=0.0, maximum=1e4, default=1.0),
         )
         robot = r.robot(top.get("robot", {}))
+        if robot.start_press > clearance:
+            raise InputError("robot.start_press", f"must not exceed planning.table_clearance ({clearance:g} m): "
+                             "the pressed digits would run into the table", source)
         planar_only = top.get("planar_only")
         if planar_only is not None and not (isinstance(planar_only, str) and planar_only.strip()):
             raise InputError("planar_only", f"must say why the robot cannot execute the scene, got {planar_only!r}",
@@ -399,7 +402,7 @@ class Scene:
             if self.object3d is not None:
                 section = (self.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
         return CollisionModel(self.object_length, self.object_thickness, self.digits, tuple(self.obstacles),
-                              section, tuple(self.solids), frame)
+                              section, tuple(self.solids), frame, self.robot.start_press)
 
     def classify(self, q: ArrayLike, checker: CollisionChecker | None = None) -> NDArray[np.int8]:
         """The StateClass of each state q (N, 3), all contacts sticking: the first check each

@@ -26,13 +26,16 @@ class GripperDrive:
 
     times: (K,) s from the start of the placement's first primitive; palm: (K, 4, 4) world
     poses of the palm frame; opening: (K,) m between the digit faces; phases: (name, start s,
-    end s) of each primitive, the termination and the retreat, in order.
+    end s) of each primitive, the termination and the retreat, in order; press_from: the palm's
+    world pose (4, 4) where a start press (robot.start_press) begins, the planned start pinch,
+    or None without one (the trial's settling then brings the palm from there to palm[0]).
     """
 
     times: NDArray[np.float64]
     palm: NDArray[np.float64]
     opening: NDArray[np.float64]
     phases: tuple[tuple[str, float, float], ...]
+    press_from: NDArray[np.float64] | None = None
 
     def phase_at(self, t: float) -> tuple[int, str]:
         """Index and name of the phase running at time t (s); the last phase after the end."""
@@ -50,10 +53,12 @@ def drive_from_trajectory(traj: JointTrajectory, robot: RobotModel, prefix: str 
                           period: float = CONTROL_PERIOD) -> GripperDrive:
     """The drive of one placement of a trajectory: from the start of its first primitive
     (the approach, where the object is carried, is left out: the trial starts with the object
-    in the pinch) to the end of its retreat. prefix selects a piece of a tiling trajectory
-    ('square/'); segments are named as robot.pipeline names them."""
-    mine = [(name[len(prefix):], a, b) for name, a, b in traj.segments
-            if name.startswith(prefix) and name[len(prefix):] not in ("approach", "return")]
+    in the pinch; so is a start press, which the trial's settling makes from its first pose) to
+    the end of its retreat. prefix selects a piece of a tiling trajectory ('square/'); segments
+    are named as robot.pipeline names them."""
+    ours = [(name[len(prefix):], a, b) for name, a, b in traj.segments if name.startswith(prefix)]
+    mine = [(name, a, b) for name, a, b in ours if name not in ("approach", "return", "press")]
+    press = next((a for name, a, _ in ours if name == "press"), None)
     if not mine:
         raise ValueError(f"the trajectory has no segments named {prefix}<primitive>")
     i0, i1 = mine[0][1], mine[-1][2]
@@ -65,4 +70,5 @@ def drive_from_trajectory(traj: JointTrajectory, robot: RobotModel, prefix: str 
     q = np.column_stack([np.interp(ticks, t, traj.positions[i0:i1 + 1, j]) for j in range(traj.positions.shape[1])])
     palm = np.array([tcp_pose(robot, row[:-1]) for row in q])
     phases = tuple((name, float(traj.times[a]) - t0, float(traj.times[b]) - t0) for name, a, b in mine)
-    return GripperDrive(ticks, palm, q[:, -1].copy(), phases)
+    press_from = None if press is None else tcp_pose(robot, traj.positions[press, :-1])
+    return GripperDrive(ticks, palm, q[:, -1].copy(), phases, press_from)

@@ -123,6 +123,6 @@ def read_trial_poses(path: PathLike) -> TrialPoses:
 
 def trial_start_time(trajectory: Any) -> float:
     """Trajectory time (s) at which a placement's drive starts: its first primitive (the
-    approach and the return before it are not simulated)."""
+    approach and the return before it are not simulated, and a start press is the settling's)."""
     return next(float(trajectory.times[a]) for name, a, _ in trajectory.segments
-                if name not in ("return", "approach"))
+                if name not in ("return", "approach", "press"))

@@ -6,7 +6,9 @@ that much higher and the hand lowers it onto the table in the first half of the 
 the arm would have set it down (the object slides in the pinch as the contacts let it, never
 through a digit); where they leave it above the table it hangs there, or, when it was handed
 over at the start (sim.handed_over), it starts slid along GB in the pinch until it rests on the
-table; the world settles with the palm still (gravity, the servo squeezing); then
+table; a start press (robot.start_press) starts the hand that much higher, at the planned start
+pinch, and brings it down in the same way; the world settles with the palm still (gravity, the
+servo squeezing); then
 every control period the
 palm is moved to the drive's next pose and the servo is commanded the planned opening less
 the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
@@ -129,15 +131,16 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     return pose, lowering
 
 
-def touch_down(model, data, ids: ModelIds, palm: NDArray, lowering: float, duration: float) -> None:
-    """Step the world for duration (s) while the palm, lowering (m) above its pose palm (4x4), comes
-    down to it at a constant speed over the first half and then stays (the settling of the trial's
-    start; with lowering 0 the palm never moves). The table meets the object on the way, and the
-    object slides in the pinch as its contacts let it."""
+def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, duration: float) -> None:
+    """Step the world for duration (s) while the palm, offset (3,) m from its pose palm (4x4), comes
+    to it in a straight line at a constant speed over the first half and then stays (the settling of
+    the trial's start: the lowering of a hand too low, a start press straight down; with offset 0
+    the palm never moves). The table meets the object on the way, and the object slides in the pinch as
+    its contacts let it."""
     import mujoco
 
     steps = max(1, round(duration / model.opt.timestep))
-    if lowering <= 0.0:
+    if not np.any(offset):
         mujoco.mj_step(model, data, nstep=steps)
         return
     quat = np.zeros(4)
@@ -145,7 +148,7 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, lowering: float, durat
     ticks = max(1, min(moving, round(moving * model.opt.timestep / TOUCH_DOWN_TICK)))
     pose = palm.copy()
     for i in range(1, ticks + 1):
-        pose[2, 3] = palm[2, 3] + lowering * (1.0 - i / ticks)
+        pose[:3, 3] = palm[:3, 3] + offset * (1.0 - i / ticks)
         _set_palm(data, ids, pose, quat)
         mujoco.mj_step(model, data, nstep=moving // ticks)
     mujoco.mj_step(model, data, nstep=steps - ticks * (moving // ticks))
@@ -369,8 +372,9 @@ def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
 
 def _start(setup: TrialSetup, params: TrialParams):
     """The trial's compiled world at its first state (before the settling): model, data, ids,
-    the commanded palm poses (K, 4, 4) with the calibration error applied, and how far the hand
-    starts above the first of them (perturbed_start's lowering, m)."""
+    the commanded palm poses (K, 4, 4) with the calibration error applied, and where the hand
+    starts from the first of them (3,) m: perturbed_start's lowering above it, and a start press's
+    depth (GripperDrive.press_from)."""
     import mujoco
 
     spec = trial_spec(setup, params)
@@ -378,11 +382,15 @@ def _start(setup: TrialSetup, params: TrialParams):
     data = mujoco.MjData(model)
     ids = model_ids(model)
     drive = setup.drive
-    palm = calibration_offset(drive, params) @ drive.palm if not params.calibrated else drive.palm
+    error = calibration_offset(drive, params) if not params.calibrated else np.eye(4)
+    palm = error @ drive.palm if not params.calibrated else drive.palm
     start, lowering = perturbed_start(setup, params, spec.obj.thickness)
+    offset = np.array([0.0, 0.0, lowering])
+    if drive.press_from is not None:
+        offset += (error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
     quat = np.zeros(4)
     raised = palm[0].copy()
-    raised[2, 3] += lowering
+    raised[:3, 3] += offset
     _set_palm(data, ids, raised, quat)
     thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_jaw]]
     finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]
@@ -392,7 +400,7 @@ def _start(setup: TrialSetup, params: TrialParams):
     data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
     mujoco.mj_forward(model, data)
-    return spec, model, data, ids, palm, lowering
+    return spec, model, data, ids, palm, offset
 
 
 def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:
@@ -417,12 +425,12 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     import mujoco
 
     wall = time.perf_counter()
-    spec, model, data, ids, palm, lowering = _start(setup, params)
+    spec, model, data, ids, palm, offset = _start(setup, params)
     drive = setup.drive
     quat = np.zeros(4)
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / spec.timestep))
-    touch_down(model, data, ids, palm[0], lowering, setup.settle_time)
+    touch_down(model, data, ids, palm[0], offset, setup.settle_time)
     if record is not None:
         record.append((0.0, _pose(data, ids.object_body)))
 

@@ -45,7 +45,7 @@ OBSTACLE_DEPTH = 0.1
 DIGIT_KEYS = ("thumb_tip_thickness", "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
               "finger_tip_radius")
 #: Phases of a placement that are not primitives (robot.pipeline's segment names).
-NON_PRIMITIVES = ("return", "approach", "termination", "retreat")
+NON_PRIMITIVES = ("return", "approach", "press", "termination", "retreat")
 
 PathLike = str | os.PathLike[str]
 
@@ -170,7 +170,7 @@ def _segments(traj: JointTrajectory, prefix: str) -> list[tuple[str, int, int]]:
 
 def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str) -> PieceRecord:
     """The record of one object: its prism, target, and planned pose along traj (module docstring)."""
-    from ..robot.pipeline import plane_frame
+    from ..robot.pipeline import plane_frame, press_shift
     from ..robot.placement import densify, palm_poses
     from ..sim.setup import object_outline, tilted
 
@@ -182,7 +182,9 @@ def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str
     states, dense = densify(plan)
     if len(prims) != len(dense):
         raise ValueError(f"the trajectory has {len(prims)} primitives for {scene.name}, the plan {len(dense)}")
-    palms, _ = palm_poses(scene, states, frame, robot.gripper.thumb_length)
+    pressed = frame.copy()  # the hand runs the plan as much lower as a start press took it
+    pressed[:3, 3] += press_shift(scene)
+    palms, _ = palm_poses(scene, states, pressed, robot.gripper.thumb_length)
     grip = np.linalg.inv(palms[0]) @ tilted(frame, float(states[0, 0]))
     times, thetas = [float(traj.times[approach[2]])], [float(states[0, 0])]
     for (_, a, b), (_, first, last) in zip(prims, dense):

@@ -52,6 +52,7 @@ PRIMITIVE_TEXT = {"P_theta": "theta down: pivot about G, all contacts stick",
                   "P_psi": "psi up: the thumb turns, B slides",
                   "P_dpsi": "d down, psi up: A and B slide",
                   "approach": "approach: carry the object from home to the start pinch",
+                  "press": "press: come straight down, the object's end held by the table",
                   "termination": "termination: let go", "retreat": "retreat: lift the palm",
                   "return": "return home for the next piece"}
 
