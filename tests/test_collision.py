@@ -247,6 +247,7 @@ def test_table_clearance_keeps_every_body_that_far_above_the_table():
 
     doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
     doc.setdefault("planning", {})["table_clearance"] = 0.0
+    doc.setdefault("robot", {})["start_press"] = 0.0
     base = Scene.from_dict(doc)
     c = 0.0015
     doc["planning"]["table_clearance"] = c
@@ -279,7 +280,7 @@ def test_table_clearance_keeps_every_body_that_far_above_the_table():
         Scene.from_dict(doc)
     # a start press runs the digits that much lower: no deeper than the clearance
     doc["planning"]["table_clearance"] = c
-    doc.setdefault("robot", {})["start_press"] = c
+    doc["robot"]["start_press"] = c
     assert Scene.from_dict(doc).robot.start_press == c
     doc["robot"]["start_press"] = 1.5 * c
     with pytest.raises(InputError, match=r"robot.start_press: must not exceed planning.table_clearance"):

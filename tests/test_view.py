@@ -94,7 +94,9 @@ def test_strip_of_key_frames(export):
 
 def test_object_between_the_digits(export):
     """At every frame of every primitive, B lies on the thumb's face (within 0.05 mm of it, between
-    the palm and the tip) and the finger's rounded tip rests on the object's top face at A."""
+    the palm and the tip) and the finger's rounded tip rests on the object's top face at A, the
+    object drawn where the plan has it and the hand robot.start_press lower."""
+    from ungrasp_ompl.robot.pipeline import press_shift
     from ungrasp_ompl.scene import Scene
     from ungrasp_ompl.view import load_scene
     from ungrasp_ompl.view.record import read_view_record
@@ -111,7 +113,8 @@ def test_object_between_the_digits(export):
     for f, time in enumerate(scene.times):
         if not scene.phase_at(time)[0].startswith("P_"):
             continue
-        body = scene.poses[obj, f]
+        body = scene.poses[obj, f].copy()
+        body[:3, 3] += press_shift(planned)  # where the pressed hand holds it
         b_world = body[:3, :3] @ np.array([l, 0.0, 0.0]) + body[:3, 3]
         b_thumb = np.linalg.solve(scene.poses[thumb, f], np.append(b_world, 1.0))
         assert abs(b_thumb[0]) < 5e-5 and 0.0 < b_thumb[2] <= g.thumb_length + 1e-6, (time, b_thumb)

@@ -191,14 +191,21 @@ def press_shift(scene: Scene) -> NDArray[np.float64]:
     return np.array([0.0, 0.0, -scene.robot.start_press])
 
 
+def pressed_frame(scene: Scene) -> NDArray[np.float64]:
+    """The plane frame (4x4) the plan's primitives are run in: plane_frame moved by press_shift,
+    a new array (plane_frame itself without a press)."""
+    frame = plane_frame(scene).copy()
+    frame[:3, 3] += press_shift(scene)
+    return frame
+
+
 def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
     """One plan on the robot: the timed press (robot.start_press), primitives, termination and
     retreat; the joints and opening (7,) the approach ends at; and (IK residual m, rad, contact
     error m)."""
     opts = scene.robot
     shift = press_shift(scene)
-    frame = plane_frame(scene).copy()
-    frame[:3, 3] += shift  # the plan is run as much lower as the press took it (zero without one)
+    frame = pressed_frame(scene)  # the plan is run as much lower as the press took it
     states, segments = densify(plan)
     poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)
     term_poses, term_openings = _termination(scene, poses[-1], openings[-1], robot)

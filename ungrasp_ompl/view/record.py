@@ -170,7 +170,7 @@ def _segments(traj: JointTrajectory, prefix: str) -> list[tuple[str, int, int]]:
 
 def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str) -> PieceRecord:
     """The record of one object: its prism, target, and planned pose along traj (module docstring)."""
-    from ..robot.pipeline import plane_frame, press_shift
+    from ..robot.pipeline import plane_frame, pressed_frame
     from ..robot.placement import densify, palm_poses
     from ..sim.setup import object_outline, tilted
 
@@ -182,10 +182,10 @@ def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str
     states, dense = densify(plan)
     if len(prims) != len(dense):
         raise ValueError(f"the trajectory has {len(prims)} primitives for {scene.name}, the plan {len(dense)}")
-    pressed = frame.copy()  # the hand runs the plan as much lower as a start press took it
-    pressed[:3, 3] += press_shift(scene)
-    palms, _ = palm_poses(scene, states, pressed, robot.gripper.thumb_length)
-    grip = np.linalg.inv(palms[0]) @ tilted(frame, float(states[0, 0]))
+    # the hand runs the plan as much lower as a start press took it; the object stays as planned
+    palms, _ = palm_poses(scene, states, pressed_frame(scene), robot.gripper.thumb_length)
+    grip = np.linalg.inv(palm_poses(scene, states[:1], frame, robot.gripper.thumb_length)[0][0]) @ tilted(
+        frame, float(states[0, 0]))
     times, thetas = [float(traj.times[approach[2]])], [float(states[0, 0])]
     for (_, a, b), (_, first, last) in zip(prims, dense):
         path = _features(palms[first:last + 1])
