@@ -3,8 +3,9 @@
 Phases: approach (Ruckig, from the home configuration to the start pinch, the
 object held), with robot.start_press the press (the palm straight down by
 start_press, the object's end held by the table; TOPPRA), each primitive (dense
-Cartesian IK, then TOPPRA along the fixed path, as much lower), the termination maneuver (paper fig. 10d: open the gripper, or turn it
-about the thumb tip; TOPPRA), the retreat (the palm lifted straight up; TOPPRA). Every
+Cartesian IK, then TOPPRA along the fixed path, as much lower), the termination
+maneuver (paper fig. 10d: open the gripper, or turn it about the thumb tip;
+TOPPRA), the retreat (the palm lifted straight up; TOPPRA). Every
 sample is checked against the joint limits and for collision of the arm and
 gripper with the table and the obstacles.
 """
@@ -223,8 +224,8 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
         q_back, back_m, back_rad = solve_path(robot, list(back), q_arm[0])
         res_m, res_rad = np.append(res_m, back_m), np.append(res_rad, back_rad)
         q_press = np.column_stack([np.vstack([q_back[::-1], q_arm[:1]]), np.full(PRESS_STEPS + 1, openings[0])])
-        travel = np.linspace(0.0, float(np.linalg.norm(shift)), PRESS_STEPS + 1)
-        parts.append(("press", toppra_path(q_press, travel, v_max, a_max, opts.contact_speed, SAMPLE_PERIOD)))
+        down = np.linspace(0.0, float(np.linalg.norm(shift)), PRESS_STEPS + 1)
+        parts.append(("press", toppra_path(q_press, down, v_max, a_max, opts.contact_speed, SAMPLE_PERIOD)))
         start = q_press[0]
     thumb, finger = _tips(robot, all_poses, all_open)
     travel = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(np.diff(thumb, axis=0), axis=1),
