@@ -18,6 +18,9 @@ from ..robot.trajectory import JointTrajectory
 
 #: The UR e-series control period (s): the palm pose is updated this often.
 CONTROL_PERIOD = 0.002
+#: Segments of a placement that the drive leaves out (robot.pipeline's names): the trial starts with
+#: the object in the pinch, and a start press is the settling's.
+UNDRIVEN = ("approach", "return", "press")
 
 
 @dataclass(frozen=True)
@@ -57,7 +60,7 @@ def drive_from_trajectory(traj: JointTrajectory, robot: RobotModel, prefix: str 
     the end of its retreat. prefix selects a piece of a tiling trajectory ('square/'); segments
     are named as robot.pipeline names them."""
     ours = [(name[len(prefix):], a, b) for name, a, b in traj.segments if name.startswith(prefix)]
-    mine = [(name, a, b) for name, a, b in ours if name not in ("approach", "return", "press")]
+    mine = [(name, a, b) for name, a, b in ours if name not in UNDRIVEN]
     press = next((a for name, a, _ in ours if name == "press"), None)
     if not mine:
         raise ValueError(f"the trajectory has no segments named {prefix}<primitive>")

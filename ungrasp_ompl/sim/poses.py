@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..io import read_versioned_json, write_text_atomic
 from ..perturbation import TrialParams
+from .drive import UNDRIVEN
 from .outcome import TrialResult
 from .trial import TrialSetup, run_trial, trial_spec
 
@@ -124,5 +125,4 @@ def read_trial_poses(path: PathLike) -> TrialPoses:
 def trial_start_time(trajectory: Any) -> float:
     """Trajectory time (s) at which a placement's drive starts: its first primitive (the
     approach and the return before it are not simulated, and a start press is the settling's)."""
-    return next(float(trajectory.times[a]) for name, a, _ in trajectory.segments
-                if name not in ("return", "approach", "press"))
+    return next(float(trajectory.times[a]) for name, a, _ in trajectory.segments if name not in UNDRIVEN)

@@ -135,8 +135,8 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, durat
     """Step the world for duration (s) while the palm, offset (3,) m from its pose palm (4x4), comes
     to it in a straight line at a constant speed over the first half and then stays (the settling of
     the trial's start: the lowering of a hand too low, a start press straight down; with offset 0
-    the palm never moves). The table meets the object on the way, and the object slides in the pinch as
-    its contacts let it."""
+    the palm never moves). The table meets the object on the way, and the object slides in the
+    pinch as its contacts let it."""
     import mujoco
 
     steps = max(1, round(duration / model.opt.timestep))
@@ -382,8 +382,11 @@ def _start(setup: TrialSetup, params: TrialParams):
     data = mujoco.MjData(model)
     ids = model_ids(model)
     drive = setup.drive
-    error = calibration_offset(drive, params) if not params.calibrated else np.eye(4)
-    palm = error @ drive.palm if not params.calibrated else drive.palm
+    if params.calibrated:
+        error, palm = np.eye(4), drive.palm
+    else:
+        error = calibration_offset(drive, params)
+        palm = error @ drive.palm
     start, lowering = perturbed_start(setup, params, spec.obj.thickness)
     offset = np.array([0.0, 0.0, lowering])
     if drive.press_from is not None:
