@@ -79,10 +79,12 @@ def _box_triangles():
     return [t for a, b, c, d in faces for t in ((a, b, c), (a, c, d))]
 
 
-def _world_oracle(scene, q):
+def _world_oracle(scene, q, down=0.0, clearance=0.0):
     """Per state: the thumb, finger or housing (boxes and prisms placed in the world through the
     plane frame, meshes built here) hits a solid (meshes of their own vertices' hulls, which are
-    boxes and prisms here), or reaches below the table."""
+    boxes and prisms here), or reaches below the table; with down (m), the bodies meet the solids
+    that much lower in the world, and with clearance (m), reaching below that height in the plan
+    is meeting the table."""
     import fcl
     from scipy.spatial import ConvexHull
 
@@ -108,10 +110,10 @@ def _world_oracle(scene, q):
         bodies.append((palm, dg.palm_thickness * l / 2))
         hit = False
         for outline, w in bodies:
-            hit |= bool(outline[:, 1].min() < -1e-9)  # the table
+            hit |= bool(outline[:, 1].min() < clearance - 1e-9)  # the table
             plane_pts = np.vstack([np.column_stack([outline[:, 0], np.full(4, -w), outline[:, 1]]),
                                    np.column_stack([outline[:, 0], np.full(4, w), outline[:, 1]])])
-            body = _mesh_object(plane_pts @ rot.T + origin, _box_triangles())
+            body = _mesh_object(plane_pts @ rot.T + origin - [0.0, 0.0, down], _box_triangles())
             hit |= any(fcl.collide(body, s, fcl.CollisionRequest(), fcl.CollisionResult()) > 0 for s in solids)
         out.append(hit)
     return np.array(out)
@@ -134,6 +136,35 @@ def test_solids_agree_with_a_world_frame_oracle():
     got = CollisionChecker(scene.collision_model()).in_collision(q)  # the object's prism too, clear of the solids here
     expected = _world_oracle(scene, q)
     assert 0.1 < expected.mean() < 0.9
+    disagree = np.flatnonzero(got != expected)
+    assert len(disagree) == 0, q[disagree]
+
+
+def test_a_start_press_meets_the_solids_where_the_hand_runs():
+    """With robot.start_press p the hand runs p lower than planned: the checker meets the solids
+    with the digits and housing p lower in the world (the oracle's meshes moved down) and the table
+    with the planned digits above the scene's clearance, near a layout's walls and a placed piece;
+    the press decides some of the states."""
+    from pathlib import Path
+
+    import yaml
+
+    from ungrasp_ompl.layout import Layout
+
+    doc = yaml.safe_load((Path(__file__).resolve().parents[1] / "scenes" / "tangram.yaml").read_text())
+    p, c = 0.002, 0.003
+    doc["planning"] = {"table_clearance": c}
+    doc["robot"]["start_press"] = p
+    layout = Layout.from_dict(doc)
+    names = [piece.name for piece in layout.pieces]
+    scene = layout.scene(names.index("small_triangle_1"), placed=[names.index("medium_triangle")])
+    rng = np.random.default_rng(7)
+    n = 400
+    q = np.column_stack([rng.uniform(0, math.radians(30), n), rng.uniform(0.3, 0.9, n),
+                         rng.uniform(0, math.radians(110), n)])
+    got = CollisionChecker(scene.collision_model()).in_collision(q)
+    expected = _world_oracle(scene, q, down=p, clearance=c)
+    assert (expected != _world_oracle(scene, q, clearance=c)).sum() >= 5
     disagree = np.flatnonzero(got != expected)
     assert len(disagree) == 0, q[disagree]
 

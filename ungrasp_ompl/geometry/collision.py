@@ -153,8 +153,9 @@ class CollisionModel:
     solids: tuple[Solid, ...] = ()
     #: The manipulation plane's pose in the world (4 x 4); needed with solids.
     frame: NDArray[np.float64] | None = None
-    #: How much lower than planned the hand runs (robot.start_press), m: the release's check
-    #: meets the table as much higher.
+    #: How much lower than planned the hand runs (robot.start_press), m: the digits and the housing
+    #: are checked there against obstacles, solids and the release's table; the planned digits
+    #: keep the scene's clearance over the table.
     lowered: float = 0.0
 
 
@@ -223,16 +224,17 @@ class CollisionChecker:
                     heights = (bottom - frame[2, 3], top - frame[2, 3])
                     self._rect[solid.name] = {body: _slab_rect(local_foot, heights, *self._y_range[body])
                                               for body in prisms}
-        #: How far a body may reach below the table's top (m): minus the scene's clearance over it.
-        self._table_gap = _TABLE_GAP - dg.table_clearance * l
-        self._release_gap = RELEASE_TABLE_GAP - model.lowered
+        #: How far a digit, where the hand runs (model.lowered below its plan), may reach below the
+        #: table's top (m): the lowering less the scene's clearance over it.
+        self._table_gap = _TABLE_GAP - dg.table_clearance * l + model.lowered
         self._request = fcl.CollisionRequest()
         self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
     def _frames(self, theta: NDArray, d: NDArray, psi: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
         """Per body but the object, for states that theta, d and psi (rad, over l, rad) broadcast to:
         its frame angle, its reference point (..., 2) (the thumb's and the finger's tips, the
-        housing's centre) and its outline relative to that point (..., 4, 2), over l."""
+        housing's centre) and its outline relative to that point (..., 4, 2), over l. The
+        reference points are where the hand runs: CollisionModel.lowered below the plan's."""
         dg = self.model.digits
         beta = theta + psi
         thumb, finger = digit_offsets(theta, psi, dg)
@@ -242,6 +244,9 @@ class CollisionChecker:
         }
         if "palm" in self._bodies:
             frames["palm"] = (beta, housing_centre(theta, d, psi, dg, frames["thumb"][1]), housing_offsets(theta, psi, dg))
+        if self.model.lowered:
+            down = np.array([0.0, self.model.lowered / self._length])
+            frames = {body: (angle, ref - down, offsets) for body, (angle, ref, offsets) in frames.items()}
         return frames
 
     def _object_pose(self, theta: NDArray) -> tuple[NDArray, NDArray, NDArray]:
@@ -384,8 +389,8 @@ class CollisionChecker:
         half of it, the thumb stays on B. kind 'open_symmetric': the finger moves by half of it
         along n_B, the thumb by half of it against n_B, the housing stays. kind 'rotate': the
         gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked
-        at steps poses along the way; the digits may press into the table by RELEASE_TABLE_GAP,
-        as the robot's own check allows, less how much lower the hand runs (CollisionModel.lowered).
+        at steps poses along the way, where the hand runs (CollisionModel.lowered below the plan);
+        the digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         poses = self._digit_poses(q)
@@ -405,7 +410,7 @@ class CollisionChecker:
                 else:
                     shift = n_b * (amount * f * share[body])
                     moved[body] = (angle, origin + shift, outline + shift[:, None, :])
-            hit |= self._hits(moved, self._release_gap)
+            hit |= self._hits(moved, RELEASE_TABLE_GAP)
         return hit
 
     def contacts(self, q: ArrayLike) -> list[str]:
