@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from ungrasp_ompl.mechanics import DigitGeometry, aperture, digit_polygons, finger_tip, s_b, thumb_clearance, thumb_tip
-from ungrasp_ompl.mechanics.kinematics import digit_axis, finger_corner, kinematic_checks, thumb_normal
+from ungrasp_ompl.mechanics.kinematics import (digit_axis, finger_corner, kinematic_checks, kinematic_validity,
+                                              pressed_state, thumb_normal)
 
 DIGITS = DigitGeometry(alpha=0.47)
 
@@ -129,3 +131,49 @@ def test_a_rounded_tip_rolls_on_the_object_without_slipping(states, velocity):
     v_finger = (c1 - c0) / (2 * h) + ((b1 - b0) / (2 * h))[:, None] * _perp(contact - centre)
     v_object = v[0] * _perp(contact)
     np.testing.assert_allclose(v_object - v_finger, v[1] * u, atol=1e-7)
+
+
+def test_a_press_lowers_the_palm_straight_down_and_turns_it_not():
+    """pressed_state(..., depth): the palm, midway between the digits' base corners on their faces
+    (digit_polygons' vertex 1 of the thumb and of the finger), lies depth straight below the
+    state's, the digits turned as before (theta + psi), G at the origin, the object turned down
+    about G; a press of -depth brings the state back. A rounded tip on a thick object, states all
+    over a plan's range, at once; a press deeper than the pinch stands finds no state."""
+    digits = DigitGeometry(alpha=0.3, thumb_length=1.8, object_thickness=0.03, finger_tip_radius=0.03)
+    rng = np.random.default_rng(11)
+    n = 500
+    q = np.column_stack([rng.uniform(0.15, 0.8, n), rng.uniform(0.3, 0.95, n), rng.uniform(0.0, 0.6, n)])
+    depth = 0.03
+
+    def palm(th, d, ps):
+        thumb, finger = digit_polygons(th, d, ps, digits)
+        return (thumb[:, 1] + finger[:, 1]) / 2
+
+    th, d, ps, found = pressed_state(q[:, 0], q[:, 1], q[:, 2], depth, digits)
+    assert found.all()
+    np.testing.assert_allclose(palm(th, d, ps) - palm(*q.T), np.broadcast_to([0.0, -depth], (n, 2)), atol=1e-11)
+    np.testing.assert_allclose(th + ps, q[:, 0] + q[:, 2], atol=1e-14)
+    assert np.all(th < q[:, 0])
+    back = pressed_state(th, d, ps, -depth, digits)
+    np.testing.assert_allclose(np.column_stack(back[:3]), q, atol=1e-10)
+    assert not pressed_state(0.3, 0.8, 0.0, 2.0, digits)[3]
+
+
+def test_a_press_keeps_b_its_margin_where_the_object_lies_pressed():
+    """With a press, a state is kinematically valid only if B also keeps thumb_tip_margin at the
+    pressed state, s_B computed there; some states that keep it as planned lose it pressed (the
+    object turns against the digits and B moves toward the thumb's tip), none the other way."""
+    digits = DigitGeometry(alpha=0.47, thumb_length=1.8, object_thickness=0.03, finger_tip_radius=0.03,
+                           thumb_tip_margin=0.03)
+    pressed = dataclasses.replace(digits, press=0.03)
+    rng = np.random.default_rng(5)
+    n = 4000
+    th, d, ps = rng.uniform(0.1, 0.6, n), rng.uniform(0.4, 1.0, n), rng.uniform(0.3, 1.0, n)
+    plain = kinematic_validity(th, d, ps, digits)
+    checks = kinematic_checks(th, d, ps, pressed)
+    tp, dp, pp, found = pressed_state(th, d, ps, 0.03, pressed)
+    margin_there = found & (s_b(dp, pp, 0.47, 0.03, 0.03) >= 0.03 - 1e-12)
+    np.testing.assert_array_equal(checks["s_B >= 0 pressed"], margin_there)
+    np.testing.assert_array_equal(kinematic_validity(th, d, ps, pressed), plain & margin_there)
+    lost = plain & ~margin_there
+    assert 0.01 < lost.mean() < 0.5

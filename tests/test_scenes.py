@@ -71,8 +71,11 @@ def test_upper_obstacle_block_acts_as_the_reference_quadrant():
 def test_object_plans_keep_their_clearances_between_lattice_states(name):
     """Each object's lattice plan, sampled ten times finer than its lattice, keeps the digits and
     the housing planning.table_clearance above the table and B planning.thumb_tip_margin from the
-    thumb's tip all along (the kinematic margins, 0 where a check flips), and the plan ends lower
-    than the scene's theta_max."""
+    thumb's tip all along (the kinematic margins, 0 where a check flips), B that far from the tip
+    also where the start press puts the object (mechanics.pressed_state, s_B there), and the plan
+    ends lower than the scene's theta_max."""
+    from ungrasp_ompl.mechanics import s_b
+    from ungrasp_ompl.mechanics.kinematics import pressed_state
     from ungrasp_ompl.mechanics.path import plan_samples
     from ungrasp_ompl.planning import plan
 
@@ -84,4 +87,9 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     margins = scene.margin(states).kinematic
     assert margins["table"].min() >= -1e-9 and margins["thumb_tip"].min() >= -1e-9
     assert margins["table"].min() < 2.5e-4  # the clearance binds somewhere: the check is not idle
+    dg = scene.digits
+    assert dg.press == pytest.approx(scene.robot.start_press / scene.object_length) and dg.press > 0
+    _, d, psi, found = pressed_state(states[:, 0], states[:, 1], states[:, 2], dg.press, dg)
+    assert found.all()
+    assert s_b(d, psi, dg.alpha, dg.object_thickness, dg.finger_tip_radius).min() >= dg.thumb_tip_margin - 1e-9
     assert result.states[-1][0] <= scene.goal.theta_max + 1e-12

@@ -35,7 +35,9 @@ class DigitGeometry:
     0 lets a plan end with B on the tip's edge, which a real thumb loses.
     table_clearance: how far above the table the digits and the housing must
     stay (their lowest point >= it); 0 lets a plan graze the table, which an
-    arm calibrated to a millimetre hits.
+    arm calibrated to a millimetre hits. press: how far below the plan the hand
+    runs (a start press); the object, its end held by the table, then lies at
+    the pressed state (pressed_state), and B must keep thumb_tip_margin there too.
     object_thickness: the object's thickness t. G and B are on its bottom face
     and the finger presses its top face, so the digits stand t cos(psi)
     further apart and the whole gripper t sin(psi) further back along the
@@ -58,6 +60,7 @@ class DigitGeometry:
     thumb_tip_margin: float = 0.0  # B kept at least this far from the thumb's tip (s_B >= margin)
     table_clearance: float = 0.0  # the digits and the housing kept at least this far above the table
     object_thickness: float = 0.0  # the object's thickness: the finger presses its top face
+    press: float = 0.0  # how far below the plan the hand runs: B keeps its margin at the pressed state too
 
     @property
     def finger_length(self) -> float:
@@ -215,6 +218,40 @@ def housing_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Digit
         + (w / 2)[..., None] * thumb_normal(theta, psi)
 
 
+def palm_point(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """The palm's origin: on the digits' base line, midway between the digit faces, shape (..., 2),
+    over l. With the digit axis (theta + psi) it is the hand's pose in the plane."""
+    return housing_centre(theta, d, psi, digits) + digits.palm_length / 2 * digit_axis(theta, psi)
+
+
+def pressed_state(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, depth: float, digits: DigitGeometry,
+                  iterations: int = 30, tol: float = 1e-12) -> tuple[NDArray, NDArray, NDArray, NDArray[np.bool_]]:
+    """Where the object lies when the hand is held depth (over l; negative: higher) straight below
+    the pose the states (theta, d, psi) give it, turned the same, with G where it is (the object's
+    end held by the table): the states whose palm (palm_point) is that much lower with theta + psi
+    kept, the object turned about G and slid in the pinch to meet the digits (docs/model.md 11.8).
+    Newton's method on (theta, d), elementwise; returns theta, d, psi (broadcast shape) and where a
+    state was found with 0 < theta < pi/2 and 0 < d <= 1."""
+    theta, d, psi = np.broadcast_arrays(*_arrays(theta, d, psi))
+    beta = theta + psi
+    target = palm_point(theta, d, psi, digits) - np.array([0.0, depth])
+    th, dd = theta.copy(), d.copy()
+    h = 1e-7
+    for _ in range(iterations):
+        f = palm_point(th, dd, beta - th, digits) - target
+        if float(np.max(np.abs(f), initial=0.0)) < tol:
+            break
+        ft = (palm_point(th + h, dd, beta - th - h, digits) - target - f) / h
+        fd = (palm_point(th, dd + h, beta - th, digits) - target - f) / h
+        det = ft[..., 0] * fd[..., 1] - ft[..., 1] * fd[..., 0]
+        det = np.where(np.abs(det) > 1e-300, det, np.nan)
+        th = th - (fd[..., 1] * f[..., 0] - fd[..., 0] * f[..., 1]) / det
+        dd = dd - (ft[..., 0] * f[..., 1] - ft[..., 1] * f[..., 0]) / det
+    f = palm_point(th, dd, beta - th, digits) - target
+    found = (np.max(np.abs(f), axis=-1) < 1e-9) & (th > 0.0) & (th < np.pi / 2) & (dd > 0.0) & (dd <= 1.0)
+    return th, dd, beta - th, found
+
+
 def housing_offsets(theta: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
     """The housing's outline relative to its centre, shape (..., 4, 2), over l: -a - c, a - c,
     a + c, -a + c, with a half its length toward the palm and c half its width along n_B."""
@@ -232,20 +269,27 @@ def kinematic_checks(
     - ``s_B >= 0`` / ``s_B <= thumb_length``: B lies on the thumb face (and at least
       ``thumb_tip_margin`` from its tip);
     - ``thumb clearance``: the thumb tip stays ``table_clearance`` above the table;
-    - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke).
+    - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke);
+    - ``s_B >= 0 pressed`` (with a press): at the pressed state too, B at least
+      ``thumb_tip_margin`` from the thumb's tip.
     """
     theta, d, psi = _arrays(theta, d, psi)
     sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
     w = aperture(d, psi, digits.object_thickness, digits.finger_tip_radius)
     d_a = contact_d(d, psi, digits.finger_tip_radius)
     tol = 1e-12
-    return {
+    checks = {
         "d": (d_a > 0.0) & (d_a <= 1.0 + tol),
         "s_B >= 0": sb >= digits.thumb_tip_margin - tol,
         "s_B <= thumb_length": sb <= digits.thumb_length + tol,
         "thumb clearance": thumb_clearance(theta, d, psi, digits) >= digits.table_clearance - tol,
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
     }
+    if digits.press > 0.0:
+        _, dp, pp, found = pressed_state(theta, d, psi, digits.press, digits)
+        sbp = s_b(dp, pp, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+        checks["s_B >= 0 pressed"] = found & (sbp >= digits.thumb_tip_margin - tol)
+    return checks
 
 
 def kinematic_validity(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.bool_]:

@@ -303,6 +303,7 @@ class Scene:
         if robot.start_press > clearance:
             raise InputError("robot.start_press", f"must not exceed planning.table_clearance ({clearance:g} m): "
                              "the pressed digits would run into the table", source)
+        digits = replace(digits, press=robot.start_press / length)
         planar_only = top.get("planar_only")
         if planar_only is not None and not (isinstance(planar_only, str) and planar_only.strip()):
             raise InputError("planar_only", f"must say why the robot cannot execute the scene, got {planar_only!r}",

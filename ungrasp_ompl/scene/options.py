@@ -97,8 +97,9 @@ class RobotOptions:
     start_press: float = 0.0
     """How far below the plan the hand works (m): from the start pinch it comes straight down by
     this much, the object's end held by the table, and runs the whole plan that much lower, so that
-    a hand up to this much too high still starts with the object on the table (docs/model.md 11.8).
-    At most planning.table_clearance."""
+    a hand up to this much too high still starts with the object on the table (docs/model.md 11.8);
+    B keeps planning.thumb_tip_margin also where the press puts the object. At most
+    planning.table_clearance."""
     object_position: tuple[float, float] = (0.45, 0.10)
     """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
     its target pose)."""
