@@ -238,3 +238,24 @@ def test_a_plan_the_arm_cannot_reach_has_no_trials_and_says_why_as_a_value(tmp_p
     error = run.unexecutable
     assert isinstance(error, ReachabilityError) and error.kind is Unreachable.OUT_OF_REACH
     assert error.evidence["distance_m"] > error.evidence["limit_m"]
+
+
+def test_a_path_a_fraction_of_a_millimetre_long_is_timed_within_the_limits():
+    """A 0.15 mm P_psi of the chalk (arm joints rad, opening m; the contacts' travel m), on which
+    TOPPRA's fine grid finds no parameterisation: it is timed all the same, from rest to rest,
+    through the path's end points, within the velocity and acceleration limits and the contact speed."""
+    from ungrasp_ompl.robot.timing import toppra_path
+
+    q = np.array([[-0.093156786, -2.057806228, -1.939542788, 2.815694915, -2.261361941, 0.571970093, 0.016793886],
+                  [-0.091768769, -2.057015489, -1.939044758, 2.813423708, -2.25839036, 0.572336851, 0.016850017],
+                  [-0.090377637, -2.056230527, -1.93854341, 2.811155157, -2.255419447, 0.572711041, 0.016906012],
+                  [-0.088983414, -2.055451377, -1.938038736, 2.808889208, -2.25244923, 0.573092605, 0.01696187]])
+    travel = np.array([0.0, 5.0276775e-05, 1.00690178e-04, 1.51240342e-04])
+    v_max, a_max, speed = np.array([math.pi] * 6 + [0.05]), np.array([4.0] * 6 + [0.2]), 0.01
+    timed = toppra_path(q, travel, v_max, a_max, speed, 0.008)
+    assert np.allclose(timed.q[[0, -1]], q[[0, -1]], atol=1e-9)
+    assert np.allclose(timed.qd[[0, -1]], 0.0, atol=1e-9)
+    assert np.all(np.abs(timed.qd) <= v_max * 1.001) and np.all(np.abs(timed.qdd) <= a_max * 1.001)
+    # the contacts' speed: their travel per unit of joint motion, along the timed path
+    rate = travel[-1] / np.linalg.norm(q[-1] - q[0])
+    assert np.max(np.linalg.norm(timed.qd, axis=1)) * rate <= speed * 1.01

@@ -100,6 +100,10 @@ def _sample_times(duration: float, period: float) -> NDArray[np.float64]:
     return np.linspace(0.0, duration, n + 1)
 
 
+#: TOPPRA's grid points (count) when the fine grid finds no parameterisation.
+COARSE_GRID = 50
+
+
 def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, contact_speed: float,
                 period: float) -> Samples:
     """Time the joint path q (N, dof) from rest to rest under |qd| <= v_max, |qdd| <= a_max
@@ -120,10 +124,16 @@ def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, con
     v = np.append(v_max * TOPPRA_MARGIN, contact_speed)
     a = np.append(a_max * TOPPRA_MARGIN, 1e3)
     vlim, alim = np.column_stack([-v, v]), np.column_stack([-a, a])
-    instance = algo.TOPPRA([constraint.JointVelocityConstraint(vlim), constraint.JointAccelerationConstraint(alim)],
-                           path, gridpoints=np.linspace(0, 1, min(4000, max(200, 4 * len(aug)))),
-                           parametrizer="ParametrizeConstAccel")
-    traj = instance.compute_trajectory(0, 0)
+    constraints = [constraint.JointVelocityConstraint(vlim), constraint.JointAccelerationConstraint(alim)]
+    traj = None
+    # TOPPRA's solver can lose feasibility on a path a fraction of a millimetre long at a fine grid
+    # (a 0.15 mm P_psi found none at 100 points and more, one at 50): a coarser grid is tried then,
+    # its samples checked against the limits like any other's (check_limits)
+    for points in (min(4000, max(200, 4 * len(aug))), COARSE_GRID):
+        instance = algo.TOPPRA(constraints, path, gridpoints=np.linspace(0, 1, points), parametrizer="ParametrizeConstAccel")
+        traj = instance.compute_trajectory(0, 0)
+        if traj is not None:
+            break
     if traj is None:
         raise TimingError(Untimeable.NO_PARAMETERISATION,
                           "the contact path cannot be timed within the joint limits (TOPPRA found no parameterisation)")
