@@ -218,38 +218,38 @@ def housing_centre(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Digit
         + (w / 2)[..., None] * thumb_normal(theta, psi)
 
 
-def palm_point(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
-    """The palm's origin: on the digits' base line, midway between the digit faces, shape (..., 2),
-    over l. With the digit axis (theta + psi) it is the hand's pose in the plane."""
-    return housing_centre(theta, d, psi, digits) + digits.palm_length / 2 * digit_axis(theta, psi)
-
-
 def pressed_state(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, depth: float, digits: DigitGeometry,
-                  iterations: int = 30, tol: float = 1e-12) -> tuple[NDArray, NDArray, NDArray, NDArray[np.bool_]]:
+                  iterations: int = 8) -> tuple[NDArray, NDArray, NDArray, NDArray[np.bool_]]:
     """Where the object lies when the hand is held depth (over l; negative: higher) straight below
     the pose the states (theta, d, psi) give it, turned the same, with G where it is (the object's
-    end held by the table): the states whose palm (palm_point) is that much lower with theta + psi
-    kept, the object turned about G and slid in the pinch to meet the digits (docs/model.md 11.8).
-    Newton's method on (theta, d), elementwise; returns theta, d, psi (broadcast shape) and where a
-    state was found with 0 < theta < pi/2 and 0 < d <= 1."""
+    end held by the table): the states whose palm (the digits' base line, midway between their
+    faces) lies that much lower with beta = theta + psi kept, the object turned about G and slid
+    in the pinch to meet the digits (docs/model.md 11.9). Returns theta, d, psi (broadcast shape)
+    and where such a state was found with 0 < theta < pi/2 and 0 < d <= 1.
+
+    In the hand's frame (e, n) the palm (the thumb's tip B + s_B e, B = (cos theta, sin theta),
+    less thumb_length e, plus half the aperture along n) lies at ((d_A - 1) cos psi - k sin psi,
+    ((d_A - 2) sin psi + k cos psi) / 2) plus terms no state changes, k = t + r; the press moves
+    it by (depth sin beta, -depth cos beta). Eliminating d_A leaves one equation in psi,
+    P sin psi - Q cos psi - sin(2 psi) / 2 + k = 0, P and Q the pressed palm's two terms, solved
+    by Newton's method from the state's psi; d_A then follows from the first term."""
     theta, d, psi = np.broadcast_arrays(*_arrays(theta, d, psi))
+    t, r = digits.object_thickness, digits.finger_tip_radius
+    k = t + r
     beta = theta + psi
-    target = palm_point(theta, d, psi, digits) - np.array([0.0, depth])
-    th, dd = theta.copy(), d.copy()
-    h = 1e-7
-    for _ in range(iterations):
-        f = palm_point(th, dd, beta - th, digits) - target
-        if float(np.max(np.abs(f), initial=0.0)) < tol:
-            break
-        ft = (palm_point(th + h, dd, beta - th - h, digits) - target - f) / h
-        fd = (palm_point(th, dd + h, beta - th, digits) - target - f) / h
-        det = ft[..., 0] * fd[..., 1] - ft[..., 1] * fd[..., 0]
-        det = np.where(np.abs(det) > 1e-300, det, np.nan)
-        th = th - (fd[..., 1] * f[..., 0] - fd[..., 0] * f[..., 1]) / det
-        dd = dd - (ft[..., 0] * f[..., 1] - ft[..., 1] * f[..., 0]) / det
-    f = palm_point(th, dd, beta - th, digits) - target
-    found = (np.max(np.abs(f), axis=-1) < 1e-9) & (th > 0.0) & (th < np.pi / 2) & (dd > 0.0) & (dd <= 1.0)
-    return th, dd, beta - th, found
+    d_a = contact_d(d, psi, r)
+    p_term = (d_a - 1.0) * np.cos(psi) - k * np.sin(psi) + depth * np.sin(beta)
+    q_term = (d_a - 2.0) * np.sin(psi) + k * np.cos(psi) - 2.0 * depth * np.cos(beta)
+    x = psi.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):  # a flat derivative: no state found there
+        for _ in range(iterations):
+            s, c = np.sin(x), np.cos(x)
+            x = x - (p_term * s - q_term * c - s * c + k) / (p_term * c + q_term * s - (c * c - s * s))
+        residual = p_term * np.sin(x) - q_term * np.cos(x) - np.sin(x) * np.cos(x) + k
+        d_new = 1.0 + (p_term + k * np.sin(x)) / np.cos(x) - r * x
+    th = beta - x
+    found = (np.abs(residual) < 1e-12) & (th > 0.0) & (th < np.pi / 2) & (d_new > 0.0) & (d_new <= 1.0)
+    return th, d_new, x, found
 
 
 def housing_offsets(theta: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:

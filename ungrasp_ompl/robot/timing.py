@@ -125,13 +125,12 @@ def toppra_path(q: NDArray, travel: NDArray, v_max: NDArray, a_max: NDArray, con
     a = np.append(a_max * TOPPRA_MARGIN, 1e3)
     vlim, alim = np.column_stack([-v, v]), np.column_stack([-a, a])
     constraints = [constraint.JointVelocityConstraint(vlim), constraint.JointAccelerationConstraint(alim)]
-    traj = None
     # TOPPRA's solver can lose feasibility on a path a fraction of a millimetre long at a fine grid
     # (a 0.15 mm P_psi found none at 100 points and more, one at 50): a coarser grid is tried then,
     # its samples checked against the limits like any other's (check_limits)
     for points in (min(4000, max(200, 4 * len(aug))), COARSE_GRID):
-        instance = algo.TOPPRA(constraints, path, gridpoints=np.linspace(0, 1, points), parametrizer="ParametrizeConstAccel")
-        traj = instance.compute_trajectory(0, 0)
+        traj = algo.TOPPRA(constraints, path, gridpoints=np.linspace(0, 1, points),
+                           parametrizer="ParametrizeConstAccel").compute_trajectory(0, 0)
         if traj is not None:
             break
     if traj is None:
