@@ -162,7 +162,7 @@ def test_a_press_lowers_the_palm_straight_down_and_turns_it_not():
 def test_a_press_keeps_b_its_margin_where_the_object_lies_pressed():
     """With a press, a state is kinematically valid only if B also keeps thumb_tip_margin at the
     pressed state, s_B computed there; some states that keep it as planned lose it pressed (the
-    object turns against the digits and B moves toward the thumb's tip), none the other way."""
+    object turns against the digits and B moves toward the thumb's tip)."""
     digits = DigitGeometry(alpha=0.47, thumb_length=1.8, object_thickness=0.03, finger_tip_radius=0.03,
                            thumb_tip_margin=0.03)
     pressed = dataclasses.replace(digits, press=0.03)
@@ -173,7 +173,8 @@ def test_a_press_keeps_b_its_margin_where_the_object_lies_pressed():
     checks = kinematic_checks(th, d, ps, pressed)
     tp, dp, pp, found = pressed_state(th, d, ps, 0.03, pressed)
     margin_there = found & (s_b(dp, pp, 0.47, 0.03, 0.03) >= 0.03 - 1e-12)
-    np.testing.assert_array_equal(checks["s_B >= 0 pressed"], margin_there)
+    np.testing.assert_array_equal(checks["s_B >= 0 pressed"][plain], margin_there[plain])
+    assert checks["s_B >= 0 pressed"][~plain].all()  # looked at only where the rest holds
     np.testing.assert_array_equal(kinematic_validity(th, d, ps, pressed), plain & margin_there)
     lost = plain & ~margin_there
     assert 0.01 < lost.mean() < 0.5

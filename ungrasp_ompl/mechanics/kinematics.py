@@ -244,7 +244,10 @@ def pressed_state(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, depth: float, 
     with np.errstate(divide="ignore", invalid="ignore"):  # a flat derivative: no state found there
         for _ in range(iterations):
             s, c = np.sin(x), np.cos(x)
-            x = x - (p_term * s - q_term * c - s * c + k) / (p_term * c + q_term * s - (c * c - s * s))
+            step = (p_term * s - q_term * c - s * c + k) / (p_term * c + q_term * s - (c * c - s * s))
+            x = x - step
+            if not np.any(np.abs(step) > 1e-15):  # converged everywhere (NaN where no state is)
+                break
         residual = p_term * np.sin(x) - q_term * np.cos(x) - np.sin(x) * np.cos(x) + k
         d_new = 1.0 + (p_term + k * np.sin(x)) / np.cos(x) - r * x
     th = beta - x
@@ -271,7 +274,8 @@ def kinematic_checks(
     - ``thumb clearance``: the thumb tip stays ``table_clearance`` above the table;
     - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke);
     - ``s_B >= 0 pressed`` (with a press): at the pressed state too, B at least
-      ``thumb_tip_margin`` from the thumb's tip.
+      ``thumb_tip_margin`` from the thumb's tip; looked at only where the others hold (True
+      elsewhere, where the state fails already).
     """
     theta, d, psi = _arrays(theta, d, psi)
     sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
@@ -286,9 +290,15 @@ def kinematic_checks(
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
     }
     if digits.press > 0.0:
-        _, dp, pp, found = pressed_state(theta, d, psi, digits.press, digits)
+        rest = np.bool_(True)
+        for holds in checks.values():
+            rest = rest & holds
+        th, dd, ps, rest = np.broadcast_arrays(theta, d, psi, rest)
+        pressed = np.ones(rest.shape, dtype=bool)
+        _, dp, pp, found = pressed_state(th[rest], dd[rest], ps[rest], digits.press, digits)
         sbp = s_b(dp, pp, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
-        checks["s_B >= 0 pressed"] = found & (sbp >= digits.thumb_tip_margin - tol)
+        pressed[rest] = found & (sbp >= digits.thumb_tip_margin - tol)
+        checks["s_B >= 0 pressed"] = pressed
     return checks
 
 
