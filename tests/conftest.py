@@ -22,7 +22,7 @@ PREVIOUS_PAIRS = {"guitar_pick": {"G": [0.000718, 0.032210], "B": [-0.007146, 0.
 #: The set-up of the object scenes before their clearances (the pick's reference goal, theta up to
 #: 3 deg, no clearances, the default termination): top-level sections of the scene file.
 BEFORE_CLEARANCES = {"goal": {"theta_max_deg": 3, "d": [0.57, 0.63], "psi_deg": [36, 42]}, "planning": {},
-                     "robot": {}}
+                     "robot": {}, "start": {"theta_deg": 30, "d": 0.8, "psi_deg": 0}}
 
 
 def with_previous_pair(name: str, **sections):

@@ -8,9 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from ungrasp_ompl.mechanics import DigitGeometry, aperture, digit_polygons, finger_tip, s_b, thumb_clearance, thumb_tip
-from ungrasp_ompl.mechanics.kinematics import (digit_axis, finger_corner, kinematic_checks, kinematic_validity,
-                                              pressed_state, thumb_normal)
+from scipy.optimize import linprog
+
+from ungrasp_ompl.mechanics import (DigitGeometry, across_support, aperture, digit_polygons, finger_tip, s_b,
+                                    thumb_clearance, thumb_tip)
+from ungrasp_ompl.mechanics.kinematics import (contact_d, digit_axis, finger_corner, kinematic_checks,
+                                              kinematic_validity, pressed_state, thumb_normal)
 
 DIGITS = DigitGeometry(alpha=0.47)
 
@@ -178,3 +181,47 @@ def test_a_press_keeps_b_its_margin_where_the_object_lies_pressed():
     np.testing.assert_array_equal(kinematic_validity(th, d, ps, pressed), plain & margin_there)
     lost = plain & ~margin_there
     assert 0.01 < lost.mean() < 0.5
+
+
+def test_across_support_is_where_the_supports_alone_can_balance_a_push_at_a():
+    """Statics out of the plane, by linear programming: the table at G and the thumb's face at B push
+    the object only along its face's normal, anywhere within their reach across the plane (the
+    supports' ends, G at 0 and B at l along GB); a unit push on the face at A, d_A from B, delta
+    across, is balanced (normal force and the two moments in the face's plane) by non-negative
+    support forces iff |delta| <= across_support. Random supports, a rounded tip, both sides of
+    the bound by 1e-6 l."""
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        digits = DigitGeometry(alpha=0.47, finger_tip_radius=0.03, support=tuple(rng.uniform(0.0, 0.5, 2)))
+        d, psi = rng.uniform(0.05, 0.95), rng.uniform(0.0, 1.0)
+        x_a = 1.0 - float(contact_d(d, psi, digits.finger_tip_radius))  # A's distance from G along GB
+        s_g, s_b_ = digits.support
+        ends = np.array([[0.0, s_g], [0.0, -s_g], [1.0, s_b_], [1.0, -s_b_]])
+        bound = float(across_support(d, psi, digits))
+        for delta, balanced in ((bound - 1e-6, True), (bound + 1e-6, False), (-bound - 1e-6, False)):
+            lp = linprog(np.zeros(4), A_eq=np.vstack([np.ones(4), ends.T]), b_eq=[1.0, x_a, delta],
+                         bounds=[(0, None)] * 4, method="highs")
+            assert (lp.status == 0) is balanced, (digits.support, d, psi, delta)
+
+
+def test_the_across_margin_is_checked_where_the_object_lies_and_pressed():
+    """across support holds where A lies across_margin inside the supports, as planned and (with a
+    press) at the pressed state; a flat tip (an edge at A), no margin or no supports check nothing."""
+    base = DigitGeometry(alpha=0.47, thumb_length=1.8, object_thickness=0.03, finger_tip_radius=0.03,
+                         support=(0.0, 0.16), across_margin=0.03)
+    rng = np.random.default_rng(9)
+    n = 3000
+    th, d, ps = rng.uniform(0.1, 0.6, n), rng.uniform(0.4, 1.0, n), rng.uniform(0.0, 1.0, n)
+    checks = kinematic_checks(th, d, ps, base)
+    np.testing.assert_array_equal(checks["across support"], across_support(d, ps, base) >= 0.03 - 1e-12)
+    assert 0.05 < checks["across support"].mean() < 0.95
+    pressed = dataclasses.replace(base, press=0.03)
+    checks = kinematic_checks(th, d, ps, pressed)
+    rest = np.all([v for k, v in checks.items() if "pressed" not in k], axis=0)
+    _, dp, pp, found = pressed_state(th, d, ps, 0.03, pressed)
+    there = found & (across_support(dp, pp, pressed) >= 0.03 - 1e-12)
+    np.testing.assert_array_equal(checks["across support pressed"][rest], there[rest])
+    assert (rest & ~there).any()  # some states keep it as planned and lose it pressed (A nearer G)
+    for quiet in (dataclasses.replace(base, flat_finger_tip=True, finger_tip_radius=0.0),
+                  dataclasses.replace(base, across_margin=0.0), dataclasses.replace(base, support=(0.0, 0.0))):
+        assert not any(k.startswith("across") for k in kinematic_checks(th, d, ps, quiet))

@@ -72,9 +72,10 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     """Each object's lattice plan, sampled ten times finer than its lattice, keeps the digits and
     the housing planning.table_clearance above the table and B planning.thumb_tip_margin from the
     thumb's tip all along (the kinematic margins, 0 where a check flips), B that far from the tip
-    also where the start press puts the object (mechanics.pressed_state, s_B there), and the plan
-    ends lower than the scene's theta_max."""
-    from ungrasp_ompl.mechanics import s_b
+    and A planning.across_margin inside the supports across the plane, as planned and where the
+    start press puts the object (mechanics.pressed_state), and the plan ends lower than the
+    scene's theta_max."""
+    from ungrasp_ompl.mechanics import across_support, s_b
     from ungrasp_ompl.mechanics.kinematics import pressed_state
     from ungrasp_ompl.mechanics.path import plan_samples
     from ungrasp_ompl.planning import plan
@@ -92,4 +93,7 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     _, d, psi, found = pressed_state(states[:, 0], states[:, 1], states[:, 2], dg.press, dg)
     assert found.all()
     assert s_b(d, psi, dg.alpha, dg.object_thickness, dg.finger_tip_radius).min() >= dg.thumb_tip_margin - 1e-9
+    assert dg.across_margin == pytest.approx(0.001 / scene.object_length)
+    for dd, ps in ((states[:, 1], states[:, 2]), (d, psi)):
+        assert across_support(dd, ps, dg).min() >= dg.across_margin - 1e-9
     assert result.states[-1][0] <= scene.goal.theta_max + 1e-12

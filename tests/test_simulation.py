@@ -481,3 +481,25 @@ def test_simulate_command_writes_its_files(tmp_path):
     assert len(rows) == 3 and rows[0].startswith("outcome,")
     assert_picture(out / "trials.png", colours=((0.173, 0.627, 0.173),))  # the placed outlines' green
     assert (out / "trajectory.json").exists() and (out / "plan.json").exists()
+
+
+def test_a_grasp_off_across_gb_tips_the_pick_unless_a_stays_inside_its_supports():
+    """The pick's thumb rests on a 10 mm straight side and G on its rounded tip, so the supports
+    across the plane form a narrow triangle, widest at B; a grasp 0.7 mm off across GB puts A's push
+    outside it where the plan lets A come near G (planning.across_margin 0, which turns A's dome
+    toward G at d 0.77 before sliding it away), and the pick turns out of the plane. The shipped
+    plan keeps A 1 mm inside the supports (pressed) and places the same trial."""
+    import yaml
+
+    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    doc["planning"]["across_margin"] = 0.0
+    across = replace(TrialParams(), shift_across_mm=-0.7)
+    for scene, placed in ((Scene.from_file(SCENES / "guitar_pick.yaml"), True),
+                          (Scene.from_dict(doc, source="guitar_pick.yaml, no across margin"), False)):
+        result = plan(scene, planner="lattice")
+        ex = execute(scene, result)
+        r = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), across)
+        if placed:
+            assert r.success and r.roll_deg < 10.0, r.cause()
+        else:
+            assert r.outcome is Outcome.LEFT_PLANE and r.roll_deg > 10.0, r.cause()

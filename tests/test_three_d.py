@@ -348,3 +348,25 @@ def test_a_contact_where_its_face_touches_has_no_offset():
 
     plane = Scene.from_file("puzzle_piece").plane
     assert plane.g.touch == (0.0, 0.0) and plane.b.touch == (0.0, 0.0)
+
+
+def test_a_straight_side_supports_the_object_across_the_plane_to_its_ends():
+    """ContactPoint.span: the pick's thumb rests on the straight part of its base, which ends where
+    the 8 mm shoulders begin, 18 mm - 8 mm / tan(A / 2) each side of B (A the base angle of the
+    36 mm by 36 mm triangle); the puzzle piece's, mid hypotenuse, reaches both corners. G, at a
+    rounded tip or a corner, supports nothing across. The digits' supports are the spans over l, B's
+    no wider than half the thumb (20 mm)."""
+    from ungrasp_ompl import Scene
+
+    pick = Scene.from_file("guitar_pick")
+    edge = 0.018 - 0.008 / math.tan(math.atan2(0.036, 0.018) / 2)
+    np.testing.assert_allclose(pick.plane.b.span, (edge, edge), atol=1e-12)
+    assert pick.plane.g.span == (0.0, 0.0)
+    np.testing.assert_allclose(pick.digits.support, (0.0, edge / pick.object_length), atol=1e-12)
+    puzzle = Scene.from_file("puzzle_piece")
+    corners = puzzle.object3d.outline.vertices
+    half = np.linalg.norm(corners - puzzle.plane.b.point, axis=1)
+    np.testing.assert_allclose(puzzle.plane.b.span, np.sort(half)[:2], atol=1e-12)
+    assert puzzle.plane.g.span == (0.0, 0.0)
+    np.testing.assert_allclose(puzzle.digits.support, (0.0, 0.01 / puzzle.object_length), atol=1e-12)
+    assert puzzle.plane.to_dict()["contacts"]["B"]["span_m"] == list(puzzle.plane.b.span)

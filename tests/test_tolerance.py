@@ -12,9 +12,9 @@ import pytest
 
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.mechanics import force_closure, kinematic_checks
+from ungrasp_ompl.mechanics import across_support, force_closure, kinematic_checks
 from ungrasp_ompl.mechanics.antipodal import effective_friction
-from ungrasp_ompl.mechanics.kinematics import digit_axis, digit_polygons, thumb_normal
+from ungrasp_ompl.mechanics.kinematics import contact_d, digit_axis, digit_polygons, pressed_state, thumb_normal
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.mechanics.path import plan_samples
 from ungrasp_ompl.planning.deviate import steeper_start
@@ -107,6 +107,15 @@ def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.nda
         checker = CollisionChecker(scene.collision_model())
         bad[at_end] |= checker.termination_collides(np.column_stack([th1, d1, ps])[at_end], r.termination,
                                                     r.termination_opening)
+    # A beside GB by the grasp's shift across: inside the supports' ends (G's and B's straight sides
+    # on the table and the thumb, seen along the face's normal) on that side, as planned and pressed
+    across = np.abs(e["across"]) * box.shift_mm / 1000
+    g_end, b_end = (min(scene.plane.g.span), min(min(scene.plane.b.span), dg.width * l / 2))
+    for dd, pp in ((d1, ps), pressed_state(th1, d1, ps, dg.press, dg)[1:3]):
+        from_g = (1.0 - contact_d(dd, pp, dg.finger_tip_radius)) * l  # A's place along GB, from G
+        # the side of the line from G's end (0, g_end) to B's (l, b_end) that A, at (from_g, across), lies on
+        outside = l * (across - g_end) - from_g * (b_end - g_end) > 0.0
+        bad |= outside
     return bad.reshape(len(q), m)
 
 
@@ -151,7 +160,13 @@ def test_the_box_doubled_halves_the_scale_and_any_larger_box_lowers_it(pick):
 def test_each_component_alone_is_tolerated_at_least_as_much_as_all_together(pick):
     scene, result = pick
     tol = tolerance(scene, result)
-    assert tol.component_scales["shift_across"] == math.inf  # it moves nothing in the plane
+    # the shift across alone moves A beside GB: it tips the object where A leaves the supports,
+    # as the binding state lies or pressed, whichever is nearer G
+    th, d, ps = tol.state
+    dg = scene.digits
+    held = min(across_support(d, ps, dg), across_support(*pressed_state(th, d, ps, dg.press, dg)[1:3], dg))
+    assert tol.component_scales["shift_across"] == pytest.approx(held * scene.object_length * 1000
+                                                                 / PRESETS["paper"].shift_mm, rel=1e-2)
     assert min(tol.component_scales.values()) >= tol.scale * (1 - 1e-2)
     assert tol.component == min(tol.component_scales, key=tol.component_scales.get)
     assert type(tol).from_dict(tol.to_dict()) == tol

@@ -33,12 +33,18 @@ class ContactPoint:
     contain the plane's normal, so they touch where the outline reaches furthest along GB: (0, 0)
     where the contact does (its normal range holds GB); a smooth contact with beta > 0 is passed
     by R sin(beta) across GB, where the thumb's force has a moment about GB the plan does not count."""
+    span: tuple[float, float] = (0.0, 0.0)
+    """How far the outline lies on the face touching it (the table at G, the thumb's at B) across GB,
+    each way from the contact (m; right, then left of the direction the face presses in): a straight
+    side's two ends, (0, 0) at a point contact. The face supports the object only within it, so an
+    object pressed across GB from outside the supports tips about the line to a support's end."""
 
     def to_dict(self) -> dict:
         """The contact as plan.json and the stability report give it (metres)."""
         return {"kind": self.kind, "radius_m": None if math.isinf(self.radius) else self.radius,
                 "edge_contact": self.edge_contact, "point": self.point.tolist(),
-                "touched_from_m": {"along": self.touch[0], "across": self.touch[1]}}
+                "touched_from_m": {"along": self.touch[0], "across": self.touch[1]},
+                "span_m": list(self.span)}
 
     @property
     def edge_contact(self) -> bool:
@@ -97,6 +103,15 @@ def _touch(outline: Outline, point: NDArray, out: NDArray) -> tuple[float, float
     if along <= 1e-9:
         return 0.0, 0.0
     return along, float(reach @ np.array([-out[1], out[0]]))
+
+
+def _span(outline: Outline, point: NDArray, out: NDArray) -> tuple[float, float]:
+    """ContactPoint.span of an edge contact at point whose face presses from direction out (unit):
+    how far the outline's vertices on the face's line (within 1 nm) reach across GB each way."""
+    across = np.array([-out[1], out[0]])
+    rel = outline.vertices - point
+    on = rel[np.abs(rel @ out) <= 1e-9] @ across
+    return (max(0.0, -float(on.min())), max(0.0, float(on.max()))) if len(on) else (0.0, 0.0)
 
 
 def plane_frame(g: NDArray, b: NDArray, position: ArrayLike, yaw: float) -> NDArray[np.float64]:
@@ -174,9 +189,12 @@ def choose_plane(
         i, j, margin = int(gi[best]), int(bi[best]), float(margins[best])
         beta_g, beta_b, n_g, n_b = pair_angles(cand.points, cand.normal_lo, cand.normal_hi, i, j)
     u = (cand.points[j] - cand.points[i]) / np.linalg.norm(cand.points[j] - cand.points[i])
-    g = ContactPoint(cand.points[i], n_g, str(cand.kind[i]), float(cand.radius[i]), float(beta_g),
-                     _touch(outline, cand.points[i], -u))
-    b = ContactPoint(cand.points[j], n_b, str(cand.kind[j]), float(cand.radius[j]), float(beta_b),
-                     _touch(outline, cand.points[j], u))
+    contacts = []
+    for k, beta, normal, out in ((i, beta_g, n_g, -u), (j, beta_b, n_b, u)):
+        kind = str(cand.kind[k])
+        contacts.append(ContactPoint(cand.points[k], normal, kind, float(cand.radius[k]), float(beta),
+                                     _touch(outline, cand.points[k], out),
+                                     _span(outline, cand.points[k], out) if kind == "edge" else (0.0, 0.0)))
+    g, b = contacts
     return ManipulationPlane(g, b, margin, float(effective_friction(mu_g, beta_g)), float(effective_friction(mu_b, beta_b)),
                              plane_frame(g.point, b.point, position, yaw), fixed is not None)

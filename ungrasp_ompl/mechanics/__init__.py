@@ -26,6 +26,7 @@ from .force_closure import (
     force_closure_margin,
 )
 from .kinematics import (
+    across_support,
     DigitGeometry,
     aperture,
     digit_polygons,
@@ -46,6 +47,7 @@ __all__ = [
     "Friction",
     "Primitive",
     "SlidingModel",
+    "across_support",
     "aperture",
     "cone_edges",
     "contact_mode",

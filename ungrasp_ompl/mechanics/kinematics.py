@@ -38,6 +38,14 @@ class DigitGeometry:
     arm calibrated to a millimetre hits. press: how far below the plan the hand
     runs (a start press); the object, its end held by the table, then lies at
     the pressed state (pressed_state), and B must keep thumb_tip_margin there too.
+    support: how far the table at G and the thumb's face at B hold the object
+    across the plane, each way from G and from B (the nearer end of a straight
+    side there, the thumb's face no wider than its half width; 0 at a point
+    contact). across_margin: how far across the plane the rounded tip's contact
+    A must lie inside those supports (across_support), so that a grasp that far
+    off does not tip the object about the line from G's to B's support ends; 0,
+    or no straight side at G or B (the object then rolls on their curves and A's
+    restoring effect holds it, docs/model.md 5.3), leaves it unchecked.
     object_thickness: the object's thickness t. G and B are on its bottom face
     and the finger presses its top face, so the digits stand t cos(psi)
     further apart and the whole gripper t sin(psi) further back along the
@@ -61,6 +69,8 @@ class DigitGeometry:
     table_clearance: float = 0.0  # the digits and the housing kept at least this far above the table
     object_thickness: float = 0.0  # the object's thickness: the finger presses its top face
     press: float = 0.0  # how far below the plan the hand runs: B keeps its margin at the pressed state too
+    support: tuple[float, float] = (0.0, 0.0)  # the supports' reach across the plane at G and at B
+    across_margin: float = 0.0  # A kept at least this far inside the supports across the plane
 
     @property
     def finger_length(self) -> float:
@@ -118,6 +128,18 @@ def s_b(d: ArrayLike, psi: ArrayLike, alpha: float, thickness: ArrayLike = 0.0, 
     d, psi, thickness, tip_radius = _arrays(d, psi, thickness, tip_radius)
     d_a = contact_d(d, psi, tip_radius)
     return d_a * np.cos(psi) - alpha - thickness * np.sin(psi) + tip_radius * (1.0 - np.sin(psi))
+
+
+def across_support(d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """How far across the plane, either way, A may lie before its force tips the object, over l:
+    the half width at A of the quadrilateral the supports span (G's reach across the plane at G,
+    B's at B, joined by straight lines), s_G d_A + s_B (1 - d_A), with d_A = contact_d. The
+    table and the thumb's face push along their normals through the supports, so A's push on the
+    face, outside that, has a moment about the line through the nearer support ends that nothing
+    balances (docs/model.md 5.3)."""
+    d_a = contact_d(d, psi, digits.finger_tip_radius)
+    s_g, s_b_ = digits.support
+    return s_g * d_a + s_b_ * (1.0 - d_a)
 
 
 def finger_tip(theta: ArrayLike, d: ArrayLike) -> NDArray[np.float64]:
@@ -273,9 +295,12 @@ def kinematic_checks(
       ``thumb_tip_margin`` from its tip);
     - ``thumb clearance``: the thumb tip stays ``table_clearance`` above the table;
     - ``aperture``: 0 <= aperture <= max_aperture (gripper stroke);
+    - ``across support`` (with ``across_margin``, a rounded tip and a straight side at G or B):
+      A at least ``across_margin`` inside the supports across the plane (across_support);
     - ``s_B >= 0 pressed`` (with a press): at the pressed state too, B at least
-      ``thumb_tip_margin`` from the thumb's tip; looked at only where the others hold (True
-      elsewhere, where the state fails already).
+      ``thumb_tip_margin`` from the thumb's tip; ``across support pressed`` (with a press and the
+      margin across): A that far inside the supports there too; both looked at only where the
+      others hold (True elsewhere, where the state fails already).
     """
     theta, d, psi = _arrays(theta, d, psi)
     sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
@@ -289,16 +314,23 @@ def kinematic_checks(
         "thumb clearance": thumb_clearance(theta, d, psi, digits) >= digits.table_clearance - tol,
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
     }
+    across = digits.across_margin > 0.0 and not digits.flat_finger_tip and any(digits.support)
+    if across:
+        checks["across support"] = across_support(d, psi, digits) >= digits.across_margin - tol
     if digits.press > 0.0:
         rest = np.bool_(True)
         for holds in checks.values():
             rest = rest & holds
         th, dd, ps, rest = np.broadcast_arrays(theta, d, psi, rest)
-        pressed = np.ones(rest.shape, dtype=bool)
         _, dp, pp, found = pressed_state(th[rest], dd[rest], ps[rest], digits.press, digits)
         sbp = s_b(dp, pp, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+        pressed = np.ones(rest.shape, dtype=bool)
         pressed[rest] = found & (sbp >= digits.thumb_tip_margin - tol)
         checks["s_B >= 0 pressed"] = pressed
+        if across:
+            pressed = np.ones(rest.shape, dtype=bool)
+            pressed[rest] = found & (across_support(dp, pp, digits) >= digits.across_margin - tol)
+            checks["across support pressed"] = pressed
     return checks
 
 

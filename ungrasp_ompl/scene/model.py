@@ -260,13 +260,16 @@ class Scene:
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                                  "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                                 "min_tolerance", "table_clearance"})
+                                 "min_tolerance", "table_clearance", "across_margin"})
         margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
         clearance = r.length(pl, "planning.table_clearance", "table_clearance", zero=True, default=0.0)
+        across = r.length(pl, "planning.across_margin", "across_margin", zero=True, default=0.0)
+        support = (0.0, 0.0) if plane is None else \
+            (min(plane.g.span) / length, min(min(plane.b.span) / length, lengths["width"] / 2))
         digits = replace(digits, thumb_tip_margin=margin / length, table_clearance=clearance / length,
-                         object_thickness=thickness / length)
+                         object_thickness=thickness / length, support=support, across_margin=across / length)
         model = pl.get("sliding_model", "relaxed")
         if model not in SLIDING_MODELS:
             raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)

@@ -18,7 +18,9 @@ How an error moves a state (lengths over l, angles rad; section 4.6 derives each
   beta + |gamma| (section 5.2);
 * thickness: the object's thickness times (1 + k) in every kinematic quantity (s_B, the opening,
   where the digits stand);
-* shift across GB and the palm's shift along y move nothing in the plane.
+* shift across GB by c moves nothing in the plane; it puts A c beside GB, which the supports
+  across the plane must hold (across_support >= c, as planned and pressed: section 5.3);
+* the palm's shift along y moves nothing in the plane.
 
 A moved state with theta' < 0 lies flat with the hand turned against it: (0, d', psi + theta').
 """
@@ -37,7 +39,8 @@ from ..errors import InputError
 from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, s_b
 from ..mechanics.antipodal import effective_friction
-from ..mechanics.kinematics import DigitGeometry, aperture, contact_d, digit_axis, thumb_normal, thumb_tip
+from ..mechanics.kinematics import (DigitGeometry, across_support, aperture, contact_d, digit_axis, pressed_state,
+                                   thumb_normal, thumb_tip)
 from ..mechanics.margin import kinematic_margins
 from ..mechanics.path import PlanSamples, plan_samples
 from ..perturbation import PRESETS, Perturbation
@@ -54,6 +57,7 @@ class ToleranceReason(Enum):
     B_PAST_THUMB_TIP = "b_past_thumb_tip"  #: s_B < 0: B off the thumb's tip
     B_PAST_THUMB_BASE = "b_past_thumb_base"  #: s_B beyond the thumb's length
     A_OFF_OBJECT = "a_off_object"  #: d' outside (0, 1]: the finger off the object
+    A_OFF_SUPPORT = "a_off_support"  #: A beside GB beyond the supports across the plane: the object tips out of it
     APERTURE = "aperture"  #: the opening beyond the gripper's stroke (or negative)
     DIGIT_IN_TABLE = "digit_in_table"  #: a digit or the housing below the table
     OBSTACLE = "obstacle"  #: a digit or the housing in an obstacle
@@ -241,6 +245,9 @@ class _Box:
         away = s * math.sqrt(2.0) * b.palm_shift_mm / 1000 / self.l if on["palm_shift"] else 0.0
         moved = np.tile(np.abs(shift) + np.hypot(turned[0], turned[1]), n) + away + worst
         code = np.zeros(len(th), dtype=np.int8)
+        tips = np.zeros(len(th), dtype=bool)
+        if on["shift_across"] and b.shift_mm and not dg.flat_finger_tip and any(dg.support):
+            tips = self.tips(s * b.shift_mm / 1000 / self.l, th, d, ps)
         kappas = (-1.0, 1.0) if on["thickness"] and b.thickness else (0.0,)
         for k in kappas:
             t = dg.object_thickness * (1.0 + k * s * b.thickness)
@@ -249,8 +256,8 @@ class _Box:
             w = aperture(d, ps, t, dg.finger_tip_radius)
             low = _lowest(th, d, ps, digits if self.housing else replace(digits, palm_width=0.0))
             near = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)["obstacles"] if self.obstacles else np.inf
-            checks = (~fc, sbv < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), (w < 0.0) | (w > dg.max_aperture),
-                      low + lift < 0.0, near - moved < 0.0)
+            checks = (~fc, sbv < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), tips,
+                      (w < 0.0) | (w > dg.max_aperture), low + lift < 0.0, near - moved < 0.0)
             for i, bad in enumerate(checks):
                 code = np.where((code == 0) & bad, i + 1, code)
         ends = np.flatnonzero(self.terminal[rows])
@@ -264,6 +271,16 @@ class _Box:
         code = code.reshape(n, g)
         first = np.where(code > 0, code, 127).min(axis=1)
         return np.where(first == 127, 0, first).astype(np.int8)
+
+    def tips(self, across: float, th: NDArray, d: NDArray, ps: NDArray) -> NDArray[np.bool_]:
+        """Where a grasp across (over l) off GB puts A outside the supports across the plane, as
+        the states lie and, with a start press, where the press puts them (section 5.3)."""
+        dg = self.scene.digits
+        held = across_support(d, ps, dg)
+        if dg.press > 0.0:
+            _, dp, pp, found = pressed_state(th, d, ps, dg.press, dg)
+            held = np.where(found, np.minimum(held, across_support(dp, pp, dg)), held)
+        return held < across
 
     def scale(self, rows: NDArray, on: dict[str, bool], tol: float, top: float) -> tuple[float, NDArray]:
         """The largest scale in [0, top] with no failure at rows, to the relative tolerance tol
@@ -377,8 +394,6 @@ def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOpt
     reason = reasons[int(codes[k]) - 1] if len(failing) else ToleranceReason.NONE
     solo = {c: math.inf for c in COMPONENTS}
     for c in COMPONENTS if len(failing) else ():
-        if c == "shift_across":  # moves nothing in the plane
-            continue
         on = {x: x == c for x in COMPONENTS}
         sc, cc = ctx.scale(np.array([k]), on, SOLO_TOLERANCE, options.max_scale)
         solo[c] = sc if cc.any() else math.inf
