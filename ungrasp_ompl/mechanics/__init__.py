@@ -26,8 +26,8 @@ from .force_closure import (
     force_closure_margin,
 )
 from .kinematics import (
-    across_support,
     DigitGeometry,
+    across_support,
     aperture,
     digit_polygons,
     finger_tip,

@@ -20,7 +20,11 @@ How an error moves a state (lengths over l, angles rad; section 4.6 derives each
   where the digits stand);
 * shift across GB by c moves nothing in the plane; it puts A c beside GB, which the supports
   across the plane must hold (across_support >= c, as planned and pressed: section 5.3);
-* the palm's shift along y moves nothing in the plane.
+* the palm's shift along y moves nothing in the plane;
+* with a start press p (the hand run p below the plan, G held by the table), the hand stands
+  p - lift below what the moved state needs, lift being G's lift above, so the digits stand that
+  much lower and B and A are looked at also where the object then lies: the moved state pressed
+  by p - lift (mechanics.pressed_state; none found counts as B lost).
 
 A moved state with theta' < 0 lies flat with the hand turned against it: (0, d', psi + theta').
 """
@@ -228,8 +232,9 @@ class _Box:
         if not kinematic:
             return (~fc).reshape(n, g).any(axis=1).astype(np.int8)
         # G's lift over the table: the grasp shift's (a sin theta') and the calibration's (the turn
-        # about P0 exactly on the face's grid; the palm's shift, the table's height and the plane's
-        # tip at their worst corners, as they enter linearly)
+        # about P0 exactly on the face's grid; the palm's shift and the table's height at their
+        # worst corners, as they enter linearly); the digits' lowest point also drops by the
+        # plane's tip
         p0 = self.p0
         turned = p0[:, None] - np.stack([np.cos(phi) * p0[0] - np.sin(phi) * p0[1],
                                          np.sin(phi) * p0[0] + np.cos(phi) * p0[1]])  # P0 - R(phi) P0, (2, g)
@@ -238,25 +243,36 @@ class _Box:
             worst += s * b.palm_shift_mm / 1000 / self.l * self.lift_per_shift
         if on["table_height"]:
             worst += s * b.table_mm / 1000 / self.l
-        if on["palm_turn"]:
-            worst += s * math.radians(b.palm_turn_deg) * self.drop_per_turn
-        lift = np.tile(turned[1], n) + np.tile(shift, n) * np.sin(th) - worst
+        lift_g = np.tile(turned[1], n) + np.tile(shift, n) * np.sin(th) - worst
+        tipped = s * math.radians(b.palm_turn_deg) * self.drop_per_turn if on["palm_turn"] else 0.0
+        worst += tipped
+        # with a start press the hand runs press below the plan and the table holds G: the hand
+        # stands press - lift_g lower than the moved state needs, and the object lies at the
+        # state pressed by that much (docs/model.md 11.9), where the digits are that much lower
+        press = dg.press
+        lift = lift_g - tipped - press
         # how far the hand may stand from where the moved state puts it, for the obstacles
         away = s * math.sqrt(2.0) * b.palm_shift_mm / 1000 / self.l if on["palm_shift"] else 0.0
-        moved = np.tile(np.abs(shift) + np.hypot(turned[0], turned[1]), n) + away + worst
+        moved = np.tile(np.abs(shift) + np.hypot(turned[0], turned[1]), n) + away + worst + press
         code = np.zeros(len(th), dtype=np.int8)
-        tips = np.zeros(len(th), dtype=bool)
-        if on["shift_across"] and b.shift_mm and not dg.flat_finger_tip and any(dg.support):
-            tips = self.tips(s * b.shift_mm / 1000 / self.l, th, d, ps)
+        across = s * b.shift_mm / 1000 / self.l if on["shift_across"] and not dg.flat_finger_tip and any(dg.support) \
+            else None
         kappas = (-1.0, 1.0) if on["thickness"] and b.thickness else (0.0,)
         for k in kappas:
             t = dg.object_thickness * (1.0 + k * s * b.thickness)
             digits = replace(dg, object_thickness=t)
             sbv = s_b(d, ps, dg.alpha, t, dg.finger_tip_radius)
+            tip = sbv.copy()  # B's least distance from the thumb's tip
+            tips = np.zeros(len(th), dtype=bool) if across is None else across_support(d, ps, dg) < across
+            if press > 0.0:  # B and A where the press puts the object (none found: pressed flat, B lost)
+                _, dp, pp, found = pressed_state(th, d, ps, press - lift_g, digits)
+                tip = np.where(found, np.minimum(tip, s_b(dp, pp, dg.alpha, t, dg.finger_tip_radius)), -np.inf)
+                if across is not None:
+                    tips |= found & (across_support(dp, pp, dg) < across)
             w = aperture(d, ps, t, dg.finger_tip_radius)
             low = _lowest(th, d, ps, digits if self.housing else replace(digits, palm_width=0.0))
             near = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)["obstacles"] if self.obstacles else np.inf
-            checks = (~fc, sbv < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), tips,
+            checks = (~fc, tip < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), tips,
                       (w < 0.0) | (w > dg.max_aperture), low + lift < 0.0, near - moved < 0.0)
             for i, bad in enumerate(checks):
                 code = np.where((code == 0) & bad, i + 1, code)
@@ -271,16 +287,6 @@ class _Box:
         code = code.reshape(n, g)
         first = np.where(code > 0, code, 127).min(axis=1)
         return np.where(first == 127, 0, first).astype(np.int8)
-
-    def tips(self, across: float, th: NDArray, d: NDArray, ps: NDArray) -> NDArray[np.bool_]:
-        """Where a grasp across (over l) off GB puts A outside the supports across the plane, as
-        the states lie and, with a start press, where the press puts them (section 5.3)."""
-        dg = self.scene.digits
-        held = across_support(d, ps, dg)
-        if dg.press > 0.0:
-            _, dp, pp, found = pressed_state(th, d, ps, dg.press, dg)
-            held = np.where(found, np.minimum(held, across_support(dp, pp, dg)), held)
-        return held < across
 
     def scale(self, rows: NDArray, on: dict[str, bool], tol: float, top: float) -> tuple[float, NDArray]:
         """The largest scale in [0, top] with no failure at rows, to the relative tolerance tol
