@@ -370,3 +370,24 @@ def test_a_straight_side_supports_the_object_across_the_plane_to_its_ends():
     assert puzzle.plane.g.span == (0.0, 0.0)
     np.testing.assert_allclose(puzzle.digits.support, (0.0, 0.01 / puzzle.object_length), atol=1e-12)
     assert puzzle.plane.to_dict()["contacts"]["B"]["span_m"] == list(puzzle.plane.b.span)
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "fabric_chalk"])
+def test_the_stability_report_says_how_far_a_lies_inside_the_supports(name):
+    """At each rolled state the report gives A's distance inside the supports across the plane, the
+    lesser of as planned and where the start press puts the object (m); the shipped start keeps the
+    scene's across_margin; a flat tip, which holds x-moments along its own edge, has none."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.mechanics import across_support
+    from ungrasp_ompl.mechanics.kinematics import pressed_state
+    from ungrasp_ompl.scene.stability import analyse
+
+    scene = Scene.from_file(name)
+    dg, q = scene.digits, scene.start
+    pressed = pressed_state(*q, dg.press, dg)
+    want = min(across_support(q[1], q[2], dg), across_support(pressed[1], pressed[2], dg)) * scene.object_length
+    (roll,) = analyse(scene, [("start", q)]).rolls
+    assert roll.across == pytest.approx(float(want), rel=1e-12) and roll.across >= 0.001 - 1e-9
+    assert roll.to_dict()["across_support_m"] == roll.across
+    flat = scene.with_digits(finger_tip="flat")
+    assert analyse(flat, [("start", q)]).rolls[0].across is None

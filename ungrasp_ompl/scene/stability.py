@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..mechanics.kinematics import across_support, pressed_state
 from ..mechanics.roll import RollResult, describe_restoring, roll_simulation
 from .model import Scene
 
@@ -32,6 +33,10 @@ class RollReport:
     label: str
     state: list[float]
     result: RollResult
+    across: float | None = None
+    """How far A lies inside the table's and the thumb's supports across the plane (m), where the
+    start press puts the object and as planned, whichever is less (docs/model.md 5.3); None with
+    a flat tip or no straight side at G or B."""
 
     def ranges_deg(self) -> list[tuple[float, float] | None]:
         return [None if r is None else (math.degrees(r[0]), math.degrees(r[1]))
@@ -40,7 +45,7 @@ class RollReport:
     def to_dict(self) -> dict:
         return {"label": self.label, "state": self.state, "self_restoring": self.result.self_restoring,
                 "restoring_tilt_deg": {"positive": self.ranges_deg()[0], "negative": self.ranges_deg()[1]},
-                "max_tilt_deg": math.degrees(self.result.max_tilt)}
+                "max_tilt_deg": math.degrees(self.result.max_tilt), "across_support_m": self.across}
 
 
 @dataclass
@@ -85,6 +90,9 @@ class StabilityReport:
             out.append(f"  prism roll at {r.label} (theta {math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi "
                        f"{math.degrees(q[2]):.1f} deg): {verdict}; rolled each way up to "
                        f"{math.degrees(r.result.max_tilt):.0f} deg, restores over tilts {ranges}")
+            if r.across is not None:
+                out.append(f"    A {r.across * 1000:.2f} mm inside the supports across the plane: a grasp "
+                           "further off across GB tips the object out of it")
         return out
 
 
@@ -111,6 +119,18 @@ def describe(scene: Scene) -> str:
         f"verdict: the grasp is {verdict} in roll; x-moments {'held' if report.x_stable else 'NOT held'}"])
 
 
+def _across(scene: Scene, q) -> float | None:
+    """RollReport.across at state q (m)."""
+    dg = scene.digits
+    if dg.flat_finger_tip or not any(dg.support):
+        return None
+    held = float(across_support(q[1], q[2], dg))
+    if dg.press > 0.0:
+        _, d, psi, found = pressed_state(q[0], q[1], q[2], dg.press, dg)
+        held = min(held, float(across_support(d, psi, dg))) if found else held
+    return held * scene.object_length
+
+
 def analyse(scene: Scene, states: list[tuple[str, np.ndarray]]) -> StabilityReport:
     """Stability of the scene's grasp, with the prism roll simulated at each (label, state)."""
     if scene.plane is None or scene.object3d is None:
@@ -126,7 +146,7 @@ def analyse(scene: Scene, states: list[tuple[str, np.ndarray]]) -> StabilityRepo
     rolls = [RollReport(label, [float(x) for x in q],
                         roll_simulation(obj.outline.vertices, obj.thickness, plane.g.point, plane.b.point,
                                         plane.g.normal, plane.b.normal, (1.0 - q[1]) * plane.length,
-                                        q[0], q[2], phi_a, max_tilt=scene.max_tilt))
+                                        q[0], q[2], phi_a, max_tilt=scene.max_tilt), _across(scene, q))
              for label, q in states]
     restoring = all(r.result.self_restoring for r in rolls)
     if edges:
