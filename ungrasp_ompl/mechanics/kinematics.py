@@ -76,6 +76,12 @@ class DigitGeometry:
     def finger_length(self) -> float:
         return self.thumb_length + self.alpha
 
+    @property
+    def held_by_supports(self) -> bool:
+        """Whether the supports alone hold A's push beside GB (a rounded tip, a straight side at G
+        or B), so that across_support bounds how far off across GB the grasp may be."""
+        return not self.flat_finger_tip and any(self.support)
+
 
 def _arrays(*xs: ArrayLike) -> list[NDArray[np.float64]]:
     return [np.asarray(x, dtype=float) for x in xs]
@@ -314,7 +320,7 @@ def kinematic_checks(
         "thumb clearance": thumb_clearance(theta, d, psi, digits) >= digits.table_clearance - tol,
         "aperture": (w >= -tol) & (w <= digits.max_aperture + tol),
     }
-    across = digits.across_margin > 0.0 and not digits.flat_finger_tip and any(digits.support)
+    across = digits.across_margin > 0.0 and digits.held_by_supports
     if across:
         checks["across support"] = across_support(d, psi, digits) >= digits.across_margin - tol
     if digits.press > 0.0:

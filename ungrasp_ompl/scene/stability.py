@@ -122,7 +122,7 @@ def describe(scene: Scene) -> str:
 def _across(scene: Scene, q) -> float | None:
     """RollReport.across at state q (m)."""
     dg = scene.digits
-    if dg.flat_finger_tip or not any(dg.support):
+    if not dg.held_by_supports:
         return None
     held = float(across_support(q[1], q[2], dg))
     if dg.press > 0.0:

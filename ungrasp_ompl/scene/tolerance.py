@@ -255,8 +255,7 @@ class _Box:
         away = s * math.sqrt(2.0) * b.palm_shift_mm / 1000 / self.l if on["palm_shift"] else 0.0
         moved = np.tile(np.abs(shift) + np.hypot(turned[0], turned[1]), n) + away + worst + press
         code = np.zeros(len(th), dtype=np.int8)
-        across = s * b.shift_mm / 1000 / self.l if on["shift_across"] and not dg.flat_finger_tip and any(dg.support) \
-            else None
+        across = s * b.shift_mm / 1000 / self.l if on["shift_across"] and dg.held_by_supports else None
         kappas = (-1.0, 1.0) if on["thickness"] and b.thickness else (0.0,)
         for k in kappas:
             t = dg.object_thickness * (1.0 + k * s * b.thickness)
