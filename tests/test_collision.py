@@ -191,6 +191,26 @@ def test_opening_sweeps_the_finger_into_a_block_beside_it(scenes):
     assert not checker.termination_collides(q, "open_symmetric", 0.004)[0]
 
 
+def test_open_lift_meets_the_table_where_the_gripper_s_own_opening_does(scenes):
+    """open_lift lowers the thumb as far as open_symmetric does and the housing not at all, so
+    against a flat table the two releases collide at the same states (a grid over the planning
+    box of the pick, whose housing and digits are drawn to scale; the thumb's tip is near the table
+    in some of them)."""
+    from conftest import SCENES
+    from ungrasp_ompl import Scene
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    checker = CollisionChecker(scene.collision_model())
+    th, d, ps = np.meshgrid(np.radians(np.linspace(2, 30, 15)), np.linspace(0.4, 0.95, 12),
+                            np.radians(np.linspace(0, 60, 13)), indexing="ij")
+    q = np.column_stack([th.ravel(), d.ravel(), ps.ravel()])
+    q = q[~checker.in_collision(q)]
+    for amount in (0.004, 0.008, 0.016):
+        lift = checker.termination_collides(q, "open_lift", amount)
+        assert np.array_equal(lift, checker.termination_collides(q, "open_symmetric", amount))
+        assert 0 < lift.sum() < len(q)
+
+
 def test_planar_hull_agrees_with_qhull():
     """The planar hull (monotone chain) against scipy's Qhull on random point sets, with collinear
     and repeated points: the same vertices, counter-clockwise."""
@@ -280,6 +300,7 @@ def test_table_clearance_keeps_every_body_that_far_above_the_table():
     doc.setdefault("planning", {})["table_clearance"] = 0.0
     doc["planning"]["across_margin"] = 0.0  # the table alone: A's supports across the plane aside
     doc.setdefault("robot", {})["start_press"] = 0.0
+    doc["robot"].pop("end_press")
     base = Scene.from_dict(doc)
     c = 0.0015
     doc["planning"]["table_clearance"] = c
@@ -317,3 +338,12 @@ def test_table_clearance_keeps_every_body_that_far_above_the_table():
     doc["robot"]["start_press"] = 1.5 * c
     with pytest.raises(InputError, match=r"robot.start_press: must not exceed planning.table_clearance"):
         Scene.from_dict(doc)
+    # the last P_theta only lets the press out: robot.end_press no deeper than the start press
+    doc["robot"]["start_press"] = c
+    doc["robot"]["end_press"] = c / 2
+    assert Scene.from_dict(doc).robot.final_press == c / 2
+    doc["robot"]["end_press"] = 2 * c
+    with pytest.raises(InputError, match=r"robot.end_press: must not exceed robot.start_press"):
+        Scene.from_dict(doc)
+    del doc["robot"]["end_press"]
+    assert Scene.from_dict(doc).robot.final_press == c  # nothing let out

@@ -14,7 +14,7 @@ from conftest import SCENES, run_cli
 from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.robot.export import read_csv, read_json, write_json
 from ungrasp_ompl.robot.model import finger_tip, load_ur5e, tcp_pose, thumb_tip
-from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, pressed_frame
+from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, plane_frame
 from ungrasp_ompl.robot.placement import contact_points_world, densify
 from ungrasp_ompl.robot.trajectory import JOINT_NAMES
 
@@ -27,10 +27,20 @@ def pick():
     return scene, result
 
 
-@pytest.fixture(scope="module", params=["open", "open_symmetric", "rotate"])
+def pressed_frame(scene):
+    """The plane frame moved straight down by the start press: where a hand that lets none of it
+    out runs the plan."""
+    frame = plane_frame(scene).copy()
+    frame[2, 3] -= scene.robot.start_press
+    return frame
+
+
+@pytest.fixture(scope="module", params=["open", "open_symmetric", "open_lift", "rotate"])
 def executed(request, pick):
+    """The pick's plan with each termination, the start press held to the end."""
     scene, result = pick
-    scene = dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, termination=request.param))
+    robot = dataclasses.replace(scene.robot, termination=request.param, end_press=None)
+    scene = dataclasses.replace(scene, robot=robot)
     return scene, result, execute(scene, result)
 
 
@@ -144,44 +154,65 @@ def test_termination_maneuver(executed):
         assert np.ptp(opening) < 1e-9
     else:
         assert opening[-1] - opening[0] == pytest.approx(scene.robot.termination_opening, abs=1e-6)
-    if scene.robot.termination != "open_symmetric":
+    if scene.robot.termination in ("open", "rotate"):
         assert np.max(np.linalg.norm(tips - tips[0], axis=1)) < 1e-4  # the thumb stays on B
         return
-    # the gripper's own opening: the palm stays, each tip moves by half the opening across the gap
     palm = np.array([tcp_pose(ex.robot, q) for q in qs])
-    assert np.max(np.abs(palm - palm[0])) < 1e-6
     fingers = np.array([finger_tip(ex.robot, q) for q in qs])
     across = palm[0][:3, 0]  # palm x: from the thumb toward the finger
     half = (opening - opening[0])[:, None] / 2 * across
-    assert np.max(np.linalg.norm(tips - (tips[0] - half), axis=1)) < 1e-6
-    assert np.max(np.linalg.norm(fingers - (fingers[0] + half), axis=1)) < 1e-6
+    if scene.robot.termination == "open_symmetric":
+        # the gripper's own opening: the palm stays, each tip moves by half the opening across the gap
+        assert np.max(np.abs(palm - palm[0])) < 1e-6
+        assert np.max(np.linalg.norm(tips - (tips[0] - half), axis=1)) < 1e-6
+        assert np.max(np.linalg.norm(fingers - (fingers[0] + half), axis=1)) < 1e-6
+        return
+    # open_lift: the finger leaves the object's top face along its normal (in the plane, theta
+    # from the plan's last state), the thumb goes down as far as the gripper's own opening takes it
+    # and the palm turns not at all
+    frame, theta = plane_frame(scene), result.states[-1][0]
+    normal = frame[:3, :3] @ np.array([-math.sin(theta), 0.0, math.cos(theta)])
+    rise = fingers - fingers[0]
+    assert np.max(np.linalg.norm(rise - (rise @ normal)[:, None] * normal, axis=1)) < 1e-6
+    assert rise[-1] @ normal > 1e-3
+    np.testing.assert_allclose(tips[:, 2] - tips[0, 2], -half[:, 2], atol=1e-6)
+    assert np.max(np.abs(palm[:, :3, :3] - palm[0][:3, :3])) < 1e-6
 
 
 def test_a_start_press_comes_straight_down_and_runs_the_plan_that_much_lower(pick):
     """robot.start_press p: the trajectory's 'press' goes from the planned start pinch (where the
     approach ends) straight down by p, and every primitive and the termination start and end p
     below where they do without it (forward kinematics of the palm); the termination's check meets
-    the table p higher (CollisionModel.lowered)."""
-    pressed, result = pick  # the shipped pick presses 1 mm
-    p = pressed.robot.start_press
-    scene = dataclasses.replace(pressed, robot=dataclasses.replace(pressed.robot, start_press=0.0))
-    assert p == pytest.approx(0.001)
-    plain, low = execute(scene, result), execute(pressed, result)
-    palm = {}
-    for key, ex in (("plain", plain), ("low", low)):
-        palm[key] = {name: (tcp_pose(ex.robot, ex.trajectory.positions[a, :6]),
-                            tcp_pose(ex.robot, ex.trajectory.positions[b, :6])) for name, a, b in ex.trajectory.segments}
-    assert "press" in palm["low"] and "press" not in palm["plain"]
+    the table p higher (CollisionModel.lowered). With robot.end_press e the last P_theta ends e
+    below, and the termination runs there; the primitives before it are as p had them."""
+    shipped, result = pick  # the shipped pick presses 1 mm and lets half of it out
+    p, e = shipped.robot.start_press, shipped.robot.end_press
+    assert (p, e) == (pytest.approx(0.001), pytest.approx(0.0005)) and result.primitives[-1].type == "P_theta"
+    pressed = dataclasses.replace(shipped, robot=dataclasses.replace(shipped.robot, end_press=None))
+    scene = dataclasses.replace(shipped, robot=dataclasses.replace(shipped.robot, start_press=0.0, end_press=None))
+    ends, press = {}, {}
+    for key, sc in (("plain", scene), ("low", pressed), ("let out", shipped)):
+        ex = execute(sc, result)
+        tr = ex.trajectory
+        poses = [(name, tcp_pose(ex.robot, tr.positions[a, :6]), tcp_pose(ex.robot, tr.positions[b, :6]))
+                 for name, a, b in tr.segments]
+        press[key] = [pose for pose in poses if pose[0] == "press"]
+        ends[key] = [pose for pose in poses if pose[0].startswith("P_") or pose[0] == "termination"]
+        if key == "plain":
+            approach_end = poses[0][2]
+    assert press["plain"] == [] and len(press["low"]) == 1
     down = np.array([0.0, 0.0, -p])
-    first, last = palm["low"]["press"]
-    assert np.allclose(first[:3, 3], palm["plain"]["approach"][1][:3, 3], atol=2e-5)
+    _, first, last = press["low"][0]
+    assert np.allclose(first[:3, 3], approach_end[:3, 3], atol=2e-5)
     assert np.allclose(last[:3, 3] - first[:3, 3], down, atol=2e-5)
     assert np.allclose(last[:3, :3], first[:3, :3], atol=1e-5)
-    phases = [name for name in palm["plain"] if name.startswith("P_") or name == "termination"]
-    assert len(phases) >= 2
-    for name in phases:
+    assert [n for n, _, _ in ends["low"]] == [n for n, _, _ in ends["plain"]] and len(ends["plain"]) >= 3
+    for i, ((name, *plain), (_, *low), (_, *out)) in enumerate(zip(ends["plain"], ends["low"], ends["let out"])):
         for k in (0, 1):
-            assert np.allclose(palm["low"][name][k][:3, 3] - palm["plain"][name][k][:3, 3], down, atol=2e-5), name
+            assert np.allclose(low[k][:3, 3] - plain[k][:3, 3], down, atol=2e-5), name
+            let_out = i == len(ends["plain"]) - 1 or (i == len(ends["plain"]) - 2 and k == 1)
+            want = np.array([0.0, 0.0, -e]) if let_out else down
+            assert np.allclose(out[k][:3, 3] - plain[k][:3, 3], want, atol=2e-5), name
     assert pressed.collision_model().lowered == p and scene.collision_model().lowered == 0.0
 
 

@@ -13,7 +13,7 @@ from scipy.optimize import linprog
 from ungrasp_ompl.mechanics import (DigitGeometry, across_support, aperture, digit_polygons, finger_tip, s_b,
                                     thumb_clearance, thumb_tip)
 from ungrasp_ompl.mechanics.kinematics import (contact_d, digit_axis, finger_corner, kinematic_checks,
-                                              kinematic_validity, pressed_state, thumb_normal)
+                                              kinematic_validity, pressed_state, release_travel, thumb_normal)
 
 DIGITS = DigitGeometry(alpha=0.47)
 
@@ -225,3 +225,33 @@ def test_the_across_margin_is_checked_where_the_object_lies_and_pressed():
     for quiet in (dataclasses.replace(base, flat_finger_tip=True, finger_tip_radius=0.0),
                   dataclasses.replace(base, across_margin=0.0), dataclasses.replace(base, support=(0.0, 0.0))):
         assert not any(k.startswith("across") for k in kinematic_checks(th, d, ps, quiet))
+
+
+@pytest.mark.parametrize("kind", ["open", "open_symmetric", "open_lift"])
+def test_the_jaws_part_along_n_b_as_each_release_moves_them(states, kind):
+    """Per unit of opening the finger moves one unit more along n_B than the thumb, and the palm
+    half-way between them (a parallel gripper). open keeps the thumb on B, open_symmetric keeps
+    the palm still; open_lift moves the finger along the top face's normal (away from it: nothing
+    drags A along the face) and lowers the thumb by as much as open_symmetric does, half the
+    opening times cos(theta + psi), while the palm does not go down (with the thumb's face turned
+    down, theta + psi > pi/2, the finger still leaves the face and the thumb rises)."""
+    th, _, ps = states
+    go = release_travel(th, ps, kind)
+    n = thumb_normal(th, ps)
+    np.testing.assert_allclose(go["finger"] - go["thumb"], n, atol=1e-12)
+    np.testing.assert_allclose(go["palm"], (go["finger"] + go["thumb"]) / 2, atol=1e-12)
+    if kind == "open":
+        np.testing.assert_allclose(go["thumb"], 0.0, atol=1e-12)
+    elif kind == "open_symmetric":
+        np.testing.assert_allclose(go["palm"], 0.0, atol=1e-12)
+    else:
+        up = np.column_stack([-np.sin(th), np.cos(th)])
+        f = go["finger"]
+        np.testing.assert_allclose(f[:, 0] * up[:, 1] - f[:, 1] * up[:, 0], 0.0, atol=1e-12)
+        assert np.all(np.sum(f * up, axis=1) >= -1e-12)
+        c = np.cos(th + ps)
+        np.testing.assert_allclose(go["thumb"][:, 1], -c + np.abs(c) / 2, atol=1e-12)
+        down = c > 0  # the thumb's face turned up, as at every goal
+        np.testing.assert_allclose(go["thumb"][down, 1], release_travel(th, ps, "open_symmetric")["thumb"][down, 1],
+                                   atol=1e-12)
+        np.testing.assert_allclose(go["palm"][down, 1], 0.0, atol=1e-12)

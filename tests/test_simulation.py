@@ -503,3 +503,38 @@ def test_a_grasp_off_across_gb_tips_the_pick_unless_a_stays_inside_its_supports(
             assert r.success and r.roll_deg < 10.0, r.cause()
         else:
             assert r.outcome is Outcome.LEFT_PLANE and r.roll_deg > 10.0, r.cause()
+
+
+def test_a_press_held_through_the_last_p_theta_slides_b_off_the_thumb_unless_let_out():
+    """The pick's plan (RRT*, seed 1) ends with a P_theta from 15.5 to 8 deg at psi 36 deg. Run
+    1 mm below the plan to its end (the start press held), the pinch cannot carry the table's push
+    at these small angles: A and B slide toward the thumb's tip, and B passes it with no error
+    drawn. Let out to robot.end_press (0.5 mm) over that P_theta, where the pinch alone holds the
+    object, the same plan places it (docs/model.md 11.11)."""
+    shipped = Scene.from_file(SCENES / "guitar_pick.yaml")
+    result = plan(shipped, seed=1)
+    assert result.primitives[-1].type == "P_theta" and shipped.robot.final_press < shipped.robot.start_press
+    held = replace(shipped, robot=replace(shipped.robot, end_press=None))
+    for scene, placed in ((shipped, True), (held, False)):
+        ex = execute(scene, result)
+        r = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), TrialParams())
+        if placed:
+            assert r.success, r.cause()
+        else:
+            assert r.outcome is Outcome.B_PAST_THUMB_TIP and r.phase == "P_theta", r.cause()
+
+
+def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_its_target(pick):
+    """The positive control with no error drawn, let go by open_lift (the finger leaves A along the
+    face's normal, the thumb backs off B across) and by the gripper's own opening (open_symmetric,
+    the finger drawn back toward G as it leaves A and the thumb slower off B): the falling piece
+    rides the thumb's face less, and lands at least 0.3 mm nearer its target."""
+    scene, result, ex = pick
+    assert scene.robot.termination == "open_lift"
+    own = replace(scene, robot=replace(scene.robot, termination="open_symmetric"))
+    ex_own = execute(own, result)
+    lifted = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), TrialParams())
+    opened = run_trial(trial_setup(own, result, ex_own.trajectory, ex_own.robot), TrialParams())
+    assert lifted.success and opened.success
+    assert lifted.position_error_mm < opened.position_error_mm - 0.3, (lifted.position_error_mm,
+                                                                         opened.position_error_mm)

@@ -183,6 +183,7 @@ def test_forbidding_partial_legs_removes_p_dpsi(tmp_path):
     data = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
     data["planning"] = {"forbid_partial": True}
     data["robot"].pop("start_press")  # it needs the clearance left out here
+    data["robot"].pop("end_press")
     # the finger may not slide, so d stays; without P_dpsi the pick reaches theta 10 deg, not 3
     data["goal"] = {"theta_max_deg": 10, "d": [0.77, 0.83], "psi_deg": [35, 41]}
     path = tmp_path / "s.yaml"

@@ -4,6 +4,7 @@ draws, a key-frame strip, and one-line errors; the object sits between the digit
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -95,8 +96,9 @@ def test_strip_of_key_frames(export):
 def test_object_between_the_digits(export):
     """At every frame of every primitive, B lies on the thumb's face (within 0.05 mm of it, between
     the palm and the tip) and the finger's rounded tip rests on the object's top face at A, the
-    object drawn where the plan has it and the hand robot.start_press lower."""
-    from ungrasp_ompl.robot.pipeline import press_shift
+    object drawn where the plan has it and the hand robot.start_press lower, less what the last
+    P_theta lets out of it (robot.end_press), linearly in theta."""
+    from ungrasp_ompl.planning.result import read_plan
     from ungrasp_ompl.scene import Scene
     from ungrasp_ompl.view import load_scene
     from ungrasp_ompl.view.record import read_view_record
@@ -109,12 +111,21 @@ def test_object_between_the_digits(export):
     thumb, finger = paths.index("robot/gripper_thumb"), paths.index("robot/gripper_finger")
     obj = paths.index("planned/guitar_pick")
     g = record.gripper
+    p, e = planned.robot.start_press, planned.robot.final_press
+    final = read_plan(export / "plan.json").primitives[-1]
+    assert final.type == "P_theta" and e < p
+    theta0, theta1 = final.start[0], final.end[0]
+    last = [phase for phase in scene.phases if phase[0].startswith("P_")][-1]
     checked = 0
     for f, time in enumerate(scene.times):
         if not scene.phase_at(time)[0].startswith("P_"):
             continue
         body = scene.poses[obj, f].copy()
-        body[:3, 3] += press_shift(planned)  # where the pressed hand holds it
+        depth = p
+        if scene.phase_at(time) == last:  # let out along the last P_theta, linearly in theta
+            theta = math.atan2(body[2, 0], math.hypot(body[0, 0], body[1, 0]))
+            depth = p + (e - p) * (theta0 - theta) / (theta0 - theta1)
+        body[2, 3] -= depth  # where the pressed hand holds it
         b_world = body[:3, :3] @ np.array([l, 0.0, 0.0]) + body[:3, 3]
         b_thumb = np.linalg.solve(scene.poses[thumb, f], np.append(b_world, 1.0))
         assert abs(b_thumb[0]) < 5e-5 and 0.0 < b_thumb[2] <= g.thumb_length + 1e-6, (time, b_thumb)

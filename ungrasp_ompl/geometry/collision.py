@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics.kinematics import (DigitGeometry, digit_offsets, finger_corner, housing_centre, housing_offsets,
-                                   thumb_normal, thumb_tip)
+                                   release_travel, thumb_tip)
 from .solids import Solid, prism_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
@@ -385,9 +385,8 @@ class CollisionChecker:
     def termination_collides(self, q: ArrayLike, kind: str, amount: float, steps: int = 6) -> NDArray[np.bool_]:
         """Whether the gripper hits something while it lets go from states q (N, 3) (paper fig. 10d).
 
-        kind 'open': the finger moves away from the thumb by amount (m) along n_B, the housing by
-        half of it, the thumb stays on B. kind 'open_symmetric': the finger moves by half of it
-        along n_B, the thumb by half of it against n_B, the housing stays. kind 'rotate': the
+        kinds 'open', 'open_symmetric' and 'open_lift': the gripper opens by amount (m), its
+        bodies moving as mechanics.release_travel has them. kind 'rotate': the
         gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked
         at steps poses along the way, where the hand runs (CollisionModel.lowered below the plan);
         the digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
@@ -396,10 +395,7 @@ class CollisionChecker:
         poses = self._digit_poses(q)
         pivot = poses["thumb"][1]  # the thumb tip
         lift = np.where(poses["finger"][1][:, 0] < pivot[:, 0], -1.0, 1.0)  # turning sign that raises the finger
-        n_b = thumb_normal(q[:, 0], q[:, 2])
-        # how far along n_B each body moves, per unit of opening
-        share = ({"thumb": -0.5, "finger": 0.5, "palm": 0.0} if kind == "open_symmetric" else
-                 {"thumb": 0.0, "finger": 1.0, "palm": 0.5})
+        travel = None if kind == "rotate" else release_travel(q[:, 0], q[:, 2], kind)
         hit = np.zeros(len(q), dtype=bool)
         for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
             moved = {}
@@ -408,7 +404,7 @@ class CollisionChecker:
                 if kind == "rotate":
                     moved[body] = (angle + turn, _turned(origin, pivot, turn), _turned(outline, pivot, turn))
                 else:
-                    shift = n_b * (amount * f * share[body])
+                    shift = travel[body] * (amount * f)
                     moved[body] = (angle, origin + shift, outline + shift[:, None, :])
             hit |= self._hits(moved, RELEASE_TABLE_GAP)
         return hit

@@ -105,6 +105,30 @@ def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
 
 
+#: How each opening termination moves the digits and the housing per unit of opening: the
+#: parts of n_B and of the face's normal in each body's travel (docs/model.md 7).
+_RELEASES = {"open": {"palm": (0.5, 0.0), "finger": (1.0, 0.0), "thumb": (0.0, 0.0)},
+             "open_symmetric": {"palm": (0.0, 0.0), "finger": (0.5, 0.0), "thumb": (-0.5, 0.0)},
+             "open_lift": {"palm": (-0.5, 1.0), "finger": (0.0, 1.0), "thumb": (-1.0, 1.0)}}
+
+
+def release_travel(theta: ArrayLike, psi: ArrayLike, kind: str) -> dict[str, NDArray[np.float64]]:
+    """Where the palm (the housing), the finger and the thumb go, per unit of opening, as the
+    gripper lets go from states (theta, psi) by opening (kind 'open', 'open_symmetric' or
+    'open_lift'): plane vectors (..., 2), in the opening's unit. The jaws part along n_B, the
+    finger by half the opening more than the palm and the thumb by half less; 'open' keeps the
+    thumb on B, 'open_symmetric' keeps the palm still, and 'open_lift' moves the palm so that
+    the finger leaves A along the object's face normal while the thumb goes down as far as the
+    gripper's own opening takes it (half the opening's part along z; with the thumb's face turned
+    down, theta + psi > pi/2, it rises by that much more), backing off B across as well
+    (docs/model.md 7)."""
+    theta, psi = _arrays(theta, psi)
+    n = thumb_normal(theta, psi)
+    up = np.stack([-np.sin(theta), np.cos(theta)], axis=-1)  # the top face's outward normal
+    lift = (np.abs(np.cos(theta + psi)) / (2.0 * np.cos(theta)))[..., None]  # the finger's rise per opening
+    return {body: a * n + b * lift * up for body, (a, b) in _RELEASES[kind].items()}
+
+
 def contact_d(d: ArrayLike, psi: ArrayLike, tip_radius: ArrayLike = 0.0) -> NDArray[np.float64]:
     """Distance of the contact A from B along the object, over l: d + r psi for a finger tip
     rounded with radius r (d itself for a point or a flat tip).

@@ -19,8 +19,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import EXIT_NO_SOLUTION, UngraspError
+from ..mechanics.contact import Primitive
+from ..mechanics.kinematics import release_travel
 from ..planning.result import Plan
 from ..scene import Scene
+from ..scene.options import Termination
 from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
@@ -96,16 +99,18 @@ def _tips(robot: RobotModel, poses: NDArray, openings: NDArray) -> tuple[NDArray
     return o - half + g.thumb_length * z, o + half + g.finger_length * z
 
 
-def _termination(scene: Scene, pose: NDArray, opening: float, robot: RobotModel) -> tuple[NDArray, NDArray]:
-    """Palm poses and openings of the termination maneuver, from the last pinch state."""
+def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, frame: NDArray,
+                 robot: RobotModel) -> tuple[NDArray, NDArray]:
+    """Palm poses and openings of the termination maneuver, from the last pinch state (planar,
+    its palm pose) in the plane frame."""
     opts = scene.robot
     n = 40
-    if opts.termination != "rotate":
+    if opts.termination != Termination.ROTATE:
         openings = np.minimum(opening + np.linspace(0.0, opts.termination_opening, n + 1)[1:],
                               robot.gripper.max_opening)
+        travel = release_travel(state[0], state[2], opts.termination)["palm"]
         poses = np.repeat(pose[None], n, axis=0)
-        if opts.termination == "open":  # the thumb stays on B: the palm follows half the opening
-            poses[:, :3, 3] += (openings - opening)[:, None] / 2 * pose[:3, 0]
+        poses[:, :3, 3] += (openings - opening)[:, None] * (frame[:3, 0] * travel[0] + frame[:3, 2] * travel[1])
         return poses, openings
     # turn the palm about the thumb tip, about the plane's normal (palm y), the way that lifts the finger
     tip = _tips(robot, pose[None], np.array([opening]))[0][0]
@@ -185,19 +190,20 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     return ex
 
 
-def press_shift(scene: Scene) -> NDArray[np.float64]:
-    """World translation (3,) of the pressed hand from the planned one (robot.start_press): straight
-    down by start_press (m), so that a push the object's end feels lies inside the table's friction
-    cone (docs/model.md 11.8); zero without a press."""
-    return np.array([0.0, 0.0, -scene.robot.start_press])
-
-
-def pressed_frame(scene: Scene) -> NDArray[np.float64]:
-    """The plane frame (4x4) the plan's primitives are run in: plane_frame moved by press_shift,
-    a new array (plane_frame itself without a press)."""
-    frame = plane_frame(scene).copy()
-    frame[:3, 3] += press_shift(scene)
-    return frame
+def hand_offsets(scene: Scene, segments: list[tuple[str, int, int]], count: int) -> NDArray[np.float64]:
+    """World translations (count, 3) of the hand from where the plan puts it, at each of count dense
+    states whose primitives segments gives (densify): straight down by robot.start_press, so that
+    a push the object's end feels lies inside the table's friction cone (docs/model.md 11.8); when
+    the plan's last primitive is a P_theta, let out to robot.end_press along it, linearly in theta
+    (docs/model.md 11.11). Zero without a press."""
+    r = scene.robot
+    depth = np.full(count, r.start_press)
+    if segments and segments[-1][0] == Primitive.THETA and r.final_press != r.start_press:
+        _, first, last = segments[-1]
+        depth[first:last + 1] = np.linspace(r.start_press, r.final_press, last - first + 1)
+    offsets = np.zeros((count, 3))
+    offsets[:, 2] = -depth
+    return offsets
 
 
 def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
@@ -205,11 +211,12 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
     retreat; the joints and opening (7,) the approach ends at; and (IK residual m, rad, contact
     error m)."""
     opts = scene.robot
-    shift = press_shift(scene)
-    frame = pressed_frame(scene)  # the plan is run as much lower as the press took it
+    frame = plane_frame(scene)
     states, segments = densify(plan)
+    offsets = hand_offsets(scene, segments, len(states))  # the plan is run as much lower as the press took it
     poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)
-    term_poses, term_openings = _termination(scene, poses[-1], openings[-1], robot)
+    poses[:, :3, 3] += offsets
+    term_poses, term_openings = _termination(scene, states[-1], poses[-1], openings[-1], frame, robot)
     all_poses = np.concatenate([poses, term_poses])
     all_open = np.concatenate([openings, term_openings])
     q_arm, res_m, res_rad = solve_path(robot, list(all_poses), ik_seed_for(robot, all_poses[0]))
@@ -218,6 +225,7 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
     parts: list[tuple[str, Samples]] = []
     v_max, a_max = robot.v_max, robot.a_max
     start = path[0]
+    shift = offsets[0]
     if shift.any():  # the press: from the planned start pinch straight down, solved back from the plan's start
         back = np.repeat(all_poses[:1], PRESS_STEPS, axis=0)
         back[:, :3, 3] -= np.linspace(1.0, PRESS_STEPS, PRESS_STEPS)[:, None] / PRESS_STEPS * shift
@@ -245,7 +253,7 @@ def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, S
         res_m, res_rad = np.append(res_m, up_m), np.append(res_rad, up_rad)
         q_up = np.column_stack([np.vstack([q_arm[-1], q_up]), np.full(len(lift), all_open[-1])])
         parts.append(("retreat", toppra_path(q_up, lift, v_max, a_max, RETREAT_SPEED, SAMPLE_PERIOD)))
-    contact_error = _contact_error(scene, robot, states, frame, q_arm[: len(states)], openings)
+    contact_error = _contact_error(scene, robot, states, frame, offsets, q_arm[: len(states)], openings)
     return parts, start, (float(np.max(res_m)), float(np.max(res_rad)), contact_error)
 
 
@@ -286,19 +294,21 @@ def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
                            JOINT_NAMES, segs)
 
 
-def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDArray, q_arm: NDArray,
-                   openings: NDArray) -> float:
-    """Largest distance of the digit tips (forward kinematics) from their planned places, at each
-    sample and halfway between samples (joints interpolated linearly, plan interpolated in state)."""
-    mids = (states[:-1] + states[1:]) / 2
-    q_all = np.concatenate([q_arm, (q_arm[:-1] + q_arm[1:]) / 2])
-    o_all = np.concatenate([openings, (openings[:-1] + openings[1:]) / 2])
-    planned = contact_points_world(scene, np.concatenate([states, mids]), frame)
+def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDArray, offsets: NDArray,
+                   q_arm: NDArray, openings: NDArray) -> float:
+    """Largest distance of the digit tips (forward kinematics) from their planned places moved by the
+    hand's offsets, at each sample and halfway between samples (joints interpolated linearly, plan
+    interpolated in state)."""
+    def halves(x: NDArray) -> NDArray:
+        return np.concatenate([x, (x[:-1] + x[1:]) / 2])
+
+    q_all, o_all, moved = halves(q_arm), halves(openings), halves(offsets)
+    planned = contact_points_world(scene, halves(states), frame)
     worst = 0.0
     for i in range(len(q_all)):
         q7 = np.append(q_all[i], o_all[i])
-        worst = max(worst, float(np.linalg.norm(thumb_tip(robot, q7) - planned["thumb"][i])),
-                    float(np.linalg.norm(finger_tip(robot, q7) - planned["finger"][i])))
+        worst = max(worst, float(np.linalg.norm(thumb_tip(robot, q7) - planned["thumb"][i] - moved[i])),
+                    float(np.linalg.norm(finger_tip(robot, q7) - planned["finger"][i] - moved[i])))
     return worst
 
 

@@ -175,7 +175,7 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "object"})
+                                "end_press", "object"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -204,6 +204,11 @@ class SceneReader:
             self.known(o, "robot.object", {"position", "yaw_deg"})
             obj_pos = self.pair(o, "robot.object.position", "position") if "position" in o else obj_pos
             obj_yaw = math.radians(self.angle(o, "robot.object.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
+        start_press = self.length(m, "robot.start_press", "start_press", zero=True, default=d.start_press)
+        end_press = self.length(m, "robot.end_press", "end_press", zero=True) if "end_press" in m else None
+        if end_press is not None and end_press > start_press:
+            self.fail("robot.end_press", f"must not exceed robot.start_press ({start_press:g} m): the press is only "
+                      f"let out, got {end_press:g}")
         return RobotOptions(
             base=base,
             palm_depth=self.length(m, "robot.palm_depth", "palm_depth", default=d.palm_depth),
@@ -217,7 +222,8 @@ class SceneReader:
                                                        positive=True, maximum=90.0, unit=" deg",
                                                        default=math.degrees(d.termination_angle))),
             retreat_height=self.length(m, "robot.retreat_height", "retreat_height", zero=True, default=d.retreat_height),
-            start_press=self.length(m, "robot.start_press", "start_press", zero=True, default=d.start_press),
+            start_press=start_press,
+            end_press=end_press,
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )

@@ -25,6 +25,10 @@ class Termination(StrEnum):
     #: The jaws open by robot.termination_opening about the palm, which stays where it is (the
     #: gripper's own opening): the thumb backs off B by half of it as the finger leaves A.
     OPEN_SYMMETRIC = "open_symmetric"
+    #: The jaws open by robot.termination_opening while the arm moves the palm so that the
+    #: finger leaves A along the face's normal (nothing drags the object toward G) and the thumb,
+    #: going down as far as in open_symmetric, backs off B across as well (docs/model.md 7).
+    OPEN_LIFT = "open_lift"
     #: The hand turns about the thumb's tip by robot.termination_angle.
     ROTATE = "rotate"
 
@@ -86,8 +90,8 @@ class RobotOptions:
     contact_speed: float = 0.01
     """Cap on the digit tips' speed along the primitives (m/s)."""
     termination: Termination = Termination.OPEN
-    """How the gripper lets go: open or open_symmetric (by termination_opening) or rotate (about the
-    thumb tip)."""
+    """How the gripper lets go: open, open_symmetric or open_lift (by termination_opening) or rotate
+    (about the thumb tip)."""
     termination_opening: float = 0.01
     """How far the gripper opens to let go (m)."""
     termination_angle: float = math.radians(10.0)
@@ -100,11 +104,22 @@ class RobotOptions:
     a hand up to this much too high still starts with the object on the table (docs/model.md 11.8);
     B keeps planning.thumb_tip_margin also where the press puts the object. At most
     planning.table_clearance."""
+    end_press: float | None = None
+    """How far below the plan the hand ends the plan's last primitive when it is a P_theta (m):
+    the press is let out to this over that P_theta, where every contact sticks and the pinch
+    holds the object without the table; None: start_press, nothing let out (docs/model.md 11.11).
+    At most start_press."""
     object_position: tuple[float, float] = (0.45, 0.10)
     """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
     its target pose)."""
     object_yaw: float = 0.0
     """Direction of GB on the table (world yaw, rad) for scenes without an outline."""
+
+    @property
+    def final_press(self) -> float:
+        """How far below the plan the hand ends the last P_theta (m): end_press (no deeper than
+        start_press), or start_press."""
+        return self.start_press if self.end_press is None else min(self.end_press, self.start_press)
 
     @property
     def termination_amount(self) -> float:

@@ -170,7 +170,7 @@ def _segments(traj: JointTrajectory, prefix: str) -> list[tuple[str, int, int]]:
 
 def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str) -> PieceRecord:
     """The record of one object: its prism, target, and planned pose along traj (module docstring)."""
-    from ..robot.pipeline import plane_frame, pressed_frame
+    from ..robot.pipeline import hand_offsets, plane_frame
     from ..robot.placement import densify, palm_poses
     from ..sim.setup import object_outline, tilted
 
@@ -183,7 +183,8 @@ def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str
     if len(prims) != len(dense):
         raise ValueError(f"the trajectory has {len(prims)} primitives for {scene.name}, the plan {len(dense)}")
     # the hand runs the plan as much lower as a start press took it; the object stays as planned
-    palms, _ = palm_poses(scene, states, pressed_frame(scene), robot.gripper.thumb_length)
+    palms, _ = palm_poses(scene, states, frame, robot.gripper.thumb_length)
+    palms[:, :3, 3] += hand_offsets(scene, dense, len(states))
     grip = np.linalg.inv(palm_poses(scene, states[:1], frame, robot.gripper.thumb_length)[0][0]) @ tilted(
         frame, float(states[0, 0]))
     times, thetas = [float(traj.times[approach[2]])], [float(states[0, 0])]
