@@ -354,13 +354,12 @@ def kinematic_checks(
         th, dd, ps, rest = np.broadcast_arrays(theta, d, psi, rest)
         _, dp, pp, found = pressed_state(th[rest], dd[rest], ps[rest], digits.press, digits)
         sbp = s_b(dp, pp, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
-        pressed = np.ones(rest.shape, dtype=bool)
-        pressed[rest] = found & (sbp >= digits.thumb_tip_margin - tol)
-        checks["s_B >= 0 pressed"] = pressed
+        pressed = {"s_B >= 0 pressed": sbp >= digits.thumb_tip_margin - tol}
         if across:
-            pressed = np.ones(rest.shape, dtype=bool)
-            pressed[rest] = found & (across_support(dp, pp, digits) >= digits.across_margin - tol)
-            checks["across support pressed"] = pressed
+            pressed["across support pressed"] = across_support(dp, pp, digits) >= digits.across_margin - tol
+        for name, holds in pressed.items():
+            checks[name] = np.ones(rest.shape, dtype=bool)
+            checks[name][rest] = found & holds
     return checks
 
 

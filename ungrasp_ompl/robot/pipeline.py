@@ -110,7 +110,7 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
                               robot.gripper.max_opening)
         travel = release_travel(state[0], state[2], opts.termination)["palm"]
         poses = np.repeat(pose[None], n, axis=0)
-        poses[:, :3, 3] += (openings - opening)[:, None] * (frame[:3, 0] * travel[0] + frame[:3, 2] * travel[1])
+        poses[:, :3, 3] += (openings - opening)[:, None] * (frame[:3, [0, 2]] @ travel)  # plane (x, z) to world
         return poses, openings
     # turn the palm about the thumb tip, about the plane's normal (palm y), the way that lifts the finger
     tip = _tips(robot, pose[None], np.array([opening]))[0][0]
