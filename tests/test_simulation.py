@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import yaml
 
 from conftest import BEFORE_CLEARANCES, SCENES, assert_picture, run_cli, with_previous_pair
 from ungrasp_ompl import Scene
@@ -24,7 +25,11 @@ from ungrasp_ompl.planning.verify import LegCheck
 from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.placement import plane_points
 from ungrasp_ompl.planning.deviate import deviated_plan, plan_problems, steeper_start
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.scene.options import Landing
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval
+from ungrasp_ompl.sim.landing import landing_offset
+from ungrasp_ompl.sim.plan_trials import placement
 from ungrasp_ompl.sim.outcome import Outcome, TrialResult
 from ungrasp_ompl.sim.tiling import TilingAttempt
 from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
@@ -538,3 +543,34 @@ def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_i
     assert lifted.success and opened.success
     assert lifted.position_error_mm < opened.position_error_mm - 0.3, (lifted.position_error_mm,
                                                                          opened.position_error_mm)
+
+
+def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pick):
+    """As planned, the positive control's release lands the piece over half a millimetre from its
+    target with no error drawn (its end rides down the thumb's face). With robot.landing simulated,
+    placement moves the hand's whole motion by that offset, the other way, and nothing else: the same
+    release then lands it on target, since the table is the same everywhere. The aim is the scene's
+    own (a variant's world does not change it), and the scene file names the field of a bad value."""
+    scene, result, ex = pick
+    assert scene.robot.landing is Landing.SIMULATED
+    planned = trial_setup(scene, result, ex.trajectory, ex.robot)
+    trial = run_trial(planned, TrialParams())
+    offset = landing_offset(planned, np.array(trial.final_pose))
+    assert trial.success and np.hypot(*offset) > 0.0005, (trial.cause(), offset)
+    execution, aimed = placement(scene, result)
+    assert np.allclose(aimed.aim, -offset, atol=1e-12) and execution.aims == (aimed.aim,)
+    shift = np.append(aimed.aim, 0.0)
+    assert np.allclose(aimed.start_pose[:3, 3], planned.start_pose[:3, 3] + shift, atol=1e-12)
+    assert np.array_equal(aimed.target_pose, planned.target_pose)
+    for k in (0, -1):  # the first primitive's start and the retreat's end: the same pose, moved by the aim
+        assert np.allclose(aimed.drive.palm[k][:3, :3], planned.drive.palm[k][:3, :3], atol=1e-6)
+        assert np.allclose(aimed.drive.palm[k][:3, 3], planned.drive.palm[k][:3, 3] + shift, atol=1e-6)
+    landed = run_trial(aimed, TrialParams())
+    assert landed.success and landed.position_error_mm < 0.1, landed.position_error_mm
+    assert placement(scene, result, Variant(friction_scale=0.2))[1].aim == aimed.aim
+    as_planned = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+    assert placement(as_planned, result)[1].aim == (0.0, 0.0)
+    raw = yaml.safe_load((SCENES / "puzzle_piece.yaml").read_text())
+    raw["robot"]["landing"] = "thrown"
+    with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, got 'thrown'"):
+        Scene.from_dict(raw)

@@ -64,6 +64,7 @@ class Execution:
     contact_error_m: float  # largest distance of a digit tip from its planned place, at and between samples
     velocity_fraction: float  # largest |qd| / limit over samples and joints
     acceleration_fraction: float
+    aims: tuple[tuple[float, float], ...] = ()  # per plan: the world (x, y) shift of the hand from the plan's frame, m
 
     def summary(self) -> str:
         tr = self.trajectory
@@ -131,18 +132,23 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
     return np.array([turned(a) for a in angles]), np.full(n, opening)
 
 
-def execute(scene: Scene, plan: Plan) -> Execution:
-    """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper."""
-    return execute_sequence([(scene, plan)])
+def execute(scene: Scene, plan: Plan, aim: tuple[float, float] = (0.0, 0.0)) -> Execution:
+    """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper;
+    aim: a world (x, y) shift of the whole motion from where the plan puts it (m; the landing's
+    correction, sim.landing), the obstacles staying where they are."""
+    return execute_sequence([(scene, plan)], aims=[aim])
 
 
-def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = None) -> Execution:
+def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = None,
+                     aims: list[tuple[float, float]] | None = None) -> Execution:
     """One trajectory for several solved plans in turn (a layout's pieces), from the first scene's
     home configuration: per plan the approach, its primitives, the termination and the retreat;
     between plans a move back home, where the next piece is handed over (not planned here).
-    Segment names carry the label of their plan ('square/P_psi') when labels are given. Each plan's
+    Segment names carry the label of their plan ('square/P_psi') when labels are given; aims
+    shifts each plan's motion as execute's aim does (none: no shift). Each plan's
     part is checked for collision against its own scene (whose solids hold the pieces put down
     before it). The robot and gripper are those of the first scene."""
+    aims = [(0.0, 0.0)] * len(jobs) if aims is None else [(float(x), float(y)) for x, y in aims]
     first = jobs[0][0]
     robot = load_ur5e(gripper_spec(first), np.array(first.robot.base))
     v_max, a_max = robot.v_max, robot.a_max
@@ -154,7 +160,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     current = None
     for k, (scene, plan) in enumerate(jobs):
         prefix = f"{labels[k]}/" if labels else ""
-        parts, start, checks = _job(scene, plan, robot)
+        parts, start, checks = _job(scene, plan, robot, aims[k])
         res_m, res_rad = max(res_m, checks[0]), max(res_rad, checks[1])
         contact_error = max(contact_error, checks[2])
         if current is None:
@@ -182,7 +188,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
             raise CollisionError(phase, float(trajectory.times[i]), tuple(pairs))
     ex = Execution(trajectory, robot, res_m, res_rad, contact_error,
                    float(np.max(np.abs(trajectory.velocities) / v_max)),
-                   float(np.max(np.abs(trajectory.accelerations) / a_max)))
+                   float(np.max(np.abs(trajectory.accelerations) / a_max)), tuple(aims))
     violations = check_limits(trajectory, robot)
     if violations:
         raise TimingError(Untimeable.LIMITS, "the trajectory leaves the robot's limits: "
@@ -206,12 +212,21 @@ def hand_offsets(scene: Scene, segments: list[tuple[str, int, int]], count: int)
     return offsets
 
 
-def _job(scene: Scene, plan: Plan, robot: RobotModel) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
-    """One plan on the robot: the timed press (robot.start_press), primitives, termination and
-    retreat; the joints and opening (7,) the approach ends at; and (IK residual m, rad, contact
-    error m)."""
+def aimed_frame(scene: Scene, aim: tuple[float, float] = (0.0, 0.0)) -> NDArray[np.float64]:
+    """The plane's frame in the world (plane_frame) shifted by aim (world x, y, m): where the hand
+    runs the plan."""
+    frame = plane_frame(scene).copy()
+    frame[:2, 3] += aim
+    return frame
+
+
+def _job(scene: Scene, plan: Plan, robot: RobotModel, aim: tuple[float, float]
+         ) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
+    """One plan on the robot, shifted by aim (world x, y, m): the timed press (robot.start_press),
+    primitives, termination and retreat; the joints and opening (7,) the approach ends at; and (IK
+    residual m, rad, contact error m)."""
     opts = scene.robot
-    frame = plane_frame(scene)
+    frame = aimed_frame(scene, aim)
     states, segments = densify(plan)
     offsets = hand_offsets(scene, segments, len(states))  # the plan is run as much lower as the press took it
     poses, openings = palm_poses(scene, states, frame, robot.gripper.thumb_length)

@@ -18,7 +18,7 @@ import yaml
 from ..errors import InputError
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
-from .options import Object3D, RobotOptions, SimOptions, Termination
+from .options import Landing, Object3D, RobotOptions, SimOptions, Termination
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
@@ -175,7 +175,7 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "end_press", "object"})
+                                "end_press", "landing", "object"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -198,6 +198,9 @@ class SceneReader:
         term = m.get("termination", d.termination)
         if term not in tuple(Termination):
             self.fail("robot.termination", f"must be one of {', '.join(Termination)}, got {term!r}")
+        landing = m.get("landing", d.landing)
+        if landing not in tuple(Landing):
+            self.fail("robot.landing", f"must be one of {', '.join(Landing)}, got {landing!r}")
         obj_pos, obj_yaw = d.object_position, d.object_yaw
         if "object" in m:
             o = self.mapping(m["object"], "robot.object")
@@ -224,6 +227,7 @@ class SceneReader:
             retreat_height=self.length(m, "robot.retreat_height", "retreat_height", zero=True, default=d.retreat_height),
             start_press=start_press,
             end_press=end_press,
+            landing=Landing(landing),
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )

@@ -33,6 +33,16 @@ class Termination(StrEnum):
     ROTATE = "rotate"
 
 
+class Landing(StrEnum):
+    """Where the hand aims the object (a member is its name as a string)."""
+
+    #: As the plan has it: the object turns flat about G where the last state leaves it.
+    PLANNED = "planned"
+    #: Where the release, simulated with no error drawn, lands it: the hand is moved by the
+    #: landing's offset from the target, the other way (docs/model.md 11.12).
+    SIMULATED = "simulated"
+
+
 @dataclass(frozen=True)
 class PlanningOptions:
     """Options of the planar planner that a scene fixes (the scene's `planning` section). Costs
@@ -109,6 +119,9 @@ class RobotOptions:
     the press is let out to this over that P_theta, where every contact sticks and the pinch
     holds the object without the table; None: start_press, nothing let out (docs/model.md 11.11).
     At most start_press."""
+    landing: Landing = Landing.PLANNED
+    """Where the hand aims the object: planned (the plan's last state turned flat about G) or
+    simulated (corrected by where the release, simulated with no error, lands it)."""
     object_position: tuple[float, float] = (0.45, 0.10)
     """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
     its target pose)."""

@@ -36,6 +36,7 @@ class SimulationReport:
     trials: list[TrialResult] = field(default_factory=list)
     plan_problems: list["PlanProblem"] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
     trajectory_duration_s: float = 0.0
+    aim: tuple[float, float] = (0.0, 0.0)  #: the hand's world (x, y) shift from the plan's frame (m; robot.landing)
 
     @property
     def successes(self) -> int:
@@ -78,6 +79,7 @@ class SimulationReport:
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
+            "aim_m": list(self.aim),
         }
 
 
@@ -119,7 +121,7 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: i
         raise InputError("jobs", f"must be at least 1, got {jobs}")
     results = run_trials([setup], perturbation, trials, seed, jobs, progress, cluster)[0]
     return SimulationReport(scene, perturbation, variant, seed, results,
-                            trajectory_duration_s=float(setup.drive.times[-1]))
+                            trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim)
 
 
 def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,

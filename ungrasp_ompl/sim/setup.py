@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import plane_frame
+from ..robot.pipeline import aimed_frame, plane_frame
 from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -94,10 +94,12 @@ def planned_travel(scene: Scene, plan: Plan) -> tuple[PlannedTravel, ...]:
 
 def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: RobotModel,
                 variant: Variant = Variant(), prefix: str = "",
-                placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()) -> TrialSetup:
+                placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = (),
+                aim: tuple[float, float] = (0.0, 0.0)) -> TrialSetup:
     """What every trial of the placement of scene's object by plan shares. trajectory and robot:
-    the executed plan (robot.pipeline); prefix: the piece's segment prefix in a tiling
-    trajectory; placed: objects already down (free bodies) with their poses."""
+    the executed plan (robot.pipeline), its motion shifted by aim (world x, y, m) from the plan's
+    frame; prefix: the piece's segment prefix in a tiling trajectory; placed: objects already down
+    (free bodies) with their poses."""
     opts = scene.sim
     frame = plane_frame(scene)
     l = scene.object_length
@@ -111,7 +113,8 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
                         servo_stiffness=2 * opts.grip_force / opts.squeeze)
     theta0, d0, _ = plan.states[0]
     return TrialSetup(spec=spec, drive=drive_from_trajectory(trajectory, robot, prefix),
-                      start_pose=tilted(frame, theta0), target_pose=frame.copy(),
+                      start_pose=tilted(aimed_frame(scene, aim), theta0), target_pose=frame.copy(),
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
                       squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
-                      max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over)
+                      max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over,
+                      aim=(float(aim[0]), float(aim[1])))

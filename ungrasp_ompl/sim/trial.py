@@ -68,7 +68,9 @@ class TrialSetup:
     rest_time: s of stillness before the drive and after it; max_error: the largest placement
     error (m) that counts as placed; planned: per primitive, how far the plan moves A and B;
     handed_over: the object was set into the gripper at the start pose with its end on the table
-    (perturbed_start slides it down to the table instead of leaving it hanging).
+    (perturbed_start slides it down to the table instead of leaving it hanging); aim: the world
+    (x, y) shift of the hand from the plan's frame (m), by which the robot corrects the landing
+    (sim.landing), the target staying where it is.
     """
 
     spec: SimModelSpec
@@ -83,6 +85,7 @@ class TrialSetup:
     max_error: float = 0.003
     planned: tuple[PlannedTravel, ...] = ()
     handed_over: bool = False
+    aim: tuple[float, float] = (0.0, 0.0)
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:

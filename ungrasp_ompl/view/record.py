@@ -140,7 +140,8 @@ def build_record(jobs: list, execution: Any, labels: list[str] | None = None, ki
             if box.name not in seen:
                 seen.add(box.name)
                 solids.append(SolidRecord(box.name, _obstacle_corners(box, plane_frame(scene)), "obstacle"))
-    pieces = [_piece(scene, plan, traj, robot, f"{labels[k]}/" if labels else "")
+    aims = execution.aims or [(0.0, 0.0)] * len(jobs)
+    pieces = [_piece(scene, plan, traj, robot, f"{labels[k]}/" if labels else "", aims[k])
               for k, (scene, plan) in enumerate(jobs)]
     title = f"{len(jobs)} pieces" if labels else first.name
     l, dg = first.object_length, first.digits
@@ -168,9 +169,11 @@ def _segments(traj: JointTrajectory, prefix: str) -> list[tuple[str, int, int]]:
             and (prefix or "/" not in n)]
 
 
-def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str) -> PieceRecord:
-    """The record of one object: its prism, target, and planned pose along traj (module docstring)."""
-    from ..robot.pipeline import hand_offsets, plane_frame
+def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str,
+           aim: tuple[float, float] = (0.0, 0.0)) -> PieceRecord:
+    """The record of one object: its prism, target, and planned pose along traj (module docstring),
+    in the plane's frame shifted by aim as the hand ran it (robot.pipeline.aimed_frame)."""
+    from ..robot.pipeline import aimed_frame, hand_offsets
     from ..robot.placement import densify, palm_poses
     from ..sim.setup import object_outline, tilted
 
@@ -178,7 +181,7 @@ def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str
     approach = next(s for s in segs if s[0] == "approach")
     prims = [s for s in segs if s[0] not in NON_PRIMITIVES]
     term = next((s for s in segs if s[0] == "termination"), None)
-    frame = plane_frame(scene)
+    frame = aimed_frame(scene, aim)
     states, dense = densify(plan)
     if len(prims) != len(dense):
         raise ValueError(f"the trajectory has {len(prims)} primitives for {scene.name}, the plan {len(dense)}")

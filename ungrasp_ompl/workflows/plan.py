@@ -108,9 +108,16 @@ class ScenePlan:
         return files
 
     def execute(self) -> Execution:
-        """The plan on the arm: inverse kinematics, timing and the gripper's openings."""
+        """The plan on the arm: inverse kinematics, timing and the gripper's openings (with
+        robot.landing simulated, aimed by where the release lands the object: sim.landing)."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
+        from ..scene.options import Landing
+
+        if self.scene.robot.landing is Landing.SIMULATED:
+            from ..sim.plan_trials import placement
+
+            return placement(self.scene, self.plan)[0]
         from ..robot.pipeline import execute
 
         return execute(self.scene, self.plan)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from ..plotting import draw_trials
 from ..robot.export import export_all
 from ..robot.pipeline import Execution, execute_sequence
 from ..scene import Scene
+from ..scene.options import Landing
 from ..sim.campaign import SimulationReport, default_jobs, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
@@ -144,6 +146,12 @@ class SceneSimulation:
                      f"{1000 * scene.sim.max_error:g} mm of the target)" + (
                          f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
                          f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
+        if scene.robot.landing is Landing.SIMULATED:
+            aim = 1000 * math.hypot(*report.aim)
+            lines.append(f"the hand aimed {aim:.2f} mm from the plan's landing, where the release simulated with no error "
+                         "put the object (robot.landing: simulated)" if aim else
+                         "robot.landing is simulated, but the release simulated with no error did not put the object "
+                         "down: the hand aimed as planned")
         if report.placed != report.successes:
             placed = s["placed_position_error_mm"]
             lines.append(f"placed by the paper's criterion (any error) {report.placed}/{n}; their error mean "
