@@ -574,3 +574,16 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     raw["robot"]["landing"] = "thrown"
     with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, got 'thrown'"):
         Scene.from_dict(raw)
+
+
+def test_a_release_that_turns_the_object_out_of_the_plane_aims_nothing():
+    """The pick on its previous pair turns out of the plane in its last P_theta with no error drawn
+    and still lies flat, several millimetres off: where that release lands is not where a release
+    lands, so robot.landing simulated leaves the hand as planned."""
+    scene = with_previous_pair("guitar_pick")
+    assert scene.robot.landing is Landing.SIMULATED
+    result = plan(scene, planner="lattice")
+    ex = execute(scene, result)
+    trial = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), TrialParams())
+    assert trial.outcome is Outcome.LEFT_PLANE and trial.placed and trial.position_error_mm > 3.0, trial.cause()
+    assert placement(scene, result)[1].aim == (0.0, 0.0)

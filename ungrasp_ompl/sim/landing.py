@@ -30,11 +30,13 @@ class LandingPrediction:
     offset: tuple[float, float]
     """World (x, y) of the object's outline centroid at rest less its target's (m)."""
     outcome: Outcome
-    """How that trial ended (Outcome.placed: the object was let go flat, whatever the error)."""
+    """How that trial ended, by the strict verdict."""
 
     @property
     def landed(self) -> bool:
-        """The release put the object down flat, so its offset says where a release lands it."""
+        """The object was let go flat with nothing gone wrong before, whatever the error (the strict
+        verdict placed it: no digit on the table, no turn out of the plane), so its offset says where
+        the release lands it; an object that turned out of the plane first lands where that took it."""
         return self.outcome.placed
 
     @property
@@ -56,7 +58,7 @@ def predict_landing(setup: TrialSetup) -> LandingPrediction:
     """Simulate the placement once with no error drawn and say where the object landed."""
     result = run_trial(setup, TrialParams())
     x, y = landing_offset(setup, np.array(result.final_pose))
-    return LandingPrediction((float(x), float(y)), result.paper_outcome)
+    return LandingPrediction((float(x), float(y)), result.outcome)
 
 
 __all__ = ["LandingPrediction", "landing_offset", "predict_landing"]

@@ -150,8 +150,8 @@ class SceneSimulation:
             aim = 1000 * math.hypot(*report.aim)
             lines.append(f"the hand aimed {aim:.2f} mm from the plan's landing, where the release simulated with no error "
                          "put the object (robot.landing: simulated)" if aim else
-                         "robot.landing is simulated, but the release simulated with no error did not put the object "
-                         "down: the hand aimed as planned")
+                         "robot.landing is simulated, but the release simulated with no error did not place the object "
+                         "by the strict verdict: the hand aimed as planned")
         if report.placed != report.successes:
             placed = s["placed_position_error_mm"]
             lines.append(f"placed by the paper's criterion (any error) {report.placed}/{n}; their error mean "
