@@ -232,6 +232,13 @@ def test_export_command_writes_the_trajectory_files_within_limits(tmp_path):
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base))
     assert check_limits(traj, robot) == []
+    # robot.landing simulated: the export is the trajectory the trials run, aimed by the release's landing
+    assert "the hand aimed" in proc.stdout
+    from ungrasp_ompl.planning.result import read_plan
+    from ungrasp_ompl.sim.plan_trials import placement
+
+    np.testing.assert_allclose(traj.positions, placement(scene, read_plan(out / "plan.json"))[0].trajectory.positions,
+                               rtol=0, atol=1e-6)
     from ros2_goal import controller_refusals, round_trip, typestore
 
     store = typestore()

@@ -71,7 +71,9 @@ class Execution:
         return (f"trajectory: {tr.duration:.2f} s, {len(tr.times)} samples; largest joint velocity "
                 f"{100 * self.velocity_fraction:.0f}% and acceleration {100 * self.acceleration_fraction:.0f}% of their "
                 f"limits; IK residual {self.ik_residual_m * 1000:.4f} mm / {self.ik_residual_rad * 1000:.4f} mrad; "
-                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan")
+                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan"
+                + "".join(f"; the hand aimed {1000 * math.hypot(*aim):.2f} mm from the plan's frame (robot.landing)"
+                          for aim in self.aims if any(aim)))
 
 
 def gripper_spec(scene: Scene) -> GripperSpec:
