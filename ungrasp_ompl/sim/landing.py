@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ..perturbation import TrialParams
 from .outcome import Outcome
-from .trial import TrialSetup, run_trial
+from .trial import TrialSetup, placement_offset, run_trial
 
 
 @dataclass(frozen=True)
@@ -48,10 +48,8 @@ class LandingPrediction:
 
 def landing_offset(setup: TrialSetup, final_pose: NDArray[np.float64]) -> NDArray[np.float64]:
     """World (x, y) of the outline centroid of the object at final_pose (4 x 4) less its target's
-    (m, shape (2,))."""
-    centre = np.append(setup.spec.obj.outline.mean(axis=0), 0.0)
-    final, target = np.asarray(final_pose, dtype=float), setup.target_pose
-    return ((final[:3, :3] @ centre + final[:3, 3]) - (target[:3, :3] @ centre + target[:3, 3]))[:2]
+    (m, shape (2,)): the offset whose length a trial's placement error is."""
+    return placement_offset(np.asarray(final_pose, dtype=float), setup.target_pose, setup.spec.obj.outline)
 
 
 def predict_landing(setup: TrialSetup) -> LandingPrediction:

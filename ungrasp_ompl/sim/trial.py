@@ -554,12 +554,16 @@ def _roll(obj: NDArray, plane_y: NDArray) -> float:
     return math.degrees(math.acos(min(1.0, abs(float(obj[:3, 1] @ plane_y)))))
 
 
+def placement_offset(final: NDArray, target: NDArray, outline: NDArray) -> NDArray[np.float64]:
+    """World (x, y) of the outline (N, 2, body frame) centroid of the object at pose final (4 x 4)
+    less its centroid's at pose target (m, shape (2,))."""
+    centre = np.append(outline.mean(axis=0), 0.0)
+    return ((final[:3, :3] @ centre + final[:3, 3]) - (target[:3, :3] @ centre + target[:3, 3]))[:2]
+
+
 def _placement_error(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
     """(mm, deg): the outline centroid's distance in the table's plane from its target's, and
     the turn of the object's x axis about the vertical against the target's."""
-    centre = np.append(outline.mean(axis=0), 0.0)
-    got = final[:3, :3] @ centre + final[:3, 3]
-    want = target[:3, :3] @ centre + target[:3, 3]
-    err = float(np.linalg.norm((got - want)[:2])) * 1000
+    err = float(np.linalg.norm(placement_offset(final, target, outline))) * 1000
     yaw = math.atan2(final[1, 0], final[0, 0]) - math.atan2(target[1, 0], target[0, 0])
     return err, abs(math.degrees(math.atan2(math.sin(yaw), math.cos(yaw))))
