@@ -10,10 +10,15 @@ What is dynamic and what is kinematic:
   coupled symmetrically (as the RH-P12-RN's linkage couples them) and driven by one position
   servo on the opening with a force limit, so the object is squeezed with at most the grip
   force and the opening follows the object rather than the other way round;
-* the palm (the gripper's housing, carrying the jaws' slides) is kinematic: a mocap body set
-  at every control period to the pose forward kinematics gives for the exported joint
-  samples. A position-controlled UR5e moves its flange where it is told, whatever the few
-  newtons of the pinch; simulating the arm's joints would add nothing the contacts feel.
+* the palm (the gripper's housing, carrying the jaws' slides) follows the pose forward
+  kinematics gives for the exported joint samples: a free body welded stiffly to a mocap
+  target that the trial moves there, interpolated between the control periods. A
+  position-controlled UR5e moves its flange where it is told, whatever the few newtons of the
+  pinch, so the weld holds it within nanometres; simulating the arm's joints would add
+  nothing the contacts feel. The palm is not itself the mocap body because MuJoCo gives a
+  mocap body, and every body it carries, no velocity: a digit moved that way slides over the
+  object without dragging it, its friction only braking the object's own motion (docs/model.md
+  section 11.13);
 
 Friction: each contact pair has the scene's physical coefficient (table-object mu_G,
 finger-object mu_A, thumb-object mu_B; walls and pieces already down mu_G), never more. The
@@ -49,6 +54,14 @@ IMPRATIO = 10.0
 FACE_DRAFT = math.radians(3.0)
 #: Mass of each jaw (kg): the gripper's moving finger carriage the digit is fixed to.
 JAW_MASS = 0.05
+#: Mass of the palm (kg): the gripper's housing (the RH-P12-RN weighs about half a kilogram); the
+#: arm carries its weight (gravity compensated), so it only sets how hard the weld pulls.
+PALM_MASS = 0.5
+#: The weld that makes the palm follow its target: reference time constant (s) and damping ratio
+#: as stiff as the contacts' (SOLREF, the least MuJoCo's 0.1 ms step allows), critically damped;
+#: an impedance of 0.99 and more lets 10 N of pinch move a 0.5 kg palm by about 1e-8 m.
+PALM_SOLREF = (0.0002, 1.0)
+PALM_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 #: The 3D-printed digits' material, PLA as printed (docs/model.md 11.2): Young's modulus (Pa),
 #: density (kg/m^3) and damping ratio (half the loss factor of about 0.1 of printed PLA).
 PLA_MODULUS = 3.0e9
@@ -136,7 +149,8 @@ class ModelIds:
     """Ids of what a trial reads back from the compiled model."""
 
     object_body: int
-    palm_mocap: int
+    palm_mocap: int  #: the palm's target (a mocap body), moved by the trial
+    palm_body: int  #: the palm itself, welded to its target
     finger_geoms: set[int]
     finger_dome: int  #: the rounded tip's dome geom; -1 for a flat tip
     thumb_geoms: set[int]
@@ -161,8 +175,8 @@ def _quat(rot: NDArray) -> NDArray[np.float64]:
     return q
 
 
-def _floats(values) -> str:
-    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
+def _floats(values, digits: int = 9) -> str:
+    return " ".join(f"{float(v):.{digits}g}" for v in np.ravel(values))
 
 
 def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
@@ -249,9 +263,11 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     <geom name="table" type="plane" size="0 0 1" pos="0 0 {spec.table_height:.9g}" friction="{f.table} 0 0"
           rgba=".8 .8 .8 1"/>
     {chr(10).join('    ' + s for s in solids).strip()}
-    <body name="palm" mocap="true">
+    <body name="palm_target" mocap="true"/>
+    <body name="palm" gravcomp="1">
+      <freejoint name="palm"/>
       <geom name="palm" type="box" size="{g.palm_width / 2:.9g} {g.palm_thickness / 2:.9g} {g.palm_depth / 2:.9g}"
-            pos="0 0 {-g.palm_depth / 2:.9g}" rgba=".3 .3 .3 1"/>
+            pos="0 0 {-g.palm_depth / 2:.9g}" mass="{PALM_MASS:g}" rgba=".3 .3 .3 1"/>
       <body name="thumb_jaw">
         <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
         <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
@@ -283,6 +299,7 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     <exclude body1="palm" body2="finger"/>
   </contact>
   <equality>
+    <weld body1="palm_target" body2="palm" solref="{_floats(PALM_SOLREF)}" solimp="{_floats(PALM_SOLIMP)}"/>
     <joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>
   </equality>
   <actuator>
@@ -297,8 +314,9 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
 def _keyframe(key: Keyframe | None) -> str:
     if key is None:
         return ""
-    return (f'\n  <keyframe>\n    <key name="{key.name}" qpos="{_floats(key.qpos)}" ctrl="{_floats(key.ctrl)}"\n'
-            f'         mpos="{_floats(key.mocap_pos)}" mquat="{_floats(key.mocap_quat)}"/>\n  </keyframe>')
+    exact = 17  # a float's every digit: the state replays the trial's own to the last bit
+    return (f'\n  <keyframe>\n    <key name="{key.name}" qpos="{_floats(key.qpos, exact)}" ctrl="{_floats(key.ctrl, exact)}"\n'
+            f'         mpos="{_floats(key.mocap_pos, exact)}" mquat="{_floats(key.mocap_quat, exact)}"/>\n  </keyframe>')
 
 
 def model_ids(model) -> ModelIds:
@@ -314,7 +332,8 @@ def model_ids(model) -> ModelIds:
     finger = {geom("finger")} | ({geom("finger_tip")} if geom("finger_tip") >= 0 else set())
     names = {i: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, i) or "" for i in range(model.ngeom)}
     solids = {i for i, n in names.items() if n.startswith(("solid", "placed"))}
-    return ModelIds(object_body=body("object"), palm_mocap=int(model.body_mocapid[body("palm")]),
+    return ModelIds(object_body=body("object"), palm_mocap=int(model.body_mocapid[body("palm_target")]),
+                    palm_body=body("palm"),
                     finger_geoms=finger, finger_dome=geom("finger_tip"), thumb_geoms={geom("thumb")}, table_geom=geom("table"),
                     solid_geoms=solids, palm_geom=geom("palm"), object_geom=geom("object"),
                     actuator=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "opening"),

@@ -31,8 +31,6 @@ from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from ..perturbation import TrialParams
 
-#: The control period (s) of touch_down's lowering: the arm's, as the drive's samples have it.
-TOUCH_DOWN_TICK = 0.002
 #: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
 SLIDE_MIN_RISE = 0.1
 #: A contact at A or B absent this long (s) before the termination is a loss of grip.
@@ -146,15 +144,10 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, durat
     if not np.any(offset):
         mujoco.mj_step(model, data, nstep=steps)
         return
-    quat = np.zeros(4)
+    quat = _palm_quats(palm[None])[0]
     moving = steps // 2
-    ticks = max(1, min(moving, round(moving * model.opt.timestep / TOUCH_DOWN_TICK)))
-    pose = palm.copy()
-    for i in range(1, ticks + 1):
-        pose[:3, 3] = palm[:3, 3] + offset * (1.0 - i / ticks)
-        _set_palm(data, ids, pose, quat)
-        mujoco.mj_step(model, data, nstep=moving // ticks)
-    mujoco.mj_step(model, data, nstep=steps - ticks * (moving // ticks))
+    _move_palm(model, data, ids, (palm[:3, 3] + offset, quat), (palm[:3, 3], quat), moving)
+    mujoco.mj_step(model, data, nstep=steps - moving)
 
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
@@ -366,11 +359,44 @@ def _in_body(data, body: int, point: NDArray) -> NDArray[np.float64]:
 
 
 def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
+    """Put the palm's target at pose (4x4) at once (quat: a (4,) scratch array)."""
     import mujoco
 
     data.mocap_pos[ids.palm_mocap] = pose[:3, 3]
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
     data.mocap_quat[ids.palm_mocap] = quat
+
+
+def _palm_quats(poses: NDArray) -> NDArray[np.float64]:
+    """Unit quaternions (K, 4) of the palm poses (K, 4, 4), each in the hemisphere of the one before
+    (so that interpolating two neighbours turns the short way)."""
+    import mujoco
+
+    out = np.zeros((len(poses), 4))
+    for k, pose in enumerate(poses):
+        mujoco.mju_mat2Quat(out[k], np.ascontiguousarray(pose[:3, :3]).ravel())
+        if k and out[k] @ out[k - 1] < 0:
+            out[k] = -out[k]
+    return out
+
+
+def _move_palm(model, data, ids: ModelIds, start: tuple[NDArray, NDArray], end: tuple[NDArray, NDArray],
+               nstep: int) -> None:
+    """Step the world nstep times while the palm's target goes from start to end ((position (3,) m,
+    unit quaternion (4,)) each) at a constant speed, one step of the way per step: the palm moves
+    as smoothly as the arm does between two control periods, with the velocity MuJoCo's friction
+    sees (a target that jumped once a period would leave the palm still between the jumps)."""
+    import mujoco
+
+    frac = np.arange(1, nstep + 1)[:, None] / nstep
+    pos = start[0] + frac * (end[0] - start[0])
+    quat = start[1] + frac * (end[1] - start[1])
+    quat /= np.linalg.norm(quat, axis=1)[:, None]
+    mpos, mquat, m = data.mocap_pos, data.mocap_quat, ids.palm_mocap
+    for i in range(nstep):
+        mpos[m] = pos[i]
+        mquat[m] = quat[i]
+        mujoco.mj_step(model, data)
 
 
 def _start(setup: TrialSetup, params: TrialParams):
@@ -398,6 +424,8 @@ def _start(setup: TrialSetup, params: TrialParams):
     raised = palm[0].copy()
     raised[:3, 3] += offset
     _set_palm(data, ids, raised, quat)
+    palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+    data.qpos[palm_q:palm_q + 3], data.qpos[palm_q + 3:palm_q + 7] = raised[:3, 3], quat
     thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_jaw]]
     finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
@@ -433,7 +461,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     wall = time.perf_counter()
     spec, model, data, ids, palm, offset = _start(setup, params)
     drive = setup.drive
-    quat = np.zeros(4)
+    quats = _palm_quats(palm)
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / spec.timestep))
     touch_down(model, data, ids, palm[0], offset, setup.settle_time)
@@ -456,9 +484,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     for k in range(1, len(drive.times)):
         if lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
             break
-        _set_palm(data, ids, palm[k], quat)
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
-        mujoco.mj_step(model, data, nstep=substeps)
+        _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
@@ -535,13 +562,9 @@ def _loss_cause(data, ids: ModelIds, setup: TrialSetup, obj: NDArray, plane_y: N
     thumb's tip, a wall or piece pushed it, or (none of these) it slipped out."""
     if _roll(obj, plane_y) > LEFT_PLANE_DEG:
         return Outcome.LEFT_PLANE
-    import mujoco
-
-    palm_rot = np.zeros(9)
-    mujoco.mju_quat2Mat(palm_rot, data.mocap_quat[ids.palm_mocap])
-    digit_axis = palm_rot.reshape(3, 3)[:, 2]  # palm z: from the palm toward the tips
+    digit_axis = data.xmat[ids.palm_body].reshape(3, 3)[:, 2]  # palm z: from the palm toward the tips
     b_world = obj[:3, :3] @ setup.b_point + obj[:3, 3]
-    if float((b_world - data.mocap_pos[ids.palm_mocap]) @ digit_axis) > setup.spec.gripper.thumb_length:
+    if float((b_world - data.xpos[ids.palm_body]) @ digit_axis) > setup.spec.gripper.thumb_length:
         return Outcome.B_PAST_THUMB_TIP
     if solid:
         return Outcome.HIT_SOLID
