@@ -3,6 +3,7 @@ each object scene by the lattice and by RRT* over several seeds, with the cost, 
 and tolerance objectives, each simulated under the `paper` perturbation; beside each its tolerance.
 
     python tools/tolerance_study.py [--seeds N] [--trials N] [--jobs N] [--scenes a,b] [--out DIR]
+                                    [--setup shipped|bare]
 
 Every plan's plan.json and every trial (its outcome, phase and drawn errors) are written to DIR
 (default tolerance_study/) as they are simulated: plans.csv and trials.csv. A second run with
@@ -13,11 +14,17 @@ beside it with B's least distance from the thumb's tip along the path (mm, the k
 `thumb_tip`), the measure the failed trials point to (docs/model.md 4.6). Last, per scene, a
 chi-square test of whether its plans' success rates differ at all: where they do not, no measure
 of the plan can rank them, whatever its definition.
+
+--setup bare plans and simulates the same scenes without the set-up that makes the shipped plans
+robust (no clearance over the table, no margin from the thumb's tip or inside the supports across
+the plane, no start press), into the same DIR beside the shipped set-up's plans: the rows and the
+correlations then cover both, and per scene and set-up, so that the measure meets plans that differ.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import csv
 import json
 import math
@@ -42,8 +49,27 @@ OBJECTIVES = ("cost", "margin", "balanced", "tolerance")
 PLAN_FIELDS = ("key", "scene", "planner", "seed", "objective", "cost", "trials", "successes")
 
 
-def plan_key(scene: str, planner: str, seed: int | None, objective: str) -> str:
-    return f"{scene}-{planner}-{seed if seed is not None else 'x'}-{objective}"
+SETUPS = ("shipped", "bare")
+
+
+def plan_key(scene: str, planner: str, seed: int | None, objective: str, setup: str = "shipped") -> str:
+    stem = scene if setup == "shipped" else f"{scene}+{setup}"
+    return f"{stem}-{planner}-{seed if seed is not None else 'x'}-{objective}"
+
+
+def load_scene(name: str, setup: str) -> Scene:
+    """The shipped object scene NAME, or with setup bare without its clearances, margins and press."""
+    import yaml
+
+    path = ROOT / "scenes" / f"{name}.yaml"
+    if setup == "shipped":
+        return Scene.from_file(path)
+    doc = copy.deepcopy(yaml.safe_load(path.read_text()))
+    doc.setdefault("planning", {}).update(table_clearance=0.0, thumb_tip_margin=0.0, across_margin=0.0)
+    for key in ("start_press", "end_press"):
+        doc.setdefault("robot", {}).pop(key, None)
+    doc["robot"]["start_press"] = 0.0
+    return Scene.from_dict(doc, source=f"{path.name}, bare set-up")
 
 
 def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
@@ -78,6 +104,9 @@ def main() -> int:
     ap.add_argument("--scenes", default=",".join(OBJECTS), help="comma-separated shipped object scenes")
     ap.add_argument("--out", default="tolerance_study", help="directory for plans and trials (reused)")
     ap.add_argument("--no-simulate", action="store_true", help="only the plans already simulated in --out")
+    ap.add_argument("--setup", choices=SETUPS, default="shipped",
+                    help="plan and simulate this set-up (bare: no clearances, margins or press); the rows of "
+                         "every set-up already in --out are reported too")
     args = ap.parse_args()
     out = Path(args.out)
     (out / "plans").mkdir(parents=True, exist_ok=True)
@@ -90,18 +119,20 @@ def main() -> int:
           "| placed |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     names = args.scenes.split(",")
-    scenes = {name: Scene.from_file(ROOT / "scenes" / f"{name}.yaml") for name in names}
+    scenes = {(name, setup): load_scene(name, setup) for name in names for setup in SETUPS}
     runs = [("lattice", None)] + [("RRTstar", s) for s in range(1, args.seeds + 1)]
     # the objects in turn, so that a run stopped early has plans of each
-    order = [(name, planner, seed, objective) for planner, seed in runs for objective in OBJECTIVES for name in names]
-    for name, planner, seed, objective in order:
-        scene = scenes[name]
-        key = plan_key(name, planner, seed, objective)
+    order = [(name, planner, seed, objective, setup) for setup in SETUPS for planner, seed in runs
+             for objective in OBJECTIVES for name in names]
+    for name, planner, seed, objective, setup in order:
+        scene = scenes[name, setup]
+        key = plan_key(name, planner, seed, objective, setup)
+        label = name if setup == "shipped" else f"{name}, {setup}"
         path = out / "plans" / f"{key}.json"
         if key in done and path.exists():
             result = Plan.from_dict(json.loads(path.read_text()))
             successes, trials = int(done[key]["successes"]), int(done[key]["trials"])
-        elif args.no_simulate:
+        elif args.no_simulate or setup != args.setup:
             continue
         else:
             result = plan(scene, planner=planner, time=1.0, seed=seed, objective=objective)
@@ -118,18 +149,20 @@ def main() -> int:
                                    **t.params})
             _append(out / "trials.csv", list(trial_rows[0]), trial_rows)
             _append(out / "plans.csv", list(PLAN_FIELDS),
-                    [{"key": key, "scene": name, "planner": planner, "seed": seed, "objective": objective,
+                    [{"key": key, "scene": label, "planner": planner, "seed": seed, "objective": objective,
                       "cost": result.cost, "trials": trials, "successes": successes}])
         tol = tolerance(scene, result)
         tip = thumb_tip_mm(scene, result)
-        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials, tip))
-        print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
+        rows.append((name, planner, seed, objective, result.cost, tol, successes, trials, tip, label))
+        print(f"| {label} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
               f"{tol.scale:.3f} | {tol.physical['shift_mm']:.3f} | {tol.reason.value} | {tol.component} | {tip:.2f} | "
               f"{successes}/{trials} |", flush=True)
     print()
     print("| scene | plans | rho(tolerance, successes) | rho(B to thumb tip, successes) | plans differ (chi-square p) |")
     print("|---|---|---|---|---|")
     groups = {"pooled": rows, **{n: [r for r in rows if r[0] == n] for n in dict.fromkeys(r[0] for r in rows)}}
+    if len({r[9] for r in rows}) > len({r[0] for r in rows}):  # more than one set-up: each alone too
+        groups.update({n: [r for r in rows if r[9] == n] for n in dict.fromkeys(r[9] for r in rows)})
     for name, got in groups.items():
         y = [r[6] for r in got]
         rhos = [spearmanr(x, y).statistic if len(set(x)) > 1 and len(set(y)) > 1 else math.nan
