@@ -110,6 +110,10 @@ def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.nda
         ok &= found & (s_b(dp, pp, dg.alpha, i, dg.finger_tip_radius) >= 0.0)
         low = moved[..., 2].min(axis=1) - press
         bad[k] |= ~ok | (low < height[k])
+        if not scene.sim.handed_over:  # a hand that lifts G at the start by more than the press: it hangs
+            g_start = np.stack([a[k] * math.cos(th0), np.zeros(k.sum()), a[k] * math.sin(th0)], -1)
+            start_rise = (np.einsum("nij,nj->ni", rot, g_start - p0) + p0 + shift[k] @ axes.T)[:, 2] - height[k]
+            bad[k] |= start_rise > press
     last = len(smp.states) - 1
     at_end = np.repeat(rows == last, m)
     if at_end.any():
@@ -132,10 +136,10 @@ def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.nda
 
 
 @pytest.mark.parametrize("name, binds", [("guitar_pick", ToleranceReason.NO_TERMINATION),
-                                         ("puzzle_piece", ToleranceReason.B_PAST_THUMB_TIP)])
+                                         ("puzzle_piece", ToleranceReason.G_LIFTED)])
 def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pick, name, binds):
-    """The pick's lattice plan is bound by its release, the puzzle piece's by B where the press,
-    deepened by a hand too low, turns the object toward the thumb's tip."""
+    """The pick's lattice plan is bound by its release, the puzzle piece's by a hand so high at the
+    start that the press no longer brings G down to the table."""
     scene, result = pick if name == "guitar_pick" else (lambda s: (s, plan(s, planner="lattice")))(Scene.from_file(name))
     tol = tolerance(scene, result)
     assert 0 < tol.scale < 1 and tol.reason is binds
@@ -308,7 +312,8 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
     from ungrasp_ompl.planning.setup import with_tolerance_floor
 
-    scene = Scene.from_file("puzzle_piece")
+    scene = Scene.from_file("puzzle_piece")  # handed over: the start's lift does not cap both plans alike
+    scene = replace(scene, sim=replace(scene.sim, handed_over=True))
     cheap = plan(scene, planner="lattice")
     robust = plan(scene, planner="lattice", objective="tolerance")
     assert robust.solved and robust.objective is Objective.TOLERANCE and robust.margin_bottleneck_deg is None
@@ -355,3 +360,23 @@ def test_the_lowest_point_is_the_lowest_vertex_of_the_digits_and_the_housing(nam
     housing = (housing_centre(theta, d, psi, digits)[:, None, 1] + housing_offsets(theta, psi, digits)[..., 1]).min(axis=-1)
     assert np.allclose(_lowest(theta, d, psi, digits), np.minimum(digits_low, housing), rtol=0, atol=1e-12)
     assert np.allclose(_lowest(theta, d, psi, replace(digits, palm_width=0.0)), digits_low, rtol=0, atol=1e-12)
+
+
+def test_without_a_start_press_a_hand_too_high_leaves_the_object_hanging_unless_handed_over():
+    """With no start press any hand higher than planned lifts G off the table at the start, so the
+    plan tolerates no error (G_LIFTED, the palm's shift alone enough to lift it); handed over, the
+    object slides down in the pinch onto the table instead, and the same plan tolerates errors."""
+    import yaml
+
+    from ungrasp_ompl.shipped import resolve
+
+    doc = yaml.safe_load(resolve("puzzle_piece").read_text())
+    doc["robot"].pop("end_press", None)
+    doc["robot"]["start_press"] = 0.0
+    bare = Scene.from_dict(doc, source="puzzle_piece, no press")
+    result = plan(bare, planner="lattice")
+    hanging = tolerance(bare, result)
+    assert hanging.reason is ToleranceReason.G_LIFTED and hanging.scale < 1e-3
+    assert math.isfinite(hanging.component_scales["palm_shift"]) and hanging.component_scales["palm_shift"] < 1e-3
+    handed = replace(bare, sim=replace(bare.sim, handed_over=True))
+    assert tolerance(handed, result).scale > 0.05

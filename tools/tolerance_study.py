@@ -160,8 +160,10 @@ def main() -> int:
     print()
     print("| scene | plans | rho(tolerance, successes) | rho(B to thumb tip, successes) | plans differ (chi-square p) |")
     print("|---|---|---|---|---|")
-    groups = {"pooled": rows, **{n: [r for r in rows if r[0] == n] for n in dict.fromkeys(r[0] for r in rows)}}
-    if len({r[9] for r in rows}) > len({r[0] for r in rows}):  # more than one set-up: each alone too
+    several = len({r[9] for r in rows}) > len({r[0] for r in rows})  # more than one set-up: each alone too
+    groups = {"pooled": rows, **{f"{n}, every set-up" if several else n: [r for r in rows if r[0] == n]
+                                 for n in dict.fromkeys(r[0] for r in rows)}}
+    if several:
         groups.update({n: [r for r in rows if r[9] == n] for n in dict.fromkeys(r[9] for r in rows)})
     for name, got in groups.items():
         y = [r[6] for r in got]

@@ -24,7 +24,10 @@ How an error moves a state (lengths over l, angles rad; section 4.6 derives each
 * with a start press p (the hand run p below the plan, G held by the table), the hand stands
   p - lift below what the moved state needs, lift being G's lift above, so the digits stand that
   much lower and B and A are looked at also where the object then lies: the moved state pressed
-  by p - lift (mechanics.pressed_state; none found counts as B lost).
+  by p - lift (mechanics.pressed_state; none found counts as B lost);
+* a hand that lifts G at the start by more than p leaves the object hanging with G above the
+  table, unless it was handed over (sim.handed_over: it then slides down in the pinch onto the
+  table): the plan's contact modes never begin (G_LIFTED).
 
 A moved state with theta' < 0 lies flat with the hand turned against it: (0, d', psi + theta').
 """
@@ -65,6 +68,7 @@ class ToleranceReason(Enum):
     APERTURE = "aperture"  #: the opening beyond the gripper's stroke (or negative)
     DIGIT_IN_TABLE = "digit_in_table"  #: a digit or the housing below the table
     OBSTACLE = "obstacle"  #: a digit or the housing in an obstacle
+    G_LIFTED = "g_lifted"  #: the hand lifts G at the start by more than the start press: the object hangs
     NO_TERMINATION = "no_termination"  #: the gripper cannot let go from the moved last state
     NONE = "none"  #: nothing fails up to the largest scale (all friction lost)
 
@@ -152,7 +156,8 @@ class _Box:
     which the gripper must still be able to let go."""
 
     def __init__(self, scene: Scene, start: NDArray[np.float64], box: Perturbation, samples: PlanSamples,
-                 terminal: NDArray[np.bool_], resolution: NDArray[np.float64], housing: bool = False):
+                 terminal: NDArray[np.bool_], resolution: NDArray[np.float64], housing: bool = False,
+                 start_lift: bool = True):
         self.scene, self.box, self.samples, self.terminal, self.housing = scene, box, samples, terminal, housing
         l, dg = scene.object_length, scene.digits
         self.l = l
@@ -163,6 +168,10 @@ class _Box:
         e0, n0 = digit_axis(th0, ps0), thumb_normal(th0, ps0)
         self.p0 = tip - dg.thumb_length * e0 + aperture(d0, ps0, dg.object_thickness, dg.finger_tip_radius) / 2 * n0
         self.lift_per_shift = abs(float(n0[1])) + abs(float(e0[1]))  # palm x and z shifts' vertical parts
+        self.sin_start = math.sin(th0)  # a grasp shift along GB lifts G at the start by this much of it
+        # a hand too high leaves the object hanging (unless handed over: it slides down); start_lift
+        # False leaves the check out (it depends on the start alone, which no path changes)
+        self.hangs = start_lift and not scene.sim.handed_over
         self.drop_per_turn = max(dg.width, dg.palm_thickness if dg.palm_width > 0 else 0.0) / 2 \
             * (abs(float(n0[0])) + abs(float(e0[0])))  # palm x and z turns tip the plane
         self.obstacles = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]],
@@ -244,6 +253,14 @@ class _Box:
         if on["table_height"]:
             worst += s * b.table_mm / 1000 / self.l
         lift_g = np.tile(turned[1], n) + np.tile(shift, n) * np.sin(th) - worst
+        # the most a hand too high lifts G at the start: beyond the press the object hangs there (the
+        # palm's turns about its x and z axes lift G by second-order terms, bounded by 2 |P0| t^2)
+        if self.hangs:
+            t = s * math.radians(b.palm_turn_deg) if on["palm_turn"] else 0.0
+            up = turned[1] + shift * self.sin_start + worst + 2.0 * float(np.hypot(*p0)) * t * t
+            hanging = np.tile(up > dg.press + 1e-12, n)
+        else:
+            hanging = np.zeros(len(th), dtype=bool)
         tipped = s * math.radians(b.palm_turn_deg) * self.drop_per_turn if on["palm_turn"] else 0.0
         worst += tipped
         # with a start press the hand runs press below the plan and the table holds G: the hand
@@ -272,7 +289,7 @@ class _Box:
             low = _lowest(th, d, ps, digits if self.housing else replace(digits, palm_width=0.0))
             near = kinematic_margins(th, d, ps, digits, 1.0, self.obstacles)["obstacles"] if self.obstacles else np.inf
             checks = (~fc, tip < 0.0, sbv > dg.thumb_length, (d <= 0.0) | (d > 1.0), tips,
-                      (w < 0.0) | (w > dg.max_aperture), low + lift < 0.0, near - moved < 0.0)
+                      (w < 0.0) | (w > dg.max_aperture), low + lift < 0.0, near - moved < 0.0, hanging)
             for i, bad in enumerate(checks):
                 code = np.where((code == 0) & bad, i + 1, code)
         ends = np.flatnonzero(self.terminal[rows])
@@ -440,7 +457,10 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     both ask of the same box). upto (n,), scales: where only min(tolerance, upto) is wanted (upto
     the state's kinematic part, as the tolerance objective asks), that minimum, with upto taken
     down to the ladder as every value is: the search starts there and looks no higher, where the
-    boxes are larger and cost more moved states. Where upto is -inf the state is not checked (-inf)."""
+    boxes are larger and cost more moved states. Where upto is -inf the state is not checked (-inf).
+    The start's lift (G_LIFTED: a hand so high that the press leaves G above the table) is left out:
+    it depends on the start alone, the same for every state, so a plan's tolerance is the least of its
+    states' and of that."""
     box, res = _checked(scene, options)
     q = np.asarray(states, dtype=float).reshape(-1, 3)
     n = len(q)
@@ -448,7 +468,7 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
                           np.broadcast_to(np.asarray(b_sign, dtype=np.int8), (n,)))
     terminal = np.zeros(n, dtype=bool) if terminal is None else np.broadcast_to(np.asarray(terminal, dtype=bool), (n,))
     ctx = _Box(scene, np.asarray(scene.start if start is None else start, dtype=float), box, samples, terminal, res,
-               options.housing)
+               options.housing, start_lift=False)
     levels = ladder(options.max_scale)
     on = {c: True for c in COMPONENTS}
     # per state, a bisection over the ladder's indices: levels[lo] passes (lo = -1: not even 0),
