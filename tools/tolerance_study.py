@@ -24,7 +24,6 @@ correlations then cover both, and per scene and set-up, so that the measure meet
 from __future__ import annotations
 
 import argparse
-import copy
 import csv
 import json
 import math
@@ -64,11 +63,11 @@ def load_scene(name: str, setup: str) -> Scene:
     path = ROOT / "scenes" / f"{name}.yaml"
     if setup == "shipped":
         return Scene.from_file(path)
-    doc = copy.deepcopy(yaml.safe_load(path.read_text()))
+    doc = yaml.safe_load(path.read_text())
     doc.setdefault("planning", {}).update(table_clearance=0.0, thumb_tip_margin=0.0, across_margin=0.0)
-    for key in ("start_press", "end_press"):
-        doc.setdefault("robot", {}).pop(key, None)
-    doc["robot"]["start_press"] = 0.0
+    robot = doc.setdefault("robot", {})
+    robot.pop("end_press", None)
+    robot["start_press"] = 0.0
     return Scene.from_dict(doc, source=f"{path.name}, bare set-up")
 
 

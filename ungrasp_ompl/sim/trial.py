@@ -8,12 +8,11 @@ through a digit); where they leave it above the table it hangs there, or, when i
 over at the start (sim.handed_over), it starts slid along GB in the pinch until it rests on the
 table; a start press (robot.start_press) starts the hand that much higher, at the planned start
 pinch, and brings it down in the same way; the world settles with the palm still (gravity, the
-servo squeezing); then
-every control period the
-palm's target is moved to the drive's next pose, a step of the way per simulation step (so the
-palm, welded to it, moves with the velocity the contacts' friction sees), and the servo is
-commanded the planned opening less the squeeze; after the retreat the world rests, and the outcome is read off (or, once the palm
-lifts away and everything free lies still, untouched by the digits, at once: see Stillness). A calibration
+servo squeezing); then every control period the palm's target is moved to the drive's next pose,
+a step of the way per simulation step (so the palm, welded to it, moves with the velocity the
+contacts' friction sees), and the servo is commanded the planned opening less the squeeze; after
+the retreat the world rests, and the outcome is read off (or, once the palm lifts away and
+everything free lies still, untouched by the digits, at once: see Stillness). A calibration
 error offsets the whole commanded trajectory (and the object the hand holds at the start) by
 one rigid transform, and moves the table, as a miscalibrated arm and table would.
 """
