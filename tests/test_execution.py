@@ -222,8 +222,8 @@ def test_export_command_writes_the_trajectory_files_within_limits(tmp_path):
     proc = run_cli("plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "trajectory:" in proc.stdout and "% of their limits" in proc.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "trajectory.csv", "trajectory.json",
-                                                     "trajectory.urscript", "trajectory_ros2_arm.yaml",
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "touch_off.urscript", "trajectory.csv",
+                                                     "trajectory.json", "trajectory.urscript", "trajectory_ros2_arm.yaml",
                                                      "trajectory_ros2_gripper.yaml", "view_scene.json"]
     with open(out / "trajectory.csv") as f:
         header = next(csv.reader(f))

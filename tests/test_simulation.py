@@ -36,6 +36,7 @@ from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.model import model_ids
 from ungrasp_ompl.sim.trial import (_move_palm, _palm_quats, _start, calibration_offset, perturbed_start, run_trial,
+                                    digits_lowest, touch_off_shift,
                                     touch_down, trial_mjcf, trial_spec)
 
 
@@ -177,7 +178,7 @@ def test_a_calibration_error_offsets_the_whole_commanded_trajectory(pick):
     for k in (len(setup.drive.times) // 2, len(setup.drive.times) - 1):
         rel = np.linalg.inv(setup.drive.palm[0]) @ setup.drive.palm[k]
         assert np.allclose(np.linalg.inv(moved) @ (offset @ setup.drive.palm[k]), rel, atol=1e-12)
-    start, lowering = perturbed_start(setup, params, setup.spec.obj.thickness)
+    start, lowering = perturbed_start(setup, params, setup.spec.obj.thickness, offset)
     assert lowering >= 0.0 and start[2, 3] == pytest.approx((offset @ setup.start_pose)[2, 3] + lowering, abs=1e-12)
     assert trial_spec(setup, params).table_height == pytest.approx(0.0005)
     assert PRESETS["paper"].palm_shift_mm == 1.0 and PRESETS["paper"].palm_turn_deg == 0.5
@@ -201,7 +202,7 @@ def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     lowered = 0
     for params in trial_params(PRESETS["calibration"], seed=1, trials=8):
-        start, lowering = perturbed_start(setup, params, thickness)
+        start, lowering = perturbed_start(setup, params, thickness, calibration_offset(setup.drive, params))
         lowered += lowering > 0
         lowest = np.min((corners @ start[:3, :3].T + start[:3, 3])[:, 2]) - params.table_height_mm / 1000
         turn, p = np.eye(4), setup.grasp_point  # where the hand holds it, with the grasp error
@@ -324,9 +325,11 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, key)
     mujoco.mj_forward(model, data)
-    start, lowering = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness)
-    assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
     error, ids = calibration_offset(setup.drive, params), model_ids(model)
+    assert setup.touch_off  # the scene's set-up touches the table off: its probe moves every command
+    error[:3, 3] += error[:3, 2] * touch_off_shift(model, mujoco.MjData(model), ids, setup.drive, error, params)
+    start, lowering = perturbed_start(setup, params, trial_spec(setup, params).obj.thickness, error)
+    assert np.allclose(data.xpos[obj], start[:3, 3], atol=1e-9)
     palm = error @ setup.drive.palm[0]
     offset = np.array([0.0, 0.0, lowering]) + (error @ setup.drive.press_from)[:3, 3] - palm[:3, 3]  # the press's depth
     assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + offset, atol=1e-12)
@@ -370,6 +373,7 @@ def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone
     cases = [(name, setup, TrialParams(), r) for (name, setup), (_, r) in zip(base_setups, base_trials)]
     name, setup = base_setups[0]
     assert name == "guitar_pick"
+    setup = replace(setup, touch_off=False)  # open loop: a touch-off would find the table where it is
     pick = run_trial(setup, high)
     for name, setup, params, r in cases + [("guitar_pick, table high", setup, high, pick)]:
         if r.success:
@@ -381,6 +385,56 @@ def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone
     assert pick.outcome is Outcome.DIGIT_HIT_TABLE and pick.phase == "P_theta" and pick.digit_table_force_n > 1.0
     assert pick.paper_outcome is Outcome.SUCCESS and pick.placed
     assert pick.tilt_deg < 2.0  # let go, and lying flat: it was simulated past its strict failure
+
+
+@pytest.mark.parametrize("table_mm", [1.5, -1.5])
+def test_a_touch_off_takes_out_the_tables_height_as_the_arm_sees_it(pick, table_mm):
+    """The table 1.5 mm higher than the plan has it puts a digit on it open loop; 1.5 mm lower
+    leaves the piece hanging under a hand that cannot press it onto the table, and the grip is
+    lost. A touch-off (robot.touch_off) finds the table where it is and the same trial places the
+    piece; a probe that erred by as much as the table (it found the table where the plan has it)
+    gives the failure back."""
+    setup = _setup(pick)
+    assert setup.touch_off
+    open_loop = replace(setup, touch_off=False)
+    table = TrialParams(table_height_mm=table_mm)
+    failed = run_trial(open_loop, table)
+    assert failed.outcome is (Outcome.DIGIT_HIT_TABLE if table_mm > 0 else Outcome.GRIP_LOST), failed.cause()
+    assert run_trial(setup, table).success
+    blind = run_trial(setup, replace(table, probe_error_mm=-table_mm))
+    assert blind.outcome is failed.outcome, blind.cause()
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
+def test_the_touch_off_program_expects_the_table_where_the_simulated_digits_meet_it(name, tmp_path):
+    """The exported probe (touch_off.urscript) expects a digit to meet the table lift + clearance
+    below its start, the clearance from the planar model of the digits (a rounded finger
+    ball-nosed); the simulated digits' own lowest point at the start pinch (their meshes and
+    dome, MuJoCo's kinematics) stands that high above the table. A calibration error moves
+    the lowest point by what the trial's touch-off then takes out, the probe's error left."""
+    import mujoco
+
+    from ungrasp_ompl.robot.export import export_all
+    from ungrasp_ompl.robot.touch_off import touch_off
+
+    scene, result, ex = _planned(name)
+    probe = touch_off(scene, result, ex.trajectory)
+    setup = trial_setup(scene, result, ex.trajectory, ex.robot)
+    model = mujoco.MjModel.from_xml_string(trial_mjcf(setup, TrialParams()))
+    data, ids = mujoco.MjData(model), model_ids(model)
+    assert digits_lowest(model, data, ids, setup.drive, np.eye(4)) == pytest.approx(probe.clearance, abs=1e-6)
+    program = export_all(ex.trajectory, tmp_path, probe)["touch_off"].read_text()
+    assert f"offset = {probe.options.lift + probe.clearance:.6f} - (p_top[2] - p_contact[2])" in program
+    assert "tool_contact(" in program and _joint_list_text(probe.start_joints) in program
+    for params in trial_params(PRESETS["paper"], seed=3, trials=4):
+        error = calibration_offset(setup.drive, params)
+        error[:3, 3] += error[:3, 2] * touch_off_shift(model, data, ids, setup.drive, error, params)
+        low = digits_lowest(model, data, ids, setup.drive, error) - params.table_height_mm / 1000
+        assert low == pytest.approx(probe.clearance + params.probe_error_mm / 1000, abs=1e-9)  # found too high: run too high
+
+
+def _joint_list_text(q) -> str:
+    return "[" + ", ".join(f"{x:.6f}" for x in q) + "]"
 
 
 def _piece(outcome: Outcome, paper: Outcome) -> TrialResult:
@@ -512,6 +566,9 @@ def test_simulate_refuses_a_scene_without_thickness_and_a_bad_sim_section(tmp_pa
     assert r.returncode == 2 and "sim.handed_over: must be true or false" in r.stderr
     (tmp_path / "good.yaml").write_text(text.replace("timestep: 0.5", "handed_over: true"))
     assert Scene.from_file(tmp_path / "good.yaml").sim.handed_over is True
+    (tmp_path / "bad.yaml").write_text(text.replace("  touch_off: true ", "  touch_off: yes please "))
+    r = run_cli("simulate", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "b"))
+    assert r.returncode == 2 and "robot.touch_off: must be true or false" in r.stderr and "Traceback" not in r.stderr
 
 
 @pytest.mark.slow

@@ -29,11 +29,13 @@ class TrialParams:
     palm_shift_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: the arm's calibration: palm offset along palm x, y, z (mm)
     palm_turn_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: ... and turn about palm x, y, z (deg)
     table_height_mm: float = 0.0  #: the table's top above where the plan believes it (mm)
+    probe_error_mm: float = 0.0  #: a touch-off's error (robot.touch_off): the table found this much higher than it is (mm)
 
     @property
     def calibrated(self) -> bool:
         """No calibration error: the commanded trajectory and the table are where the plan has them."""
-        return not any(self.palm_shift_mm) and not any(self.palm_turn_deg) and self.table_height_mm == 0.0
+        return (not any(self.palm_shift_mm) and not any(self.palm_turn_deg) and self.table_height_mm == 0.0
+                and self.probe_error_mm == 0.0)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -60,10 +62,11 @@ class Perturbation:
     palm_shift_mm: float = 0.0  #: the arm's calibration: palm position, along each palm axis (mm)
     palm_turn_deg: float = 0.0  #: the arm's calibration: palm orientation, about each palm axis (deg)
     table_mm: float = 0.0  #: the table's height (mm)
+    probe_mm: float = 0.0  #: where a touch-off (robot.touch_off) finds the table's height (mm)
 
     def sample(self, rng: np.random.Generator) -> TrialParams:
-        """One trial's deviations (the calibration's drawn after the others, so that adding it
-        left each trial's grasp, friction, mass and thickness draws as they were)."""
+        """One trial's deviations (the calibration's drawn after the others, and the touch-off's
+        after it, so that adding each left the draws before it as they were)."""
         u = rng.uniform(-1.0, 1.0, size=5)
         fr = rng.uniform(1.0 - self.friction, 1.0, size=3) if self.friction else np.ones(3)
         c = rng.uniform(-1.0, 1.0, size=7)
@@ -72,7 +75,8 @@ class Perturbation:
                            mass_scale=1.0 + self.mass * u[3], thickness_scale=1.0 + self.thickness * u[4],
                            palm_shift_mm=tuple(float(x) for x in self.palm_shift_mm * c[:3]),
                            palm_turn_deg=tuple(float(x) for x in self.palm_turn_deg * c[3:6]),
-                           table_height_mm=float(self.table_mm * c[6]))
+                           table_height_mm=float(self.table_mm * c[6]),
+                           probe_error_mm=float(self.probe_mm * rng.uniform(-1.0, 1.0)) if self.probe_mm else 0.0)
 
 
 #: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves
@@ -80,16 +84,17 @@ class Perturbation:
 #: the grasp (a hand-over and a camera a few pixels off), friction up to 20% below the scene's
 #: (surfaces vary, dust), mass +-20% and thickness +-5% (printing and cutting tolerances), and
 #: the arm's calibration: the palm's pose +-1 mm and +-0.5 deg about each axis, the table's
-#: height +-0.5 mm. The others draw one kind of error at the paper's size.
+#: height +-0.5 mm, and where a touch-off finds the table +-0.1 mm (when the scene's robot makes
+#: one). The others draw one kind of error at the paper's size.
 PRESETS: dict[str, Perturbation] = {p.name: p for p in (
     Perturbation("none"),
     Perturbation("paper", shift_mm=1.0, yaw_deg=2.0, friction=0.2, mass=0.2, thickness=0.05,
-                 palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5),
+                 palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_mm=0.1),
     Perturbation("grasp", shift_mm=1.0, yaw_deg=2.0),
     Perturbation("friction", friction=0.2),
     Perturbation("mass", mass=0.2),
     Perturbation("thickness", thickness=0.05),
-    Perturbation("calibration", palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5),
+    Perturbation("calibration", palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_mm=0.1),
 )}
 
 

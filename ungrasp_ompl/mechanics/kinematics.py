@@ -228,6 +228,22 @@ def thumb_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Digi
     return np.sin(theta) - sb * np.sin(theta + psi) - digits.thumb_tip_thickness * np.cos(theta + psi)
 
 
+def digits_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry) -> NDArray[np.float64]:
+    """Height of the digits' lowest point above the table, over l: the lowest vertex of the thumb's
+    outline and of the finger's (digit_polygons); a rounded finger is ball-nosed, its body ending r
+    short of the outline's tip (at the dome's centre) and its dome reaching down to the centre's
+    height less r. A touch-off (robot.touch_off) lowers the empty hand by this much before a digit
+    meets the table."""
+    thumb, finger = digit_polygons(theta, d, psi, digits)
+    r = digits.finger_tip_radius
+    if r > 0:
+        finger = finger.copy()
+        finger[..., [0, 3], :] -= r * digit_axis(theta, psi)[..., None, :]
+    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
+    if r > 0:
+        low = np.minimum(low, dome_centre(theta, d, psi, digits.object_thickness, r)[..., 1] - r)
+    return low
+
 def digit_polygons(
     theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

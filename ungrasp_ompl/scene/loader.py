@@ -175,7 +175,7 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "end_press", "landing", "object"})
+                                "end_press", "touch_off", "landing", "object"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -227,6 +227,7 @@ class SceneReader:
             retreat_height=self.length(m, "robot.retreat_height", "retreat_height", zero=True, default=d.retreat_height),
             start_press=start_press,
             end_press=end_press,
+            touch_off=self.flag(m, "robot.touch_off", "touch_off"),
             landing=Landing(landing),
             object_position=obj_pos,
             object_yaw=obj_yaw,

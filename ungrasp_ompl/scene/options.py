@@ -119,6 +119,11 @@ class RobotOptions:
     the press is let out to this over that P_theta, where every contact sticks and the pinch
     holds the object without the table; None: start_press, nothing let out (docs/model.md 11.11).
     At most start_press."""
+    touch_off: bool = False
+    """Whether the set-up measures the table's height under the start pinch by touching it with the
+    empty hand (export writes the probe program, touch_off.urscript) and runs the plan from it, so
+    that the arm's vertical calibration error there is left to the probe's (docs/model.md 11.14);
+    False: the plan runs open loop on the calibration alone, as the paper's set-up did."""
     landing: Landing = Landing.PLANNED
     """Where the hand aims the object: planned (the plan's last state turned flat about G) or
     simulated (corrected by where the release, simulated with no error, lands it)."""

@@ -117,4 +117,4 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
                       squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
                       max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over,
-                      aim=(float(aim[0]), float(aim[1])))
+                      touch_off=scene.robot.touch_off, aim=(float(aim[0]), float(aim[1])))

@@ -14,7 +14,9 @@ contacts' friction sees), and the servo is commanded the planned opening less th
 the retreat the world rests, and the outcome is read off (or, once the palm lifts away and
 everything free lies still, untouched by the digits, at once: see Stillness). A calibration
 error offsets the whole commanded trajectory (and the object the hand holds at the start) by
-one rigid transform, and moves the table, as a miscalibrated arm and table would.
+one rigid transform, and moves the table, as a miscalibrated arm and table would; where the
+set-up touches the table off first (robot.touch_off), the commands are moved up or down by what
+the probe found (touch_off_shift).
 """
 
 from __future__ import annotations
@@ -66,7 +68,9 @@ class TrialSetup:
     rest_time: s of stillness before the drive and after it; max_error: the largest placement
     error (m) that counts as placed; planned: per primitive, how far the plan moves A and B;
     handed_over: the object was set into the gripper at the start pose with its end on the table
-    (perturbed_start slides it down to the table instead of leaving it hanging); aim: the world
+    (perturbed_start slides it down to the table instead of leaving it hanging); touch_off: the
+    set-up measured the table's height under the start pinch (robot.touch_off, touch_off_shift) and
+    runs the plan from what it found; aim: the world
     (x, y) shift of the hand from the plan's frame (m), by which the robot corrects the landing
     (sim.landing), the target staying where it is.
     """
@@ -83,6 +87,7 @@ class TrialSetup:
     max_error: float = 0.003
     planned: tuple[PlannedTravel, ...] = ()
     handed_over: bool = False
+    touch_off: bool = False
     aim: tuple[float, float] = (0.0, 0.0)
 
 
@@ -104,9 +109,53 @@ def calibration_offset(drive: GripperDrive, params: TrialParams) -> NDArray[np.f
     return palm0 @ delta @ np.linalg.inv(palm0)
 
 
-def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) -> tuple[NDArray[np.float64], float]:
+def digits_lowest(model, data, ids: ModelIds, drive: GripperDrive, error: NDArray) -> float:
+    """The world height (m) of the simulated digits' lowest point (their mesh vertices and the
+    finger's dome) with the palm at the start pinch (where a start press begins, or the drive's
+    first pose), moved by error (4x4, a world transform of everything the arm is told), and the
+    jaws at the first opening. Leaves data's kinematics at that pose without the error."""
+    import mujoco
+
+    pinch = drive.palm[0] if drive.press_from is None else drive.press_from
+    palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pinch[:3, :3]).ravel())
+    data.qpos[palm_q:palm_q + 3], data.qpos[palm_q + 3:palm_q + 7] = pinch[:3, 3], quat
+    for jaw, side in ((ids.thumb_jaw, -1.0), (ids.finger_jaw, 1.0)):
+        data.qpos[model.jnt_qposadr[model.body_jntadr[jaw]]] = side * drive.opening[0] / 2
+    mujoco.mj_kinematics(model, data)
+    rot, shift = error[:3, :3], error[:3, 3]
+    low = math.inf
+    for g in ids.thumb_geoms | ids.finger_geoms:
+        at = rot @ data.geom_xpos[g] + shift
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            m = model.geom_dataid[g]
+            verts = model.mesh_vert[model.mesh_vertadr[m]:model.mesh_vertadr[m] + model.mesh_vertnum[m]]
+            low = min(low, float((verts @ (rot @ data.geom_xmat[g].reshape(3, 3)).T + at)[:, 2].min()))
+        else:  # the finger's dome, a sphere
+            low = min(low, float(at[2] - model.geom_size[g][0]))
+    return low
+
+
+def touch_off_shift(model, data, ids: ModelIds, drive: GripperDrive, error: NDArray, params: TrialParams) -> float:
+    """How far (m, along the world z the arm believes in) a touch-off moves every command of the
+    trial (robot.touch_off): the empty hand, at the start pinch's pose and opening, lowered
+    straight down until a digit touches the table, finds it as much higher than the plan has it
+    as the digits' lowest point (digits_lowest, on the simulated digits themselves) stands lower
+    above it, less the probe's own error (params.probe_error_mm); the set-up runs the plan that
+    much higher (docs/model.md 11.14). error: the arm's calibration (calibration_offset); the
+    table's top is at params.table_height_mm."""
+    planned = digits_lowest(model, data, ids, drive, np.eye(4))
+    found = digits_lowest(model, data, ids, drive, error) - params.table_height_mm / 1000 \
+        - params.probe_error_mm / 1000
+    return (planned - found) / float(error[2, 2])
+
+
+def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float,
+                    error: NDArray) -> tuple[NDArray[np.float64], float]:
     """The object's start pose with the trial's errors, and how far (m) the hand must still lower
-    it: the calibration offset (the object is in the hand, which is not quite where it is told),
+    it: error, the world transform the arm applies to its commands (calibration_offset, and a
+    touch-off's shift; the object is in the hand, which is not quite where it is told),
     then the grasp error (a turn by yaw_deg about the normal through the grasp point and a shift
     in the object's own plane, along GB and across it). Where a corner of the prism would then
     reach into the table, the pose is raised straight up until it touches it, and the depth it
@@ -120,7 +169,7 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float) ->
     p = setup.grasp_point
     local[:3, :3] = turn
     local[:3, 3] = p - turn @ p + np.array([params.shift_along_mm, params.shift_across_mm, 0.0]) / 1000
-    pose = calibration_offset(setup.drive, params) @ setup.start_pose @ local
+    pose = error @ setup.start_pose @ local
     outline = setup.spec.obj.outline
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     gap = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2])) - params.table_height_mm / 1000
@@ -411,12 +460,11 @@ def _start(setup: TrialSetup, params: TrialParams):
     data = mujoco.MjData(model)
     ids = model_ids(model)
     drive = setup.drive
-    if params.calibrated:
-        error, palm = np.eye(4), drive.palm
-    else:
-        error = calibration_offset(drive, params)
-        palm = error @ drive.palm
-    start, lowering = perturbed_start(setup, params, spec.obj.thickness)
+    error = calibration_offset(drive, params)  # the identity up to rounding where calibrated
+    if setup.touch_off and not params.calibrated:
+        error[:3, 3] += error[:3, 2] * touch_off_shift(model, data, ids, drive, error, params)  # error @ a lift
+    palm = drive.palm if params.calibrated else error @ drive.palm
+    start, lowering = perturbed_start(setup, params, spec.obj.thickness, error)
     offset = np.array([0.0, 0.0, lowering])
     if drive.press_from is not None:
         offset += (error @ drive.press_from)[:3, 3] - palm[0][:3, 3]

@@ -27,6 +27,7 @@ from ..planning.margins import Objective
 from ..planning.result import Plan, read_plan
 from ..plotting import draw_trials
 from ..robot.export import export_all
+from ..robot.touch_off import touch_off
 from ..robot.pipeline import Execution, execute_sequence
 from ..scene import Scene
 from ..scene.options import Landing
@@ -172,7 +173,8 @@ class SceneSimulation:
         files = {"plan": out / "plan.json", "trials": out / "trials.csv", "summary": out / "summary.json",
                  "picture": out / "trials.png", "model": out / "model.xml"}
         write_text_atomic(files["plan"], self.plan.to_json())
-        files.update(export_all(self.execution.trajectory, out))
+        probe = touch_off(self.scene, self.plan, self.execution.trajectory) if self.scene.robot.touch_off else None
+        files.update(export_all(self.execution.trajectory, out, probe))
         first = trial_params(self.report.perturbation, self.report.seed, 1)[0]
         write_text_atomic(files["model"], trial_mjcf(self.setup, first))
         rows = [t.to_row() for t in self.report.trials]
