@@ -460,14 +460,15 @@ def _start(setup: TrialSetup, params: TrialParams):
     data = mujoco.MjData(model)
     ids = model_ids(model)
     drive = setup.drive
-    error = calibration_offset(drive, params)  # the identity up to rounding where calibrated
+    error = calibration_offset(drive, params)  # the identity up to rounding where calibrated (trials are
+    # chaotic enough that the rounding shows: where calibrated, the palm's own poses are used as they are)
     if setup.touch_off and not params.calibrated:
         error[:3, 3] += error[:3, 2] * touch_off_shift(model, data, ids, drive, error, params)  # error @ a lift
     palm = drive.palm if params.calibrated else error @ drive.palm
     start, lowering = perturbed_start(setup, params, spec.obj.thickness, error)
     offset = np.array([0.0, 0.0, lowering])
     if drive.press_from is not None:
-        offset += (error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
+        offset += (drive.press_from if params.calibrated else error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
     quat = np.zeros(4)
     raised = palm[0].copy()
     raised[:3, 3] += offset
