@@ -223,44 +223,37 @@ def main() -> None:
     print("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) | paper "
           "| the model on the plan | failures |")
     print("|---|---|---|---|---|---|---|")
-    for tip, key, paper in (("rounded", "base", "109/120 over the objects, mean < 2.6 mm"),
-                            ("flat", "edge", "better than point contact")):
-        if key not in only:
-            continue
+    base_paper = "109/120 over the objects, mean < 2.6 mm"
+
+    def objects(total: str | None, scene_of, paper: str = base_paper) -> None:
+        """A row per object (scene_of(name): its label and scene, planned with the seed), then with
+        a total label the three objects' row."""
         for name in OBJECTS:
-            scene = _scene(name, tip)
-            show(run(f"{key}: {name}, {tip} tip", scene, _plan(scene, s), n, j, s, paper))
-        if key == "base":
-            ok = sum(r.successes for r in rows[-3:])
-            show(Row("base: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-", "109/120",
-                            (109, 120), "secure", "-"))
+            label, scene = scene_of(name)
+            show(run(label, scene, _plan(scene, s), n, j, s, paper))
+        if total is not None:
+            show(Row(total, sum(r.successes for r in rows[-3:]), 3 * n, sum(r.placed for r in rows[-3:]), "-", "-",
+                     "109/120", (109, 120), "secure", "-"))
+
+    if "base" in only:
+        objects("base: the three objects", lambda name: (f"base: {name}, rounded tip", _scene(name, "rounded")))
+    if "edge" in only:
+        objects(None, lambda name: (f"edge: {name}, flat tip", _scene(name, "flat")), "better than point contact")
     if "open" in only:  # without the touch-off (docs/model.md 11.14): the arm's calibration alone
-        for name in OBJECTS:
+        def open_loop(name: str):
             scene = _scene(name, "rounded")
-            scene = replace(scene, robot=replace(scene.robot, touch_off=False))
-            show(run(f"base, open loop (no touch-off): {name}, rounded tip", scene, _plan(scene, s), n, j, s,
-                     "109/120 over the objects, mean < 2.6 mm"))
-        ok = sum(r.successes for r in rows[-3:])
-        show(Row("base, open loop: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-",
-                 "109/120", (109, 120), "secure", "-"))
+            return f"base, open loop (no touch-off): {name}, rounded tip", replace(
+                scene, robot=replace(scene.robot, touch_off=False))
+        objects("base, open loop: the three objects", open_loop)
     if "smooth" in only:  # the pairs chosen before the double normals (docs/model.md 11.7)
-        for name in OBJECTS:
-            what, contacts = OLD_PAIRS[name]
-            scene = _scene(name, "rounded", contacts)
-            show(run(f"previous pair: {name}, {what}, rounded tip", scene, _plan(scene, s), n, j, s,
-                     "109/120 over the objects, mean < 2.6 mm"))
-        ok = sum(r.successes for r in rows[-3:])
-        show(Row("previous pairs: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-", "109/120",
-                 (109, 120), "secure", "-"))
+        objects("previous pairs: the three objects", lambda name: (
+            f"previous pair: {name}, {OLD_PAIRS[name][0]}, rounded tip", _scene(name, "rounded", OLD_PAIRS[name][1])))
     if "handed" in only:  # the other start (docs/model.md 11.3): the object set into the gripper on the table
-        for name in OBJECTS:
+        def handed(name: str):
             scene = _scene(name, "rounded")
-            scene = replace(scene, sim=replace(scene.sim, handed_over=True))
-            show(run(f"base, handed over at the start: {name}, rounded tip", scene, _plan(scene, s), n, j, s,
-                     "109/120 over the objects, mean < 2.6 mm"))
-        ok = sum(r.successes for r in rows[-3:])
-        show(Row("base, handed over: the three objects", ok, 3 * n, sum(r.placed for r in rows[-3:]), "-", "-",
-                 "109/120", (109, 120), "secure", "-"))
+            return f"base, handed over at the start: {name}, rounded tip", replace(
+                scene, sim=replace(scene.sim, handed_over=True))
+        objects("base, handed over: the three objects", handed)
     if "subset" in only:
         scene = _scene("guitar_pick")
         thick = Scene.from_file(SCENES / "guitar_pick_1_5mm.yaml").object_thickness
