@@ -423,6 +423,7 @@ def test_the_touch_off_program_expects_the_table_where_the_simulated_digits_meet
     model = mujoco.MjModel.from_xml_string(trial_mjcf(setup, TrialParams()))
     data, ids = mujoco.MjData(model), model_ids(model)
     assert digits_lowest(model, data, ids, setup.drive, np.eye(4)) == pytest.approx(probe.clearance, abs=1e-6)
+    assert touch_off(replace(scene, robot=replace(scene.robot, touch_off=False)), result, ex.trajectory) is None
     program = export_all(ex.trajectory, tmp_path, probe)["touch_off"].read_text()
     assert f"offset = {probe.options.lift + probe.clearance:.6f} - (p_top[2] - p_contact[2])" in program
     assert "tool_contact(" in program and _joint_list_text(probe.start_joints) in program

@@ -244,6 +244,7 @@ def digits_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Dig
         low = np.minimum(low, dome_centre(theta, d, psi, digits.object_thickness, r)[..., 1] - r)
     return low
 
+
 def digit_polygons(
     theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -124,15 +124,15 @@ class ScenePlan:
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
         """Write the executed trajectory (every format robot.export writes, with the touch-off's
-        program when the scene's robot makes one), the view's record and plan.json into out, atomically; returns their paths by kind."""
+        program when the scene's robot makes one), the view's record and plan.json into out,
+        atomically; returns their paths by kind."""
         from ..robot.export import export_all
         from ..robot.touch_off import touch_off
         from ..view.record import write_view_record
 
         out = Path(out)
         execution = execution or self.execute()
-        probe = touch_off(self.scene, self.plan, execution.trajectory) if self.scene.robot.touch_off else None
-        files = export_all(execution.trajectory, out, probe)
+        files = export_all(execution.trajectory, out, touch_off(self.scene, self.plan, execution.trajectory))
         files["view"] = write_view_record(out, [(self.scene, self.plan)], execution)
         files["plan"] = out / "plan.json"
         write_text_atomic(files["plan"], json.dumps(self.document(), indent=2) + "\n")

@@ -173,8 +173,8 @@ class SceneSimulation:
         files = {"plan": out / "plan.json", "trials": out / "trials.csv", "summary": out / "summary.json",
                  "picture": out / "trials.png", "model": out / "model.xml"}
         write_text_atomic(files["plan"], self.plan.to_json())
-        probe = touch_off(self.scene, self.plan, self.execution.trajectory) if self.scene.robot.touch_off else None
-        files.update(export_all(self.execution.trajectory, out, probe))
+        trajectory = self.execution.trajectory
+        files.update(export_all(trajectory, out, touch_off(self.scene, self.plan, trajectory)))
         first = trial_params(self.report.perturbation, self.report.seed, 1)[0]
         write_text_atomic(files["model"], trial_mjcf(self.setup, first))
         rows = [t.to_row() for t in self.report.trials]
