@@ -116,13 +116,8 @@ def digits_lowest(model, data, ids: ModelIds, drive: GripperDrive, error: NDArra
     jaws at the first opening. Leaves data's kinematics at that pose without the error."""
     import mujoco
 
-    pinch = drive.palm[0] if drive.press_from is None else drive.press_from
-    palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pinch[:3, :3]).ravel())
-    data.qpos[palm_q:palm_q + 3], data.qpos[palm_q + 3:palm_q + 7] = pinch[:3, 3], quat
-    for jaw, side in ((ids.thumb_jaw, -1.0), (ids.finger_jaw, 1.0)):
-        data.qpos[model.jnt_qposadr[model.body_jntadr[jaw]]] = side * drive.opening[0] / 2
+    _place_hand(model, data, ids, drive.palm[0] if drive.press_from is None else drive.press_from,
+                drive.opening[0], np.zeros(4))
     mujoco.mj_kinematics(model, data)
     rot, shift = error[:3, :3], error[:3, 3]
     low = math.inf
@@ -416,6 +411,18 @@ def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
     data.mocap_quat[ids.palm_mocap] = quat
 
 
+def _place_hand(model, data, ids: ModelIds, pose: NDArray, opening: float, quat: NDArray) -> None:
+    """Put the palm itself (the free body) at pose (4x4) and its jaws at opening (m), in data.qpos
+    (quat: a (4,) scratch array, left holding the palm's unit quaternion)."""
+    import mujoco
+
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
+    palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+    data.qpos[palm_q:palm_q + 3], data.qpos[palm_q + 3:palm_q + 7] = pose[:3, 3], quat
+    for jaw, side in ((ids.thumb_jaw, -1.0), (ids.finger_jaw, 1.0)):
+        data.qpos[model.jnt_qposadr[model.body_jntadr[jaw]]] = side * opening / 2
+
+
 def _palm_quats(poses: NDArray) -> NDArray[np.float64]:
     """Unit quaternions (K, 4) of the palm poses (K, 4, 4), each in the hemisphere of the one before
     (so that interpolating two neighbours turns the short way)."""
@@ -473,12 +480,8 @@ def _start(setup: TrialSetup, params: TrialParams):
     raised = palm[0].copy()
     raised[:3, 3] += offset
     _set_palm(data, ids, raised, quat)
-    palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
-    data.qpos[palm_q:palm_q + 3], data.qpos[palm_q + 3:palm_q + 7] = raised[:3, 3], quat
-    thumb_q = model.jnt_qposadr[model.body_jntadr[ids.thumb_jaw]]
-    finger_q = model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]
+    _place_hand(model, data, ids, raised, drive.opening[0], quat)
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    data.qpos[thumb_q], data.qpos[finger_q] = -drive.opening[0] / 2, drive.opening[0] / 2
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
     data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
