@@ -134,7 +134,8 @@ def test_solids_agree_with_a_world_frame_oracle():
     q = np.column_stack([rng.uniform(0, math.radians(30), n), rng.uniform(0.3, 0.9, n),
                          rng.uniform(0, math.radians(110), n)])
     got = CollisionChecker(scene.collision_model()).in_collision(q)  # the object's prism too, clear of the solids here
-    expected = _world_oracle(scene, q)
+    expected = _world_oracle(scene, q, down=scene.robot.start_press,  # the layout's own press and clearance
+                             clearance=scene.digits.table_clearance * scene.object_length)
     assert 0.1 < expected.mean() < 0.9
     disagree = np.flatnonzero(got != expected)
     assert len(disagree) == 0, q[disagree]

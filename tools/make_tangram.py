@@ -35,6 +35,12 @@ HEADER = """\
 # each piece's centroid; target.position places that centroid in the frame.
 # Friction: wood on a laminate table about 0.35, wood on the 3D-printed digits about 0.45.
 # Digits: a 60 mm thumb and an 80 mm finger (alpha = 20 mm over each piece's l = |GB|).
+# Set up as the object scenes are (docs/model.md 11.9-11.14): the digits 2 mm above the table,
+# B 1 mm from the thumb's tip, A 1 mm inside the supports across the plane, a 1 mm press, the
+# table touched off under the start pinch, each piece let go at theta up to 8 deg
+# with the thumb at 30-65 deg (psi), opened as open_lift does, and aimed by where its own
+# release lands it (robot.landing: simulated; a piece whose aim would take the robot into a
+# wall or a piece runs as planned).
 """
 
 
@@ -70,9 +76,10 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
                    "thumb_base_thickness": 0.008, "finger_tip_thickness": 0.002, "finger_base_thickness": 0.008,
                    "width": 0.02, "palm_width": 0.08, "palm_length": 0.11},
         "start": {"theta_deg": 30, "d": 0.8, "psi_deg": 0},
-        # opening the gripper would swing the finger back over the piece's neighbours and walls:
-        # turn it about the thumb tip instead, lifting the finger off
-        "robot": {"termination": "rotate"},
+        "goal": {"theta_max_deg": 8, "d": [0.0, 1.0], "psi_deg": [30, 65]},
+        "planning": {"table_clearance": 0.002, "thumb_tip_margin": 0.001, "across_margin": 0.001},
+        "robot": {"termination": "open_lift", "termination_opening": 0.004, "start_press": 0.001,
+                  "end_press": 0.0005, "touch_off": True, "landing": "simulated"},
         "pieces": pieces,
     }
 

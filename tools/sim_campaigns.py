@@ -148,21 +148,22 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first") 
     import yaml
 
     from ungrasp_ompl.layout import Layout
-    from ungrasp_ompl.robot.pipeline import execute_sequence
-    from ungrasp_ompl.sim.tiling import simulate_tiling, tiling_setups
-    from ungrasp_ompl.tiling import TilingOptions, tile
+    from ungrasp_ompl.sim.tiling import simulate_tiling, tile_aimed
+    from ungrasp_ompl.tiling import TilingOptions
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     doc["digits"]["finger_tip"] = tip
     layout = Layout.from_dict(doc, source="tangram.yaml")
-    tiling = tile(layout, TilingOptions(planner="lattice", seed=seed, rank=rank))
-    ex = execute_sequence([(p.scene, p.plan) for p in tiling.placements], labels=[p.name for p in tiling.placements])
-    results = simulate_tiling(layout, tiling_setups(layout, tiling, ex.trajectory, ex.robot), PRESETS["paper"],
-                              attempts, seed, jobs)
+    tiling, aimed = tile_aimed(layout, TilingOptions(planner="lattice", seed=seed, rank=rank))
+    ranked = "" if rank == "first" else ", approaches ranked by tolerance"
+    name = f"tangram, {tip} tip (lattice plans{ranked})"
+    if aimed is None:
+        return Row(name, 0, attempts, 0, "-", "-", "9/10", (9, 10), "no tiling",
+                   f"no tiling: {tiling.failed_piece} cannot be placed ({tiling.reasons[0].kind.value if tiling.reasons else '?'})")
+    results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, seed, jobs)
     causes = collections.Counter(a.cause().split(" at ")[0] for a in results if not a.success)
     ok, placed = sum(a.success for a in results), sum(a.placed for a in results)
-    ranked = "" if rank == "first" else ", approaches ranked by tolerance"
-    return Row(f"tangram, {tip} tip (lattice plans{ranked})", ok, attempts, placed, "-", "-", "9/10", (9, 10), "secure",
+    return Row(name, ok, attempts, placed, "-", "-", "9/10", (9, 10), "secure",
                "; ".join(f"{n} {c}" for c, n in causes.most_common()) or "-")
 
 

@@ -10,10 +10,12 @@ scene, whose solids are the frame's walls and the earlier pieces (python-fcl,
 1. at each step every remaining piece's approaches are screened; the piece
    with the fewest that pass goes first (the most constrained), then the one
    touching the walls least;
-2. a piece's approaches are its antipodal pairs that hold x-moments (an edge
-   contact at G or B, or no cusp at either), both ways round, ranked by the
-   free room beyond B and behind G (a ray cast against walls and placed
-   pieces), then by the friction margin; near-duplicates are dropped;
+2. a piece's approaches are its antipodal pairs (among its outline's contact
+   candidates and the feet of its double normals) that hold x-moments (G or B
+   inside a straight side square to GB, or curved contacts at both:
+   geometry.plane.flush and curved), both ways round, ranked by the free room
+   beyond B and behind G (a ray cast against walls and placed pieces), then by
+   the friction margin; near-duplicates are dropped;
 3. an approach is screened (the start grasp holdable, some goal state holdable
    with room for the gripper to let go), then proved by the exact lattice
    search; the first approach proved places the piece in the search;
@@ -55,6 +57,7 @@ from numpy.typing import NDArray
 from .errors import InputError
 from .layout import Layout
 from .mechanics.antipodal import antipodal_pairs
+from .geometry.plane import curved, flush
 from .planning import plan as plan_scene
 from .geometry.collision import CollisionChecker
 from .mechanics import kinematic_validity
@@ -97,6 +100,9 @@ class TilingOptions:
     """How each piece's approach is chosen once the order is found (Rank). The search's own choice
     by default: on the tangram the most tolerant approaches placed fewer pieces in simulation
     (docs/results.md)."""
+    avoid: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = ()
+    """Approaches not to take: (piece name, G, B in the piece's own coordinates, m), each matched
+    within 1 um (sim.tiling.tile_aimed avoids those whose landing's aim does not fit)."""
 
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
@@ -248,12 +254,14 @@ def _room(origins: NDArray, direction: NDArray, segments: NDArray) -> NDArray[np
     return np.where(hit, t, ROOM_CAP).min(axis=(1, 2), initial=ROOM_CAP)
 
 
-def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Approach]:
-    """Up to count distinct manipulation planes of piece i, best first (see the module docstring)."""
+def approaches(layout: Layout, i: int, placed: list[int], count: int,
+               avoid: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = ()) -> list[Approach]:
+    """Up to count distinct manipulation planes of piece i, best first (see the module docstring),
+    none of those in avoid (TilingOptions.avoid)."""
     piece = layout.pieces[i].object3d
     own = layout.scene(i)  # built once, at load
     mu = own.mu_contacts
-    cand = piece.outline.candidates()
+    cand = piece.outline.candidates().joined(piece.outline.double_normals())
     gi, bi, margins = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, piece.outline.vertices,
                                       math.atan(mu[0]), math.atan(mu[2]))
     (px, py), yaw = layout.world_pose(i)
@@ -261,8 +269,9 @@ def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Ap
     rot = np.array([[c, -s], [s, c]])
     segs = _segments(layout, placed)
     half_width = own.digits.width * own.object_length / 2  # metres
-    # only planes whose contacts hold x-moments: an edge contact at G or B, or no cusp at either
-    x_stable = (cand.kind[gi] == "edge") | (cand.kind[bi] == "edge") | ((cand.radius[gi] > 0) & (cand.radius[bi] > 0))
+    # only planes whose contacts hold x-moments: a side square to GB at G or B, or curves at both
+    flush_g, flush_b = flush(piece.outline.vertices, cand.points[gi], cand.points[bi])
+    x_stable = flush_g | flush_b | (curved(cand.radius[gi]) & curved(cand.radius[bi]))
     pairs, ends, units = [], [], []  # per pair: (G, B, margin); G, B in the world (2, 2); GB's direction
     for g_k, b_k, margin in zip(gi[x_stable], bi[x_stable], margins[x_stable]):
         g, b = cand.points[g_k], cand.points[b_k]
@@ -279,6 +288,10 @@ def approaches(layout: Layout, i: int, placed: list[int], count: int) -> list[Ap
     room_g = _room(ends[:, 0, None, :] + rays, -units, segs)
     out = [Approach(g, b, math.atan2(u[1], u[0]), margin, float(rb), float(rg))
            for (g, b, margin), u, rb, rg in zip(pairs, units, room_b, room_g)]
+    name = layout.pieces[i].name
+    shunned = [(np.asarray(g), np.asarray(b)) for n, g, b in avoid if n == name]
+    out = [a for a in out if not any(np.allclose(a.g, g, atol=1e-6) and np.allclose(a.b, b, atol=1e-6)
+                                     for g, b in shunned)]
     out.sort(key=lambda a: (-round(a.room_b, 4), -round(a.margin, 6), -round(a.room_g, 4)))
     chosen: list[Approach] = []
     for a in out:
@@ -509,7 +522,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         key = (frozenset(placed), i)
         if key not in screened:
             ok, why = [], []
-            for a in approaches(layout, i, placed, opts.approaches):
+            for a in approaches(layout, i, placed, opts.approaches, opts.avoid):
                 result.checks += 1
                 report("search", len(placed), i)
                 scene = approach_scene(layout, i, a, placed)

@@ -48,9 +48,10 @@ class ContactPoint:
 
     @property
     def edge_contact(self) -> bool:
-        """On a straight side, which is the support line: the table (or the thumb face) touches
-        the whole side, a segment contact that can hold x-moments."""
-        return self.kind == "edge"
+        """Inside a straight side square to GB (span > 0 both ways): the table (or the thumb's face)
+        touches the whole side, a segment contact that holds x-moments either way. A side at an
+        angle to the face is touched at one point only, and one ending at the contact holds one way."""
+        return min(self.span) > 0.0
 
 
 @dataclass(frozen=True)
@@ -114,6 +115,32 @@ def _span(outline: Outline, point: NDArray, out: NDArray) -> tuple[float, float]
     return (max(0.0, -float(on.min())), max(0.0, float(on.max()))) if len(on) else (0.0, 0.0)
 
 
+def flush(vertices: NDArray, g: NDArray, b: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Per pair k, whether G (g[k]) and B (b[k]) lie inside a straight side square to GB, which
+    then supports the object across the plane both ways (ContactPoint.span both > 0): the faces
+    touching them, the table's and the thumb's, contain the plane's normal, so they touch a side
+    along its length only when it is square to GB, and a side ending at the contact holds one way
+    only. True where vertices lie on the line through the contact square to GB (within 1 nm) on
+    both sides of it. g, b: (K, 2); vertices: (V, 2), metres."""
+    u = b - g
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    across = np.stack([-u[:, 1], u[:, 0]], axis=1)
+
+    def inside_side(p: NDArray) -> NDArray[np.bool_]:
+        rel = vertices[None] - p[:, None]  # (K, V, 2)
+        on = np.abs(np.einsum("kvi,ki->kv", rel, u)) <= 1e-9
+        side = np.einsum("kvi,ki->kv", rel, across)
+        return (on & (side > 1e-9)).any(axis=1) & (on & (side < -1e-9)).any(axis=1)
+    return inside_side(g), inside_side(b)
+
+
+def curved(radius: NDArray) -> NDArray[np.bool_]:
+    """Whether contacts of these radii of curvature (m) roll on a curve, on which A's push beside
+    GB restores the object: neither a corner (0) nor a straight side (inf; one square to GB holds
+    x-moments by itself, see flush, and one at an angle to the face is not where the face touches)."""
+    return (radius > 0) & np.isfinite(radius)
+
+
 def plane_frame(g: NDArray, b: NDArray, position: ArrayLike, yaw: float) -> NDArray[np.float64]:
     """World frame of the manipulation plane for the object lying at (position, yaw) on the table."""
     c, s = math.cos(yaw), math.sin(yaw)
@@ -141,7 +168,8 @@ def choose_plane(
 
     The candidates are the outline's (Outline.candidates) and its double normals with its
     straight sides (Outline.double_normals). Among the pairs that fit, those whose contacts can
-    hold x-moments (an edge contact at G or B, or no cusp at either) come first, then the largest
+    hold x-moments (G or B inside a straight side square to GB, or curved contacts at both: flush,
+    curved) come first, then the largest
     margin, then an edge contact at B (the thumb's face flush with a straight side, rather than
     on a point of small curvature that turns with the thumb instead of sliding on it; docs/model.md
     11.7), then the longest.
@@ -180,10 +208,8 @@ def choose_plane(
                              f"{math.degrees(phi_g):.1f} deg at G and {math.degrees(phi_b):.1f} deg at B: "
                              "friction too low to hold the object between table and thumb", source)
         lengths = np.linalg.norm(cand.points[bi] - cand.points[gi], axis=1)
-        edge_g = cand.kind[gi] == "edge"
-        edge_b = cand.kind[bi] == "edge"
-        no_cusp = (cand.radius[gi] > 0) & (cand.radius[bi] > 0)
-        x_stable = edge_g | edge_b | no_cusp  # x-moments from an edge contact or from A's restoring effect
+        edge_g, edge_b = flush(outline.vertices, cand.points[gi], cand.points[bi])
+        x_stable = edge_g | edge_b | (curved(cand.radius[gi]) & curved(cand.radius[bi]))  # an edge contact or A's restoring effect
         # rank: x-moment support first, then the friction margin, an edge on the thumb, length
         best = np.lexsort((-lengths, ~edge_b, -np.round(margins, 9), ~x_stable))[0]
         i, j, margin = int(gi[best]), int(bi[best]), float(margins[best])

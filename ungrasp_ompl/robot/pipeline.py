@@ -44,13 +44,14 @@ ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 class CollisionError(UngraspError):
     """The arm or gripper would hit the table or an obstacle: during ``phase`` (a trajectory
     segment's name), first at ``time_s`` (s from the trajectory's start), with ``pairs`` the
-    colliding bodies ("link - obstacle")."""
+    colliding bodies ("link - obstacle") and ``job`` the index of the plan whose part it is
+    (execute_sequence's jobs)."""
 
     exit_code = EXIT_NO_SOLUTION
 
-    def __init__(self, phase: str, time_s: float, pairs: tuple[str, ...]):
+    def __init__(self, phase: str, time_s: float, pairs: tuple[str, ...], job: int = 0):
         super().__init__(f"the robot collides during the {phase} at t = {time_s:.2f} s: " + ", ".join(pairs))
-        self.phase, self.time_s, self.pairs = phase, time_s, pairs
+        self.phase, self.time_s, self.pairs, self.job = phase, time_s, pairs, job
 
 
 @dataclass
@@ -187,7 +188,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
             i, pairs = hit
             i += lo
             phase = next(name for name, a, b in spans if a <= i <= b)
-            raise CollisionError(phase, float(trajectory.times[i]), tuple(pairs))
+            raise CollisionError(phase, float(trajectory.times[i]), tuple(pairs), k)
     ex = Execution(trajectory, robot, res_m, res_rad, contact_error,
                    float(np.max(np.abs(trajectory.velocities) / v_max)),
                    float(np.max(np.abs(trajectory.accelerations) / a_max)), tuple(aims))

@@ -55,14 +55,14 @@ class TouchOff:
 
 
 def touch_off(scene: Scene, plan: Plan, trajectory: JointTrajectory,
-              options: TouchOffOptions = TouchOffOptions()) -> TouchOff | None:
+              options: TouchOffOptions = TouchOffOptions(), prefix: str = "") -> TouchOff | None:
     """The touch-off for plan executed as trajectory (robot.pipeline.execute), None when the
-    scene's robot makes none (robot.touch_off false): the start pinch is where the approach ends;
-    the clearance is the digits' lowest point there (mechanics digits_clearance at the plan's
-    first state), in metres."""
+    scene's robot makes none (robot.touch_off false): the start pinch is where the approach ends
+    (the segment prefix + "approach": a layout's piece names its segments); the clearance is the
+    digits' lowest point there (mechanics digits_clearance at the plan's first state), in metres."""
     if not scene.robot.touch_off:
         return None
-    approach = next((end for name, _, end in trajectory.segments if name == "approach"), 0)
+    approach = next((end for name, _, end in trajectory.segments if name == prefix + "approach"), 0)
     q = trajectory.positions[approach]
     theta, d, psi = plan.states[0]
     clearance = float(digits_clearance(theta, d, psi, scene.digits)) * scene.object_length

@@ -12,7 +12,7 @@ goes on past a piece that fails only the strict verdict.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field, replace
 
@@ -21,12 +21,20 @@ from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..layout import Layout
+from ..geometry.collision import CollisionChecker
+from ..geometry.solids import Solid
+from ..planning.result import Plan
 from ..robot.model import RobotModel
+from ..robot.placement import densify
+from ..robot.pipeline import CollisionError, Execution, execute_sequence
+from ..scene import Scene
+from ..scene.options import Landing
 from ..robot.trajectory import JointTrajectory
-from ..tiling import Tiling
+from ..tiling import Placement, Tiling, TilingOptions, TilingProgress, tile
 from .campaign import trial_runner
 from .outcome import FLAT_TILT_DEG, TrialResult
 from ..perturbation import Perturbation
+from .landing import predict_landing
 from .setup import trial_setup
 from .trial import TrialSetup, run_trial
 
@@ -59,15 +67,110 @@ class TilingAttempt:
         return f"not flat inside the frame at the end: {', '.join(bad)}"
 
 
-def tiling_setups(layout: Layout, tiling: Tiling, trajectory: JointTrajectory, robot: RobotModel
-                  ) -> list[tuple[str, TrialSetup]]:
+def tiling_setups(layout: Layout, tiling: Tiling, trajectory: JointTrajectory, robot: RobotModel,
+                  aims: Sequence[tuple[float, float]] | None = None) -> list[tuple[str, TrialSetup]]:
     """Each piece's trial setup, in order: its scene with the frame's walls as the only fixed solids
-    (earlier pieces come in as free bodies), its part of the tiling trajectory."""
+    (earlier pieces come in as free bodies), its part of the tiling trajectory, whose motion aims
+    shifted by aims[k] (world x, y, m; none: as planned)."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to simulate")
     walls = tuple(layout.frame.walls())
-    return [(p.name, trial_setup(replace(p.scene, solids=walls), p.plan, trajectory, robot, prefix=f"{p.name}/"))
-            for p in tiling.placements]
+    aims = aims or [(0.0, 0.0)] * len(tiling.placements)
+    return [(p.name, trial_setup(replace(p.scene, solids=walls), p.plan, trajectory, robot, prefix=f"{p.name}/",
+                                 aim=aim)) for p, aim in zip(tiling.placements, aims)]
+
+
+@dataclass(frozen=True)
+class AimedTiling:
+    """A solved tiling on the arm, each piece aimed by where its release lands it (robot.landing
+    simulated), and the trial setups of that trajectory."""
+
+    execution: Execution
+    """The one trajectory putting every piece down, each piece's motion shifted by its aim."""
+    setups: list[tuple[str, TrialSetup]]
+    """Per piece in order: its name and trial setup (tiling_setups) on that trajectory."""
+    unaimed: tuple[str, ...] = ()
+    """Pieces left as planned because their aim would take the object or the robot into a wall or a piece."""
+
+
+def describe_unaimed(unaimed: tuple[str, ...]) -> list[str]:
+    """The summary's line on the pieces run as planned though their scene aims (none: no line)."""
+    return [f"run as planned, not aimed by the landing (the aim would take the object or the robot into a wall "
+            f"or a piece): {', '.join(unaimed)}"] if unaimed else []
+
+
+def _object_hits(scene: Scene, plan: Plan, aim: tuple[float, float]) -> bool:
+    """Whether the object (or a digit), carried along plan's legs with the hand shifted by aim
+    (world x, y, m), runs into the scene's walls or pieces down: the plan's states (every 0.5 deg)
+    checked among the solids shifted the other way."""
+    shift = np.array([aim[0], aim[1], 0.0])
+    solids = tuple(Solid(s.name, s.vertices - shift) for s in scene.solids)
+    states, _ = densify(plan, angle_step=math.radians(0.5))
+    return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
+
+
+def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
+    """Execute the solved tiling; where a piece's scene has robot.landing simulated, aim the piece
+    as `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
+    the pieces before it absent, since the table is the same beside them), and execute again. An aim that takes the robot into a wall or a piece put down before (CollisionError of
+    that piece's part) is dropped, that piece run as planned, and the rest tried again."""
+    if not tiling.solved:
+        raise InputError("layout", "the tiling is not solved: nothing to execute")
+    jobs = [(p.scene, p.plan) for p in tiling.placements]
+    labels = [p.name for p in tiling.placements]
+    execution = execute_sequence(jobs, labels=labels)
+    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
+    aims = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else (0.0, 0.0)
+            for p, (_, setup) in zip(tiling.placements, setups)]
+    if not any(any(a) for a in aims):
+        return AimedTiling(execution, setups)
+    unaimed: list[str] = []
+    for k, p in enumerate(tiling.placements):
+        if any(aims[k]) and _object_hits(p.scene, p.plan, aims[k]):
+            aims[k] = (0.0, 0.0)
+            unaimed.append(p.name)
+    while True:
+        try:
+            execution = execute_sequence(jobs, labels=labels, aims=aims)
+            break
+        except CollisionError as exc:
+            if not any(aims[exc.job]):
+                raise
+            aims[exc.job] = (0.0, 0.0)
+            unaimed.append(labels[exc.job])
+    return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims),
+                       tuple(unaimed))
+
+
+def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
+               progress: Callable[[TilingProgress], None] | None = None) -> tuple[Tiling, AimedTiling | None]:
+    """Tile the layout (tiling.tile) and aim it (aim_tiling), making room for the aims: for each
+    piece left unaimed, in order, the layout is tiled again with that piece's approach avoided
+    (TilingOptions.avoid), and the new tiling is kept when it aims more pieces. An approach whose
+    avoidance leaves no tiling, or aims no more, is kept. Returns the tiling and its aimed
+    execution (None when no tiling is found)."""
+    tiling = tile(layout, options, progress)
+    if not tiling.solved:
+        return tiling, None
+    aimed = aim_tiling(layout, tiling)
+    tried: set[tuple] = set()
+    while True:
+        todo = [p for p in tiling.placements if p.name in aimed.unaimed and _key(p) not in tried]
+        if not todo:
+            return tiling, aimed
+        tried.add(_key(todo[0]))
+        retry = replace(options, avoid=options.avoid + (_key(todo[0]),))
+        again = tile(layout, retry, progress)
+        if not again.solved:
+            continue
+        aimed_again = aim_tiling(layout, again)
+        if len(aimed_again.unaimed) < len(aimed.unaimed):
+            options, tiling, aimed = retry, again, aimed_again
+
+
+def _key(p: Placement) -> tuple[str, tuple[float, float], tuple[float, float]]:
+    """A placement's approach as TilingOptions.avoid names it."""
+    return p.name, (float(p.approach.g[0]), float(p.approach.g[1])), (float(p.approach.b[0]), float(p.approach.b[1]))
 
 
 def _inside(layout: Layout, outline: NDArray, pose: NDArray, tol: float = 5e-4) -> bool:

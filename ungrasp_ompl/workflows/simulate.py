@@ -28,16 +28,16 @@ from ..planning.result import Plan, read_plan
 from ..plotting import draw_trials
 from ..robot.export import export_all
 from ..robot.touch_off import touch_off
-from ..robot.pipeline import Execution, execute_sequence
+from ..robot.pipeline import Execution
 from ..scene import Scene
 from ..scene.options import Landing
 from ..sim.campaign import SimulationReport, default_jobs, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
-from ..sim.tiling import TilingAttempt, simulate_tiling, tiling_setups
+from ..sim.tiling import TilingAttempt, describe_unaimed, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
-from ..tiling import Tiling, TilingOptions, tile
+from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
 
 
@@ -233,6 +233,8 @@ class LayoutSimulation:
     """The one trajectory putting every piece down (None: no tiling)."""
     attempts: list[TilingAttempt] = field(default_factory=list)
     """The attempts, in order."""
+    unaimed: tuple[str, ...] = ()
+    """Pieces run as planned though their scene aims by the landing: the aim would collide (sim.tiling)."""
 
     @property
     def successes(self) -> int:
@@ -248,6 +250,9 @@ class LayoutSimulation:
     def summary(self) -> str:
         """The tiling's summary, then the attempts' success and each failed attempt's cause."""
         lines = [self.tiling.summary()]
+        if self.execution is not None:
+            lines.append(self.execution.summary())
+        lines += describe_unaimed(self.unaimed)
         if self.attempts:
             pieces = len(self.attempts[0].names)
             lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")
@@ -277,15 +282,12 @@ def simulate_layout(layout: Layout, options: SimulateOptions,
     """Tile the layout (seed options.seed) and run options.trials attempts of the whole tiling,
     every piece in turn; an unsolved tiling comes back without attempts."""
     options.validated(None)
-    tiling = tile(layout, TilingOptions(planner=options.planner, time=options.time, seed=options.seed))
-    if not tiling.solved:
+    tiling, aimed = tile_aimed(layout, TilingOptions(planner=options.planner, time=options.time, seed=options.seed))
+    if aimed is None:
         return LayoutSimulation(layout, tiling, options)
-    execution = execute_sequence([(p.scene, p.plan) for p in tiling.placements],
-                                 labels=[p.name for p in tiling.placements])
-    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
-    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.seed, options.workers,
-                               progress, cluster=options.cluster)
-    return LayoutSimulation(layout, tiling, options, execution, attempts)
+    attempts = simulate_tiling(layout, aimed.setups, options.perturbation(), options.trials, options.seed,
+                               options.workers, progress, cluster=options.cluster)
+    return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.unaimed)
 
 
 __all__ = ["LayoutSimulation", "SceneSimulation", "SimulateOptions", "simulate_layout", "simulate_scene"]

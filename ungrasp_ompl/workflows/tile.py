@@ -19,8 +19,10 @@ from ..layout import Layout
 from ..planning.setup import PlannerOptions
 from ..plotting import draw_layout, draw_plan
 from ..robot.export import export_all
-from ..robot.pipeline import Execution, execute_sequence
-from ..tiling import Tiling, TilingOptions, TilingProgress, tile
+from ..robot.pipeline import Execution
+from ..robot.touch_off import touch_off
+from ..sim.tiling import describe_unaimed, tile_aimed
+from ..tiling import Tiling, TilingOptions, TilingProgress
 from ..view.record import write_view_record
 
 
@@ -33,11 +35,15 @@ class TiledLayout:
     tiling: Tiling
     """The order, approaches and plans (unsolved: no trajectory)."""
     execution: Execution | None = None
-    """The one trajectory of every piece in order (None: the tiling is not solved)."""
+    """The one trajectory of every piece in order, each aimed by its landing where its scene says
+    so (robot.landing; None: the tiling is not solved)."""
+    unaimed: tuple[str, ...] = ()
+    """Pieces run as planned though their scene aims by the landing: the aim would collide."""
 
     def summary(self) -> str:
         """The tiling's summary, then the trajectory's when there is one."""
-        return self.tiling.summary() + ("" if self.execution is None else "\n" + self.execution.summary())
+        return "\n".join([self.tiling.summary()] + ([] if self.execution is None else [self.execution.summary()])
+                         + describe_unaimed(self.unaimed))
 
     def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
         """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
@@ -58,7 +64,9 @@ class TiledLayout:
         if self.execution is None:
             raise ValueError("the layout has no tiling to export")
         pieces = self.tiling.placements
-        files = export_all(self.execution.trajectory, out)
+        first = pieces[0]
+        probe = touch_off(first.scene, first.plan, self.execution.trajectory, prefix=f"{first.name}/")
+        files = export_all(self.execution.trajectory, out, probe)
         files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
                                           labels=[p.name for p in pieces], kind="tiling")
         return files
@@ -76,12 +84,10 @@ def tile_layout(layout: Layout, options: TilingOptions,
     """Tile the layout with options (InputError naming the field for a bad planner option) and
     execute the solved tiling on the arm, every piece in order."""
     check_tiling_options(options)
-    tiling = tile(layout, options, progress)
-    if not tiling.solved:
+    tiling, aimed = tile_aimed(layout, options, progress)
+    if aimed is None:
         return TiledLayout(layout, tiling)
-    execution = execute_sequence([(p.scene, p.plan) for p in tiling.placements],
-                                 labels=[p.name for p in tiling.placements])
-    return TiledLayout(layout, tiling, execution)
+    return TiledLayout(layout, tiling, aimed.execution, aimed.unaimed)
 
 
 __all__ = ["TiledLayout", "check_tiling_options", "tile_layout"]
