@@ -7,6 +7,10 @@ earlier one. An attempt succeeds when every piece's own trial succeeds and, at t
 pieces lie flat inside the frame (paper sec. 6.2.4); it is placed by the paper's criterion when
 every piece is placed by it (TrialResult.placed) and all lie flat inside the frame, so an attempt
 goes on past a piece that fails only the strict verdict.
+
+The trajectory itself comes from aim_tiling (each piece aimed by its own landing where its scene
+has robot.landing simulated, unless the aim would collide) or tile_aimed (which also tiles the
+layout again, avoiding an unaimed piece's approach, where that aims more pieces).
 """
 
 from __future__ import annotations
@@ -20,21 +24,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..layout import Layout
 from ..geometry.collision import CollisionChecker
 from ..geometry.solids import Solid
+from ..layout import Layout
+from ..perturbation import Perturbation
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.placement import densify
 from ..robot.pipeline import CollisionError, Execution, execute_sequence
+from ..robot.placement import densify
+from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from ..scene.options import Landing
-from ..robot.trajectory import JointTrajectory
 from ..tiling import Placement, Tiling, TilingOptions, TilingProgress, tile
 from .campaign import trial_runner
-from .outcome import FLAT_TILT_DEG, TrialResult
-from ..perturbation import Perturbation
 from .landing import predict_landing
+from .outcome import FLAT_TILT_DEG, TrialResult
 from .setup import trial_setup
 from .trial import TrialSetup, run_trial
 
@@ -110,10 +114,12 @@ def _object_hits(scene: Scene, plan: Plan, aim: tuple[float, float]) -> bool:
 
 
 def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
-    """Execute the solved tiling; where a piece's scene has robot.landing simulated, aim the piece
-    as `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
-    the pieces before it absent, since the table is the same beside them), and execute again. An aim that takes the robot into a wall or a piece put down before (CollisionError of
-    that piece's part) is dropped, that piece run as planned, and the rest tried again."""
+    """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
+    `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
+    the pieces before it absent, since the table is the same beside them); then execute again.
+    An aim that would take the piece, carried along its plan, or the robot (CollisionError of
+    that piece's part) into a wall or a piece put down before is dropped, and that piece runs as
+    planned."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to execute")
     jobs = [(p.scene, p.plan) for p in tiling.placements]
