@@ -9,8 +9,9 @@ every piece is placed by it (TrialResult.placed) and all lie flat inside the fra
 goes on past a piece that fails only the strict verdict.
 
 The trajectory itself comes from aim_tiling (each piece aimed by its own landing where its scene
-has robot.landing simulated, unless the aim would collide) or tile_aimed (which also tiles the
-layout again, avoiding an unaimed piece's approach, where that aims more pieces).
+has robot.landing simulated, as far as the aim does not collide) or tile_aimed (which also tiles
+the layout again, avoiding the approach of a piece aimed short, where that takes more of the
+aims).
 """
 
 from __future__ import annotations
@@ -93,14 +94,16 @@ class AimedTiling:
     """The one trajectory putting every piece down, each piece's motion shifted by its aim."""
     setups: list[tuple[str, TrialSetup]]
     """Per piece in order: its name and trial setup (tiling_setups) on that trajectory."""
-    unaimed: tuple[str, ...] = ()
-    """Pieces left as planned because their aim would take the object or the robot into a wall or a piece."""
+    short: tuple[tuple[str, float, float], ...] = ()
+    """Pieces aimed short of their landing, because the whole aim would take the piece or the robot
+    into a wall or a piece: (name, the aim taken, the aim the landing asked for; m)."""
 
 
-def describe_unaimed(unaimed: tuple[str, ...]) -> list[str]:
-    """The summary's line on the pieces run as planned though their scene aims (none: no line)."""
-    return [f"run as planned, not aimed by the landing (the aim would take the object or the robot into a wall "
-            f"or a piece): {', '.join(unaimed)}"] if unaimed else []
+def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
+    """The summary's line on the pieces aimed short of their landing (none: no line)."""
+    return [("aimed short of the landing (the whole aim would take the piece or the robot into a wall or a piece): "
+             + ", ".join(f"{name} {taken * 1000:.2f} of {asked * 1000:.2f} mm" for name, taken, asked in short))
+            ] if short else []
 
 
 def _object_hits(scene: Scene, plan: Plan, aim: tuple[float, float]) -> bool:
@@ -113,47 +116,65 @@ def _object_hits(scene: Scene, plan: Plan, aim: tuple[float, float]) -> bool:
     return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
 
 
+def _clear_share(scene: Scene, plan: Plan, aim: tuple[float, float], halvings: int = 8) -> float:
+    """The largest share of aim (to 2^-halvings, bisected) whose shift keeps the piece's plan
+    clear of the walls and pieces down (_object_hits); 1 when the whole aim does."""
+    if not _object_hits(scene, plan, aim):
+        return 1.0
+    lo, hi = 0.0, 1.0
+    for _ in range(halvings):
+        mid = (lo + hi) / 2
+        lo, hi = (lo, mid) if _object_hits(scene, plan, (aim[0] * mid, aim[1] * mid)) else (mid, hi)
+    return lo
+
+
+#: An aim the robot's collision check cuts is halved at most this many times before it is dropped.
+AIM_HALVINGS = 4
+
+
 def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
     """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
     `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
     the pieces before it absent, since the table is the same beside them); then execute again.
-    An aim that would take the piece, carried along its plan, or the robot (CollisionError of
-    that piece's part) into a wall or a piece put down before is dropped, and that piece runs as
-    planned."""
+    Where the whole aim would take the piece, carried along its plan, into a wall or a piece put
+    down before, the piece is aimed as far as it stays clear (bisected); where it would take the
+    robot there (CollisionError of that piece's part), its aim is halved, up to AIM_HALVINGS
+    times, then dropped."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to execute")
     jobs = [(p.scene, p.plan) for p in tiling.placements]
     labels = [p.name for p in tiling.placements]
     execution = execute_sequence(jobs, labels=labels)
     setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
-    aims = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else (0.0, 0.0)
-            for p, (_, setup) in zip(tiling.placements, setups)]
-    if not any(any(a) for a in aims):
+    asked = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else (0.0, 0.0)
+             for p, (_, setup) in zip(tiling.placements, setups)]
+    if not any(any(a) for a in asked):
         return AimedTiling(execution, setups)
-    unaimed: list[str] = []
-    for k, p in enumerate(tiling.placements):
-        if any(aims[k]) and _object_hits(p.scene, p.plan, aims[k]):
-            aims[k] = (0.0, 0.0)
-            unaimed.append(p.name)
+    share = [_clear_share(p.scene, p.plan, a) if any(a) else 1.0 for p, a in zip(tiling.placements, asked)]
+    halved = [0] * len(jobs)
     while True:
+        aims = [(a[0] * f, a[1] * f) for a, f in zip(asked, share)]
         try:
             execution = execute_sequence(jobs, labels=labels, aims=aims)
             break
         except CollisionError as exc:
-            if not any(aims[exc.job]):
+            k = exc.job
+            if not any(aims[k]):
                 raise
-            aims[exc.job] = (0.0, 0.0)
-            unaimed.append(labels[exc.job])
-    return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims),
-                       tuple(unaimed))
+            halved[k] += 1
+            share[k] = share[k] / 2 if halved[k] <= AIM_HALVINGS else 0.0
+    short = tuple((name, math.hypot(*aim), math.hypot(*want)) for name, aim, want, f
+                  in zip(labels, aims, asked, share) if f < 1.0)
+    return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
 
 
 def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
                progress: Callable[[TilingProgress], None] | None = None) -> tuple[Tiling, AimedTiling | None]:
     """Tile the layout (tiling.tile) and aim it (aim_tiling), making room for the aims: for each
-    piece left unaimed, in order, the layout is tiled again with that piece's approach avoided
-    (TilingOptions.avoid), and the new tiling is kept when it aims more pieces. An approach whose
-    avoidance leaves no tiling, or aims no more, is kept. Returns the tiling and its aimed
+    piece aimed short, in order, the layout is tiled again with that piece's approach avoided
+    (TilingOptions.avoid), and the new tiling is kept when less of the aims is left untaken
+    (summed over the pieces). An approach whose avoidance leaves no tiling, or takes no more of
+    the aims, is kept. Returns the tiling and its aimed
     execution (None when no tiling is found)."""
     tiling = tile(layout, options, progress)
     if not tiling.solved:
@@ -161,7 +182,8 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     aimed = aim_tiling(layout, tiling)
     tried: set[tuple] = set()
     while True:
-        todo = [p for p in tiling.placements if p.name in aimed.unaimed and _key(p) not in tried]
+        short = {name for name, _, _ in aimed.short}
+        todo = [p for p in tiling.placements if p.name in short and _key(p) not in tried]
         if not todo:
             return tiling, aimed
         tried.add(_key(todo[0]))
@@ -170,8 +192,13 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         if not again.solved:
             continue
         aimed_again = aim_tiling(layout, again)
-        if len(aimed_again.unaimed) < len(aimed.unaimed):
+        if _shortfall(aimed_again) < _shortfall(aimed):
             options, tiling, aimed = retry, again, aimed_again
+
+
+def _shortfall(aimed: AimedTiling) -> float:
+    """How much of the aims the landings asked for the robot does not take (m, summed)."""
+    return sum(asked - taken for _, taken, asked in aimed.short)
 
 
 def _key(p: Placement) -> tuple[str, tuple[float, float], tuple[float, float]]:

@@ -455,11 +455,19 @@ def _move_palm(model, data, ids: ModelIds, start: tuple[NDArray, NDArray], end: 
         mujoco.mj_step(model, data)
 
 
+#: Where the object, held at its start, would reach into a wall or a piece down, the hand and the
+#: object start this much higher at a time (m), and at most START_RAISE_MAX higher, and come down
+#: together in the settling (touch_down), meeting that wall or piece on the way as a hand lowering
+#: a held object would: the simulator cannot start two bodies inside each other.
+START_RAISE_STEP, START_RAISE_MAX = 2.5e-4, 0.01
+
+
 def _start(setup: TrialSetup, params: TrialParams):
     """The trial's compiled world at its first state (before the settling): model, data, ids,
     the commanded palm poses (K, 4, 4) with the calibration error applied, and where the hand
-    starts from the first of them (3,) m: perturbed_start's lowering above it, and a start press's
-    depth (GripperDrive.press_from)."""
+    starts from the first of them (3,) m: perturbed_start's lowering above it, a start press's
+    depth (GripperDrive.press_from), and as much more as keeps the object and the hand out of the
+    walls and the pieces down (START_RAISE_STEP)."""
     import mujoco
 
     spec = trial_spec(setup, params)
@@ -477,16 +485,32 @@ def _start(setup: TrialSetup, params: TrialParams):
     if drive.press_from is not None:
         offset += (drive.press_from if params.calibrated else error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
     quat = np.zeros(4)
-    raised = palm[0].copy()
-    raised[:3, 3] += offset
-    _set_palm(data, ids, raised, quat)
-    _place_hand(model, data, ids, raised, drive.opening[0], quat)
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
-    data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
-    mujoco.mj_forward(model, data)
-    return spec, model, data, ids, palm, offset
+    while True:  # raised straight up, hand and object, until clear of the walls and pieces down
+        raised = palm[0].copy()
+        raised[:3, 3] += offset
+        _set_palm(data, ids, raised, quat)
+        _place_hand(model, data, ids, raised, drive.opening[0], quat)
+        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(start[:3, :3]).ravel())
+        data.qpos[obj_q:obj_q + 3], data.qpos[obj_q + 3:obj_q + 7] = start[:3, 3], quat
+        mujoco.mj_forward(model, data)
+        if not ids.solid_geoms or not _in_solid(data, ids) or offset[2] >= START_RAISE_MAX:
+            return spec, model, data, ids, palm, offset
+        start = start.copy()
+        start[2, 3] += START_RAISE_STEP
+        offset = offset + np.array([0.0, 0.0, START_RAISE_STEP])
+
+
+def _in_solid(data, ids: ModelIds) -> bool:
+    """Whether the object or the hand reaches into a wall or a piece down by more than 10 um (the
+    pieces down rest on the table and may lean on the walls: those contacts do not count)."""
+    for c in data.contact[:data.ncon]:
+        g1, g2 = int(c.geom[0]), int(c.geom[1])
+        one = (g1 in ids.solid_geoms) != (g2 in ids.solid_geoms)
+        if one and ids.table_geom not in (g1, g2) and c.dist < -1e-5:
+            return True
+    return False
 
 
 def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:

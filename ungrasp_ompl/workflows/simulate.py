@@ -35,7 +35,7 @@ from ..sim.campaign import SimulationReport, default_jobs, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
-from ..sim.tiling import TilingAttempt, describe_unaimed, simulate_tiling, tile_aimed
+from ..sim.tiling import TilingAttempt, describe_short, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
@@ -233,8 +233,8 @@ class LayoutSimulation:
     """The one trajectory putting every piece down (None: no tiling)."""
     attempts: list[TilingAttempt] = field(default_factory=list)
     """The attempts, in order."""
-    unaimed: tuple[str, ...] = ()
-    """Pieces run as planned though their scene aims by the landing: the aim would collide (sim.tiling)."""
+    short: tuple[tuple[str, float, float], ...] = ()
+    """Pieces aimed short of their landing, the whole aim colliding: (name, aim taken, aim asked; m)."""
 
     @property
     def successes(self) -> int:
@@ -252,7 +252,7 @@ class LayoutSimulation:
         lines = [self.tiling.summary()]
         if self.execution is not None:
             lines.append(self.execution.summary())
-        lines += describe_unaimed(self.unaimed)
+        lines += describe_short(self.short)
         if self.attempts:
             pieces = len(self.attempts[0].names)
             lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")
@@ -287,7 +287,7 @@ def simulate_layout(layout: Layout, options: SimulateOptions,
         return LayoutSimulation(layout, tiling, options)
     attempts = simulate_tiling(layout, aimed.setups, options.perturbation(), options.trials, options.seed,
                                options.workers, progress, cluster=options.cluster)
-    return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.unaimed)
+    return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.short)
 
 
 __all__ = ["LayoutSimulation", "SceneSimulation", "SimulateOptions", "simulate_layout", "simulate_scene"]

@@ -21,7 +21,7 @@ from ..plotting import draw_layout, draw_plan
 from ..robot.export import export_all
 from ..robot.pipeline import Execution
 from ..robot.touch_off import touch_off
-from ..sim.tiling import describe_unaimed, tile_aimed
+from ..sim.tiling import describe_short, tile_aimed
 from ..tiling import Tiling, TilingOptions, TilingProgress
 from ..view.record import write_view_record
 
@@ -37,13 +37,13 @@ class TiledLayout:
     execution: Execution | None = None
     """The one trajectory of every piece in order, each aimed by its landing where its scene says
     so (robot.landing; None: the tiling is not solved)."""
-    unaimed: tuple[str, ...] = ()
-    """Pieces run as planned though their scene aims by the landing: the aim would collide."""
+    short: tuple[tuple[str, float, float], ...] = ()
+    """Pieces aimed short of their landing, the whole aim colliding: (name, aim taken, aim asked; m)."""
 
     def summary(self) -> str:
         """The tiling's summary, then the trajectory's when there is one."""
         return "\n".join([self.tiling.summary()] + ([] if self.execution is None else [self.execution.summary()])
-                         + describe_unaimed(self.unaimed))
+                         + describe_short(self.short))
 
     def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
         """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
@@ -87,7 +87,7 @@ def tile_layout(layout: Layout, options: TilingOptions,
     tiling, aimed = tile_aimed(layout, options, progress)
     if aimed is None:
         return TiledLayout(layout, tiling)
-    return TiledLayout(layout, tiling, aimed.execution, aimed.unaimed)
+    return TiledLayout(layout, tiling, aimed.execution, aimed.short)
 
 
 __all__ = ["TiledLayout", "check_tiling_options", "tile_layout"]
