@@ -73,8 +73,10 @@ class Execution:
                 f"{100 * self.velocity_fraction:.0f}% and acceleration {100 * self.acceleration_fraction:.0f}% of their "
                 f"limits; IK residual {self.ik_residual_m * 1000:.4f} mm / {self.ik_residual_rad * 1000:.4f} mrad; "
                 f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan"
-                + "".join(f"; the hand aimed {1000 * math.hypot(*aim):.2f} mm from the plan's frame (robot.landing)"
-                          for aim in self.aims if any(aim)))
+                + (f"; the hand aimed {1000 * math.hypot(*self.aims[0]):.2f} mm from the plan's frame (robot.landing)"
+                   if len(self.aims) == 1 and any(self.aims[0]) else
+                   "; the hand aimed " + ", ".join(f"{1000 * math.hypot(*aim):.2f}" for aim in self.aims)
+                   + " mm from the plans' frames, plan by plan (robot.landing)" if any(map(any, self.aims)) else ""))
 
 
 def gripper_spec(scene: Scene) -> GripperSpec:

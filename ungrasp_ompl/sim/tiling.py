@@ -174,8 +174,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     piece aimed short, in order, the layout is tiled again with that piece's approach avoided
     (TilingOptions.avoid), and the new tiling is kept when less of the aims is left untaken
     (summed over the pieces). An approach whose avoidance leaves no tiling, or takes no more of
-    the aims, is kept. Returns the tiling and its aimed
-    execution (None when no tiling is found)."""
+    the aims, is kept. Returns the tiling and its aimed execution (None when no tiling is found)."""
     tiling = tile(layout, options, progress)
     if not tiling.solved:
         return tiling, None

@@ -82,7 +82,8 @@ def check_tiling_options(options: TilingOptions) -> TilingOptions:
 def tile_layout(layout: Layout, options: TilingOptions,
                 progress: Callable[[TilingProgress], None] | None = None) -> TiledLayout:
     """Tile the layout with options (InputError naming the field for a bad planner option) and
-    execute the solved tiling on the arm, every piece in order."""
+    execute the solved tiling on the arm, every piece in order, each aimed by its landing where its
+    scene says so (sim.tiling.tile_aimed)."""
     check_tiling_options(options)
     tiling, aimed = tile_aimed(layout, options, progress)
     if aimed is None:
