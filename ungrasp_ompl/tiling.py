@@ -98,7 +98,7 @@ class TilingOptions:
     """Cap on approach checks over the whole search for an order."""
     rank: Rank = Rank.FIRST
     """How each piece's approach is chosen once the order is found (Rank). The search's own choice
-    by default: on the tangram the most tolerant approaches placed fewer pieces in simulation
+    by default: on the tangram the most tolerant approaches place no more in simulation
     (docs/results.md)."""
     avoid: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = ()
     """Approaches not to take: (piece name, G, B in the piece's own coordinates, m), each matched
