@@ -72,11 +72,16 @@ class Execution:
         return (f"trajectory: {tr.duration:.2f} s, {len(tr.times)} samples; largest joint velocity "
                 f"{100 * self.velocity_fraction:.0f}% and acceleration {100 * self.acceleration_fraction:.0f}% of their "
                 f"limits; IK residual {self.ik_residual_m * 1000:.4f} mm / {self.ik_residual_rad * 1000:.4f} mrad; "
-                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan"
-                + (f"; the hand aimed {1000 * math.hypot(*self.aims[0]):.2f} mm from the plan's frame (robot.landing)"
-                   if len(self.aims) == 1 and any(self.aims[0]) else
-                   "; the hand aimed " + ", ".join(f"{1000 * math.hypot(*aim):.2f}" for aim in self.aims)
-                   + " mm from the plans' frames, plan by plan (robot.landing)" if any(map(any, self.aims)) else ""))
+                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan" + self._aimed())
+
+    def _aimed(self) -> str:
+        """The summary's clause on the aims (robot.landing), empty when no plan was aimed."""
+        if not any(map(any, self.aims)):
+            return ""
+        if len(self.aims) == 1:
+            return f"; the hand aimed {1000 * math.hypot(*self.aims[0]):.2f} mm from the plan's frame (robot.landing)"
+        return ("; the hand aimed " + ", ".join(f"{1000 * math.hypot(*aim):.2f}" for aim in self.aims)
+                + " mm from the plans' frames, plan by plan (robot.landing)")
 
 
 def gripper_spec(scene: Scene) -> GripperSpec:

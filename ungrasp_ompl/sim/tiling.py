@@ -106,25 +106,25 @@ def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
             ] if short else []
 
 
-def _object_hits(scene: Scene, plan: Plan, aim: tuple[float, float]) -> bool:
-    """Whether the object (or a digit), carried along plan's legs with the hand shifted by aim
-    (world x, y, m), runs into the scene's walls or pieces down: the plan's states (every 0.5 deg)
-    checked among the solids shifted the other way."""
+def _object_hits(scene: Scene, states: NDArray[np.float64], aim: tuple[float, float]) -> bool:
+    """Whether the object (or a digit), at states (N, 3) with the hand shifted by aim (world x, y,
+    m), runs into the scene's walls or pieces down: checked among the solids shifted the other way."""
     shift = np.array([aim[0], aim[1], 0.0])
     solids = tuple(Solid(s.name, s.vertices - shift) for s in scene.solids)
-    states, _ = densify(plan, angle_step=math.radians(0.5))
     return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
 
 
 def _clear_share(scene: Scene, plan: Plan, aim: tuple[float, float], halvings: int = 8) -> float:
-    """The largest share of aim (to 2^-halvings, bisected) whose shift keeps the piece's plan
-    clear of the walls and pieces down (_object_hits); 1 when the whole aim does."""
-    if not _object_hits(scene, plan, aim):
+    """The largest share of aim (to 2^-halvings, bisected) whose shift keeps the piece, along its
+    plan's legs (every 0.5 deg), clear of the walls and pieces down (_object_hits); 1 when the
+    whole aim does."""
+    states, _ = densify(plan, angle_step=math.radians(0.5))
+    if not _object_hits(scene, states, aim):
         return 1.0
     lo, hi = 0.0, 1.0
     for _ in range(halvings):
         mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if _object_hits(scene, plan, (aim[0] * mid, aim[1] * mid)) else (mid, hi)
+        lo, hi = (lo, mid) if _object_hits(scene, states, (aim[0] * mid, aim[1] * mid)) else (mid, hi)
     return lo
 
 
