@@ -629,9 +629,11 @@ def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_i
 def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pick):
     """As planned, the positive control's release lands the piece over half a millimetre from its
     target with no error drawn (its end rides down the thumb's face). With robot.landing simulated,
-    placement moves the hand's whole motion by that offset, the other way, and nothing else: the same
-    release then lands it on target, since the table is the same everywhere. The aim is the scene's
-    own (a variant's world does not change it), and the scene file names the field of a bad value."""
+    placement moves the hand's whole motion by the inverse of the landing's planar move (its shift
+    and its turn about the vertical) and nothing else: the aim carries the landed pose back onto the
+    target, and the same release then lands the piece on target, since the table is the same
+    everywhere. The aim is the scene's own (a variant's world does not change it), and the scene
+    file names the field of a bad value."""
     scene, result, ex = pick
     assert scene.robot.landing is Landing.SIMULATED
     planned = trial_setup(scene, result, ex.trajectory, ex.robot)
@@ -639,18 +641,20 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     offset = landing_offset(planned, np.array(trial.final_pose))
     assert trial.success and np.hypot(*offset) > 0.0005, (trial.cause(), offset)
     execution, aimed = placement(scene, result)
-    assert np.allclose(aimed.aim, -offset, atol=1e-12) and execution.aims == (aimed.aim,)
-    shift = np.append(aimed.aim, 0.0)
-    assert np.allclose(aimed.start_pose[:3, 3], planned.start_pose[:3, 3] + shift, atol=1e-12)
+    assert execution.aims == (aimed.aim,) and aimed.aim.shift == pytest.approx(np.hypot(*offset), abs=2e-5)
+    move = aimed.aim.transform(planned.target_pose[:3, 3])
+    back = move @ np.array(trial.final_pose)  # the landing moved by the aim: the target, in the table's plane
+    assert np.allclose(back[:2, 3], planned.target_pose[:2, 3], atol=1e-12)
+    assert np.allclose(back[:2, 0] / np.hypot(*back[:2, 0]), planned.target_pose[:2, 0], atol=1e-9)
+    assert np.allclose(aimed.start_pose, move @ planned.start_pose, atol=1e-12)
     assert np.array_equal(aimed.target_pose, planned.target_pose)
     for k in (0, -1):  # the first primitive's start and the retreat's end: the same pose, moved by the aim
-        assert np.allclose(aimed.drive.palm[k][:3, :3], planned.drive.palm[k][:3, :3], atol=1e-6)
-        assert np.allclose(aimed.drive.palm[k][:3, 3], planned.drive.palm[k][:3, 3] + shift, atol=1e-6)
+        assert np.allclose(aimed.drive.palm[k], move @ planned.drive.palm[k], atol=1e-6)
     landed = run_trial(aimed, TrialParams())
     assert landed.success and landed.position_error_mm < 0.1, landed.position_error_mm
     assert placement(scene, result, Variant(friction_scale=0.2))[1].aim == aimed.aim
     as_planned = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
-    assert placement(as_planned, result)[1].aim == (0.0, 0.0)
+    assert not any(placement(as_planned, result)[1].aim)
     raw = yaml.safe_load((SCENES / "puzzle_piece.yaml").read_text())
     raw["robot"]["landing"] = "thrown"
     with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, got 'thrown'"):
@@ -664,6 +668,6 @@ def test_a_release_that_does_not_put_the_object_down_aims_nothing(pick):
     from ungrasp_ompl.sim.landing import predict_landing
 
     failed = predict_landing(_setup(pick, Variant(equal_digits=True)))
-    assert not failed.outcome.placed and not failed.landed and failed.aim == (0.0, 0.0)
+    assert not failed.outcome.placed and not failed.landed and not any(failed.aim)
     landed = predict_landing(_setup(pick))
-    assert landed.landed and landed.aim == (-landed.offset[0], -landed.offset[1]) and any(landed.aim)
+    assert landed.landed and landed.aim == landed.correction and landed.aim.turn == -landed.turn and any(landed.aim)

@@ -523,14 +523,18 @@ def aimed():
 @pytest.mark.slow
 def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
     """Each piece's release, simulated with no error drawn and the pieces before it absent, lands
-    within 0.1 mm of its target when it is aimed by its whole landing. A piece aimed short is one
+    within 0.2 mm and 0.3 deg of its target when it is aimed by its whole landing, the shift and the
+    turn (the square, held off its centre of mass, turns over 2 deg unaimed; the 0.2 mm is the
+    release's own repeatability: the medium triangle's aim, 2 mm and 0.04 deg, lands it 0.17 mm
+    off). A piece aimed short is one
     whose whole aim would run its object into a piece or wall (checked here with an independent
     fcl mesh of the start, tilted about G and moved by the aim) or its robot into one (the
     trajectory's check); its aim is a share of the whole, its start moved by it is clear, and it
-    lands short of its target by what was not taken (within 0.2 mm)."""
+    lands where its unaimed release, moved by the share taken, puts it (within 0.2 mm)."""
     from ungrasp_ompl.perturbation import TrialParams
     from ungrasp_ompl.robot.pipeline import CollisionError, execute_sequence
-    from ungrasp_ompl.sim.landing import landing_offset, predict_landing
+    from ungrasp_ompl.robot.pipeline import Aim
+    from ungrasp_ompl.sim.landing import landing_correction, landing_offset, predict_landing
     from ungrasp_ompl.sim.tiling import tiling_setups
     from ungrasp_ompl.sim.trial import run_trial
 
@@ -541,17 +545,21 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
     plain = execute_sequence([(p.scene, p.plan) for p in tiling.placements], labels=names)
     planned = dict(tiling_setups(layout, tiling, plain.trajectory, plain.robot))
     doc = yaml.safe_load(TANGRAM.read_text())
+    assert abs(predict_landing(planned["square"]).turn) > math.radians(2)
     for k, (p, (name, setup)) in enumerate(zip(tiling.placements, result.setups)):
-        aim = np.array(result.execution.aims[k])
-        landed = np.hypot(*landing_offset(setup, np.array(run_trial(setup, TrialParams()).final_pose)))
+        aim = result.execution.aims[k]
+        final = np.array(run_trial(setup, TrialParams()).final_pose)
+        offset = landing_offset(setup, final)
+        landed = np.hypot(*offset)
         if name not in short:
-            assert np.hypot(*aim) > 0 and landed < 1e-4, (name, landed)
+            turn, _ = landing_correction(setup, final)
+            assert aim.shift > 0 and landed < 2e-4 and abs(turn) < math.radians(0.3), (name, landed, turn)
             continue
         taken, asked = short[name]
-        want = np.array(predict_landing(planned[name]).aim)
-        assert np.hypot(*want) == pytest.approx(asked) and np.hypot(*aim) == pytest.approx(taken) and taken < asked
-        assert abs(want[0] * aim[1] - want[1] * aim[0]) < 1e-12 and want @ aim >= 0  # a share of the whole
-        aims = [tuple(want) if j == k else (0.0, 0.0) for j in range(len(names))]
+        want = predict_landing(planned[name]).aim
+        assert want.shift == pytest.approx(asked) and aim.shift == pytest.approx(taken) and taken < asked
+        assert np.allclose(aim, want.scaled(taken / asked), atol=1e-12)  # a share of the whole
+        aims = [want if j == k else Aim() for j in range(len(names))]
         try:
             execute_sequence([(q.scene, q.plan) for q in tiling.placements], labels=names, aims=aims)
             robot_hits = False
@@ -560,12 +568,15 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
             robot_hits = True
         assert robot_hits or _start_hits(doc, p, names[:k], want), name
         assert not _start_hits(doc, p, names[:k], aim), name
-        assert landed == pytest.approx(asked - taken, abs=2e-4), name  # the same release, moved by the aim
+        unaimed = np.array(run_trial(planned[name], TrialParams()).final_pose)
+        moved = landing_offset(setup, aim.transform(setup.target_pose[:3, 3]) @ unaimed)
+        assert np.hypot(*(offset - moved)) < 2e-4, name  # the same release, moved by the aim
 
 
 def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:
-    """Whether the piece's object at its plan's start, moved by aim (world x, y, m), overlaps a
-    wall or a piece down (fcl meshes built from the layout file)."""
+    """Whether the piece's object at its plan's start, moved by aim (robot.pipeline.Aim: turned
+    about the vertical through G, then shifted), overlaps a wall or a piece down (fcl meshes built
+    from the layout file)."""
     frame = placement.scene.plane.frame
     theta = placement.plan.states[0][0]
     outline = _footprint(doc, placement.name)
@@ -575,7 +586,9 @@ def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:
     obj = fcl.CollisionObject(_prism_mesh(local, 0.0, thickness))
     c, s = math.cos(theta), math.sin(theta)
     tilt = np.array([[c, 0, -s], [0, 1, 0], [s, 0, c]])
-    obj.setTransform(fcl.Transform(frame[:3, :3] @ tilt, g + np.array([aim[0], aim[1], 0.0])))
+    c, s = math.cos(aim.turn), math.sin(aim.turn)
+    turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    obj.setTransform(fcl.Transform(turn @ frame[:3, :3] @ tilt, g + np.array([aim.x, aim.y, 0.0])))
     targets = list(_walls(doc).values())
     for other in down:
         thick = next(p["thickness"] for p in doc["pieces"] if p["name"] == other)

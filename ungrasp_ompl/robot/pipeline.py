@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -65,7 +66,7 @@ class Execution:
     contact_error_m: float  # largest distance of a digit tip from its planned place, at and between samples
     velocity_fraction: float  # largest |qd| / limit over samples and joints
     acceleration_fraction: float
-    aims: tuple[tuple[float, float], ...] = ()  # per plan: the world (x, y) shift of the hand from the plan's frame, m
+    aims: tuple["Aim", ...] = ()  # per plan: how the hand's motion is moved from the plan's frame (robot.landing)
 
     def summary(self) -> str:
         tr = self.trajectory
@@ -79,9 +80,9 @@ class Execution:
         if not any(map(any, self.aims)):
             return ""
         if len(self.aims) == 1:
-            return f"; the hand aimed {1000 * math.hypot(*self.aims[0]):.2f} mm from the plan's frame (robot.landing)"
-        return ("; the hand aimed " + ", ".join(f"{1000 * math.hypot(*aim):.2f}" for aim in self.aims)
-                + " mm from the plans' frames, plan by plan (robot.landing)")
+            return f"; the hand aimed {self.aims[0].describe()} from the plan's frame (robot.landing)"
+        return ("; the hand aimed " + ", ".join(aim.describe() for aim in self.aims)
+                + " from the plans' frames, plan by plan (robot.landing)")
 
 
 def gripper_spec(scene: Scene) -> GripperSpec:
@@ -142,15 +143,15 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
     return np.array([turned(a) for a in angles]), np.full(n, opening)
 
 
-def execute(scene: Scene, plan: Plan, aim: tuple[float, float] = (0.0, 0.0)) -> Execution:
+def execute(scene: Scene, plan: Plan, aim: Aim | None = None) -> Execution:
     """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper;
-    aim: a world (x, y) shift of the whole motion from where the plan puts it (m; the landing's
-    correction, sim.landing), the obstacles staying where they are."""
-    return execute_sequence([(scene, plan)], aims=[aim])
+    aim: the whole motion turned and shifted from where the plan puts it (the landing's correction,
+    sim.landing), the obstacles staying where they are."""
+    return execute_sequence([(scene, plan)], aims=[aim or Aim()])
 
 
 def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = None,
-                     aims: list[tuple[float, float]] | None = None) -> Execution:
+                     aims: list[Aim] | None = None) -> Execution:
     """One trajectory for several solved plans in turn (a layout's pieces), from the first scene's
     home configuration: per plan the approach, its primitives, the termination and the retreat;
     between plans a move back home, where the next piece is handed over (not planned here).
@@ -158,7 +159,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     shifts each plan's motion as execute's aim does (none: no shift). Each plan's
     part is checked for collision against its own scene (whose solids hold the pieces put down
     before it). The robot and gripper are those of the first scene."""
-    aims = [(0.0, 0.0)] * len(jobs) if aims is None else [(float(x), float(y)) for x, y in aims]
+    aims = [Aim()] * len(jobs) if aims is None else [Aim(*map(float, aim)) for aim in aims]
     first = jobs[0][0]
     robot = load_ur5e(gripper_spec(first), np.array(first.robot.base))
     v_max, a_max = robot.v_max, robot.a_max
@@ -222,17 +223,48 @@ def hand_offsets(scene: Scene, segments: list[tuple[str, int, int]], count: int)
     return offsets
 
 
-def aimed_frame(scene: Scene, aim: tuple[float, float] = (0.0, 0.0)) -> NDArray[np.float64]:
-    """The plane's frame in the world (plane_frame) shifted by aim (world x, y, m): where the hand
-    runs the plan."""
-    frame = plane_frame(scene).copy()
-    frame[:2, 3] += aim
-    return frame
+class Aim(NamedTuple):
+    """How the hand's whole motion is moved from where the plan puts it, the table and the obstacles
+    staying where they are (robot.landing: the landing's correction, sim.landing): turned by turn
+    (rad, counter-clockwise seen from above) about the vertical through the origin of the plan's
+    frame (G where the object lies at its target), then shifted by (x, y) (world, m)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    turn: float = 0.0
+
+    @property
+    def shift(self) -> float:
+        """The length of the shift (m)."""
+        return math.hypot(self.x, self.y)
+
+    def scaled(self, share: float) -> "Aim":
+        """That share of the aim: the shift and the turn each times share."""
+        return Aim(self.x * share, self.y * share, self.turn * share)
+
+    def transform(self, origin: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The aim as a world transform (4 x 4), origin (3,) being the plan frame's origin."""
+        c, s = math.cos(self.turn), math.sin(self.turn)
+        out = np.eye(4)
+        out[:2, :2] = [[c, -s], [s, c]]
+        out[:2, 3] = np.asarray(origin[:2]) - out[:2, :2] @ np.asarray(origin[:2]) + (self.x, self.y)
+        return out
+
+    def describe(self) -> str:
+        """'0.97 mm' or '0.97 mm and 3.68 deg'."""
+        turn = f" and {math.degrees(abs(self.turn)):.2f} deg" if round(math.degrees(self.turn), 2) else ""
+        return f"{1000 * self.shift:.2f} mm{turn}"
 
 
-def _job(scene: Scene, plan: Plan, robot: RobotModel, aim: tuple[float, float]
+def aimed_frame(scene: Scene, aim: Aim | None = None) -> NDArray[np.float64]:
+    """The plane's frame in the world (plane_frame) moved by aim: where the hand runs the plan."""
+    frame = plane_frame(scene)
+    return frame.copy() if aim is None or not any(aim) else aim.transform(frame[:3, 3]) @ frame
+
+
+def _job(scene: Scene, plan: Plan, robot: RobotModel, aim: Aim
          ) -> tuple[list[tuple[str, Samples]], NDArray, tuple]:
-    """One plan on the robot, shifted by aim (world x, y, m): the timed press (robot.start_press),
+    """One plan on the robot, moved by aim: the timed press (robot.start_press),
     primitives, termination and retreat; the joints and opening (7,) the approach ends at; and (IK
     residual m, rad, contact error m)."""
     opts = scene.robot

@@ -21,6 +21,7 @@ from ..planning.deviate import PlanProblem
 from ..runner import InlineRunner, LocalRunner, Runner, open_runner
 from .outcome import Outcome, TrialResult
 from ..perturbation import Perturbation, TrialParams, trial_params
+from ..robot.pipeline import Aim
 from .setup import Variant
 from .trial import TrialSetup, run_trial
 
@@ -36,7 +37,7 @@ class SimulationReport:
     trials: list[TrialResult] = field(default_factory=list)
     plan_problems: list["PlanProblem"] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
     trajectory_duration_s: float = 0.0
-    aim: tuple[float, float] = (0.0, 0.0)  #: the hand's world (x, y) shift from the plan's frame (m; robot.landing)
+    aim: Aim = Aim()  #: how the hand's motion was moved from the plan's frame (robot.landing)
 
     @property
     def successes(self) -> int:
@@ -79,7 +80,7 @@ class SimulationReport:
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
-            "aim_m": list(self.aim),
+            "aim_m": [self.aim.x, self.aim.y], "aim_turn_rad": self.aim.turn,
         }
 
 

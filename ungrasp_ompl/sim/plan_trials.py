@@ -65,7 +65,7 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["
     execution = execute(scene, plan)
     if scene.robot.landing is Landing.SIMULATED:
         aim = predict_landing(trial_setup(scene, plan, execution.trajectory, execution.robot)).aim
-        if aim != (0.0, 0.0):
+        if any(aim):
             execution = execute(scene, plan, aim)
     aim = execution.aims[0]
     return execution, trial_setup(scene, plan, execution.trajectory, execution.robot, variant, aim=aim)

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import aimed_frame, plane_frame
+from ..robot.pipeline import Aim, aimed_frame, plane_frame
 from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -95,10 +95,9 @@ def planned_travel(scene: Scene, plan: Plan) -> tuple[PlannedTravel, ...]:
 def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: RobotModel,
                 variant: Variant = Variant(), prefix: str = "",
                 placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = (),
-                aim: tuple[float, float] = (0.0, 0.0)) -> TrialSetup:
+                aim: Aim = Aim()) -> TrialSetup:
     """What every trial of the placement of scene's object by plan shares. trajectory and robot:
-    the executed plan (robot.pipeline), its motion shifted by aim (world x, y, m) from the plan's
-    frame; prefix: the piece's segment prefix in a tiling trajectory; placed: objects already down
+    the executed plan (robot.pipeline), its motion moved by aim from the plan's frame; prefix: the piece's segment prefix in a tiling trajectory; placed: objects already down
     (free bodies) with their poses."""
     opts = scene.sim
     frame = plane_frame(scene)
@@ -117,4 +116,4 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
                       squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
                       max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over,
-                      touch_off=scene.robot.touch_off, aim=(float(aim[0]), float(aim[1])))
+                      touch_off=scene.robot.touch_off, aim=Aim(*map(float, aim)))

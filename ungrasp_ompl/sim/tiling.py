@@ -31,7 +31,7 @@ from ..layout import Layout
 from ..perturbation import Perturbation
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import CollisionError, Execution, execute_sequence
+from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, plane_frame
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -73,14 +73,14 @@ class TilingAttempt:
 
 
 def tiling_setups(layout: Layout, tiling: Tiling, trajectory: JointTrajectory, robot: RobotModel,
-                  aims: Sequence[tuple[float, float]] | None = None) -> list[tuple[str, TrialSetup]]:
+                  aims: Sequence[Aim] | None = None) -> list[tuple[str, TrialSetup]]:
     """Each piece's trial setup, in order: its scene with the frame's walls as the only fixed solids
-    (earlier pieces come in as free bodies), its part of the tiling trajectory, whose motion aims
-    shifted by aims[k] (world x, y, m; none: as planned)."""
+    (earlier pieces come in as free bodies), its part of the tiling trajectory, whose motion aims[k]
+    moved (none: as planned)."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to simulate")
     walls = tuple(layout.frame.walls())
-    aims = aims or [(0.0, 0.0)] * len(tiling.placements)
+    aims = aims or [Aim()] * len(tiling.placements)
     return [(p.name, trial_setup(replace(p.scene, solids=walls), p.plan, trajectory, robot, prefix=f"{p.name}/",
                                  aim=aim)) for p, aim in zip(tiling.placements, aims)]
 
@@ -96,7 +96,8 @@ class AimedTiling:
     """Per piece in order: its name and trial setup (tiling_setups) on that trajectory."""
     short: tuple[tuple[str, float, float], ...] = ()
     """Pieces aimed short of their landing, because the whole aim would take the piece or the robot
-    into a wall or a piece: (name, the aim taken, the aim the landing asked for; m)."""
+    into a wall or a piece: (name, the shift taken, the shift the landing asked for; m). The turn is
+    taken in the same share."""
 
 
 def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
@@ -106,17 +107,17 @@ def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
             ] if short else []
 
 
-def _object_hits(scene: Scene, states: NDArray[np.float64], aim: tuple[float, float]) -> bool:
-    """Whether the object (or a digit), at states (N, 3) with the hand shifted by aim (world x, y,
-    m), runs into the scene's walls or pieces down: checked among the solids shifted the other way."""
-    shift = np.array([aim[0], aim[1], 0.0])
-    solids = tuple(Solid(s.name, s.vertices - shift) for s in scene.solids)
+def _object_hits(scene: Scene, states: NDArray[np.float64], aim: Aim) -> bool:
+    """Whether the object (or a digit), at states (N, 3) with the hand moved by aim, runs into the
+    scene's walls or pieces down: checked among the solids moved the other way."""
+    back = np.linalg.inv(aim.transform(plane_frame(scene)[:3, 3]))
+    solids = tuple(Solid(s.name, np.asarray(s.vertices) @ back[:3, :3].T + back[:3, 3]) for s in scene.solids)
     return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
 
 
-def _clear_share(scene: Scene, plan: Plan, aim: tuple[float, float], halvings: int = 8) -> float:
-    """The largest share of aim (to 2^-halvings, bisected) whose shift keeps the piece, along its
-    plan's legs (every 0.5 deg), clear of the walls and pieces down (_object_hits); 1 when the
+def _clear_share(scene: Scene, plan: Plan, aim: Aim, halvings: int = 8) -> float:
+    """The largest share of aim (to 2^-halvings, bisected; Aim.scaled) that keeps the piece, along
+    its plan's legs (every 0.5 deg), clear of the walls and pieces down (_object_hits); 1 when the
     whole aim does."""
     states, _ = densify(plan, angle_step=math.radians(0.5))
     if not _object_hits(scene, states, aim):
@@ -124,7 +125,7 @@ def _clear_share(scene: Scene, plan: Plan, aim: tuple[float, float], halvings: i
     lo, hi = 0.0, 1.0
     for _ in range(halvings):
         mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if _object_hits(scene, states, (aim[0] * mid, aim[1] * mid)) else (mid, hi)
+        lo, hi = (lo, mid) if _object_hits(scene, states, aim.scaled(mid)) else (mid, hi)
     return lo
 
 
@@ -146,14 +147,14 @@ def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
     labels = [p.name for p in tiling.placements]
     execution = execute_sequence(jobs, labels=labels)
     setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
-    asked = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else (0.0, 0.0)
+    asked = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else Aim()
              for p, (_, setup) in zip(tiling.placements, setups)]
     if not any(any(a) for a in asked):
         return AimedTiling(execution, setups)
     share = [_clear_share(p.scene, p.plan, a) if any(a) else 1.0 for p, a in zip(tiling.placements, asked)]
     halved = [0] * len(jobs)
     while True:
-        aims = [(a[0] * f, a[1] * f) for a, f in zip(asked, share)]
+        aims = [a.scaled(f) for a, f in zip(asked, share)]
         try:
             execution = execute_sequence(jobs, labels=labels, aims=aims)
             break
@@ -163,7 +164,7 @@ def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
                 raise
             halved[k] += 1
             share[k] = share[k] / 2 if halved[k] <= AIM_HALVINGS else 0.0
-    short = tuple((name, math.hypot(*aim), math.hypot(*want)) for name, aim, want, f
+    short = tuple((name, aim.shift, want.shift) for name, aim, want, f
                   in zip(labels, aims, asked, share) if f < 1.0)
     return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
 

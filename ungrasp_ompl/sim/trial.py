@@ -32,6 +32,7 @@ from .drive import GripperDrive
 from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from ..perturbation import TrialParams
+from ..robot.pipeline import Aim
 
 #: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
 SLIDE_MIN_RISE = 0.1
@@ -70,9 +71,9 @@ class TrialSetup:
     handed_over: the object was set into the gripper at the start pose with its end on the table
     (perturbed_start slides it down to the table instead of leaving it hanging); touch_off: the
     set-up measured the table's height under the start pinch (robot.touch_off, touch_off_shift) and
-    runs the plan from what it found; aim: the world
-    (x, y) shift of the hand from the plan's frame (m), by which the robot corrects the landing
-    (sim.landing), the target staying where it is.
+    runs the plan from what it found; aim: how the hand's motion is moved from the plan's frame
+    (robot.pipeline.Aim), by which the robot corrects the landing (sim.landing), the target staying
+    where it is.
     """
 
     spec: SimModelSpec
@@ -88,7 +89,7 @@ class TrialSetup:
     planned: tuple[PlannedTravel, ...] = ()
     handed_over: bool = False
     touch_off: bool = False
-    aim: tuple[float, float] = (0.0, 0.0)
+    aim: Aim = Aim()
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:

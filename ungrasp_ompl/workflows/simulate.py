@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -148,9 +147,8 @@ class SceneSimulation:
                          f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
                          f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
         if scene.robot.landing is Landing.SIMULATED:
-            aim = 1000 * math.hypot(*report.aim)
-            lines.append(f"the hand aimed {aim:.2f} mm from the plan's landing, where the release simulated with no error "
-                         "put the object (robot.landing: simulated)" if aim else
+            lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the release simulated "
+                         "with no error put the object (robot.landing: simulated)" if any(report.aim) else
                          "robot.landing is simulated, but the release simulated with no error did not place the object "
                          "by the strict verdict: the hand aimed as planned")
         if report.placed != report.successes:
