@@ -597,6 +597,23 @@ def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:
 
 
 @pytest.mark.slow
+def test_a_simulated_layout_exports_what_tile_exports_with_the_first_pieces_touch_off(aimed, tmp_path):
+    """`simulate LAYOUT --out` writes the trajectory the attempts ran as `tile` exports it, the
+    touch-off under the first piece's start pinch included (the layout's robot makes one)."""
+    from ungrasp_ompl.workflows.simulate import LayoutSimulation, SimulateOptions
+    from ungrasp_ompl.workflows.tile import TiledLayout
+
+    layout, tiling, result = aimed
+    assert tiling.placements[0].scene.robot.touch_off
+    simulated = LayoutSimulation(layout, tiling, SimulateOptions(), result.execution, [], result.short)
+    written = simulated.write(tmp_path / "simulated")
+    exported = TiledLayout(layout, tiling, result.execution, result.short).export(tmp_path / "tiled")
+    for name in ("trajectory.urscript", "touch_off.urscript", "trajectory.csv"):
+        assert (tmp_path / "simulated" / name).read_bytes() == (tmp_path / "tiled" / name).read_bytes(), name
+    assert json.loads(written["summary"].read_text())["attempts"] == 0 and "view" in exported
+
+
+@pytest.mark.slow
 def test_a_piece_whose_aim_does_not_fit_is_tiled_again_by_another_approach(aimed):
     """tile_aimed avoids the approach of a piece aimed short and tiles again: on the tangram
     large_triangle_1's aim from its first approach (B at the south wall) would take the thumb into

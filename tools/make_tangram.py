@@ -39,8 +39,8 @@ HEADER = """\
 # B 1 mm from the thumb's tip, A 1 mm inside the supports across the plane, a 1 mm press, the
 # table touched off under the start pinch, each piece let go at theta up to 8 deg
 # with the thumb at 30-65 deg (psi), opened as open_lift does, and aimed by where its own
-# release lands it (robot.landing: simulated; a piece whose whole aim would take it or the
-# robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.15).
+# release lands it and how it turns it (robot.landing: simulated; a piece whose whole aim would
+# take it or the robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.15, 11.16).
 """
 
 

@@ -38,8 +38,8 @@ class Landing(StrEnum):
 
     #: As the plan has it: the object turns flat about G where the last state leaves it.
     PLANNED = "planned"
-    #: Where the release, simulated with no error drawn, lands it: the hand is moved by the
-    #: landing's offset from the target, the other way (docs/model.md 11.12).
+    #: Where the release, simulated with no error drawn, lands it: the hand is moved back by the
+    #: landing's offset from the target and its turn (docs/model.md 11.12, 11.16).
     SIMULATED = "simulated"
 
 
@@ -126,7 +126,8 @@ class RobotOptions:
     False: the plan runs open loop on the calibration alone, as the paper's set-up did."""
     landing: Landing = Landing.PLANNED
     """Where the hand aims the object: planned (the plan's last state turned flat about G) or
-    simulated (corrected by where the release, simulated with no error, lands it)."""
+    simulated (corrected by where the release, simulated with no error, puts it and how it turns
+    it: robot.pipeline.Aim)."""
     object_position: tuple[float, float] = (0.45, 0.10)
     """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
     its target pose)."""

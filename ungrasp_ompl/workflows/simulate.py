@@ -38,6 +38,7 @@ from ..sim.tiling import TilingAttempt, describe_short, simulate_tiling, tile_ai
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
+from .tile import first_touch_off
 
 
 @dataclass(frozen=True)
@@ -260,11 +261,12 @@ class LayoutSimulation:
         return "\n".join(lines)
 
     def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
-        """Write summary.json and the exported trajectory into out, atomically."""
+        """Write summary.json and the exported trajectory (with the touch-off before the first piece,
+        as tile exports it) into out, atomically."""
         if self.execution is None:
             raise ValueError("nothing was simulated: the layout has no tiling")
         out = Path(out)
-        files = export_all(self.execution.trajectory, out)
+        files = export_all(self.execution.trajectory, out, first_touch_off(self.tiling, self.execution))
         doc = {"layout": self.layout.name, "attempts": len(self.attempts), "successes": self.successes,
                "placed_paper_criterion": self.placed,
                "results": [{"attempt": a.attempt, "success": a.success, "placed": a.placed, "cause": a.cause(),

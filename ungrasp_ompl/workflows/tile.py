@@ -20,7 +20,7 @@ from ..planning.setup import PlannerOptions
 from ..plotting import draw_layout, draw_plan
 from ..robot.export import export_all
 from ..robot.pipeline import Execution
-from ..robot.touch_off import touch_off
+from ..robot.touch_off import TouchOff, touch_off
 from ..sim.tiling import describe_short, tile_aimed
 from ..tiling import Tiling, TilingOptions, TilingProgress
 from ..view.record import write_view_record
@@ -64,12 +64,17 @@ class TiledLayout:
         if self.execution is None:
             raise ValueError("the layout has no tiling to export")
         pieces = self.tiling.placements
-        first = pieces[0]
-        probe = touch_off(first.scene, first.plan, self.execution.trajectory, prefix=f"{first.name}/")
-        files = export_all(self.execution.trajectory, out, probe)
+        files = export_all(self.execution.trajectory, out, first_touch_off(self.tiling, self.execution))
         files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
                                           labels=[p.name for p in pieces], kind="tiling")
         return files
+
+
+def first_touch_off(tiling: Tiling, execution: Execution) -> TouchOff | None:
+    """The touch-off before a layout's first piece (robot.touch_off; None when its robot makes none):
+    the table is found once, under the first start pinch."""
+    first = tiling.placements[0]
+    return touch_off(first.scene, first.plan, execution.trajectory, prefix=f"{first.name}/")
 
 
 def check_tiling_options(options: TilingOptions) -> TilingOptions:
