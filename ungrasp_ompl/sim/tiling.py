@@ -133,22 +133,30 @@ def _clear_share(scene: Scene, plan: Plan, aim: Aim, halvings: int = 8) -> float
 AIM_HALVINGS = 4
 
 
-def aim_tiling(layout: Layout, tiling: Tiling) -> AimedTiling:
+def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> AimedTiling:
     """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
     `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
     the pieces before it absent, since the table is the same beside them); then execute again.
     Where the whole aim would take the piece, carried along its plan, into a wall or a piece put
     down before, the piece is aimed as far as it stays clear (bisected); where it would take the
     robot there (CollisionError of that piece's part), its aim is halved, up to AIM_HALVINGS
-    times, then dropped."""
+    times, then dropped. landings, when given, keeps the aims the landings asked for by piece,
+    approach and plan, across calls (tile_aimed): a piece planned the same way again is not
+    simulated again, since its release runs alone on the same table whatever its place in the
+    order."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to execute")
     jobs = [(p.scene, p.plan) for p in tiling.placements]
     labels = [p.name for p in tiling.placements]
     execution = execute_sequence(jobs, labels=labels)
     setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
-    asked = [predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else Aim()
-             for p, (_, setup) in zip(tiling.placements, setups)]
+    landings = {} if landings is None else landings
+    asked = []
+    for p, (_, setup) in zip(tiling.placements, setups):
+        key = (_key(p), np.asarray(p.plan.states, dtype=float).tobytes())
+        if key not in landings:
+            landings[key] = predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else Aim()
+        asked.append(landings[key])
     if not any(any(a) for a in asked):
         return AimedTiling(execution, setups)
     share = [_clear_share(p.scene, p.plan, a) if any(a) else 1.0 for p, a in zip(tiling.placements, asked)]
@@ -179,7 +187,8 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     tiling = tile(layout, options, progress)
     if not tiling.solved:
         return tiling, None
-    aimed = aim_tiling(layout, tiling)
+    landings: dict = {}
+    aimed = aim_tiling(layout, tiling, landings)
     tried: set[tuple] = set()
     while True:
         short = {name for name, _, _ in aimed.short}
@@ -191,7 +200,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         again = tile(layout, retry, progress)
         if not again.solved:
             continue
-        aimed_again = aim_tiling(layout, again)
+        aimed_again = aim_tiling(layout, again, landings)
         if _shortfall(aimed_again) < _shortfall(aimed):
             options, tiling, aimed = retry, again, aimed_again
 
