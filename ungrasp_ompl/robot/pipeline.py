@@ -156,7 +156,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     home configuration: per plan the approach, its primitives, the termination and the retreat;
     between plans a move back home, where the next piece is handed over (not planned here).
     Segment names carry the label of their plan ('square/P_psi') when labels are given; aims
-    shifts each plan's motion as execute's aim does (none: no shift). Each plan's
+    moves each plan's motion as execute's aim does (none: as planned; (x, y) pairs are shifts). Each plan's
     part is checked for collision against its own scene (whose solids hold the pieces put down
     before it). The robot and gripper are those of the first scene."""
     aims = [Aim()] * len(jobs) if aims is None else [Aim(*map(float, aim)) for aim in aims]

@@ -97,8 +97,9 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
                 placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = (),
                 aim: Aim = Aim()) -> TrialSetup:
     """What every trial of the placement of scene's object by plan shares. trajectory and robot:
-    the executed plan (robot.pipeline), its motion moved by aim from the plan's frame; prefix: the piece's segment prefix in a tiling trajectory; placed: objects already down
-    (free bodies) with their poses."""
+    the executed plan (robot.pipeline), its motion moved by aim from the plan's frame; prefix: the
+    piece's segment prefix in a tiling trajectory; placed: objects already down (free bodies) with
+    their poses."""
     opts = scene.sim
     frame = plane_frame(scene)
     l = scene.object_length
