@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from ..perturbation import TrialParams
 from ..robot.pipeline import Aim
 from .outcome import Outcome
-from .trial import TrialSetup, placement_offset, run_trial
+from .trial import TrialSetup, placement_offset, placement_turn, run_trial
 
 
 @dataclass(frozen=True)
@@ -67,8 +67,7 @@ def landing_correction(setup: TrialSetup, final_pose: NDArray[np.float64]) -> tu
     (g, o: the target's and the final pose's origins), and the aim is its inverse, the turn undone
     about g and the shift R(-turn) (g - o)."""
     final, target = np.asarray(final_pose, dtype=float), setup.target_pose
-    turn = math.atan2(final[1, 0], final[0, 0]) - math.atan2(target[1, 0], target[0, 0])
-    turn = math.atan2(math.sin(turn), math.cos(turn))
+    turn = placement_turn(final, target)
     c, s = math.cos(turn), math.sin(turn)
     gx, gy = target[:2, 3] - final[:2, 3]
     return turn, Aim(float(c * gx + s * gy), float(-s * gx + c * gy), -turn)

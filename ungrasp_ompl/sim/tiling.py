@@ -91,7 +91,7 @@ class AimedTiling:
     simulated), and the trial setups of that trajectory."""
 
     execution: Execution
-    """The one trajectory putting every piece down, each piece's motion shifted by its aim."""
+    """The one trajectory putting every piece down, each piece's motion moved by its aim."""
     setups: list[tuple[str, TrialSetup]]
     """Per piece in order: its name and trial setup (tiling_setups) on that trajectory."""
     short: tuple[tuple[str, float, float], ...] = ()

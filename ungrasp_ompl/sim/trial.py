@@ -661,9 +661,15 @@ def placement_offset(final: NDArray, target: NDArray, outline: NDArray) -> NDArr
     return ((final[:3, :3] @ centre + final[:3, 3]) - (target[:3, :3] @ centre + target[:3, 3]))[:2]
 
 
+def placement_turn(final: NDArray, target: NDArray) -> float:
+    """The turn (rad, counter-clockwise, in (-pi, pi]) of the object's x axis about the vertical at
+    pose final (4 x 4) against pose target's."""
+    yaw = math.atan2(final[1, 0], final[0, 0]) - math.atan2(target[1, 0], target[0, 0])
+    return math.atan2(math.sin(yaw), math.cos(yaw))
+
+
 def _placement_error(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
     """(mm, deg): the outline centroid's distance in the table's plane from its target's, and
     the turn of the object's x axis about the vertical against the target's."""
     err = float(np.linalg.norm(placement_offset(final, target, outline))) * 1000
-    yaw = math.atan2(final[1, 0], final[0, 0]) - math.atan2(target[1, 0], target[0, 0])
-    return err, abs(math.degrees(math.atan2(math.sin(yaw), math.cos(yaw))))
+    return err, abs(math.degrees(placement_turn(final, target)))

@@ -34,11 +34,11 @@ from ..sim.campaign import SimulationReport, default_jobs, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
-from ..sim.tiling import TilingAttempt, describe_short, simulate_tiling, tile_aimed
+from ..sim.tiling import TilingAttempt, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
-from .tile import first_touch_off
+from .tile import first_touch_off, layout_summary
 
 
 @dataclass(frozen=True)
@@ -233,7 +233,7 @@ class LayoutSimulation:
     attempts: list[TilingAttempt] = field(default_factory=list)
     """The attempts, in order."""
     short: tuple[tuple[str, float, float], ...] = ()
-    """Pieces aimed short of their landing, the whole aim colliding: (name, aim taken, aim asked; m)."""
+    """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
 
     @property
     def successes(self) -> int:
@@ -248,10 +248,7 @@ class LayoutSimulation:
 
     def summary(self) -> str:
         """The tiling's summary, then the attempts' success and each failed attempt's cause."""
-        lines = [self.tiling.summary()]
-        if self.execution is not None:
-            lines.append(self.execution.summary())
-        lines += describe_short(self.short)
+        lines = layout_summary(self.tiling, self.execution, self.short)
         if self.attempts:
             pieces = len(self.attempts[0].names)
             lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")

@@ -38,12 +38,11 @@ class TiledLayout:
     """The one trajectory of every piece in order, each aimed by its landing where its scene says
     so (robot.landing; None: the tiling is not solved)."""
     short: tuple[tuple[str, float, float], ...] = ()
-    """Pieces aimed short of their landing, the whole aim colliding: (name, aim taken, aim asked; m)."""
+    """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
 
     def summary(self) -> str:
         """The tiling's summary, then the trajectory's when there is one."""
-        return "\n".join([self.tiling.summary()] + ([] if self.execution is None else [self.execution.summary()])
-                         + describe_short(self.short))
+        return "\n".join(layout_summary(self.tiling, self.execution, self.short))
 
     def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
         """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
@@ -68,6 +67,13 @@ class TiledLayout:
         files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
                                           labels=[p.name for p in pieces], kind="tiling")
         return files
+
+
+def layout_summary(tiling: Tiling, execution: Execution | None, short: tuple[tuple[str, float, float], ...]
+                   ) -> list[str]:
+    """The lines `tile` and `simulate LAYOUT` begin with: the tiling's summary, the trajectory's when
+    there is one, and the pieces aimed short of their landing."""
+    return [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
 
 
 def first_touch_off(tiling: Tiling, execution: Execution) -> TouchOff | None:
