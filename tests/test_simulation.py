@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import replace
+from dataclasses import astuple, replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import yaml
 
 from conftest import SCENES, assert_picture, run_cli
@@ -635,7 +637,7 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     everywhere. The aim is the scene's own (a variant's world does not change it), and the scene
     file names the field of a bad value."""
     scene, result, ex = pick
-    assert scene.robot.landing is Landing.SIMULATED
+    scene = replace(scene, robot=replace(scene.robot, landing=Landing.SIMULATED))
     planned = trial_setup(scene, result, ex.trajectory, ex.robot)
     trial = run_trial(planned, TrialParams())
     offset = landing_offset(planned, np.array(trial.final_pose))
@@ -657,8 +659,59 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     assert not any(placement(as_planned, result)[1].aim)
     raw = yaml.safe_load((SCENES / "puzzle_piece.yaml").read_text())
     raw["robot"]["landing"] = "thrown"
-    with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, got 'thrown'"):
+    with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, expected, got 'thrown'"):
         Scene.from_dict(raw)
+    raw["robot"].update(landing="expected", landing_pairs=0)
+    with pytest.raises(InputError, match=r"robot.landing_pairs: must be a whole number from 1 to 64, got 0"):
+        Scene.from_dict(raw)
+
+
+@given(st.integers(0, 2**32 - 1))
+@settings(max_examples=50, deadline=None)
+def test_a_mirrored_draw_is_the_draws_reflection_through_the_middle_of_its_box(seed):
+    """Perturbation.mirrored reflects a draw through the middle of the box: done twice it gives the
+    draw back, the mirror lies in the box, and the pair averages to the box's middle (no error,
+    friction at the middle of its range), so that an effect linear in the errors cancels in the
+    pair's mean."""
+    box = PRESETS["paper"]
+    p = box.sample(np.random.default_rng(seed))
+    m = box.mirrored(p)
+    again = box.mirrored(m)
+    for a, b in zip(astuple(again), astuple(p)):
+        assert np.allclose(a, b, rtol=0, atol=1e-12)
+    middle = replace(TrialParams(), friction_scale=(1 - box.friction / 2,) * 3)
+    for a, b, c in zip(astuple(p), astuple(m), astuple(middle)):
+        assert np.allclose((np.asarray(a) + np.asarray(b)) / 2, c, rtol=0, atol=1e-12)
+    assert all(1 - box.friction - 1e-12 <= f <= 1 + 1e-12 for f in m.friction_scale)
+    assert abs(m.yaw_deg) <= box.yaw_deg and abs(m.shift_along_mm) <= box.shift_mm
+    assert abs(m.mass_scale - 1) <= box.mass + 1e-12 and abs(m.thickness_scale - 1) <= box.thickness + 1e-12
+
+
+def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
+    """The errors move the guitar pick's landing one way more than the other (friction, for one, is
+    only ever lower than the scene's), so that its trials, aimed by the release with no
+    error, land well over a millimetre off their target on average, far beyond their spread's
+    standard error. robot.landing expected aims by the mean landing of antithetic pairs of `paper`
+    draws drawn apart from every trial's; the same 12 trials then land about their target: the mean
+    offset falls by more than 0.7 mm and below half a millimetre. The aim is the mean landing's
+    inverse, not the no-error release's."""
+    from ungrasp_ompl.sim.landing import expected_landing, landing_draw, predict_landing
+
+    scene, result, ex = _planned("guitar_pick")
+    assert scene.robot.landing is Landing.EXPECTED and scene.robot.landing_pairs == 4
+    setup = trial_setup(scene, result, ex.trajectory, ex.robot)
+    params = trial_params(PRESETS["paper"], seed=1, trials=12)
+    assert not any(p in landing_draw(k) for p in params for k in range(scene.robot.landing_pairs))
+    mean_offset = {}
+    for landing in (Landing.SIMULATED, Landing.EXPECTED):
+        _, aimed = placement(replace(scene, robot=replace(scene.robot, landing=landing)), result)
+        offsets = [landing_offset(aimed, np.array(run_trial(aimed, p).final_pose)) for p in params]
+        mean_offset[landing] = float(np.hypot(*np.mean(offsets, axis=0)))
+    assert mean_offset[Landing.SIMULATED] > 0.0009, mean_offset
+    assert mean_offset[Landing.EXPECTED] < min(0.0005, mean_offset[Landing.SIMULATED] - 0.0007), mean_offset
+    expected = expected_landing(setup, scene.robot.landing_pairs)
+    assert expected.pairs == scene.robot.landing_pairs and expected.landed
+    assert expected.aim != predict_landing(setup).aim and expected.aim.turn == -expected.turn
 
 
 def test_a_release_that_does_not_put_the_object_down_aims_nothing(pick):

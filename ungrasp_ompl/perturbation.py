@@ -78,6 +78,19 @@ class Perturbation:
                            table_height_mm=float(self.table_mm * c[6]),
                            probe_error_mm=float(self.probe_mm * rng.uniform(-1.0, 1.0)) if self.probe_mm else 0.0)
 
+    def mirrored(self, p: TrialParams) -> TrialParams:
+        """p reflected through the middle of this box: every error turned the other way, and each
+        friction factor reflected about the middle of [1 - friction, 1]. With p, an antithetic pair
+        whose two errors average to the box's middle, so that an effect linear in the errors
+        cancels in the pair's mean (sim.landing.expected_landing)."""
+        mid = 2.0 - self.friction  # twice the middle of the friction factors' range
+        return TrialParams(shift_along_mm=-p.shift_along_mm, shift_across_mm=-p.shift_across_mm,
+                           yaw_deg=-p.yaw_deg, friction_scale=tuple(mid - f for f in p.friction_scale),
+                           mass_scale=2.0 - p.mass_scale, thickness_scale=2.0 - p.thickness_scale,
+                           palm_shift_mm=tuple(-x for x in p.palm_shift_mm),
+                           palm_turn_deg=tuple(-x for x in p.palm_turn_deg),
+                           table_height_mm=-p.table_height_mm, probe_error_mm=-p.probe_error_mm)
+
 
 #: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves
 #: (docs/model.md 11.3 gives the source of each bound): about 1 mm and 2 deg of object pose in

@@ -175,7 +175,7 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "end_press", "touch_off", "landing", "object"})
+                                "end_press", "touch_off", "landing", "landing_pairs", "object"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -201,6 +201,9 @@ class SceneReader:
         landing = m.get("landing", d.landing)
         if landing not in tuple(Landing):
             self.fail("robot.landing", f"must be one of {', '.join(Landing)}, got {landing!r}")
+        pairs = m.get("landing_pairs", d.landing_pairs)
+        if isinstance(pairs, bool) or not isinstance(pairs, int) or not 1 <= pairs <= 64:
+            self.fail("robot.landing_pairs", f"must be a whole number from 1 to 64, got {pairs!r}")
         obj_pos, obj_yaw = d.object_position, d.object_yaw
         if "object" in m:
             o = self.mapping(m["object"], "robot.object")
@@ -229,6 +232,7 @@ class SceneReader:
             end_press=end_press,
             touch_off=self.flag(m, "robot.touch_off", "touch_off"),
             landing=Landing(landing),
+            landing_pairs=pairs,
             object_position=obj_pos,
             object_yaw=obj_yaw,
         )

@@ -41,6 +41,10 @@ class Landing(StrEnum):
     #: Where the release, simulated with no error drawn, lands it: the hand is moved back by the
     #: landing's offset from the target and its turn (docs/model.md 11.12, 11.16).
     SIMULATED = "simulated"
+    #: Where the release lands it on average under the `paper` errors: the hand is moved back by
+    #: the mean landing of robot.landing_pairs antithetic pairs of simulated releases
+    #: (docs/model.md 11.18).
+    EXPECTED = "expected"
 
 
 @dataclass(frozen=True)
@@ -125,9 +129,13 @@ class RobotOptions:
     that the arm's vertical calibration error there is left to the probe's (docs/model.md 11.14);
     False: the plan runs open loop on the calibration alone, as the paper's set-up did."""
     landing: Landing = Landing.PLANNED
-    """Where the hand aims the object: planned (the plan's last state turned flat about G) or
+    """Where the hand aims the object: planned (the plan's last state turned flat about G),
     simulated (corrected by where the release, simulated with no error, puts it and how it turns
-    it: robot.pipeline.Aim)."""
+    it: robot.pipeline.Aim) or expected (corrected by where it puts it on average under the
+    `paper` errors)."""
+    landing_pairs: int = 4
+    """Antithetic pairs of `paper` draws whose simulated releases landing expected averages
+    (count); each pair costs two trials when the plan is executed."""
     object_position: tuple[float, float] = (0.45, 0.10)
     """Where G lies on the table (world x, y, m) for scenes without an outline (those with one use
     its target pose)."""

@@ -49,24 +49,23 @@ class PlanTrials:
 
 def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["Execution", TrialSetup]:
     """A solved plan executed on the robot (placement, IK, timing) and what its trials share, with
-    the variant's changes to the simulated world. With robot.landing simulated, the hand is aimed
-    by where the release, simulated once with no error in the scene's own world (no variant), lands
-    the object (sim.landing; left as planned when that release does not put it down). Raises the
+    the variant's changes to the simulated world. With robot.landing simulated or expected, the
+    hand is aimed by where the release, simulated in the scene's own world (no variant) with no
+    error or on average over drawn ones, lands the object (sim.landing; left as planned when the
+    release with no error does not put it down). Raises the
     robot's UngraspError when it cannot execute the plan (out of reach, an arm collision, beyond
     the joint limits)."""
     from ..planning.setup import with_3d_report
     from ..robot.pipeline import execute
-    from ..scene.options import Landing
-    from .landing import predict_landing
+    from .landing import robot_landing
     from .setup import trial_setup
 
     if scene.plane is not None and plan.object is None:
         plan = with_3d_report(scene, plan)  # the object and its plane, which the placement needs
     execution = execute(scene, plan)
-    if scene.robot.landing is Landing.SIMULATED:
-        aim = predict_landing(trial_setup(scene, plan, execution.trajectory, execution.robot)).aim
-        if any(aim):
-            execution = execute(scene, plan, aim)
+    landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot)
+    if landing is not None and any(landing.aim):
+        execution = execute(scene, plan, landing.aim)
     aim = execution.aims[0]
     return execution, trial_setup(scene, plan, execution.trajectory, execution.robot, variant, aim=aim)
 

@@ -35,10 +35,9 @@ from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, p
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
-from ..scene.options import Landing
 from ..tiling import Placement, Tiling, TilingOptions, TilingProgress, tile
 from .campaign import trial_runner
-from .landing import predict_landing
+from .landing import robot_landing
 from .outcome import FLAT_TILT_DEG, TrialResult
 from .setup import trial_setup
 from .trial import TrialSetup, run_trial
@@ -135,8 +134,9 @@ AIM_HALVINGS = 4
 
 def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> AimedTiling:
     """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
-    `plan` and `simulate` aim one object (sim.landing: its release simulated once with no error,
-    the pieces before it absent, since the table is the same beside them); then execute again.
+    `plan` and `simulate` aim one object (sim.landing: its release simulated with no error, or on
+    average over drawn ones, the pieces before it absent, since the table is the same beside
+    them); then execute again.
     Where the whole aim would take the piece, carried along its plan, into a wall or a piece put
     down before, the piece is aimed as far as it stays clear (bisected); where it would take the
     robot there (CollisionError of that piece's part), its aim is halved, up to AIM_HALVINGS
@@ -155,7 +155,8 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> 
     for p, (_, setup) in zip(tiling.placements, setups):
         key = (_key(p), np.asarray(p.plan.states, dtype=float).tobytes())
         if key not in landings:
-            landings[key] = predict_landing(setup).aim if p.scene.robot.landing is Landing.SIMULATED else Aim()
+            landing = robot_landing(setup, p.scene.robot)
+            landings[key] = Aim() if landing is None else landing.aim
         asked.append(landings[key])
     if not any(any(a) for a in asked):
         return AimedTiling(execution, setups)

@@ -109,12 +109,13 @@ class ScenePlan:
 
     def execute(self) -> Execution:
         """The plan on the arm: inverse kinematics, timing and the gripper's openings (with
-        robot.landing simulated, aimed by where the release lands the object: sim.landing)."""
+        robot.landing simulated or expected, aimed by where the release lands the object:
+        sim.landing)."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
         from ..scene.options import Landing
 
-        if self.scene.robot.landing is Landing.SIMULATED:
+        if self.scene.robot.landing is not Landing.PLANNED:
             from ..sim.plan_trials import placement
 
             return placement(self.scene, self.plan)[0]

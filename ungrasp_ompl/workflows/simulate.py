@@ -147,11 +147,13 @@ class SceneSimulation:
                      f"{1000 * scene.sim.max_error:g} mm of the target)" + (
                          f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
                          f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
-        if scene.robot.landing is Landing.SIMULATED:
+        if scene.robot.landing is not Landing.PLANNED:
+            where = ("with no error put the object" if scene.robot.landing is Landing.SIMULATED else
+                     f"put the object on average over {scene.robot.landing_pairs} pairs of 'paper' draws")
             lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the release simulated "
-                         "with no error put the object (robot.landing: simulated)" if any(report.aim) else
-                         "robot.landing is simulated, but the release simulated with no error did not place the object "
-                         "by the strict verdict: the hand aimed as planned")
+                         f"{where} (robot.landing: {scene.robot.landing})" if any(report.aim) else
+                         f"robot.landing is {scene.robot.landing}, but the release simulated with no error did not place "
+                         "the object by the strict verdict: the hand aimed as planned")
         if report.placed != report.successes:
             placed = s["placed_position_error_mm"]
             lines.append(f"placed by the paper's criterion (any error) {report.placed}/{n}; their error mean "
