@@ -18,7 +18,7 @@ the scene's), and the mean landing under the `paper` errors can lie a millimetre
 no-error one (docs/model.md 11.18). The expected
 landing averages antithetic pairs of releases (a draw and its mirror through the box's middle,
 Perturbation.mirrored), whose errors cancel to first order in each pair's mean, so that a few
-pairs measure the mean to a few tenths of a millimetre. Its draws come from a seed stream of
+pairs measure the mean more closely than as many plain draws. Its draws come from a seed stream of
 their own (LANDING_ENTROPY, spawned per pair), apart from every trial's.
 """
 
