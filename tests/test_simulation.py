@@ -717,10 +717,12 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
 def test_a_release_that_does_not_put_the_object_down_aims_nothing(pick):
     """Where the release simulated with no error fails (here equal digits drive the thumb into the
     table), where it left the object says nothing of where a release lands: the prediction has no
-    aim. The shipped puzzle piece's own release lands and aims."""
-    from ungrasp_ompl.sim.landing import predict_landing
+    aim, and the expected landing runs no pairs. The shipped puzzle piece's own release lands and
+    aims."""
+    from ungrasp_ompl.sim.landing import expected_landing, predict_landing
 
     failed = predict_landing(_setup(pick, Variant(equal_digits=True)))
     assert not failed.outcome.placed and not failed.landed and not any(failed.aim)
+    assert expected_landing(_setup(pick, Variant(equal_digits=True)), 4) == failed  # no pairs run
     landed = predict_landing(_setup(pick))
     assert landed.landed and landed.aim == landed.correction and landed.aim.turn == -landed.turn and any(landed.aim)
