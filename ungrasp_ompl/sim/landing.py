@@ -34,7 +34,7 @@ from ..perturbation import PRESETS, TrialParams
 from ..robot.pipeline import Aim
 from ..scene.options import Landing, RobotOptions
 from .outcome import Outcome
-from .trial import TrialSetup, placement_offset, placement_turn, run_trial
+from .trial import TrialSetup, _rot_z, placement_offset, placement_turn, run_trial
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,7 @@ def expected_landing(setup: TrialSetup, pairs: int) -> LandingPrediction:
     target = setup.target_pose
     heading = math.atan2(target[1, 0], target[0, 0]) + float(np.mean([placement_turn(f, target) for f in finals]))
     mean = np.eye(4)
-    mean[:2, :2] = [[math.cos(heading), -math.sin(heading)], [math.sin(heading), math.cos(heading)]]
+    mean[:3, :3] = _rot_z(heading)
     mean[:3, 3] = np.mean([f[:3, 3] for f in finals], axis=0)
     return _prediction(setup, mean, nominal.outcome, len(finals) // 2)
 
