@@ -15,6 +15,10 @@ A layout file holds:
   with d and psi free; without ``planning.resolution`` the lattice step is
   1 deg / 0.01 / 1 deg.
 
+* ``spread`` (optional, default false): true moves the targets (not their headings) so that the
+  smallest gap between two pieces, or a piece and a wall, is as large as the frame allows
+  (ungrasp_ompl.geometry.spread); ``Layout.spread`` then holds the shifts and the gaps.
+
 Pieces must lie inside the frame and not overlap (touching is fine); each is
 treated by its convex hull in collision checks. Every bad field raises
 :class:`~ungrasp_ompl.errors.InputError` naming it (``pieces[2].target.position``).
@@ -33,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import InputError
 from .geometry.solids import Solid, box, polygons_overlap, prism
+from .geometry.spread import Spread, spread
 from .scene import Scene
 from .scene.loader import SceneReader, read_yaml
 from .scene.options import Object3D
@@ -97,6 +102,7 @@ class Layout:
     pieces: list[Piece]
     shared: dict[str, Any]
     source: str | None = None
+    spread: Spread | None = None  # the shifts the file's spread: true moved the targets by (None: as given)
     #: scene(i, contacts) with the walls as its only solids, by (i, contacts as floats or None)
     _parsed: dict[tuple, Scene] = field(default_factory=dict, repr=False)
     _walls: tuple[Solid, ...] = field(default=(), repr=False)  # the frame's walls, once asked for
@@ -117,7 +123,7 @@ class Layout:
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":
         r = SceneReader(source)
         top = r.mapping(data, "layout")
-        r.known(top, "", {"name", "description", "frame", "pieces", *SHARED_SECTIONS})
+        r.known(top, "", {"name", "description", "frame", "pieces", "spread", *SHARED_SECTIONS})
         fr = r.mapping(r.require(top, "frame"), "frame")
         r.known(fr, "frame", {"center", "yaw_deg", "inner_size", "wall_height", "wall_thickness"})
         if "inner_size" not in fr:
@@ -156,9 +162,18 @@ class Layout:
             planning.setdefault("resolution", dict(DEFAULT_RESOLUTION))
         layout = cls(r.name(top, "name", default_name), frame, pieces, shared, source)
         layout._check_placement()
+        if r.flag(top, "spread", "spread"):
+            layout = layout._spread_out()
         for i in range(len(pieces)):  # each piece's scene: shared sections and the piece itself
             layout.scene(i)
         return layout
+
+    def _spread_out(self) -> "Layout":
+        """This layout with its targets spread (geometry.spread), recorded in .spread."""
+        moved = spread([self.footprint(i, world=False) for i in range(len(self.pieces))], self.frame.inner)
+        pieces = [replace(p, object3d=replace(p.object3d, position=tuple(float(x) for x in p.object3d.position + s)))
+                  for p, s in zip(self.pieces, moved.shifts)]
+        return replace(self, pieces=pieces, spread=moved)
 
     def _check_placement(self) -> None:
         inner = self.frame.inner
