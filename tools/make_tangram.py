@@ -3,7 +3,8 @@
 The classic dissection of a square of side SIDE into two large, one medium and two small
 right triangles, a square and a parallelogram; each piece is cut KERF smaller on every
 edge (the saw's width, so neighbours lie 2 KERF apart), and the square sits WALL_GAP
-inside the frame on every side. Run from the repository's top level:
+inside the frame on every side. The file asks for the pieces to be spread (`spread: true`), so that
+the frame's slack is shared out between the pieces and the walls. Run from the repository's top level:
 
     python tools/make_tangram.py [--side 0.14] [--kerf 0.001] [--wall-gap 0.004] [--out scenes/tangram.yaml]
 """
@@ -14,6 +15,8 @@ import argparse
 
 import numpy as np
 import yaml
+
+from ungrasp_ompl.layout import Layout
 
 #: The dissection of the unit square, counter-clockwise outlines.
 UNIT_PIECES = {
@@ -30,7 +33,10 @@ HEADER = """\
 # A tangram put into a square frame piece by piece (paper sec. 6.2.4), written by
 # tools/make_tangram.py: the classic dissection of a {side_mm:.0f} mm square into seven pieces of
 # {thick_mm:.0f} mm plywood, each cut {kerf_mm:.1f} mm smaller on every edge (neighbours {gap_mm:.1f} mm apart),
-# the square {wall_mm:.1f} mm inside the frame's walls on every side.
+# the square {wall_mm:.1f} mm inside the frame's walls on every side; spread: true then moves the
+# pieces apart (each by at most {shift_mm:.1f} mm, headings kept) so that the narrowest gap between two
+# of them or a piece and a wall is the widest the frame allows: {gap_mm:.1f} mm grows to {spread_mm:.1f} mm
+# (docs/model.md 11.19).
 # Frame coordinates: origin at the frame's inner corner, metres. Outlines are given about
 # each piece's centroid; target.position places that centroid in the frame.
 # Friction: wood on a laminate table about 0.35, wood on the 3D-printed digits about 0.45.
@@ -69,6 +75,7 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
     return {
         "name": "tangram",
         "description": "Seven tangram pieces put into a square frame by successive ungrasps.",
+        "spread": True,
         "frame": {"center": [0.45, 0.0], "yaw_deg": 0, "inner_size": inner, "wall_height": 0.006,
                   "wall_thickness": 0.01},
         "friction": {"G": 0.35, "A": 0.45, "B": 0.45},
@@ -93,8 +100,10 @@ def main() -> None:
     ap.add_argument("--out", default="scenes/tangram.yaml")
     args = ap.parse_args()
     data = layout(args.side, args.kerf, args.wall_gap, args.thickness)
+    moved = Layout.from_dict(data).spread
     head = HEADER.format(side_mm=args.side * 1000, thick_mm=args.thickness * 1000, kerf_mm=args.kerf * 1000,
-                         gap_mm=2 * args.kerf * 1000, wall_mm=args.wall_gap * 1000)
+                         gap_mm=2 * args.kerf * 1000, wall_mm=args.wall_gap * 1000,
+                         shift_mm=np.abs(moved.shifts).max() * 1000, spread_mm=moved.gap * 1000)
     with open(args.out, "w") as f:
         f.write(head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
     print(f"wrote {args.out}")
