@@ -100,6 +100,9 @@ def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
     assert result["solved"] and result["failed_piece"] is None
     assert sorted(result["order"]) == sorted(p["name"] for p in doc["pieces"])
     assert "order " + ", ".join(result["order"]) in proc.stdout
+    spread = result["spread"]  # the file asks for it: the gaps and each piece's shift, as the layout has them
+    assert spread["gap_m"] > spread["gap_before_m"] + 1e-3 and sorted(spread["shifts_m"]) == sorted(result["order"])
+    assert f"targets spread: the narrowest gap {spread['gap_before_m'] * 1000:.1f} mm" in proc.stdout
     for k, name in enumerate(result["order"], start=1):
         assert f"{k}. {name}: G (" in proc.stdout  # the per-piece summary
         assert (out / f"cspace_{k}_{name}.png").stat().st_size > 10_000

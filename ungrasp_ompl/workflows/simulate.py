@@ -250,7 +250,7 @@ class LayoutSimulation:
 
     def summary(self) -> str:
         """The tiling's summary, then the attempts' success and each failed attempt's cause."""
-        lines = layout_summary(self.tiling, self.execution, self.short)
+        lines = layout_summary(self.layout, self.tiling, self.execution, self.short)
         if self.attempts:
             pieces = len(self.attempts[0].names)
             lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")

@@ -42,14 +42,18 @@ class TiledLayout:
 
     def summary(self) -> str:
         """The tiling's summary, then the trajectory's when there is one."""
-        return "\n".join(layout_summary(self.tiling, self.execution, self.short))
+        return "\n".join(layout_summary(self.layout, self.tiling, self.execution, self.short))
 
     def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
         """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
         returns their paths (the pictures in the order of the pieces)."""
         out = Path(out)
         doc, picture = out / "tiling.json", out / "layout.png"
-        write_text_atomic(doc, json.dumps(self.tiling.to_dict(), indent=1) + "\n")
+        spread = self.layout.spread
+        written = self.tiling.to_dict() if spread is None else {**self.tiling.to_dict(), "spread": {
+            "gap_before_m": spread.gap_before, "gap_m": spread.gap,
+            "shifts_m": {p.name: s.tolist() for p, s in zip(self.layout.pieces, spread.shifts)}}}
+        write_text_atomic(doc, json.dumps(written, indent=1) + "\n")
         draw_layout(self.layout, self.tiling, picture)
         cspaces = []
         for p in self.tiling.placements:
@@ -69,11 +73,15 @@ class TiledLayout:
         return files
 
 
-def layout_summary(tiling: Tiling, execution: Execution | None, short: tuple[tuple[str, float, float], ...]
-                   ) -> list[str]:
-    """The lines `tile` and `simulate LAYOUT` begin with: the tiling's summary, the trajectory's when
-    there is one, and the pieces aimed short of their landing."""
-    return [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
+def layout_summary(layout: Layout, tiling: Tiling, execution: Execution | None,
+                   short: tuple[tuple[str, float, float], ...]) -> list[str]:
+    """The lines `tile` and `simulate LAYOUT` begin with: the layout's spread when its file asks for
+    one, the tiling's summary, the trajectory's when there is one, and the pieces aimed short of
+    their landing."""
+    spread = [] if layout.spread is None else [
+        f"targets spread: the narrowest gap {layout.spread.gap_before * 1000:.1f} mm -> {layout.spread.gap * 1000:.1f} mm "
+        f"(pieces moved up to {abs(layout.spread.shifts).max() * 1000:.1f} mm)"]
+    return spread + [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
 
 
 def first_touch_off(tiling: Tiling, execution: Execution) -> TouchOff | None:
