@@ -85,6 +85,15 @@ def test_bad_certify_options_exit_2_with_one_line_naming_the_flag(tmp_path, args
     assert not out.exists()
 
 
+def test_plan_export_takes_jobs_for_its_expected_landing_and_refuses_none(tmp_path):
+    """--jobs runs the expected landing's releases with --export; 0 of them is a one-line error
+    naming the flag, and nothing is written."""
+    out = tmp_path / "export"
+    r = run_cli("plan", "guitar_pick", "--seed", "1", "--export", str(out), "--jobs", "0")
+    assert r.returncode == 2 and "--jobs" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
 def test_certify_refuses_a_scene_the_simulator_cannot_take():
     scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
     with pytest.raises(InputError) as err:

@@ -694,7 +694,8 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
     standard error. robot.landing expected aims by the mean landing of antithetic pairs of `paper`
     draws drawn apart from every trial's; the same 12 trials then land about their target: the mean
     offset falls by more than 0.7 mm and below half a millimetre. The aim is the mean landing's
-    inverse, not the no-error release's."""
+    inverse, not the no-error release's, and the same whether its pairs run in this process or in
+    worker processes."""
     from ungrasp_ompl.sim.landing import expected_landing, landing_draw, predict_landing
 
     scene, result, ex = _planned("guitar_pick")
@@ -709,8 +710,9 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
         mean_offset[landing] = float(np.hypot(*np.mean(offsets, axis=0)))
     assert mean_offset[Landing.SIMULATED] > 0.0009, mean_offset
     assert mean_offset[Landing.EXPECTED] < min(0.0005, mean_offset[Landing.SIMULATED] - 0.0007), mean_offset
-    expected = expected_landing(setup, scene.robot.landing_pairs)
+    expected = expected_landing(setup, scene.robot.landing_pairs, jobs=2)  # its pairs in two worker processes
     assert expected.pairs == scene.robot.landing_pairs and expected.landed
+    assert expected.aim == aimed.aim  # as placement aimed it, its pairs run here one after another
     assert expected.aim != predict_landing(setup).aim and expected.aim.turn == -expected.turn
 
 

@@ -25,13 +25,16 @@ def plan_command(args: argparse.Namespace) -> int:
     for flag, path in (("--out", out), ("--export", export)):
         if path is not None and path.exists() and not path.is_dir():
             raise InputError(flag, f"{path} exists and is not a directory")
-    if args.certify is None:
-        for flag in ("candidates", "jobs"):
-            if getattr(args, flag) is not None:
-                raise InputError(f"--{flag}", "applies only with --certify N")
+    if args.certify is None and args.candidates is not None:
+        raise InputError("--candidates", "applies only with --certify N")
+    if args.certify is None and args.export is None and args.jobs is not None:
+        raise InputError("--jobs", "applies only with --certify N or --export DIR")
+    if args.jobs is not None and args.jobs < 1:
+        raise InputError("--jobs", f"must be at least 1, got {args.jobs}")
+    from ..sim.campaign import default_jobs
+
     certify = None
     if args.certify is not None:
-        from ..sim.campaign import default_jobs
         from ..sim.certify import CertifyOptions
 
         certify = CertifyOptions(
@@ -53,7 +56,7 @@ def plan_command(args: argparse.Namespace) -> int:
     if export is not None:
         if scene.planar_only:
             print(f"note: {scene.name} is planar-only: {scene.planar_only}")
-        execution = result.execute()
+        execution = result.execute(default_jobs() if args.jobs is None else args.jobs)
         print(execution.summary())
         paths = result.export(export, execution)
         print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -91,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="candidate plans with --certify (default 4): objectives in turn (--objective first), "
                          "for each the planner with --seed then the lattice; then the planner with seed + 1, + 2, ...")
     pl.add_argument("--jobs", type=int, default=None,
-                    help="parallel trials with --certify (default: all cores)")
+                    help="parallel trials with --certify, and of the expected landing with --export "
+                         "(robot.landing: expected) (default: all cores)")
 
     bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
     bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")

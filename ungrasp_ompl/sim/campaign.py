@@ -103,7 +103,7 @@ def _stat(values: np.ndarray, f: Callable) -> float | None:
     return float(f(values)) if len(values) else None
 
 
-def _one(args: tuple[TrialSetup, TrialParams, int, int]) -> TrialResult:
+def _one(args: tuple[TrialSetup, TrialParams, int, int | None]) -> TrialResult:
     setup, params, k, seed = args
     return run_trial(setup, params, k, seed)
 
@@ -134,15 +134,24 @@ def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int
     A trial that raises, or whose worker dies, raises here (TaskLost for a worker that died);
     progress is called with each result as it arrives."""
     params = trial_params(perturbation, seed, trials)
+    results = run_each([(setup, p, k, seed) for setup in setups for k, p in enumerate(params)], jobs, progress, cluster)
+    return [results[i * trials:(i + 1) * trials] for i in range(len(setups))]
+
+
+def run_each(work: list[tuple[TrialSetup, TrialParams, int, int | None]], jobs: int = 1,
+             progress: Callable[[TrialResult], None] | None = None,
+             cluster: str | None = None) -> list[TrialResult]:
+    """Each (setup, errors, trial index, seed) of work simulated (sim.trial.run_trial), jobs at a
+    time (trial_runner), in work's order. A trial that raises, or whose worker dies, raises here
+    (TaskLost for a worker that died); progress is called with each result as it arrives."""
     # spawned workers import only numpy, mujoco and this package's sim modules
-    work = [(setup, p, k, seed) for setup in setups for k, p in enumerate(params)]
     results: list[TrialResult | None] = [None] * len(work)
     with trial_runner(jobs, len(work), cluster) as runner, closing(runner.run(_one, work)) as outcomes:
         for outcome in outcomes:
             results[outcome.index] = outcome.unwrap()
             if progress:
                 progress(results[outcome.index])
-    return [results[i * trials:(i + 1) * trials] for i in range(len(setups))]  # type: ignore[misc]
+    return results  # type: ignore[return-value]
 
 
 @contextmanager
@@ -163,4 +172,4 @@ def default_jobs() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-__all__ = ["Outcome", "SimulationReport", "failure_causes", "run_trials", "simulate", "wilson_interval"]
+__all__ = ["Outcome", "SimulationReport", "failure_causes", "run_each", "run_trials", "simulate", "wilson_interval"]

@@ -111,21 +111,23 @@ def landing_draw(k: int) -> tuple[TrialParams, TrialParams]:
     return params, box.mirrored(params)
 
 
-def expected_landing(setup: TrialSetup, pairs: int) -> LandingPrediction:
+def expected_landing(setup: TrialSetup, pairs: int, jobs: int = 1, cluster: str | None = None) -> LandingPrediction:
     """Where the placement, as setup has it unaimed, lands the object on average under the `paper`
     errors: the release simulated with no error first (an object that does not land so gets no
-    aim, as in predict_landing), then pairs antithetic pairs of drawn releases (landing_draw). The
-    mean landing (mean position of the body frame, mean turn) of the pairs whose both releases
+    aim, as in predict_landing), then pairs antithetic pairs of drawn releases (landing_draw), jobs
+    at a time (sim.campaign.run_each: worker processes, or the Ray cluster at the address cluster).
+    The mean landing (mean position of the body frame, mean turn) of the pairs whose both releases
     placed the object gives the offset, turn and correction; with fewer than half the pairs so,
     the no-error landing does."""
+    from .campaign import run_each
+
     nominal = run_trial(setup, TrialParams())
     if not nominal.outcome.placed:
         return _prediction(setup, np.array(nominal.final_pose), nominal.outcome)
-    finals = []
-    for k in range(pairs):
-        landed = [run_trial(setup, params) for params in landing_draw(k)]
-        if all(r.outcome.placed for r in landed):
-            finals += [np.array(r.final_pose) for r in landed]
+    draws = [params for k in range(pairs) for params in landing_draw(k)]
+    landed = run_each([(setup, params, k, None) for k, params in enumerate(draws)], jobs, cluster=cluster)
+    finals = [np.array(r.final_pose) for pair in zip(landed[::2], landed[1::2])
+              if all(r.outcome.placed for r in pair) for r in pair]
     if len(finals) < pairs:  # fewer than half the pairs placed both
         return _prediction(setup, np.array(nominal.final_pose), nominal.outcome)
     target = setup.target_pose
@@ -136,14 +138,15 @@ def expected_landing(setup: TrialSetup, pairs: int) -> LandingPrediction:
     return _prediction(setup, mean, nominal.outcome, len(finals) // 2)
 
 
-def robot_landing(setup: TrialSetup, robot: RobotOptions) -> LandingPrediction | None:
+def robot_landing(setup: TrialSetup, robot: RobotOptions, jobs: int = 1,
+                  cluster: str | None = None) -> LandingPrediction | None:
     """The landing the scene's robot.landing aims the hand by: None where it is planned, the
     release with no error where simulated, the expected landing of robot.landing_pairs pairs where
-    expected."""
+    expected (its pairs jobs at a time, or on the Ray cluster at the address cluster)."""
     if robot.landing is Landing.SIMULATED:
         return predict_landing(setup)
     if robot.landing is Landing.EXPECTED:
-        return expected_landing(setup, robot.landing_pairs)
+        return expected_landing(setup, robot.landing_pairs, jobs, cluster)
     return None
 
 

@@ -47,12 +47,14 @@ class PlanTrials:
         return sum(r.success for r in self.results)
 
 
-def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["Execution", TrialSetup]:
+def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int = 1,
+              cluster: str | None = None) -> tuple["Execution", TrialSetup]:
     """A solved plan executed on the robot (placement, IK, timing) and what its trials share, with
     the variant's changes to the simulated world. With robot.landing simulated or expected, the
     hand is aimed by where the release, simulated in the scene's own world (no variant) with no
     error or on average over drawn ones, lands the object (sim.landing; left as planned when the
-    release with no error does not put it down). Raises the
+    release with no error does not put it down; the drawn ones jobs at a time, or on the Ray
+    cluster at the address cluster). Raises the
     robot's UngraspError when it cannot execute the plan (out of reach, an arm collision, beyond
     the joint limits)."""
     from ..planning.setup import with_3d_report
@@ -63,7 +65,7 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant()) -> tuple["
     if scene.plane is not None and plan.object is None:
         plan = with_3d_report(scene, plan)  # the object and its plane, which the placement needs
     execution = execute(scene, plan)
-    landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot)
+    landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot, jobs, cluster)
     if landing is not None and any(landing.aim):
         execution = execute(scene, plan, landing.aim)
     aim = execution.aims[0]

@@ -107,10 +107,10 @@ class ScenePlan:
         draw_plan(self.scene, self.plan, files["cspace"])
         return files
 
-    def execute(self) -> Execution:
+    def execute(self, jobs: int = 1) -> Execution:
         """The plan on the arm: inverse kinematics, timing and the gripper's openings (with
         robot.landing simulated or expected, aimed by where the release lands the object:
-        sim.landing)."""
+        sim.landing, the expected landing's releases jobs at a time)."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
         from ..scene.options import Landing
@@ -118,7 +118,7 @@ class ScenePlan:
         if self.scene.robot.landing is not Landing.PLANNED:
             from ..sim.plan_trials import placement
 
-            return placement(self.scene, self.plan)[0]
+            return placement(self.scene, self.plan, jobs=jobs)[0]
         from ..robot.pipeline import execute
 
         return execute(self.scene, self.plan)

@@ -213,7 +213,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.start_psi_offset is not None:
         result = deviated_plan(result, options.start_psi_offset)
     problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
-    execution, setup = placement(scene, result, variant)
+    execution, setup = placement(scene, result, variant, options.workers, options.cluster)
     report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
                       cluster=options.cluster)
     report.plan_problems = problems
