@@ -41,7 +41,7 @@ class TiledLayout:
     """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
 
     def summary(self) -> str:
-        """The tiling's summary, then the trajectory's when there is one."""
+        """The layout's spread when it has one, the tiling's summary, then the trajectory's when there is one."""
         return "\n".join(layout_summary(self.layout, self.tiling, self.execution, self.short))
 
     def write(self, out: str | os.PathLike[str]) -> tuple[Path, Path, list[Path]]:
