@@ -31,7 +31,12 @@ def plan_command(args: argparse.Namespace) -> int:
         raise InputError("--jobs", "applies only with --certify N or --export DIR")
     if args.jobs is not None and args.jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {args.jobs}")
-    from ..sim.campaign import default_jobs
+
+    def jobs() -> int:
+        """--jobs, else all cores (sim.campaign imported only where trials run, not for a plain plan)."""
+        from ..sim.campaign import default_jobs
+
+        return default_jobs() if args.jobs is None else args.jobs
 
     certify = None
     if args.certify is not None:
@@ -40,7 +45,7 @@ def plan_command(args: argparse.Namespace) -> int:
         certify = CertifyOptions(
             trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
             objective=args.objective, time=args.time, iterations=args.iterations,
-            jobs=default_jobs() if args.jobs is None else args.jobs)
+            jobs=jobs())
     options = PlanOptions(planner=args.planner, time=args.time, iterations=args.iterations,
                           objective=args.objective, cage=args.cage, certify=certify).validated(scene)
     seed = _seed(args.seed)  # drawn (and printed) only for options that can run
@@ -56,7 +61,7 @@ def plan_command(args: argparse.Namespace) -> int:
     if export is not None:
         if scene.planar_only:
             print(f"note: {scene.name} is planar-only: {scene.planar_only}")
-        execution = result.execute(default_jobs() if args.jobs is None else args.jobs)
+        execution = result.execute(jobs())
         print(execution.summary())
         paths = result.export(export, execution)
         print("wrote " + ", ".join(str(p) for p in paths.values()))
