@@ -134,15 +134,20 @@ def prism_shape(polygon: ArrayLike, bottom: float, top: float) -> fcl.Convex:
     return fcl.Convex(verts, len(faces), flat)
 
 
+def hull_normals(points: ArrayLike) -> NDArray[np.float64]:
+    """The outward unit normals (K, 2) of the edges of the convex hull of planar points (N, 2):
+    the separating-axis candidates of a convex polygon."""
+    hull = convex_hull_2d(points)
+    edges = np.roll(hull, -1, axis=0) - hull
+    return np.column_stack([edges[:, 1], -edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
+
+
 def polygons_overlap(a: ArrayLike, b: ArrayLike, tol: float = 1e-6) -> bool:
     """Whether the convex hulls of two planar polygons (N, 2) overlap by more than tol (m) along
     every separating-axis candidate (touching along an edge is not an overlap)."""
     polys = [np.asarray(p, dtype=float) for p in (a, b)]
     for p in polys:
-        hull = convex_hull_2d(p)
-        edges = np.roll(hull, -1, axis=0) - hull
-        axes = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
-        for ax in axes:
+        for ax in hull_normals(p):
             pa, pb = polys[0] @ ax, polys[1] @ ax
             if min(pa.max(), pb.max()) - max(pa.min(), pb.min()) <= tol:
                 return False

@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .solids import convex_hull_2d
+from .solids import hull_normals
 
 #: The walls' inward normals in frame coordinates, in the order west, south, east, north.
 _WALL_NORMALS = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
@@ -52,12 +52,8 @@ def separation(a: ArrayLike, b: ArrayLike) -> tuple[float, NDArray[np.float64]]:
     gap is a lower bound on their distance (equal to it when an edge is nearest); a negative one is
     their least overlap along those normals."""
     pa, pb = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    axes = []
-    for hull in (convex_hull_2d(pa), convex_hull_2d(pb)):
-        edges = np.roll(hull, -1, axis=0) - hull
-        normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
-        axes += [normals, -normals]
-    axes = np.vstack(axes)
+    na, nb = hull_normals(pa), hull_normals(pb)
+    axes = np.vstack([na, -na, nb, -nb])
     gaps = (pb @ axes.T).min(axis=0) - (pa @ axes.T).max(axis=0)
     k = int(np.argmax(gaps))
     return float(gaps[k]), axes[k]
