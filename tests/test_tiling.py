@@ -4,6 +4,7 @@ layouts."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import replace
@@ -68,6 +69,13 @@ def _walls(doc: dict) -> dict[str, fcl.CollisionObject]:
     return out
 
 
+@functools.lru_cache(maxsize=4)
+def _spread_shifts(doc: str) -> np.ndarray:
+    """The shifts (N, 2) the layout file (as JSON text) spreads its pieces by: loading a layout takes
+    half a second, and the footprints are asked for piece by piece."""
+    return Layout.from_dict(json.loads(doc)).spread.shifts
+
+
 def _footprint(doc: dict, name: str) -> np.ndarray:
     """A piece's target outline in the world (m), from the layout file's numbers (moved by the
     spread where the file asks for one: its shifts are checked against shapely in test_spread)."""
@@ -76,7 +84,7 @@ def _footprint(doc: dict, name: str) -> np.ndarray:
     corner = np.asarray(fr["center"]) - fr["inner_size"] / 2
     yaw = math.radians(piece["target"].get("yaw_deg", 0))
     rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    shift = Layout.from_dict(doc).spread.shifts[k] if doc.get("spread") else 0.0
+    shift = _spread_shifts(json.dumps(doc))[k] if doc.get("spread") else 0.0
     return np.asarray(piece["outline"]["polygon"]) @ rot.T + np.asarray(piece["target"]["position"]) + corner + shift
 
 
