@@ -8,12 +8,13 @@ from dataclasses import asdict, dataclass, field
 
 
 class Outcome(enum.Enum):
-    """How a trial ended. Success: A and B kept until the termination begins, then after the
-    retreat the object lies flat (tilt below FLAT_TILT_DEG) with no digit touching it (the
-    paper's criterion), within the scene's sim.max_error of its target."""
+    """How a trial ended. Success: the grip kept until the termination begins (a digit on the
+    object throughout, and the pinch, A and B, there when it begins), then after the retreat the
+    object lies flat (tilt below FLAT_TILT_DEG) with no digit touching it (the paper's criterion),
+    within the scene's sim.max_error of its target (docs/model.md 11.4, 11.20)."""
 
     SUCCESS = "success"
-    GRIP_LOST = "grip lost"  #: A or B let go of the object before the termination
+    GRIP_LOST = "grip lost"  #: before the termination no digit touched the object, or the termination began without A or B
     B_PAST_THUMB_TIP = "B past the thumb tip"  #: the object's end slid off the thumb
     LEFT_PLANE = "object left the plane"  #: it turned out of the manipulation plane and escaped
     HIT_SOLID = "hit a wall or piece"  #: it was pushed off by a wall or a piece already down
@@ -97,6 +98,8 @@ class TrialResult:
     a_off_dome_share: float | None = None
     contacts: list[ContactTravel] = field(default_factory=list)
     digit_table_force_n: float = 0.0  #: the largest normal force (N) a digit pressed the table with before the termination (0: it never touched)
+    a_gap_s: float = 0.0  #: the longest stretch (s) the finger's contact A was absent before the termination (or the loss)
+    b_gap_s: float = 0.0  #: the same for the thumb's contact B
 
     @property
     def success(self) -> bool:

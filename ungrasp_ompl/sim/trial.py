@@ -36,7 +36,8 @@ from ..robot.pipeline import Aim
 
 #: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
 SLIDE_MIN_RISE = 0.1
-#: A contact at A or B absent this long (s) before the termination is a loss of grip.
+#: No digit touching the object this long (s), or A or B absent this long when the termination
+#: begins, is a lost grip (docs/model.md 11.20); it bridges ticks at which a sliding contact parts.
 LOSS_WINDOW = 0.05
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
@@ -314,6 +315,42 @@ class _Watch:
 
 
 @dataclass
+class Grip:
+    """Whether the digits still hold the object, from whether A and B touch it at each control
+    tick before the termination (docs/model.md 11.20). The object is held while a digit presses
+    it; the grip is lost when no digit has touched it for LOSS_WINDOW (s), or when the termination
+    begins with A or B absent for LOSS_WINDOW. Times are s from the first primitive's start."""
+
+    a_off: float | None = None  #: since when (s) the finger's contact A has been absent; None while it touches
+    b_off: float | None = None  #: the same for the thumb's contact B
+    a_gap: float = 0.0  #: the longest A has been absent so far (s), first tick without it to the last
+    b_gap: float = 0.0  #: the same for B
+    last: float = 0.0  #: the last tick noted (s)
+
+    def note(self, t: float, a: bool, b: bool) -> float | None:
+        """Note the tick at t (s) with A and B touching or not; return when the object left the
+        hand (s, the first tick at which no digit touched it) once no digit has touched it for
+        LOSS_WINDOW, else None."""
+        self.a_off = None if a else (t if self.a_off is None else self.a_off)
+        self.b_off = None if b else (t if self.b_off is None else self.b_off)
+        if self.a_off is not None:
+            self.a_gap = max(self.a_gap, t - self.a_off)
+        if self.b_off is not None:
+            self.b_gap = max(self.b_gap, t - self.b_off)
+        self.last = t
+        if self.a_off is None or self.b_off is None:
+            return None
+        free = max(self.a_off, self.b_off)
+        return free if t - free >= LOSS_WINDOW else None
+
+    def pinch_lost(self) -> float | None:
+        """At the termination's start: when (s) the contact that has been absent for the last
+        LOSS_WINDOW before it went (the earlier of A and B), or None if the pinch is there."""
+        gone = [off for off in (self.a_off, self.b_off) if off is not None and self.last - off >= LOSS_WINDOW]
+        return min(gone) if gone else None
+
+
+@dataclass
 class _Tick:
     """The object's contacts at one control tick."""
 
@@ -553,7 +590,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     lifting = drive.phase_start("retreat") if any(name == "retreat" for name, _, _ in drive.phases) else math.inf
     stillness = Stillness(model, ids)
     settled = False
-    missing_since: float | None = None
+    grip = Grip()
+    released = False
     solid_seen_at = -math.inf
     roll = sinking = dome = off_dome = table_push = 0.0
     failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
@@ -569,6 +607,12 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if record is None and t >= lifting and stillness.settled(data, t):
             settled = True  # nothing left can move what lies on the table
             break
+        if lost is None and t >= release and not released:  # the termination opens the pinch: is it there?
+            released = True
+            if (since := grip.pinch_lost()) is not None:
+                obj = _pose(data, ids.object_body)
+                lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since)
+                failure = failure or lost
         if t >= release or lost is not None:  # after a loss of grip (a falling object) nothing is measured
             continue
         now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
@@ -588,12 +632,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         roll = max(roll, _roll(obj, plane_y))
         if roll > LEFT_PLANE_DEG and failure is None:  # held, but turned out of the plane: the contact modes are lost
             failure = (Outcome.LEFT_PLANE, t)
-        if now.a and now.b:
-            missing_since = None
-            continue
-        missing_since = t if missing_since is None else missing_since
-        if t - missing_since >= LOSS_WINDOW:
-            lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= missing_since - 0.2), missing_since)
+        if (since := grip.note(t, now.a, now.b)) is not None:
+            lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since)
             failure = failure or lost
     if ((lost is None or not stop_at_failure) and not settled) or record is not None:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
@@ -619,7 +659,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     share = off_dome / (dome + off_dome) if ids.finger_dome >= 0 and dome + off_dome > 0 else None
     return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
                        trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others,
-                       sinking * 1000, share, travel.travels(setup.planned), table_push)
+                       sinking * 1000, share, travel.travels(setup.planned), table_push, grip.a_gap, grip.b_gap)
 
 
 def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
