@@ -37,9 +37,8 @@ from ungrasp_ompl.sim.tiling import TilingAttempt
 from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.model import model_ids
-from ungrasp_ompl.sim.trial import (LOSS_WINDOW, _move_palm, _palm_quats, _start, calibration_offset, perturbed_start, run_trial,
-                                    digits_lowest, touch_off_shift,
-                                    touch_down, trial_mjcf, trial_spec)
+from ungrasp_ompl.sim.trial import (LOSS_WINDOW, _move_palm, _palm_quats, _start, calibration_offset, perturbed_start,
+                                    run_trial, digits_lowest, touch_off_shift, touch_down, trial_mjcf, trial_spec)
 
 
 def _planned(name: str, tip: str | None = None):

@@ -591,11 +591,15 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     stillness = Stillness(model, ids)
     settled = False
     grip = Grip()
-    released = False
     solid_seen_at = -math.inf
     roll = sinking = dome = off_dome = table_push = 0.0
     failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
     lost: tuple[Outcome, float] | None = None  # a grip lost before the termination: the paper's criterion fails too
+
+    def loss(since: float, obj: NDArray) -> tuple[Outcome, float]:
+        """The lost grip dated since (s), named by its cause with the object at pose obj."""
+        return _loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since
+
     for k in range(1, len(drive.times)):
         if lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
             break
@@ -607,11 +611,9 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if record is None and t >= lifting and stillness.settled(data, t):
             settled = True  # nothing left can move what lies on the table
             break
-        if lost is None and t >= release and not released:  # the termination opens the pinch: is it there?
-            released = True
+        if lost is None and drive.times[k - 1] < release <= t:  # the termination opens the pinch: is it there?
             if (since := grip.pinch_lost()) is not None:
-                obj = _pose(data, ids.object_body)
-                lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since)
+                lost = loss(since, _pose(data, ids.object_body))
                 failure = failure or lost
         if t >= release or lost is not None:  # after a loss of grip (a falling object) nothing is measured
             continue
@@ -633,7 +635,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         if roll > LEFT_PLANE_DEG and failure is None:  # held, but turned out of the plane: the contact modes are lost
             failure = (Outcome.LEFT_PLANE, t)
         if (since := grip.note(t, now.a, now.b)) is not None:
-            lost = (_loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since)
+            lost = loss(since, obj)
             failure = failure or lost
     if ((lost is None or not stop_at_failure) and not settled) or record is not None:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
