@@ -269,13 +269,16 @@ def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
 def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
     """Without --seed a seed is drawn, printed and kept in plan.json (which --export writes too);
     planning again with it gives the same plan, and cage takes the export directory as --plan."""
-    first = run_cli("plan", "guitar_pick", "--time", "0.3", "--export", str(tmp_path / "a"))
+    for _ in range(3):  # 2 of the 9,999 seeds it draws find no path in 1 s (exit 3): draw again
+        first = run_cli("plan", "guitar_pick", "--time", "1", "--export", str(tmp_path / "a"))
+        if first.returncode != 3:
+            break
     assert first.returncode == 0, first.stderr
     m = re.search(r"^seed (\d+) \(pass --seed (\d+) to repeat\)$", first.stdout, re.M)
     assert m and m[1] == m[2], first.stdout
     drawn = json.loads((tmp_path / "a" / "plan.json").read_text())
     assert drawn["seed"] == int(m[1])
-    again = run_cli("plan", "guitar_pick", "--time", "0.3", "--seed", m[1], "--out", str(tmp_path / "b"))
+    again = run_cli("plan", "guitar_pick", "--time", "1", "--seed", m[1], "--out", str(tmp_path / "b"))
     assert again.returncode == 0 and "pass --seed" not in again.stdout
     repeated = json.loads((tmp_path / "b" / "plan.json").read_text())
     for key in ("states", "primitives", "cost", "iterations", "seed"):
