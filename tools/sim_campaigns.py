@@ -174,7 +174,7 @@ def draw(rows: list[Row], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(10, 0.45 * len(rows) + 1.8))
+    fig, ax = plt.subplots(figsize=(12, 0.34 * len(rows) + 1.6))
     y = np.arange(len(rows))[::-1]
     rate = np.array([r.successes / r.trials for r in rows])
     ci = np.array([wilson_interval(r.successes, r.trials) for r in rows])
@@ -193,11 +193,12 @@ def draw(rows: list[Row], path: Path) -> None:
                     capsize=3, label=None if marked else "the paper (physical), with its interval")
         marked = True
     ax.set_yticks(y, [r.label for r in rows], fontsize=8)
-    ax.set_xlim(0, 100)
+    ax.set_xlim(0, 102)  # room for the markers at 100 %
+    ax.set_ylim(-0.7, len(rows) - 0.3)
     ax.set_xlabel("success rate (%)")
-    ax.set_title("The paper's experiments: simulated here beside the paper's physical results", fontsize=10)
-    ax.legend(loc="upper center", bbox_to_anchor=(0.35, -0.6 / len(rows) - 0.12), ncol=2, fontsize=7, frameon=False)
-    fig.tight_layout()
+    fig.suptitle("The paper's experiments: simulated here beside the paper's physical results", fontsize=10)
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, 0.6 / fig.get_figheight(), 1, 1))  # the legend's band at the bottom
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
