@@ -40,6 +40,9 @@ HEADER = """\
 # Frame coordinates: origin at the frame's inner corner, metres. Outlines are given about
 # each piece's centroid; target.position places that centroid in the frame.
 # Friction: wood on a laminate table about 0.35, wood on the 3D-printed digits about 0.45.
+# Mass: birch plywood weighs 600-700 kg/m^3, so the pieces are simulated at 650 kg/m^3
+# (sim.density; the default, 1250, is a stiff plastic's); the `paper` errors' +-20 % on the
+# mass spans 520-780 kg/m^3.
 # Digits: a 60 mm thumb and an 80 mm finger (alpha = 20 mm over each piece's l = |GB|).
 # Set up as the object scenes are (docs/model.md 11.9-11.14): the digits 2 mm above the table,
 # B 1 mm from the thumb's tip, A 1 mm inside the supports across the plane, a 1 mm press, the
@@ -87,6 +90,7 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
         "planning": {"table_clearance": 0.002, "thumb_tip_margin": 0.001, "across_margin": 0.001},
         "robot": {"termination": "open_lift", "termination_opening": 0.004, "start_press": 0.001,
                   "end_press": 0.0005, "touch_off": True, "landing": "simulated"},
+        "sim": {"density": 650},
         "pieces": pieces,
     }
 
