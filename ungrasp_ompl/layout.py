@@ -10,7 +10,7 @@ A layout file holds:
   ``object.outline``, in the piece's own coordinates) and ``target``
   (``position`` [x, y] of the outline's origin in frame coordinates, m; ``yaw_deg``).
 * the sections every piece's scene shares: ``friction`` (or ``friction_angle_deg``),
-  ``digits``, ``start``, ``goal``, ``bounds``, ``planning``, ``stability``, ``robot``
+  ``digits``, ``start``, ``goal``, ``bounds``, ``planning``, ``stability``, ``robot``, ``sim``
   (see ungrasp_ompl.scene). Without a ``goal`` a piece's goal is theta at most 3 deg
   with d and psi free; without ``planning.resolution`` the lattice step is
   1 deg / 0.01 / 1 deg.
