@@ -1,7 +1,7 @@
 """The paper's experiments (sec. 6.2) as simulation campaigns, with the paper's figures beside ours.
 
     python tools/sim_campaigns.py [--trials N] [--jobs N] [--seed S] [--only base,edge,...]
-                                  [--figure docs/figures/campaigns.png]
+                                  [--timestep S] [--figure docs/figures/campaigns.png]
 
 Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the seed):
 
@@ -27,6 +27,10 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   shipped scenes OBJECT_designed.yaml) and the exact lattice plan it judged them by, run with the
   next seed, so that none of the row's trials is one the design was chosen on; beside them the
   scenes' own digits planned to the same free goal, to tell the digits' part from the goal's.
+
+`--timestep S` runs every row with MuJoCo's step set to S seconds in place of the scenes' own
+(sim.timestep), the rest of each scene unchanged: the timestep convergence study of
+docs/results.md runs the campaign so at 0.05 and 0.025 ms.
 
 Every row has a Wilson 95 % interval on its success rate; success is placed within the scene's
 sim.max_error of the target by the strict verdict, and the paper's own criterion (no grip lost
@@ -59,6 +63,8 @@ from ungrasp_ompl.sim.setup import Variant  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+#: MuJoCo's step (s) for every row, or None for the scenes' own (--timestep).
+TIMESTEP: float | None = None
 
 
 @dataclass
@@ -82,15 +88,21 @@ class Row:
                 f"{self.placed}/{self.trials} ({self.placed_error}) | {self.errors} | {self.paper} | {self.model} | {self.causes} |")
 
 
+def _stepped(scene: Scene) -> Scene:
+    """The scene simulated with the campaign's timestep (TIMESTEP), if one is set."""
+    return scene if TIMESTEP is None else replace(scene, sim=replace(scene.sim, timestep=TIMESTEP))
+
+
 def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
-    """A shipped scene, its finger tip rounded or flat (or its own), its contacts fixed (or its own)."""
+    """A shipped scene, its finger tip rounded or flat (or its own), its contacts fixed (or its own),
+    with the campaign's timestep."""
     if contacts is None:
-        scene = Scene.from_file(SCENES / f"{name}.yaml")
+        scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
     else:
         import yaml
 
         doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-        scene = Scene.from_dict({**doc, "contacts": contacts}, source=f"{name}.yaml, contacts {contacts}")
+        scene = _stepped(Scene.from_dict({**doc, "contacts": contacts}, source=f"{name}.yaml, contacts {contacts}"))
     if tip is not None:
         dg = scene.digits
         scene = replace(scene, digits=replace(dg, flat_finger_tip=tip == "flat",
@@ -153,6 +165,8 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first") 
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     doc["digits"]["finger_tip"] = tip
+    if TIMESTEP is not None:
+        doc.setdefault("sim", {})["timestep"] = TIMESTEP
     layout = Layout.from_dict(doc, source="tangram.yaml")
     tiling, aimed = tile_aimed(layout, TilingOptions(planner="lattice", seed=seed, rank=rank))
     ranked = "" if rank == "first" else ", approaches ranked by tolerance"
@@ -211,8 +225,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only", default="base,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
+    ap.add_argument("--timestep", type=float, default=None,
+                    help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
+    global TIMESTEP
+    TIMESTEP = args.timestep
     only = set(args.only.split(","))
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
@@ -289,7 +307,7 @@ def main() -> None:
     if "designed" in only:
         first = len(rows)
         for name in OBJECTS:
-            scene = Scene.from_file(SCENES / f"{name}_designed.yaml")
+            scene = _stepped(Scene.from_file(SCENES / f"{name}_designed.yaml"))
             dg = scene.digits
             result = plan(scene, planner="lattice")  # the plan the design judged the digits by
             show(run(f"designed: {name} (alpha {dg.alpha:g}, tip radius {dg.finger_tip_radius * scene.object_length * 1000:g} "
@@ -305,7 +323,8 @@ def main() -> None:
         ok = sum(r.successes for r in rows[first:])
         show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
                  "109/120", (109, 120), "secure", "-"))
-    print(f"\n{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs")
+    step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
+    print(f"\n{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}")
     if rows:
         draw(rows, args.figure)
         print(f"wrote {args.figure}")
