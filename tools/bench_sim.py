@@ -1,6 +1,6 @@
 """Speed of simulated execution: wall and CPU time of one trial, per object, as campaigns run them.
 
-    python tools/bench_sim.py [--trials N] [--perturb paper]
+    python tools/bench_sim.py [--trials N] [--perturb paper] [--timestep S]
 
 Plans each shipped object once (RRT*, seed 1), builds its trajectory, then times N trials with the
 preset's errors (seed 1, trial k drawn as campaigns draw it): model compile, settle, drive, and the
@@ -8,7 +8,8 @@ end as a campaign has it (at a failure, or once everything lies still in the ret
 median and the largest wall time, the median CPU time of this process (on a machine shared with
 other work, the CPU time is what one free core takes), the simulated time and how many trials
 were placed. Trial 0 without errors is timed too, run to the end even if it fails: the cost of a
-trial that goes the whole way.
+trial that goes the whole way. --timestep S times the trials at MuJoCo's step S (s) in place of the
+scenes' own (sim.timestep), as the convergence study of docs/results.md (session 54) needs.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import argparse
 import statistics
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,11 +42,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--perturb", default="paper")
+    ap.add_argument("--timestep", type=float, default=None, help="MuJoCo's step (s; default: the scenes' own)")
     args = ap.parse_args()
     print(f"{'object':<14} {'wall s (median)':>15} {'wall s (max)':>12} {'CPU s (median)':>14} {'CPU s (max)':>11} "
           f"{'simulated s (max)':>17} {'placed':>7} | {'whole trial: wall s':>19} {'simulated s':>11}")
     for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
         scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
+        if args.timestep is not None:
+            scene = replace(scene, sim=replace(scene.sim, timestep=args.timestep))
         result = plan(scene, planner="RRTstar", time=1.0, seed=1)
         ex = execute(scene, result)
         setup = trial_setup(scene, result, ex.trajectory, ex.robot)
