@@ -13,7 +13,8 @@ Spearman's rank correlation of the success count with the tolerance, pooled and 
 beside it with B's least distance from the thumb's tip along the path (mm, the kinematic margin
 `thumb_tip`), the measure the failed trials point to (docs/model.md 4.6). Last, per scene, a
 chi-square test of whether its plans' success rates differ at all: where they do not, no measure
-of the plan can rank them, whatever its definition.
+of the plan can rank them, whatever its definition. A statistic that is undefined (every plan
+with the same measure, or the same successes) is printed as "-".
 
 --setup bare plans and simulates the same scenes without the set-up that makes the shipped plans
 robust (no clearance over the table, no margin from the thumb's tip or inside the supports across
@@ -173,8 +174,14 @@ def main() -> int:
                 for x in ([r[5].scale for r in got], [r[8] for r in got])]
         table = [[r[6], r[7] - r[6]] for r in got]
         differ = chi2_contingency(table).pvalue if name != "pooled" and 0 < sum(y) < sum(r[7] for r in got) else math.nan
-        print(f"| {name} | {len(got)} | {rhos[0]:+.2f} | {rhos[1]:+.2f} | {differ:.3f} |")
+        print(f"| {name} | {len(got)} | {_shown(rhos[0], '+.2f')} | {_shown(rhos[1], '+.2f')} | {_shown(differ, '.3f')} |")
     return 0
+
+
+def _shown(value: float, spec: str) -> str:
+    """A statistic for the table, or '-' where it is undefined (nan: the measure, or the successes,
+    are the same for every plan of the row)."""
+    return "-" if math.isnan(value) else format(value, spec)
 
 
 if __name__ == "__main__":
