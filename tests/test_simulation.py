@@ -76,7 +76,7 @@ def base_trials(base_setups):
 def _setup(pick, variant=Variant(), **sim):
     scene, result, ex = pick
     if sim:
-        scene = replace(scene, sim=replace(scene.sim, **sim))
+        scene = scene.with_sim(**sim)
     return trial_setup(scene, result, ex.trajectory, ex.robot, variant)
 
 

@@ -313,7 +313,7 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.setup import with_tolerance_floor
 
     scene = Scene.from_file("puzzle_piece")  # handed over: the start's lift does not cap both plans alike
-    scene = replace(scene, sim=replace(scene.sim, handed_over=True))
+    scene = scene.with_sim(handed_over=True)
     cheap = plan(scene, planner="lattice")
     robust = plan(scene, planner="lattice", objective="tolerance")
     assert robust.solved and robust.objective is Objective.TOLERANCE and robust.margin_bottleneck_deg is None
@@ -378,5 +378,5 @@ def test_without_a_start_press_a_hand_too_high_leaves_the_object_hanging_unless_
     hanging = tolerance(bare, result)
     assert hanging.reason is ToleranceReason.G_LIFTED and hanging.scale < 1e-3
     assert math.isfinite(hanging.component_scales["palm_shift"]) and hanging.component_scales["palm_shift"] < 1e-3
-    handed = replace(bare, sim=replace(bare.sim, handed_over=True))
+    handed = bare.with_sim(handed_over=True)
     assert tolerance(handed, result).scale > 0.05

@@ -18,7 +18,6 @@ import argparse
 import statistics
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,7 +48,7 @@ def main() -> None:
     for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
         scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
         if args.timestep is not None:
-            scene = replace(scene, sim=replace(scene.sim, timestep=args.timestep))
+            scene = scene.with_sim(timestep=args.timestep)
         result = plan(scene, planner="RRTstar", time=1.0, seed=1)
         ex = execute(scene, result)
         setup = trial_setup(scene, result, ex.trajectory, ex.robot)

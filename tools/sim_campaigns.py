@@ -90,7 +90,7 @@ class Row:
 
 def _stepped(scene: Scene) -> Scene:
     """The scene simulated with the campaign's timestep (TIMESTEP), if one is set."""
-    return scene if TIMESTEP is None else replace(scene, sim=replace(scene.sim, timestep=TIMESTEP))
+    return scene if TIMESTEP is None else scene.with_sim(timestep=TIMESTEP)
 
 
 def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
@@ -270,9 +270,8 @@ def main() -> None:
             f"previous pair: {name}, {OLD_PAIRS[name][0]}, rounded tip", _scene(name, "rounded", OLD_PAIRS[name][1])))
     if "handed" in only:  # the other start (docs/model.md 11.3): the object set into the gripper on the table
         def handed(name: str):
-            scene = _scene(name, "rounded")
-            return f"base, handed over at the start: {name}, rounded tip", replace(
-                scene, sim=replace(scene.sim, handed_over=True))
+            return (f"base, handed over at the start: {name}, rounded tip",
+                    _scene(name, "rounded").with_sim(handed_over=True))
         objects("base, handed over: the three objects", handed)
     if "subset" in only:
         scene = _scene("guitar_pick")

@@ -439,6 +439,10 @@ class Scene:
         """A copy of the scene with some planning options replaced."""
         return replace(self, options=replace(self.options, **changes))
 
+    def with_sim(self, **changes: Any) -> "Scene":
+        """A copy of the scene with some simulation options (its ``sim`` section) replaced."""
+        return replace(self, sim=replace(self.sim, **changes))
+
     def with_free_goal(self) -> "Scene":
         """The scene whose goal region lets d and psi take any value within the bounds (theta's
         range kept): wherever the digits can let go, not only where the scene's own digits do."""
