@@ -723,6 +723,34 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
     assert expected.aim != predict_landing(setup).aim and expected.aim.turn == -expected.turn
 
 
+def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, monkeypatch):
+    """With UNGRASP_OMPL_CACHE naming a directory, robot_landing keeps each landing it computes
+    there and answers the same placement under the same settings from the file: an edited file is
+    returned as edited (so it was read, not computed again), a file cut short is computed again and
+    rewritten, and other settings are a landing of their own. Without the variable nothing is kept."""
+    from ungrasp_ompl.sim.landing import CACHE_VARIABLE, expected_landing, predict_landing, robot_landing
+
+    setup = _setup(pick)
+    simulated = replace(pick[0].robot, landing=Landing.SIMULATED)
+    monkeypatch.delenv(CACHE_VARIABLE)
+    computed = robot_landing(setup, simulated)
+    assert computed == predict_landing(setup) and computed.landed
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
+    assert robot_landing(setup, simulated) == computed
+    (kept,) = (tmp_path / "landing").glob("*.json")
+    doc = json.loads(kept.read_text())
+    kept.write_text(json.dumps({**doc, "turn": 0.5}))
+    assert robot_landing(setup, simulated) == replace(computed, turn=0.5)
+    kept.write_text(kept.read_text()[:20])
+    assert robot_landing(setup, simulated) == computed and json.loads(kept.read_text()) == doc
+    assert robot_landing(setup, replace(simulated, landing=Landing.PLANNED)) is None
+    one_pair = replace(simulated, landing=Landing.EXPECTED, landing_pairs=1)
+    assert robot_landing(setup, one_pair) == expected_landing(setup, 1) != computed
+    assert len(list((tmp_path / "landing").glob("*.json"))) == 2
+    assert robot_landing(_setup(pick, Variant(equal_digits=True)), simulated) != computed  # another placement
+    assert len(list((tmp_path / "landing").glob("*.json"))) == 3
+
+
 def test_a_release_that_does_not_put_the_object_down_aims_nothing(pick):
     """Where the release simulated with no error fails (here equal digits drive the thumb into the
     table), where it left the object says nothing of where a release lands: the prediction has no

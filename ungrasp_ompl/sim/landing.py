@@ -20,16 +20,28 @@ landing averages antithetic pairs of releases (a draw and its mirror through the
 Perturbation.mirrored), whose errors cancel to first order in each pair's mean, so that a few
 pairs measure the mean more closely than as many plain draws. Its draws come from a seed stream of
 their own (LANDING_ENTROPY, spawned per pair), apart from every trial's.
+
+A landing is a function of the unaimed placement alone, and the expected one costs nine simulated
+placements; with the environment variable UNGRASP_OMPL_CACHE naming a directory, robot_landing
+keeps each landing it computes there, under a digest of everything it was computed from, and
+answers the same placement again from it (plan --export then simulate --plan, a campaign run
+twice, the test suite).
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
+import pickle
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..io import write_text_atomic
 from ..perturbation import PRESETS, TrialParams
 from ..robot.pipeline import Aim
 from ..scene.options import Landing, RobotOptions
@@ -138,17 +150,72 @@ def expected_landing(setup: TrialSetup, pairs: int, jobs: int = 1, cluster: str 
     return _prediction(setup, mean, nominal.outcome, len(finals) // 2)
 
 
+#: The environment variable naming the directory in which robot_landing keeps its landings (unset
+#: or empty: none kept).
+CACHE_VARIABLE = "UNGRASP_OMPL_CACHE"
+
+
+def _cache_file(setup: TrialSetup, robot: RobotOptions) -> Path | None:
+    """Where the landing of setup under robot's landing settings is kept: a file named by the
+    SHA-256 of the pickled setup, the settings and the versions of this package and of MuJoCo (so
+    that another release never answers for this one); None without a cache directory."""
+    root = os.environ.get(CACHE_VARIABLE)
+    if not root:
+        return None
+    from importlib.metadata import PackageNotFoundError, version
+
+    import mujoco
+
+    try:
+        ours = version("ungrasp-ompl")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        ours = "source"
+    key = pickle.dumps((ours, mujoco.__version__, str(robot.landing), robot.landing_pairs, setup), protocol=5)
+    return Path(root) / "landing" / f"{hashlib.sha256(key).hexdigest()}.json"
+
+
+def _read_kept(path: Path) -> LandingPrediction | None:
+    """The landing kept in path, or None where there is none or it cannot be read as one."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        x, y = map(float, doc["offset"])
+        return LandingPrediction((x, y), Outcome(doc["outcome"]), float(doc["turn"]),
+                                 Aim(*map(float, doc["correction"])), int(doc["pairs"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _keep(path: Path, landing: LandingPrediction) -> None:
+    """Keep landing in path (atomically: a reader sees the whole file or none); a cache that cannot
+    be written costs the next run the simulation, nothing more."""
+    doc = {"offset": list(landing.offset), "outcome": landing.outcome.value, "turn": landing.turn,
+           "correction": list(landing.correction), "pairs": landing.pairs}
+    try:
+        write_text_atomic(path, json.dumps(doc))
+    except OSError:
+        pass
+
+
 def robot_landing(setup: TrialSetup, robot: RobotOptions, jobs: int = 1,
                   cluster: str | None = None) -> LandingPrediction | None:
     """The landing the scene's robot.landing aims the hand by: None where it is planned, the
     release with no error where simulated, the expected landing of robot.landing_pairs pairs where
-    expected (its pairs jobs at a time, or on the Ray cluster at the address cluster)."""
+    expected (its pairs jobs at a time, or on the Ray cluster at the address cluster). With
+    UNGRASP_OMPL_CACHE set, a landing kept there for the same setup and settings is returned as
+    it was computed, and one computed is kept."""
+    if robot.landing is Landing.PLANNED:
+        return None
+    path = _cache_file(setup, robot)
+    if path is not None and (kept := _read_kept(path)) is not None:
+        return kept
     if robot.landing is Landing.SIMULATED:
-        return predict_landing(setup)
-    if robot.landing is Landing.EXPECTED:
-        return expected_landing(setup, robot.landing_pairs, jobs, cluster)
-    return None
+        landing = predict_landing(setup)
+    else:
+        landing = expected_landing(setup, robot.landing_pairs, jobs, cluster)
+    if path is not None:
+        _keep(path, landing)
+    return landing
 
 
-__all__ = ["LANDING_ENTROPY", "LandingPrediction", "expected_landing", "landing_correction", "landing_draw",
-           "landing_offset", "predict_landing", "robot_landing"]
+__all__ = ["CACHE_VARIABLE", "LANDING_ENTROPY", "LandingPrediction", "expected_landing", "landing_correction",
+           "landing_draw", "landing_offset", "predict_landing", "robot_landing"]
