@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -86,6 +88,17 @@ def run_process(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=600)
 
 
+def pytest_configure(config):
+    """One landing cache (sim.landing.CACHE_VARIABLE) for the whole run, new and empty: the same
+    placement's landing, nine simulated releases, is computed once, in whichever test process meets
+    it first (xdist's workers inherit the variable), never read from an earlier run or a user's
+    cache. Tests of the landing itself call predict_landing and expected_landing, which never cache."""
+    from ungrasp_ompl.sim.landing import CACHE_VARIABLE
+
+    if not hasattr(config, "workerinput"):  # the controller (or the one process without xdist)
+        config._ungrasp_cache = os.environ[CACHE_VARIABLE] = tempfile.mkdtemp(prefix="ungrasp-landings-")
+
+
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
     """Leave without interpreter finalisation, where nanobind (OMPL's bindings) lists the
@@ -99,6 +112,8 @@ def pytest_unconfigure(config):
 
 def pytest_sessionfinish(session, exitstatus):
     session.config._ungrasp_exitstatus = exitstatus
+    if hasattr(session.config, "_ungrasp_cache"):
+        shutil.rmtree(session.config._ungrasp_cache, ignore_errors=True)
 
 
 def assert_picture(path: Path, colours: tuple[tuple[float, float, float], ...] = ()) -> None:
