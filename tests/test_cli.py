@@ -287,6 +287,22 @@ def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
     assert cage.returncode == 0 and "warning" not in cage.stdout, cage.stdout + cage.stderr
 
 
+@pytest.mark.parametrize("planner", ["lattice", "RRTstar"])
+def test_a_plan_read_back_has_the_primitives_the_planner_gave_as_typed_values(tmp_path, planner):
+    """plan.json read back gives the planner's primitives, field for field and type for type (each
+    a Primitive), so that what is computed from a plan (a trial's set-up, the landing kept under its
+    digest) is the same for the plan and for its file."""
+    from ungrasp_ompl import Scene, plan
+    from ungrasp_ompl.mechanics.contact import Primitive
+    from ungrasp_ompl.planning.result import read_plan
+
+    planned = plan(Scene.from_file("guitar_pick"), planner=planner, seed=1, time=0.2)
+    (tmp_path / "plan.json").write_text(planned.to_json())
+    read = read_plan(tmp_path / "plan.json")
+    assert read.primitives == planned.primitives
+    assert {type(p.type) for p in read.primitives + planned.primitives} == {Primitive}
+
+
 def test_plan_read_back_is_checked_field_by_field(tmp_path):
     """A plan.json hand-edited or cut short: one line naming the field and the reason."""
     from ungrasp_ompl.errors import InputError

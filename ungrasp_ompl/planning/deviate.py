@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError
+from ..mechanics.contact import Primitive
 from ..scene import Scene
 from .result import Plan, PrimitiveStep
 from .verify import LegFailure, verify_leg
@@ -54,7 +55,7 @@ def steeper_start(plan: Plan, theta_offset: float) -> Plan:
         raise InputError("theta_offset", f"must lie in (0, 90) deg, got {math.degrees(theta_offset):g}")
     start = list(plan.states[0])
     steep = [start[0] + theta_offset, start[1], start[2]]
-    pivot = PrimitiveStep("P_theta", "forward", steep, start, {}, "full", [steep, start])
+    pivot = PrimitiveStep(Primitive.THETA, "forward", steep, start, {}, "full", [steep, start])
     return replace(plan, solution=replace(plan.solution, states=[steep] + list(plan.states),
                                           primitives=[pivot] + list(plan.primitives)))
 

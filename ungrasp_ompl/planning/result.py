@@ -433,7 +433,7 @@ def merge_legs(atlas: SecurityAtlas, legs: list[Leg]) -> list[PrimitiveStep]:
                 words = set(last.sliding.get(c, "").split("/")) - {""} | set(w.split("/"))
                 last.sliding[c] = "/".join(sorted(words))
         else:
-            steps.append(PrimitiveStep(leg.primitive, direction, q0.tolist(), q1.tolist(), sliding, "",
+            steps.append(PrimitiveStep(Primitive(leg.primitive), direction, q0.tolist(), q1.tolist(), sliding, "",
                                        [q0.tolist(), q1.tolist()]))
     for s in steps:
         s.waypoints = _corners(s.waypoints)
