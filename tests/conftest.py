@@ -39,6 +39,23 @@ def with_previous_pair(name: str, **sections):
                            source=f"{name}.yaml, previous pair")
 
 
+def small_landing(doc: dict) -> dict:
+    """A scene document whose robot's expected landing averages one antithetic pair of drawn
+    releases instead of the scene's four: a small budget, as the tests' planning times (the same
+    code, a third of the simulated releases), for tests about something else than the landing."""
+    robot = doc.get("robot", {})
+    return {**doc, "robot": {**robot, "landing_pairs": 1}} if robot.get("landing") == "expected" else doc
+
+
+def small_landing_file(name: str, directory: Path) -> Path:
+    """The shipped scene NAME with small_landing, written as DIRECTORY/NAME.yaml (so named NAME)."""
+    import yaml
+
+    path = directory / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(small_landing(yaml.safe_load((SCENES / f"{name}.yaml").read_text()))))
+    return path
+
+
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 95 s
 #: down to 15 s): xdist hands each worker whole files in collection order (pyproject passes
 #: --no-loadscope-reorder, else it orders them by their number of tests), so a long file that

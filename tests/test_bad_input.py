@@ -28,17 +28,10 @@ import yaml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from conftest import ROOT, run_cli
+from conftest import ROOT, run_cli, small_landing, small_landing_file
 from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
 SHIPPED = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "scenes").glob("*.yaml"))]
-
-
-def small_landing(doc):
-    """doc with its robot's expected landing averaged over one antithetic pair instead of four: a
-    small budget, as the commands' (the same code, a third of the simulated releases)."""
-    robot = doc.get("robot", {})
-    return {**doc, "robot": {**robot, "landing_pairs": 1}} if robot.get("landing") == "expected" else doc
 
 
 SCENES = [small_landing(doc) for doc in SHIPPED if "frame" not in doc]
@@ -199,8 +192,7 @@ def exported(tmp_path_factory):
     """What plan --export DIR writes for guitar_pick (with small_landing): plan.json,
     trajectory.json, view_scene.json; the scene file beside DIR."""
     base = tmp_path_factory.mktemp("exported")
-    scene = base / "guitar_pick.yaml"
-    scene.write_text(yaml.safe_dump(small_landing(yaml.safe_load((ROOT / "scenes" / "guitar_pick.yaml").read_text()))))
+    scene = small_landing_file("guitar_pick", base)
     out = base / "export"
     assert run_cli("plan", str(scene), "--seed", "1", "--time", "0.2", "--export", str(out)).returncode == EXIT_OK
     return out

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import binomtest
 
-from conftest import SCENES, run_cli
+from conftest import SCENES, run_cli, small_landing_file
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.planning import plan
@@ -105,8 +105,15 @@ OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=0.5, jobs=1)
 
 
 @pytest.fixture(scope="module")
-def certified():
-    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+def pick_file(tmp_path_factory):
+    """The guitar pick's scene with a small landing budget (conftest.small_landing): the tests here
+    are about the choice among candidates, which the aim does not enter."""
+    return small_landing_file("guitar_pick", tmp_path_factory.mktemp("scene"))
+
+
+@pytest.fixture(scope="module")
+def certified(pick_file):
+    scene = Scene.from_file(pick_file)
     return scene, certify(scene, OPTIONS)
 
 
@@ -141,12 +148,12 @@ def test_the_same_seed_gives_the_same_choice_and_counts(certified):
 
 
 @pytest.mark.slow
-def test_plan_certify_writes_plan_json_that_simulate_replays(certified, tmp_path):
+def test_plan_certify_writes_plan_json_that_simulate_replays(certified, pick_file, tmp_path):
     """The command in a fresh process chooses as the library did here; its plan.json, executed by
     simulate --plan with the same seed and trials, counts the kept candidate's successes again."""
     _, result = certified
     out = tmp_path / "plan"
-    r = run_cli("plan", str(SCENES / "guitar_pick.yaml"), "--certify", "2", "--candidates", "2", "--seed", "1",
+    r = run_cli("plan", str(pick_file), "--certify", "2", "--candidates", "2", "--seed", "1",
                 "--time", "0.5", "--jobs", "2", "--out", str(out))
     assert r.returncode == 0, r.stderr
     kept = result.candidates[result.kept]
@@ -162,7 +169,7 @@ def test_plan_certify_writes_plan_json_that_simulate_replays(certified, tmp_path
            [(c.source.label(), c.successes, c.status.value) for c in result.candidates]
     assert doc["states"] == kept.plan.states
     sim = tmp_path / "sim"
-    r = run_cli("simulate", str(SCENES / "guitar_pick.yaml"), "--plan", str(out), "--trials", "2", "--seed", "1",
+    r = run_cli("simulate", str(pick_file), "--plan", str(out), "--trials", "2", "--seed", "1",
                 "--jobs", "1", "--out", str(sim))
     assert r.returncode == 0, r.stderr
     assert json.loads((sim / "summary.json").read_text())["successes"] == kept.successes
@@ -171,10 +178,10 @@ def test_plan_certify_writes_plan_json_that_simulate_replays(certified, tmp_path
 
 
 @pytest.mark.slow
-def test_a_candidate_with_the_path_of_an_earlier_one_shares_its_trials():
+def test_a_candidate_with_the_path_of_an_earlier_one_shares_its_trials(tmp_path):
     """On the fabric chalk the lattice's balanced optimum is the path of the cost or the margin
     optimum: it is not simulated again but counted with that one's trials."""
-    scene = Scene.from_file(SCENES / "fabric_chalk.yaml")
+    scene = Scene.from_file(small_landing_file("fabric_chalk", tmp_path))
     result = certify(scene, CertifyOptions(trials=1, candidates=3, planner="lattice", jobs=1))
     cost, margin, balanced = result.candidates
     assert [c.source.objective for c in result.candidates] == ["cost", "margin", "balanced"]

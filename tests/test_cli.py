@@ -10,7 +10,7 @@ import re
 import pytest
 import yaml
 
-from conftest import SCENES, assert_picture, run_cli, run_process
+from conftest import SCENES, assert_picture, run_cli, run_process, small_landing_file
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -269,8 +269,9 @@ def test_progress_on_a_terminal_is_a_bar_with_rate_and_time_left(monkeypatch):
 def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
     """Without --seed a seed is drawn, printed and kept in plan.json (which --export writes too);
     planning again with it gives the same plan, and cage takes the export directory as --plan."""
+    scene = str(small_landing_file("guitar_pick", tmp_path))
     for _ in range(3):  # 2 of the 9,999 seeds it draws find no path in 1 s (exit 3): draw again
-        first = run_cli("plan", "guitar_pick", "--time", "1", "--export", str(tmp_path / "a"))
+        first = run_cli("plan", scene, "--time", "1", "--export", str(tmp_path / "a"))
         if first.returncode != 3:
             break
     assert first.returncode == 0, first.stderr
@@ -278,12 +279,12 @@ def test_unseeded_plan_draws_a_seed_that_repeats_it(tmp_path):
     assert m and m[1] == m[2], first.stdout
     drawn = json.loads((tmp_path / "a" / "plan.json").read_text())
     assert drawn["seed"] == int(m[1])
-    again = run_cli("plan", "guitar_pick", "--time", "1", "--seed", m[1], "--out", str(tmp_path / "b"))
+    again = run_cli("plan", scene, "--time", "1", "--seed", m[1], "--out", str(tmp_path / "b"))
     assert again.returncode == 0 and "pass --seed" not in again.stdout
     repeated = json.loads((tmp_path / "b" / "plan.json").read_text())
     for key in ("states", "primitives", "cost", "iterations", "seed"):
         assert repeated[key] == drawn[key], key
-    cage = run_cli("cage", "guitar_pick", "--plan", str(tmp_path / "a"))
+    cage = run_cli("cage", scene, "--plan", str(tmp_path / "a"))
     assert cage.returncode == 0 and "warning" not in cage.stdout, cage.stdout + cage.stderr
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import SCENES, run_cli
+from conftest import SCENES, run_cli, small_landing_file
 from ungrasp_ompl.geometry import CollisionChecker
 from ungrasp_ompl.mechanics import kinematic_validity
 from ungrasp_ompl.planning.atlas import lattice_axes
@@ -34,10 +34,9 @@ def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     limits and clear of the table and obstacles, the hand aimed by its expected landing; the
     landing averages one antithetic pair here instead of the scene's four (a small budget, as the
     planning time: the same code, a third of the simulated releases)."""
-    doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-    assert doc["robot"]["landing"] == "expected" and "landing_pairs" not in doc["robot"]
-    scene = tmp_path / f"{name}.yaml"
-    scene.write_text(yaml.safe_dump({**doc, "robot": {**doc["robot"], "landing_pairs": 1}}))
+    assert Scene.from_file(name).robot.landing_pairs == 4
+    scene = small_landing_file(name, tmp_path)
+    assert Scene.from_file(scene).robot.landing_pairs == 1
     out = tmp_path / "out"
     proc = run_cli("plan", str(scene), "--planner", planner, "--seed", "2", "--time", "0.5", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr

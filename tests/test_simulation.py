@@ -727,8 +727,8 @@ def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, 
     """With UNGRASP_OMPL_CACHE naming a directory, robot_landing keeps each landing it computes
     there and answers the same placement under the same settings from the file: an edited file is
     returned as edited (so it was read, not computed again), a file cut short is computed again and
-    rewritten, and other settings are a landing of their own. Without the variable nothing is kept."""
-    from ungrasp_ompl.sim.landing import CACHE_VARIABLE, expected_landing, predict_landing, robot_landing
+    rewritten, and other settings (one antithetic pair of drawn releases) are a landing of their own."""
+    from ungrasp_ompl.sim.landing import CACHE_VARIABLE, predict_landing, robot_landing
 
     setup = _setup(pick)
     simulated = replace(pick[0].robot, landing=Landing.SIMULATED)
@@ -744,11 +744,9 @@ def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, 
     kept.write_text(kept.read_text()[:20])
     assert robot_landing(setup, simulated) == computed and json.loads(kept.read_text()) == doc
     assert robot_landing(setup, replace(simulated, landing=Landing.PLANNED)) is None
-    one_pair = replace(simulated, landing=Landing.EXPECTED, landing_pairs=1)
-    assert robot_landing(setup, one_pair) == expected_landing(setup, 1) != computed
+    expected = robot_landing(setup, replace(simulated, landing=Landing.EXPECTED, landing_pairs=1))
+    assert expected.pairs == 1 and expected.turn != computed.turn
     assert len(list((tmp_path / "landing").glob("*.json"))) == 2
-    assert robot_landing(_setup(pick, Variant(equal_digits=True)), simulated) != computed  # another placement
-    assert len(list((tmp_path / "landing").glob("*.json"))) == 3
 
 
 def test_a_release_that_does_not_put_the_object_down_aims_nothing(pick):

@@ -9,7 +9,7 @@ import json
 import math
 
 import pytest
-from conftest import run_cli
+from conftest import run_cli, small_landing_file
 
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.layout import Layout
@@ -49,8 +49,8 @@ def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):
     assert all(files[k].is_file() for k in ("model", "view", "poses", "picture"))
 
 
-def test_the_simulate_workflow_plans_with_the_objective_asked_for():
-    scene = Scene.from_file("guitar_pick")
+def test_the_simulate_workflow_plans_with_the_objective_asked_for(tmp_path):
+    scene = Scene.from_file(small_landing_file("guitar_pick", tmp_path))
     run = simulate_scene(scene, SimulateOptions(trials=1, perturb="none", jobs=1, planner="lattice", objective="margin"))
     assert run.plan.objective is Objective.MARGIN
     assert run.plan.states == plan(scene, planner="lattice", objective="margin").states
