@@ -32,8 +32,6 @@ from conftest import ROOT, run_cli, small_landing, small_landing_file
 from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
 SHIPPED = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "scenes").glob("*.yaml"))]
-
-
 SCENES = [small_landing(doc) for doc in SHIPPED if "frame" not in doc]
 #: The shipped layouts, each cut to two of its pieces: every field of the layout format is still
 #: there to be mutated (each piece has the same fields), and a valid mutant tiles in about 4 s
