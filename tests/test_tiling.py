@@ -654,6 +654,28 @@ def test_a_piece_whose_aim_does_not_fit_is_tiled_again_by_another_approach(aimed
 
 
 @pytest.mark.slow
+def test_a_kept_part_of_the_robots_trajectory_is_the_part_computed_again(aimed):
+    """execute_sequence's kept parts (what aim_tiling and tile_aimed reuse): the same pieces again
+    take their parts from it, a piece with another aim gets a part of its own (the aim is in the
+    digest), and each trajectory is, to the last bit, the one computed without keeping."""
+    from ungrasp_ompl.robot.pipeline import execute_sequence
+
+    _, tiling, result = aimed
+    jobs = [(p.scene, p.plan) for p in tiling.placements[:2]]
+    aims = list(result.execution.aims[:2])
+    assert any(aims[1])
+    kept: dict = {}
+    plain = execute_sequence(jobs, kept=kept)
+    assert len(kept) == 2
+    both = execute_sequence(jobs, aims=aims, kept=kept)
+    assert len(kept) == 2 + sum(map(any, aims))
+    for got, fresh in ((both, execute_sequence(jobs, aims=aims)), (execute_sequence(jobs, kept=kept), plain)):
+        assert got.trajectory.segments == fresh.trajectory.segments
+        for name in ("times", "positions", "velocities", "accelerations"):
+            assert np.array_equal(getattr(got.trajectory, name), getattr(fresh.trajectory, name)), name
+
+
+@pytest.mark.slow
 def test_a_piece_held_into_a_piece_down_starts_above_it(aimed):
     """A trial's world never starts with two bodies inside each other: small_triangle_2, held 1 mm
     off along GB toward G, would start with its edge behind G inside the parallelogram beside it; the hand and the piece then start higher, clear of it (MuJoCo's own contacts, read

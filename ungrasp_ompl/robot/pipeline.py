@@ -12,7 +12,9 @@ gripper with the table and the obstacles.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import pickle
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -151,16 +153,20 @@ def execute(scene: Scene, plan: Plan, aim: Aim | None = None) -> Execution:
 
 
 def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = None,
-                     aims: list[Aim] | None = None) -> Execution:
+                     aims: list[Aim] | None = None, kept: dict | None = None) -> Execution:
     """One trajectory for several solved plans in turn (a layout's pieces), from the first scene's
     home configuration: per plan the approach, its primitives, the termination and the retreat;
     between plans a move back home, where the next piece is handed over (not planned here).
     Segment names carry the label of their plan ('square/P_psi') when labels are given; aims
     moves each plan's motion as execute's aim does (none: as planned; (x, y) pairs are shifts). Each plan's
     part is checked for collision against its own scene (whose solids hold the pieces put down
-    before it). The robot and gripper are those of the first scene."""
+    before it). The robot and gripper are those of the first scene. kept, when given, keeps each
+    plan's own timed part (its IK and timing: a function of the robot, its scene, plan and aim)
+    across calls, under a digest of them, and takes it from there when the same plan comes again
+    (sim.tiling executes a layout's pieces again with other aims, or in another order)."""
     aims = [Aim()] * len(jobs) if aims is None else [Aim(*map(float, aim)) for aim in aims]
     first = jobs[0][0]
+    robot_key = (gripper_spec(first), tuple(np.ravel(first.robot.base)))
     robot = load_ur5e(gripper_spec(first), np.array(first.robot.base))
     v_max, a_max = robot.v_max, robot.a_max
     j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
@@ -171,7 +177,13 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     current = None
     for k, (scene, plan) in enumerate(jobs):
         prefix = f"{labels[k]}/" if labels else ""
-        parts, start, checks = _job(scene, plan, robot, aims[k])
+        if kept is None:
+            parts, start, checks = _job(scene, plan, robot, aims[k])
+        else:
+            key = hashlib.sha256(pickle.dumps((robot_key, scene, plan, aims[k]))).hexdigest()
+            if key not in kept:
+                kept[key] = _job(scene, plan, robot, aims[k])
+            parts, start, checks = kept[key]
         res_m, res_rad = max(res_m, checks[0]), max(res_rad, checks[1])
         contact_error = max(contact_error, checks[2])
         if current is None:

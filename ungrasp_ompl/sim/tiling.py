@@ -132,7 +132,7 @@ def _clear_share(scene: Scene, plan: Plan, aim: Aim, halvings: int = 8) -> float
 AIM_HALVINGS = 4
 
 
-def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> AimedTiling:
+def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kept: dict | None = None) -> AimedTiling:
     """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
     `plan` and `simulate` aim one object (sim.landing: its release simulated with no error, or on
     average over drawn ones, the pieces before it absent, since the table is the same beside
@@ -143,12 +143,14 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> 
     times, then dropped. landings, when given, keeps the aims the landings asked for by piece,
     approach and plan, across calls (tile_aimed): a piece planned the same way again is not
     simulated again, since its release runs alone on the same table whatever its place in the
-    order."""
+    order. kept keeps each piece's part of the robot's trajectory, by its plan and aim, across the
+    executions here and, when given, across calls (robot.pipeline.execute_sequence)."""
     if not tiling.solved:
         raise InputError("layout", "the tiling is not solved: nothing to execute")
     jobs = [(p.scene, p.plan) for p in tiling.placements]
     labels = [p.name for p in tiling.placements]
-    execution = execute_sequence(jobs, labels=labels)
+    kept = {} if kept is None else kept
+    execution = execute_sequence(jobs, labels=labels, kept=kept)
     setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
     landings = {} if landings is None else landings
     asked = []
@@ -165,7 +167,7 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None) -> 
     while True:
         aims = [a.scaled(f) for a, f in zip(asked, share)]
         try:
-            execution = execute_sequence(jobs, labels=labels, aims=aims)
+            execution = execute_sequence(jobs, labels=labels, aims=aims, kept=kept)
             break
         except CollisionError as exc:
             k = exc.job
@@ -189,7 +191,8 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     if not tiling.solved:
         return tiling, None
     landings: dict = {}
-    aimed = aim_tiling(layout, tiling, landings)
+    kept: dict = {}
+    aimed = aim_tiling(layout, tiling, landings, kept)
     tried: set[tuple] = set()
     while True:
         short = {name for name, _, _ in aimed.short}
@@ -201,7 +204,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         again = tile(layout, retry, progress)
         if not again.solved:
             continue
-        aimed_again = aim_tiling(layout, again, landings)
+        aimed_again = aim_tiling(layout, again, landings, kept)
         if _shortfall(aimed_again) < _shortfall(aimed):
             options, tiling, aimed = retry, again, aimed_again
 
