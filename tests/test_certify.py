@@ -106,7 +106,7 @@ OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=0.5, jobs=1)
 
 @pytest.fixture(scope="module")
 def pick_file(tmp_path_factory):
-    """The guitar pick's scene with a small landing budget (conftest.small_landing): the tests here
+    """The guitar pick's scene aimed by one simulated release (conftest.small_landing): the tests here
     are about the choice among candidates, which the aim does not enter."""
     return small_landing_file("guitar_pick", tmp_path_factory.mktemp("scene"))
 
