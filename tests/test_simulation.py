@@ -583,8 +583,11 @@ def test_simulate_refuses_a_scene_without_thickness_and_a_bad_sim_section(tmp_pa
 
 @pytest.mark.slow
 def test_simulate_command_writes_its_files(tmp_path):
+    """A shipped scene's lattice plan simulated as a user asks for it, the hand aimed by the scene's
+    expected landing (the guitar pick's, which test_aimed_by_the_expected_landing... then reads from
+    the run's landing cache instead of simulating its nine releases again)."""
     out = tmp_path / "sim"
-    r = run_cli("simulate", str(SCENES / "puzzle_piece.yaml"), "--planner", "lattice", "--trials", "2",
+    r = run_cli("simulate", str(SCENES / "guitar_pick.yaml"), "--planner", "lattice", "--trials", "2",
                 "--perturb", "none", "--jobs", "1", "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert "success 2/2" in r.stdout
@@ -703,7 +706,7 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
     offset falls by more than 0.7 mm and below half a millimetre. The aim is the mean landing's
     inverse, not the no-error release's, and the same whether its pairs run in this process or in
     worker processes."""
-    from ungrasp_ompl.sim.landing import expected_landing, landing_draw, predict_landing
+    from ungrasp_ompl.sim.landing import expected_landing, landing_draw, robot_landing
 
     scene, result, ex = _planned("guitar_pick")
     assert scene.robot.landing is Landing.EXPECTED and scene.robot.landing_pairs == 4
@@ -720,7 +723,8 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
     expected = expected_landing(setup, scene.robot.landing_pairs, jobs=2)  # its pairs in two worker processes
     assert expected.pairs == scene.robot.landing_pairs and expected.landed
     assert expected.aim == aimed.aim  # as placement aimed it, its pairs run here one after another
-    assert expected.aim != predict_landing(setup).aim and expected.aim.turn == -expected.turn
+    no_error = robot_landing(setup, replace(scene.robot, landing=Landing.SIMULATED))  # as the first placement kept it
+    assert no_error.pairs == 0 and expected.aim != no_error.aim and expected.aim.turn == -expected.turn
 
 
 def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, monkeypatch):
