@@ -38,7 +38,8 @@ SCENES = [small_landing(doc) for doc in SHIPPED if "frame" not in doc]
 #: instead of the seven-piece tangram's 12-16 s. test_tiling runs the whole tangram.
 LAYOUTS = [{**doc, "pieces": doc["pieces"][3:5]} for doc in SHIPPED if "frame" in doc]
 
-#: Small budgets: a valid mutated file runs the whole command.
+#: Small budgets (short planning times, one trial, the cage's grid twice as coarse): a valid
+#: mutated file runs the whole command.
 SCENE_COMMANDS = {
     "plan": ("--seed", "1", "--time", "0.2", "--out", "{out}"),
     "stability": (),
@@ -49,7 +50,7 @@ SCENE_COMMANDS = {
               "--out", "{out}"),
     "simulate": ("--trials", "1", "--perturb", "none", "--jobs", "1", "--time", "0.2", "--out", "{out}"),
     "map": ("--alpha", "0.4", "--time", "0.2", "--jobs", "1", "--seed", "1", "--out", "{out}"),
-    "cage": ("--planner", "lattice", "--out", "{out}"),
+    "cage": ("--planner", "lattice", "--refine", "0.5", "--out", "{out}"),
     "design": ("--alpha", "0.4", "--tip-radius", "1", "--goal", "scene", "--jobs", "1", "--out", "{out}"),
 }
 LAYOUT_COMMANDS = {
