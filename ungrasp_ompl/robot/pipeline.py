@@ -166,8 +166,9 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     (sim.tiling executes a layout's pieces again with other aims, or in another order)."""
     aims = [Aim()] * len(jobs) if aims is None else [Aim(*map(float, aim)) for aim in aims]
     first = jobs[0][0]
-    robot_key = (gripper_spec(first), tuple(np.ravel(first.robot.base)))
-    robot = load_ur5e(gripper_spec(first), np.array(first.robot.base))
+    spec = gripper_spec(first)
+    robot = load_ur5e(spec, np.array(first.robot.base))
+    robot_key = (spec, tuple(np.ravel(first.robot.base)))
     v_max, a_max = robot.v_max, robot.a_max
     j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
     home_arm = np.asarray(first.robot.home, dtype=float)
