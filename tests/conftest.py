@@ -45,8 +45,10 @@ def small_landing(doc: dict) -> dict:
     (robot.landing simulated: one release): the small budget, as the tests' planning times, for
     tests about something else than the landing. The expected landing is tested in test_simulation
     and test_execution, and run by CI's check of the installed wheel."""
-    robot = {k: v for k, v in doc.get("robot", {}).items() if k != "landing_pairs"}
-    return {**doc, "robot": {**robot, "landing": "simulated"}} if doc.get("robot", {}).get("landing") == "expected" else doc
+    robot = doc.get("robot", {})
+    if robot.get("landing") != "expected":
+        return doc
+    return {**doc, "robot": {**{k: v for k, v in robot.items() if k != "landing_pairs"}, "landing": "simulated"}}
 
 
 def small_landing_file(name: str, directory: Path) -> Path:
