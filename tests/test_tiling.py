@@ -455,6 +455,41 @@ def test_screens_reusing_what_earlier_screens_learnt_answer_as_fresh_ones():
     assert min(seen.values()) >= 3, seen  # every way through screen() was taken
 
 
+def _placements(tiling) -> list:
+    return [(p.name, p.approach.g.tolist(), p.approach.b.tolist(), p.plan.states, p.tolerance) for p in tiling.placements]
+
+
+def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
+    """tile() with a TilingMemo of earlier calls on the layout finds what a search from scratch
+    finds, with the same checks: the same tiling again computes nothing new, and with the second
+    piece's approach avoided (the two large triangles then go down the other way round) it adds
+    only what the new approaches need. A memo serves one layout."""
+    from ungrasp_ompl.tiling import TilingMemo
+
+    two = {**AS_CUT, "pieces": AS_CUT["pieces"][:2]}
+    layout = Layout.from_dict(two)
+    options = TilingOptions(planner="lattice", seed=1)
+    memo = TilingMemo()
+    first = tile(layout, options, memo=memo)
+    kept = {name: dict(getattr(memo, name)) for name in ("scenes", "screens", "proofs", "plans")}
+    again = tile(layout, options, memo=memo)
+    assert first.solved and _placements(again) == _placements(first) and again.checks == first.checks
+    def unchanged(name, exactly):  # every answer kept is the same object; exactly: and no new one
+        now = getattr(memo, name)
+        return all(now[k] is v for k, v in kept[name].items()) and (not exactly or now.keys() == kept[name].keys())
+
+    assert all(unchanged(name, True) for name in kept)  # nothing new computed
+    p = first.placements[1]
+    avoid = replace(options, avoid=((p.name, tuple(p.approach.g), tuple(p.approach.b)),))
+    other = tile(layout, avoid, memo=memo)
+    fresh = tile(Layout.from_dict(two), avoid)
+    assert other.solved and _placements(other) == _placements(fresh) and other.checks == fresh.checks
+    assert [q.name for q in other.placements] == [q.name for q in first.placements][::-1]
+    assert all(unchanged(name, False) for name in kept) and len(memo.proofs) > len(kept["proofs"])
+    with pytest.raises(ValueError, match="TilingMemo"):
+        tile(Layout.from_dict(two), options, memo=memo)
+
+
 # -- bad layouts ----------------------------------------------------------------------------
 
 def _bad(tmp_path, change) -> tuple[int, str]:
@@ -529,13 +564,15 @@ AS_CUT = {**yaml.safe_load(TANGRAM.read_text()), "spread": False}
 
 @pytest.fixture(scope="module")
 def aimed():
-    """The tangram as cut (AS_CUT) tiled with lattice plans and aimed (robot.landing simulated)."""
-    from ungrasp_ompl.sim.tiling import aim_tiling
+    """The tangram as cut (AS_CUT) tiled with lattice plans and aimed (robot.landing simulated),
+    and the memo of what that worked out (sim.tiling.AimingMemo, which tile_aimed takes)."""
+    from ungrasp_ompl.sim.tiling import AimingMemo, aim_tiling
 
     layout = Layout.from_dict(AS_CUT)
-    tiling = tile(layout, TilingOptions(planner="lattice", seed=1))
+    memo = AimingMemo()
+    tiling = tile(layout, TilingOptions(planner="lattice", seed=1), memo=memo.search)
     assert tiling.solved
-    return layout, tiling, aim_tiling(layout, tiling)
+    return layout, tiling, aim_tiling(layout, tiling, memo.landings, memo.kept), memo
 
 
 @pytest.mark.slow
@@ -557,11 +594,11 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
     from ungrasp_ompl.sim.tiling import tiling_setups
     from ungrasp_ompl.sim.trial import run_trial
 
-    layout, tiling, result = aimed
+    layout, tiling, result, memo = aimed
     names = [p.name for p in tiling.placements]
     short = {name: (taken, asked) for name, taken, asked in result.short}
     assert short and set(short) < set(names)
-    plain = execute_sequence([(p.scene, p.plan) for p in tiling.placements], labels=names)
+    plain = execute_sequence([(p.scene, p.plan) for p in tiling.placements], labels=names, kept=memo.kept)
     planned = dict(tiling_setups(layout, tiling, plain.trajectory, plain.robot))
     robots = {p.name: p.scene.robot for p in tiling.placements}
 
@@ -585,7 +622,8 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
         assert np.allclose(aim, want.scaled(taken / asked), atol=1e-12)  # a share of the whole
         aims = [want if j == k else Aim() for j in range(len(names))]
         try:
-            execute_sequence([(q.scene, q.plan) for q in tiling.placements], labels=names, aims=aims)
+            execute_sequence([(q.scene, q.plan) for q in tiling.placements], labels=names, aims=aims,
+                             kept=memo.kept)
             robot_hits = False
         except CollisionError as exc:
             assert exc.job == k
@@ -627,7 +665,7 @@ def test_a_simulated_layout_exports_what_tile_exports_with_the_first_pieces_touc
     from ungrasp_ompl.workflows.simulate import LayoutSimulation, SimulateOptions
     from ungrasp_ompl.workflows.tile import TiledLayout
 
-    layout, tiling, result = aimed
+    layout, tiling, result, _ = aimed
     assert tiling.placements[0].scene.robot.touch_off
     simulated = LayoutSimulation(layout, tiling, SimulateOptions(), result.execution, [], result.short)
     written = simulated.write(tmp_path / "simulated")
@@ -642,12 +680,12 @@ def test_a_piece_whose_aim_does_not_fit_is_tiled_again_by_another_approach(aimed
     """tile_aimed avoids the approach of a piece aimed short and tiles again: on the tangram
     large_triangle_1's aim from its first approach (B at the south wall) would take the thumb into
     the wall; tiled again it comes B first toward the middle and takes its whole aim, and less of
-    the aims is left untaken."""
+    the aims is left untaken. (It starts from what the fixture's tiling and aiming worked out.)"""
     from ungrasp_ompl.sim.tiling import tile_aimed
 
-    layout, tiling, first = aimed
+    layout, tiling, first, memo = aimed
     assert "large_triangle_1" in {name for name, _, _ in first.short}
-    again, result = tile_aimed(layout, TilingOptions(planner="lattice", seed=1))  # layout: AS_CUT
+    again, result = tile_aimed(layout, TilingOptions(planner="lattice", seed=1), memo=memo)  # layout: AS_CUT
     assert again.solved and "large_triangle_1" not in {name for name, _, _ in result.short}
     untaken = [sum(asked - taken for _, taken, asked in r.short) for r in (first, result)]
     assert untaken[1] < untaken[0]
@@ -665,7 +703,7 @@ def test_a_kept_part_of_the_robots_trajectory_is_the_part_computed_again(aimed):
     digest), and each trajectory is, to the last bit, the one computed without keeping."""
     from ungrasp_ompl.robot.pipeline import execute_sequence
 
-    _, tiling, result = aimed
+    _, tiling, result, _ = aimed
     jobs = [(p.scene, p.plan) for p in tiling.placements[:2]]
     aims = list(result.execution.aims[:2])
     assert any(aims[1])
@@ -691,7 +729,7 @@ def test_a_piece_held_into_a_piece_down_starts_above_it(aimed):
     from ungrasp_ompl.perturbation import TrialParams
     from ungrasp_ompl.sim.trial import trial_mjcf
 
-    _, _, result = aimed
+    _, _, result, _ = aimed
     setups = dict(result.setups)
     piece, beside = setups["small_triangle_2"], setups["parallelogram"]
     params = TrialParams(shift_along_mm=-1.0)

@@ -40,7 +40,10 @@ down where none could) is kept per piece and approach (GoalStates): later
 screens give the same answers sooner. Once an order is found, each piece is
 planned with the chosen planner on the lattice its proof built; should a
 sampling planner find no path in its time, the lattice path (proved to exist)
-is taken and the summary says so.
+is taken and the summary says so. A TilingMemo keeps the scenes, screens, proofs
+and reproducible plans of one call for the next on the same layout (another order,
+an approach avoided): the second search makes the same checks and finds the same
+tiling, computing only what the first did not.
 """
 
 from __future__ import annotations
@@ -483,6 +486,11 @@ def screen(scene: Scene, goal: GoalStates | None = None) -> EndsProblem | None:
     return EndsProblem(PlanOutcome.GOAL_EMPTY, dict(holdable=holdable, termination=r.termination))
 
 
+def _at(placed: list[int], i: int, a: Approach) -> tuple[frozenset[int], int, bytes, bytes]:
+    """The memo's key of piece i's approach a with the pieces placed down (TilingMemo)."""
+    return frozenset(placed), i, a.g.tobytes(), a.b.tobytes()
+
+
 def prove(scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
     """Whether the exact lattice optimum exists, i.e. a secure path (None, or NO_SECURE_PATH), and
     the secure lattice searched, which planning the piece then reuses."""
@@ -494,13 +502,47 @@ def prove(scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
 
 # -- the search ----------------------------------------------------------------------
 
+@dataclass
+class TilingMemo:
+    """What tile() works out about one layout, kept for later calls on it (sim.tiling.tile_aimed
+    tiles a layout again with an approach avoided). Keyed by the set of pieces down, the piece
+    and the approach's G and B: the approach's scene, its screen's answer and its proof (with the
+    secure lattice searched); and, by those and the planner's options, each plan a reproducible
+    planner made (the lattice, or a seeded one) with its tolerance's scale. None of it depends on
+    the search's order or options, so a call with the memo finds what it would without, sooner.
+    A memo serves the Layout object it was first used with; tile raises ValueError for another."""
+
+    layout: Layout | None = None
+    """The layout the memo holds answers for (set by the first tile call)."""
+    scenes: dict = field(default_factory=dict)
+    """(pieces down, piece, G bytes, B bytes) -> the approach's Scene, or DigitsDoNotFit."""
+    screens: dict = field(default_factory=dict)
+    """The same keys -> screen()'s answer (EndsProblem or None)."""
+    proofs: dict = field(default_factory=dict)
+    """The same keys -> prove()'s answer and the secure lattice it searched."""
+    goals: dict = field(default_factory=dict)
+    """(piece, G bytes, B bytes) -> GoalStates: what screens learnt, over any pieces down."""
+    plans: dict = field(default_factory=dict)
+    """(the same keys, planner, time s, seed, range) -> (Plan, its tolerance's scale)."""
+
+    def claim(self, layout: Layout) -> "TilingMemo":
+        """This memo, bound to layout on first use; ValueError for another layout."""
+        if self.layout is None:
+            self.layout = layout
+        elif self.layout is not layout:
+            raise ValueError(f"this TilingMemo holds answers for layout {self.layout.name!r}, not {layout.name!r}")
+        return self
+
+
 def tile(layout: Layout, options: TilingOptions = TilingOptions(),
-         progress: Callable[[TilingProgress], None] | None = None) -> Tiling:
+         progress: Callable[[TilingProgress], None] | None = None, memo: TilingMemo | None = None) -> Tiling:
     """Find an order and a plan per piece that put every piece of layout into its frame.
 
     progress, when given, is called with a TilingProgress at each approach checked during the
-    search and before and after each piece is planned (it must not raise)."""
+    search and before and after each piece is planned (it must not raise). memo, when given,
+    answers what an earlier call on this layout worked out and keeps what this one does."""
     opts = options.validated()
+    memo = (TilingMemo() if memo is None else memo).claim(layout)
     t0 = time.perf_counter()
     result = Tiling(layout.name)
     n = len(layout.pieces)
@@ -511,7 +553,6 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     walls = [wall_contact(layout, i) for i in range(n)]
     screened: dict[tuple[frozenset, int], tuple[list, list[ApproachRejected]]] = {}
     proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
-    goals: dict[tuple[int, bytes, bytes], GoalStates] = {}  # by piece and approach, over all pieces down
     deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
 
     def out_of_checks() -> bool:
@@ -525,14 +566,19 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             for a in approaches(layout, i, placed, opts.approaches, opts.avoid):
                 result.checks += 1
                 report("search", len(placed), i)
-                scene = approach_scene(layout, i, a, placed)
+                at = _at(placed, i, a)
+                if at not in memo.scenes:
+                    memo.scenes[at] = approach_scene(layout, i, a, placed)
+                scene = memo.scenes[at]
                 if isinstance(scene, DigitsDoNotFit):
                     why.append(ApproachRejected(Rejection.DIGITS_DO_NOT_FIT, a, scene))
                     continue
-                plane = (i, a.g.tobytes(), a.b.tobytes())
-                if plane not in goals:
-                    goals[plane] = GoalStates(scene)
-                problem = screen(scene, goals[plane])
+                plane = at[1:]
+                if plane not in memo.goals:
+                    memo.goals[plane] = GoalStates(scene)
+                if at not in memo.screens:
+                    memo.screens[at] = screen(scene, memo.goals[plane])
+                problem = memo.screens[at]
                 if problem:
                     why.append(ApproachRejected(Rejection.ENDS, a, problem))
                 else:
@@ -541,6 +587,25 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                 why.append(ApproachRejected(Rejection.NO_ANTIPODAL_PAIR))
             screened[key] = (ok, why)
         return screened[key]
+
+    def proved(placed: list[int], i: int, a: Approach, scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
+        at = _at(placed, i, a)
+        if at not in memo.proofs:
+            memo.proofs[at] = prove(scene)
+        return memo.proofs[at]
+
+    def planned(placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas, planner: str,
+                seed: int | None = None) -> tuple[Plan, float | None]:
+        """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
+        unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
+        key = (_at(placed, i, a), planner, opts.time, seed, opts.range)
+        if key in memo.plans:
+            return memo.plans[key]
+        p = plan_scene(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
+        found = p, scene.tolerance(p).scale if p.solved else None
+        if planner == LATTICE or seed is not None:
+            memo.plans[key] = found
+        return found
 
     def fail(i: int, placed: list[int], reasons: list[ApproachRejected]) -> None:
         if len(placed) > deepest["depth"]:
@@ -583,7 +648,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                         break
                     result.checks += 1
                     report("search", len(placed), i)
-                    problem, atlas = prove(scene)
+                    problem, atlas = proved(placed, i, a, scene)
                     if problem is None:
                         proven[key] = (a, scene, atlas)
                         break
@@ -608,14 +673,13 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
             else:
                 result.checks += 1
                 report("plan", len(placed), i)
-                problem, atlas = prove(scene)
+                problem, atlas = proved(placed, i, a, scene)
                 if problem is not None:
                     continue
-            p = plan_scene(scene, planner=LATTICE, atlas=atlas)
+            p, tol = planned(placed, i, a, scene, atlas, LATTICE)
             if not p.solved:
                 continue
             measured += 1
-            tol = scene.tolerance(p).scale
             if tol > best_tol:
                 best, best_tol = (a, scene, atlas), tol
         return (*best, max(measured, 1))
@@ -637,20 +701,19 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         ranked = 1
         if opts.rank is Rank.TOLERANCE:
             a, scene, atlas, ranked = most_tolerant(i, placed_before, (a, scene, atlas))
+        down = list(placed_before)
         placed_before.append(i)
         seed = None if opts.seed is None else opts.seed + k
-        p = plan_scene(scene, planner=opts.planner, time=opts.time, seed=seed, range=opts.range,
-                       atlas=atlas)  # the lattice the proof searched
+        p, tol = planned(down, i, a, scene, atlas, opts.planner, seed)  # on the lattice the proof searched
         note = None
         if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
             note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
-            p = plan_scene(scene, planner=LATTICE, atlas=atlas)  # the proof's lattice again
+            p, tol = planned(down, i, a, scene, atlas, LATTICE)  # the proof's lattice again
         if not p.solved:
             result.failed_piece = layout.pieces[i].name
             result.reasons = [ApproachRejected(Rejection.NOT_PLANNED, a, p)]
             break
-        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note,
-                                           scene.tolerance(p).scale, ranked))
+        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note, tol, ranked))
         report("plan", k + 1, i)
     result.time_s = time.perf_counter() - t0
     return result

@@ -35,7 +35,7 @@ from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, p
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
-from ..tiling import Placement, Tiling, TilingOptions, TilingProgress, tile
+from ..tiling import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from .campaign import trial_runner
 from .landing import robot_landing
 from .outcome import FLAT_TILT_DEG, TrialResult
@@ -180,18 +180,35 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
 
 
+@dataclass
+class AimingMemo:
+    """What tile_aimed keeps across the tilings it makes of one layout, and across calls when
+    given one: the search's (tiling.TilingMemo), the aims the pieces' landings asked for and the
+    robot's trajectory parts (aim_tiling's landings and kept)."""
+
+    search: TilingMemo = field(default_factory=TilingMemo)
+    """The tiling search's scenes, screens, proofs and plans."""
+    landings: dict = field(default_factory=dict)
+    """Per piece, approach and plan, the aim its landing asked for."""
+    kept: dict = field(default_factory=dict)
+    """Per plan and aim, its part of the robot's trajectory (robot.pipeline.execute_sequence)."""
+
+
 def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
-               progress: Callable[[TilingProgress], None] | None = None) -> tuple[Tiling, AimedTiling | None]:
+               progress: Callable[[TilingProgress], None] | None = None,
+               memo: AimingMemo | None = None) -> tuple[Tiling, AimedTiling | None]:
     """Tile the layout (tiling.tile) and aim it (aim_tiling), making room for the aims: for each
     piece aimed short, in order, the layout is tiled again with that piece's approach avoided
     (TilingOptions.avoid), and the new tiling is kept when less of the aims is left untaken
     (summed over the pieces). An approach whose avoidance leaves no tiling, or takes no more of
-    the aims, is kept. Returns the tiling and its aimed execution (None when no tiling is found)."""
-    tiling = tile(layout, options, progress)
+    the aims, is kept. Each tiling reuses what the ones before it worked out (AimingMemo; memo,
+    when given, holds what earlier calls on this layout did). Returns the tiling and its aimed
+    execution (None when no tiling is found)."""
+    memo = AimingMemo() if memo is None else memo
+    tiling = tile(layout, options, progress, memo.search)
     if not tiling.solved:
         return tiling, None
-    landings: dict = {}
-    kept: dict = {}
+    landings, kept = memo.landings, memo.kept
     aimed = aim_tiling(layout, tiling, landings, kept)
     tried: set[tuple] = set()
     while True:
@@ -201,7 +218,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
             return tiling, aimed
         tried.add(_key(todo[0]))
         retry = replace(options, avoid=options.avoid + (_key(todo[0]),))
-        again = tile(layout, retry, progress)
+        again = tile(layout, retry, progress, memo.search)
         if not again.solved:
             continue
         aimed_again = aim_tiling(layout, again, landings, kept)
