@@ -58,19 +58,27 @@ def pick():
 
 
 @pytest.fixture(scope="module")
-def base_setups():
+def pick_nominal(pick):
+    """The positive control's trial with no error drawn, which several tests read (a trial is the
+    same every time it is run: test_the_same_seed_gives_the_same_trials)."""
+    return run_trial(_setup(pick), TrialParams())
+
+
+@pytest.fixture(scope="module")
+def base_setups(pick):
     """Each object's lattice plan, rounded tip, ready to simulate: (scene name, trial setup)."""
     out = []
     for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
-        scene, result, ex = _planned(name)
+        scene, result, ex = pick if name == "puzzle_piece" else _planned(name)
         out.append((name, trial_setup(scene, result, ex.trajectory, ex.robot)))
     return out
 
 
 @pytest.fixture(scope="module")
-def base_trials(base_setups):
+def base_trials(base_setups, pick_nominal):
     """One trial without error of each object's lattice plan, rounded tip: (scene name, result)."""
-    return [(name, run_trial(setup, TrialParams())) for name, setup in base_setups]
+    return [(name, pick_nominal if name == "puzzle_piece" else run_trial(setup, TrialParams()))
+            for name, setup in base_setups]
 
 
 def _setup(pick, variant=Variant(), **sim):
@@ -106,8 +114,8 @@ def test_placement_puts_the_digits_on_the_faces_of_a_thick_object():
         assert np.allclose(np.sum((p["finger"] - p["thumb"]) * p["e"], axis=1), scene.digits.alpha * l, atol=1e-12)
 
 
-def test_the_planned_piece_is_put_down_flat_near_its_target(pick):
-    r = run_trial(_setup(pick), TrialParams())
+def test_the_planned_piece_is_put_down_flat_near_its_target(pick_nominal):
+    r = pick_nominal
     assert r.outcome is Outcome.SUCCESS, r.cause()
     assert r.position_error_mm < 3.0 and r.tilt_deg < 2.0 and r.roll_deg < 5.0
     assert r.digit_table_force_n == 0.0  # no digit touched the table
@@ -135,11 +143,11 @@ def test_contacts_sink_less_than_hertz_allows(base_trials):
         assert 0.0 < r.max_penetration_mm <= 0.03, (name, r.max_penetration_mm)
 
 
-def test_contact_travel_is_recorded_against_the_plan(pick):
+def test_contact_travel_is_recorded_against_the_plan(pick, pick_nominal):
     """Per primitive: a pivot (P_theta) plans no travel of A or B; a P_dpsi slides A on the object
     and B on the thumb; the recorded figures are finite where the contacts were held."""
     scene, result, _ = pick
-    r = run_trial(_setup(pick), TrialParams())
+    r = pick_nominal
     assert [c.primitive for c in r.contacts] == [p.type for p in result.primitives]
     for c in r.contacts:
         assert all(math.isfinite(v) for v in (c.a_on_object, c.a_on_finger, c.b_on_object, c.b_on_thumb))
@@ -153,10 +161,10 @@ def test_contact_travel_is_recorded_against_the_plan(pick):
     assert row[f"prim1_{kind}_a_on_object_mm"] == pytest.approx(r.contacts[0].a_on_object, abs=1e-6)
 
 
-def test_a_placement_beyond_max_error_is_placed_off_target(pick):
+def test_a_placement_beyond_max_error_is_placed_off_target(pick, pick_nominal):
     """The paper's criterion holds, but the verdict also asks for precision: the same trial
     with sim.max_error below its error is 'placed off target', with the error."""
-    good = run_trial(_setup(pick), TrialParams())
+    good = pick_nominal
     assert good.outcome is Outcome.SUCCESS
     strict = run_trial(_setup(pick, max_error=good.position_error_mm / 2000), TrialParams())
     assert strict.outcome is Outcome.OFF_TARGET and strict.outcome.placed and not strict.success
@@ -344,11 +352,17 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
 LOST = (Outcome.GRIP_LOST, Outcome.LEFT_PLANE, Outcome.B_PAST_THUMB_TIP)
 
 
-def test_a_fifth_of_the_friction_fails_by_both_verdicts(pick):
+@pytest.fixture(scope="module")
+def pick_fifth_friction(pick):
+    """The positive control's trial with no error drawn and a fifth of the friction."""
+    return run_trial(_setup(pick, Variant(friction_scale=0.2)), TrialParams())
+
+
+def test_a_fifth_of_the_friction_fails_by_both_verdicts(pick_fifth_friction):
     """With a fifth of the friction the table cannot hold G while the digits turn the piece: it is
     dragged along the table, or the grip is lost in a primitive the cause names; either way the
     paper's criterion fails too, for the same cause."""
-    r = run_trial(_setup(pick, Variant(friction_scale=0.2)), TrialParams())
+    r = pick_fifth_friction
     assert r.outcome in (*LOST, Outcome.OFF_TARGET), r.cause()
     if r.outcome in LOST:
         assert r.phase.startswith("P_") and f"primitive {r.phase_index + 1} ({r.phase})" in r.cause()
@@ -473,20 +487,19 @@ def test_the_same_seed_gives_the_same_trials(pick):
         assert a.outcome is b.outcome and a.final_pose == b.final_pose
 
 
-def test_halving_the_timestep_keeps_the_outcomes(pick):
-    for variant in (Variant(), Variant(friction_scale=0.2)):
-        coarse = run_trial(_setup(pick, variant), TrialParams())
+def test_halving_the_timestep_keeps_the_outcomes(pick, pick_nominal, pick_fifth_friction):
+    for variant, coarse in ((Variant(), pick_nominal), (Variant(friction_scale=0.2), pick_fifth_friction)):
         fine = run_trial(_setup(pick, variant, timestep=pick[0].sim.timestep / 2), TrialParams())
         assert coarse.outcome is fine.outcome
         if coarse.success:
             assert abs(coarse.position_error_mm - fine.position_error_mm) < 1.0
 
 
-def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick):
+def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick, pick_nominal):
     """Once the palm lifts away and the object lies still, untouched, the trial is read off there:
     the same verdict, error and tilt as simulating the retreat and the rest to the end."""
     setup = _setup(pick)
-    early = run_trial(setup, TrialParams())
+    early = pick_nominal
     full = run_trial(setup, TrialParams(), record=[])  # a recorded trial runs every phase
     assert early.success and full.success
     assert early.sim_time_s < full.sim_time_s - setup.rest_time  # it stopped during the retreat
@@ -622,7 +635,7 @@ def test_a_grasp_off_across_gb_turns_the_pick_further_unless_a_stays_inside_its_
     assert outside > 2.0 and outside > 3 * inside, rolls
 
 
-def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_its_target(pick):
+def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_its_target(pick, pick_nominal):
     """The positive control with no error drawn, let go by open_lift (the finger leaves A along the
     face's normal, the thumb backs off B across) and by the gripper's own opening (open_symmetric,
     the finger drawn back toward G as it leaves A and the thumb slower off B): the falling piece
@@ -631,14 +644,14 @@ def test_letting_go_with_the_finger_lifted_off_the_face_lands_the_piece_nearer_i
     assert scene.robot.termination == "open_lift"
     own = replace(scene, robot=replace(scene.robot, termination="open_symmetric"))
     ex_own = execute(own, result)
-    lifted = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), TrialParams())
+    lifted = pick_nominal  # the scene's own termination
     opened = run_trial(trial_setup(own, result, ex_own.trajectory, ex_own.robot), TrialParams())
     assert lifted.success and opened.success
     assert lifted.position_error_mm < opened.position_error_mm - 0.3, (lifted.position_error_mm,
                                                                          opened.position_error_mm)
 
 
-def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pick):
+def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pick, pick_nominal):
     """As planned, the positive control's release lands the piece over half a millimetre from its
     target with no error drawn (its end rides down the thumb's face). With robot.landing simulated,
     placement moves the hand's whole motion by the inverse of the landing's planar move (its shift
@@ -649,7 +662,7 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     scene, result, ex = pick
     scene = replace(scene, robot=replace(scene.robot, landing=Landing.SIMULATED))
     planned = trial_setup(scene, result, ex.trajectory, ex.robot)
-    trial = run_trial(planned, TrialParams())
+    trial = pick_nominal  # the robot's landing setting is not the trial's
     offset = landing_offset(planned, np.array(trial.final_pose))
     assert trial.success and np.hypot(*offset) > 0.0005, (trial.cause(), offset)
     execution, aimed = placement(scene, result)
@@ -704,9 +717,9 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
     standard error. robot.landing expected aims by the mean landing of antithetic pairs of `paper`
     draws drawn apart from every trial's; the same 12 trials then land about their target: the mean
     offset falls by more than 0.7 mm and below half a millimetre. The aim is the mean landing's
-    inverse, not the no-error release's, and the same whether its pairs run in this process or in
-    worker processes."""
-    from ungrasp_ompl.sim.landing import expected_landing, landing_draw, robot_landing
+    inverse (all its pairs landed), not the no-error release's. (Its pairs run in worker processes
+    as in this one: test_a_kept_landing_answers_the_same_placement_and_no_other.)"""
+    from ungrasp_ompl.sim.landing import landing_draw, robot_landing
 
     scene, result, ex = _planned("guitar_pick")
     assert scene.robot.landing is Landing.EXPECTED and scene.robot.landing_pairs == 4
@@ -720,25 +733,30 @@ def test_aimed_by_the_expected_landing_the_trials_land_about_their_target():
         mean_offset[landing] = float(np.hypot(*np.mean(offsets, axis=0)))
     assert mean_offset[Landing.SIMULATED] > 0.0009, mean_offset
     assert mean_offset[Landing.EXPECTED] < min(0.0005, mean_offset[Landing.SIMULATED] - 0.0007), mean_offset
-    expected = expected_landing(setup, scene.robot.landing_pairs, jobs=2)  # its pairs in two worker processes
-    assert expected.pairs == scene.robot.landing_pairs and expected.landed
-    assert expected.aim == aimed.aim  # as placement aimed it, its pairs run here one after another
+    expected = robot_landing(setup, scene.robot)  # as placement kept it
+    assert expected.pairs == scene.robot.landing_pairs and expected.landed and expected.aim == aimed.aim
     no_error = robot_landing(setup, replace(scene.robot, landing=Landing.SIMULATED))  # as the first placement kept it
     assert no_error.pairs == 0 and expected.aim != no_error.aim and expected.aim.turn == -expected.turn
 
 
-def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, monkeypatch):
+def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, pick_nominal, tmp_path, monkeypatch):
     """With UNGRASP_OMPL_CACHE naming a directory, robot_landing keeps each landing it computes
     there and answers the same placement under the same settings from the file: an edited file is
     returned as edited (so it was read, not computed again), a file cut short is computed again and
-    rewritten, and other settings (one antithetic pair of drawn releases) are a landing of their own."""
-    from ungrasp_ompl.sim.landing import CACHE_VARIABLE, predict_landing, robot_landing
+    rewritten, and other settings (one antithetic pair of drawn releases) are a landing of their own.
+    Computed, it is where the release with no error (pick_nominal) lands, as LandingPrediction says;
+    the expected landing's pair run in two worker processes is the pair run in this one."""
+    from ungrasp_ompl.sim.landing import (CACHE_VARIABLE, LandingPrediction, expected_landing, landing_correction,
+                                          robot_landing)
 
     setup = _setup(pick)
     simulated = replace(pick[0].robot, landing=Landing.SIMULATED)
     monkeypatch.delenv(CACHE_VARIABLE)
     computed = robot_landing(setup, simulated)
-    assert computed == predict_landing(setup) and computed.landed
+    final = np.array(pick_nominal.final_pose)
+    x, y = landing_offset(setup, final)
+    assert computed == LandingPrediction((float(x), float(y)), pick_nominal.outcome, *landing_correction(setup, final))
+    assert computed.landed
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     assert robot_landing(setup, simulated) == computed
     (kept,) = (tmp_path / "landing").glob("*.json")
@@ -750,6 +768,7 @@ def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, tmp_path, 
     assert robot_landing(setup, replace(simulated, landing=Landing.PLANNED)) is None
     expected = robot_landing(setup, replace(simulated, landing=Landing.EXPECTED, landing_pairs=1))
     assert expected.pairs == 1 and expected.turn != computed.turn
+    assert expected_landing(setup, 1, jobs=2) == expected
     assert len(list((tmp_path / "landing").glob("*.json"))) == 2
 
 
