@@ -456,7 +456,8 @@ def test_screens_reusing_what_earlier_screens_learnt_answer_as_fresh_ones():
 
 
 def _placements(tiling) -> list:
-    return [(p.name, p.approach.g.tolist(), p.approach.b.tolist(), p.plan.states, p.tolerance) for p in tiling.placements]
+    return [(p.name, p.approach.g.tolist(), p.approach.b.tolist(), p.plan.states, p.tolerance)
+            for p in tiling.placements]
 
 
 def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
@@ -474,6 +475,7 @@ def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
     kept = {name: dict(getattr(memo, name)) for name in ("scenes", "screens", "proofs", "plans")}
     again = tile(layout, options, memo=memo)
     assert first.solved and _placements(again) == _placements(first) and again.checks == first.checks
+
     def unchanged(name, exactly):  # every answer kept is the same object; exactly: and no new one
         now = getattr(memo, name)
         return all(now[k] is v for k, v in kept[name].items()) and (not exactly or now.keys() == kept[name].keys())

@@ -208,8 +208,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     tiling = tile(layout, options, progress, memo.search)
     if not tiling.solved:
         return tiling, None
-    landings, kept = memo.landings, memo.kept
-    aimed = aim_tiling(layout, tiling, landings, kept)
+    aimed = aim_tiling(layout, tiling, memo.landings, memo.kept)
     tried: set[tuple] = set()
     while True:
         short = {name for name, _, _ in aimed.short}
@@ -221,7 +220,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         again = tile(layout, retry, progress, memo.search)
         if not again.solved:
             continue
-        aimed_again = aim_tiling(layout, again, landings, kept)
+        aimed_again = aim_tiling(layout, again, memo.landings, memo.kept)
         if _shortfall(aimed_again) < _shortfall(aimed):
             options, tiling, aimed = retry, again, aimed_again
 
