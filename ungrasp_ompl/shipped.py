@@ -18,6 +18,7 @@ from pathlib import Path
 import yaml
 
 from .errors import InputError
+from .io import parse_yaml
 
 #: The package holding the shipped scene and layout files (the repository's scenes/*.yaml).
 SCENES_PACKAGE = "ungrasp_ompl.shipped_scenes"
@@ -70,7 +71,7 @@ def shipped_scenes() -> list[ShippedScene]:
             continue
         text = entry.read_text(encoding="utf-8")
         try:
-            data = yaml.safe_load(text)
+            data = parse_yaml(text)
         except yaml.YAMLError:
             raise InputError("scene", "not valid YAML", f"shipped {entry.name}") from None
         kind = "layout" if isinstance(data, dict) and "pieces" in data else "scene"

@@ -24,16 +24,15 @@ import yaml
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..io import read_json_file, write_atomic, write_text_atomic
+from ..io import parse_yaml, read_json_file, write_atomic, write_text_atomic
 from .touch_off import TouchOff
 from .trajectory import ARM_JOINTS, GRIPPER_JOINT, JointTrajectory
 
 #: Version of the CSV/JSON/YAML/URScript layouts written here.
 SCHEMA_VERSION = 1
 
-# libyaml's C emitter and parser when PyYAML has them (the pure-Python ones are ~10x slower)
+# libyaml's C emitter when PyYAML has it (the pure-Python one is ~10x slower; io.parse_yaml reads)
 _YAML_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
-_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 #: UR e-series control period (500 Hz), s: the servoj step of the URScript export.
 CONTROL_PERIOD_S = 0.002
 
@@ -299,7 +298,7 @@ def read_ros2_yaml(path: PathLike) -> JointTrajectory:
     sec + nanosec*1e-9."""
     source = str(path)
     try:
-        doc = yaml.load(Path(path).read_text(), Loader=_YAML_LOADER)
+        doc = parse_yaml(Path(path).read_text())
     except yaml.YAMLError as e:
         raise InputError("yaml", str(e), source) from None
     msg = _field(doc, "trajectory", dict, source)

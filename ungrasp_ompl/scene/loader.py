@@ -16,6 +16,7 @@ from typing import Any
 import yaml
 
 from ..errors import InputError
+from ..io import parse_yaml
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
 from .options import Landing, Object3D, RobotOptions, SimOptions, Termination
@@ -35,7 +36,7 @@ def read_yaml(path: str | os.PathLike[str], what: str) -> Any:
     if not path.is_file():
         raise InputError(what, "no such file" if not path.exists() else "not a file", src)
     try:
-        return yaml.safe_load(path.read_text())
+        return parse_yaml(path.read_text())
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark else ""
