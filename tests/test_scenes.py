@@ -9,6 +9,7 @@ import yaml
 
 from conftest import SCENES, run_cli, small_landing_file
 from ungrasp_ompl.geometry import CollisionChecker
+from ungrasp_ompl.io import parse_yaml
 from ungrasp_ompl.mechanics import kinematic_validity
 from ungrasp_ompl.planning.atlas import lattice_axes
 from ungrasp_ompl.scene import Scene
@@ -44,6 +45,22 @@ def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (out / "trajectory.json").is_file() and (out / "plan.json").is_file()
     assert "planar-only" not in proc.stdout
+
+
+def test_the_c_parser_reads_every_shipped_file_as_pure_python_yaml_does():
+    """io.parse_yaml (libyaml's parser where PyYAML has it) gives each shipped scene and layout the
+    values PyYAML's pure-Python parser gives it, and refuses what that parser refuses."""
+    assert yaml.__with_libyaml__  # PyYAML's wheels carry libyaml: otherwise this compares a parser with itself
+    files = sorted(SCENES.glob("*.yaml"))
+    assert len(files) >= 10
+    for path in files:
+        text = path.read_text()
+        assert parse_yaml(text) == yaml.load(text, Loader=yaml.SafeLoader), path.name
+    for broken in ("object: [1, 2\n  length: :\n", "a: b: c\n", "\tkey: 1\n"):
+        with pytest.raises(yaml.YAMLError):
+            yaml.load(broken, Loader=yaml.SafeLoader)
+        with pytest.raises(yaml.YAMLError):
+            parse_yaml(broken)
 
 
 def test_every_shipped_obstacle_is_bounded():

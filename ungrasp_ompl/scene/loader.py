@@ -16,9 +16,9 @@ from typing import Any
 import yaml
 
 from ..errors import InputError
-from ..io import parse_yaml
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
+from ..io import parse_yaml
 from .options import Landing, Object3D, RobotOptions, SimOptions, Termination
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
