@@ -188,7 +188,10 @@ def test_scene_not_a_mapping(tmp_path):
     (("--time", "soon"), "--time: must be a number"),
 ])
 def test_bad_options_exit_2(args, word):
-    assert_one_line_error(run_process("plan", str(SCENES / "reference_asymmetric.yaml"), *args), word)
+    """Answered before anything runs: no seed drawn and printed for options that cannot plan."""
+    proc = run_process("plan", str(SCENES / "reference_asymmetric.yaml"), *args)
+    assert_one_line_error(proc, word)
+    assert proc.stdout == "", proc.stdout
 
 
 def test_out_must_be_a_directory(tmp_path):

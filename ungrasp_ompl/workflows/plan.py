@@ -21,6 +21,7 @@ from ..io import write_text_atomic
 from ..planning import plan as plan_planar
 from ..planning.margins import Objective
 from ..planning.result import Plan
+from ..planning.setup import LATTICE, PlannerOptions
 from ..scene import Scene
 
 if TYPE_CHECKING:  # the arm, the simulator, the cage and the pictures are imported where used:
@@ -51,6 +52,9 @@ class PlanOptions:
 
     def validated(self, scene: Scene) -> "PlanOptions":
         """These options checked against the scene; InputError naming the field otherwise."""
+        if self.planner != LATTICE:  # the OMPL planner's options, before a seed is drawn for them
+            PlannerOptions(planner=self.planner, time=self.time, iterations=self.iterations,
+                           objective=self.objective).validated()
         if self.cage and scene.object_thickness <= 0.0:
             raise InputError("cage", "the cage's potential energy needs an object with a thickness (object.thickness)")
         if self.certify is not None:
