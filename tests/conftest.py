@@ -137,6 +137,16 @@ def pytest_sessionfinish(session, exitstatus):
         shutil.rmtree(session.config._ungrasp_cache, ignore_errors=True)
 
 
+def distinct_colours(rgb) -> int:
+    """How many different colours an (H, W, 3) array of integers 0-255 holds: each pixel's three
+    channels packed into one integer, whose 1-D unique is about fifty times faster than
+    numpy's unique over rows (axis=0) on a picture of a few megapixels."""
+    import numpy as np
+
+    rgb = np.asarray(rgb, dtype=np.uint32)
+    return len(np.unique((rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]))
+
+
 def assert_picture(path: Path, colours: tuple[tuple[float, float, float], ...] = ()) -> None:
     """path is a PNG that shows a drawing: a real image of some size, not blank (a share of its
     pixels is neither white nor one flat colour), holding each of the given RGB colours (0-1,
@@ -148,7 +158,7 @@ def assert_picture(path: Path, colours: tuple[tuple[float, float, float], ...] =
     assert img.shape[0] >= 200 and img.shape[1] >= 200, img.shape
     ink = np.any(img < 0.95, axis=-1).mean()
     assert 0.01 < ink < 0.99, f"{path}: {ink:.3f} of the pixels drawn"
-    assert len(np.unique((img * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 8
+    assert distinct_colours((img * 255).astype(np.uint8)) > 8
     for c in colours:
         near = np.all(np.abs(img - np.asarray(c)) < 0.08, axis=-1)
         assert near.any(), f"{path}: no pixel of colour {c}"
