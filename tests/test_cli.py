@@ -10,7 +10,7 @@ import re
 import pytest
 import yaml
 
-from conftest import SCENES, assert_picture, run_cli, run_process, small_landing_file
+from conftest import ROOT, SCENES, assert_picture, run_cli, run_process, small_landing_file
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -51,6 +51,20 @@ def test_plan_writes_plan_and_picture(asymmetric_seed_1):
     assert plan["solved"] and plan["planner"] == "RRTstar" and plan["seed"] == 1
     assert_picture(out / "cspace.png")
     assert "P_theta" in proc.stdout and "stability" in proc.stdout
+
+
+def test_the_readme_quotes_what_the_main_job_prints(asymmetric_seed_1):
+    """The README's example of the main job's summary is what the job prints: its lines, up to its
+    "...", are the first lines printed, the times in seconds aside (they are the machine's)."""
+    proc, _ = asymmetric_seed_1
+    block = (ROOT / "README.md").read_text().split("prints a summary such as\n\n```\n", 1)[1].split("```", 1)[0]
+    assert block.splitlines()[-1].strip() == "...", block
+
+    def timeless(lines: list[str]) -> list[str]:
+        return [re.sub(r"\d+\.\d+ s\b", "X s", line) for line in lines]
+
+    quoted = timeless(block.splitlines()[:-1])
+    assert timeless(proc.stdout.splitlines())[:len(quoted)] == quoted, proc.stdout
 
 
 @pytest.mark.slow

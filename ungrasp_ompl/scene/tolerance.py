@@ -347,7 +347,7 @@ def describe_tolerance(tol: dict) -> str:
              f"{math.degrees(psi):.1f} deg) in primitive {tol['primitive'] + 1} ({tol['primitive_type']}), "
              f"bound by {tol['component'].replace('_', ' ')}")
     return (f"tolerance {tol['scale']:.3f} of the {tol['perturbation']} errors: grasp shift {p['shift_mm']:.3f} mm, "
-            f"turn {p['yaw_deg']:.2f} deg, friction -{100 * p['friction_loss']:.0f} %, palm {p['palm_shift_mm']:.2f} mm"
+            f"turn {p['yaw_deg']:.2f} deg, friction {-round(100 * p['friction_loss']):d} %, palm {p['palm_shift_mm']:.2f} mm"
             f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
             + ("nothing fails" if tol["reason"] == "none" else where))
 
