@@ -371,3 +371,25 @@ def test_simulate_help_names_every_perturbation_preset():
     simulate = build_parser()._subparsers._group_actions[0].choices["simulate"]
     text = " ".join(simulate.format_help().split())
     assert all(name in text for name in PRESETS), [n for n in PRESETS if n not in text]
+
+
+def test_the_synopsis_in_docs_cli_names_every_command_and_flag():
+    """docs/cli.md's synopses (`ungrasp-ompl COMMAND ...` in its code blocks) name every command
+    and each command's every flag, as the parser has them, and no flag it does not have."""
+    from ungrasp_ompl.cli.parser import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    blocks = (ROOT / "docs" / "cli.md").read_text().split("```")[1::2]
+    synopsis: dict[str, set[str]] = {}
+    for block in blocks:
+        name = None
+        for line in block.splitlines():
+            if m := re.match(r"ungrasp-ompl (\w+)", line):
+                name = m.group(1)
+                synopsis.setdefault(name, set())
+            if name is not None and (m or line.startswith(" ")):
+                synopsis[name] |= set(re.findall(r"--[a-z][\w-]*", line))
+    assert sorted(synopsis) == sorted(commands)
+    for name, parser in commands.items():
+        flags = {s for a in parser._actions for s in a.option_strings if s.startswith("--") and s != "--help"}
+        assert synopsis[name] == flags, (name, sorted(flags - synopsis[name]), sorted(synopsis[name] - flags))
