@@ -393,3 +393,23 @@ def test_the_synopsis_in_docs_cli_names_every_command_and_flag():
     for name, parser in commands.items():
         flags = {s for a in parser._actions for s in a.option_strings if s.startswith("--") and s != "--help"}
         assert synopsis[name] == flags, (name, sorted(flags - synopsis[name]), sorted(synopsis[name] - flags))
+
+
+def test_every_key_of_plan_json_is_in_its_document(asymmetric_seed_1, tmp_path):
+    """Every key plan.json holds (at the top, in a primitive, the tolerance, the manipulation plane
+    and its contacts, the stability report), for a planar scene and an object, is named in
+    docs/plan-json.md."""
+    r = run_cli("plan", "guitar_pick", "--seed", "1", "--time", "0.2", "--out", str(tmp_path / "pick"))
+    assert r.returncode == 0, r.stderr
+    named = set(re.findall(r"`(\w+)`", (ROOT / "docs" / "plan-json.md").read_text()))
+    keys = set()
+    for path in (asymmetric_seed_1[1], tmp_path / "pick"):
+        doc = json.loads((path / "plan.json").read_text())
+        parts = [doc, *doc["primitives"], doc["tolerance"], doc["tolerance"]["physical"]]
+        if doc["manipulation_plane"] is not None:  # null for a planar scene, as object and the report are
+            plane, report = doc["manipulation_plane"], doc["stability_report"]
+            parts += [doc["object"], plane, *plane["contacts"].values(), report, report["x_moments"],
+                      *report["roll_simulation"], *report["contacts"].values()]
+        keys |= {k for part in parts for k in part}
+    assert "manipulation_plane" in keys and "across_support_m" in keys  # the object's plan was read
+    assert keys <= named, sorted(keys - named)
