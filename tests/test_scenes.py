@@ -124,3 +124,45 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     for dd, ps in ((states[:, 1], states[:, 2]), (d, psi)):
         assert across_support(dd, ps, dg).min() >= dg.across_margin - 1e-9
     assert result.states[-1][0] <= scene.goal.theta_max + 1e-12
+
+
+def _mappings(doc, path=()):
+    """The paths of every mapping in a parsed YAML document, itself first."""
+    if isinstance(doc, dict):
+        yield path
+        for k, v in doc.items():
+            yield from _mappings(v, (*path, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            yield from _mappings(v, (*path, i))
+
+
+def test_docs_scene_format_names_every_field_the_loader_takes():
+    """Every mapping of every shipped scene and layout, given a field the loader does not know, is
+    refused with that field's name and the fields it does know; docs/scene-format.md names each."""
+    import copy
+    import re
+
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.shipped import resolve
+
+    words = set(re.findall(r"\w+", (SCENES.parent / "docs" / "scene-format.md").read_text()))
+    sections = 0
+    for shipped in shipped_scenes():
+        doc = yaml.safe_load(resolve(shipped.name, shipped.kind).read_text())
+        load = Layout.from_dict if shipped.kind == "layout" else Scene.from_dict
+        for path in _mappings(doc):
+            bad = copy.deepcopy(doc)
+            node = bad
+            for k in path:
+                node = node[k]
+            node["not_a_field"] = 1
+            with pytest.raises(InputError) as err:
+                load(bad)
+            known = re.search(r"expected one of: (.*)\)$", err.value.reason)
+            assert err.value.field.endswith("not_a_field") and known, (shipped.name, path, err.value)
+            sections += 1
+            missing = sorted(set(known.group(1).split(", ")) - words)
+            assert not missing, (shipped.name, path, missing)
+    assert sections > 100, sections
