@@ -115,3 +115,41 @@ def test_the_reader_sees_a_lazy_import_and_skips_an_annotation(tmp_path):
     src.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..sim import trial\n"
                    "def f():\n    from ..robot.ik import solve\n    from . import model\n")
     assert runtime_imports("scene.probe", src) == [(5, "robot.ik"), (6, "scene.model")]
+
+
+def _resolve(dotted: str):
+    """The object a dotted name of docs/architecture.md names: from the longest module path that
+    imports (`sim.certify.certify`), else from the package's own exports (`Scene.with_digits`)."""
+    import importlib
+
+    parts = dotted.split(".")
+    obj, rest = ungrasp_ompl, parts
+    for i in range(len(parts), 0, -1):
+        try:
+            obj, rest = importlib.import_module("ungrasp_ompl." + ".".join(parts[:i])), parts[i:]
+            break
+        except ModuleNotFoundError:
+            continue
+    for name in rest:
+        obj = getattr(obj, name)
+    return obj
+
+
+def test_each_command_s_code_is_where_the_architecture_page_says():
+    """The page's table of where a command's code lives has a row for every command; each row's
+    entry functions are in cli/commands.py and every dotted name it gives the library resolves."""
+    import re
+
+    from ungrasp_ompl.cli import commands
+    from ungrasp_ompl.cli.parser import build_parser
+
+    text = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    table = text.split("## Where a command's code lives", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:-1] for line in table.splitlines() if line.startswith("| `")]
+    listed = [name for cells in rows for name in re.findall(r"`(\w+)`", cells[0])]
+    assert sorted(listed) == sorted(build_parser()._subparsers._group_actions[0].choices)
+    for cells in rows:
+        for entry in re.findall(r"`(\w+)`", cells[1]):
+            assert callable(getattr(commands, entry, None)), entry
+        for dotted in re.findall(r"`(\w+(?:\.\w+)+)`", cells[2]):
+            assert _resolve(dotted) is not None, dotted
