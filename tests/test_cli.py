@@ -413,3 +413,20 @@ def test_every_key_of_plan_json_is_in_its_document(asymmetric_seed_1, tmp_path):
         keys |= {k for part in parts for k in part}
     assert "manipulation_plane" in keys and "across_support_m" in keys  # the object's plan was read
     assert keys <= named, sorted(keys - named)
+
+
+def test_the_readme_has_one_example_per_command_and_each_parses():
+    """The README's examples (one per command) are command lines the parser takes as they stand."""
+    import shlex
+
+    from ungrasp_ompl.cli.parser import build_parser
+
+    section = (ROOT / "README.md").read_text().split("## The commands, one example each", 1)[1]
+    block = section.split("```bash\n", 1)[1].split("```", 1)[0]
+    parser = build_parser()
+    shown = []
+    for line in block.splitlines():
+        words = shlex.split(line, comments=True)
+        assert words[0] == "ungrasp-ompl", line
+        shown.append(parser.parse_args(words[1:]).command)
+    assert sorted(set(shown)) == sorted(parser._subparsers._group_actions[0].choices)
