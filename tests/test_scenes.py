@@ -166,3 +166,13 @@ def test_docs_scene_format_names_every_field_the_loader_takes():
             missing = sorted(set(known.group(1).split(", ")) - words)
             assert not missing, (shipped.name, path, missing)
     assert sections > 100, sections
+
+
+def test_docs_scene_format_example_is_a_scene_with_the_default_sim_section():
+    """The format page's example scene loads as it stands, and its sim section, which the page
+    gives as the defaults, is SimOptions' defaults."""
+    from ungrasp_ompl.scene.options import SimOptions
+
+    text = (SCENES.parent / "docs" / "scene-format.md").read_text()
+    doc = yaml.safe_load(text.split("```yaml\n", 1)[1].split("```", 1)[0])
+    assert doc["sim"] and Scene.from_dict(doc, source="docs/scene-format.md").sim == SimOptions()
