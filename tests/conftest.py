@@ -82,6 +82,13 @@ def scenes():
     return {name: Scene.from_file(SCENES / f"{name}.yaml") for name in REFERENCE_SCENES}
 
 
+def command_parsers() -> dict:
+    """The command line's commands: name -> its argparse parser, as the program builds them."""
+    from ungrasp_ompl.cli.parser import build_parser
+
+    return dict(build_parser()._subparsers._group_actions[0].choices)
+
+
 def run_cli(*args: str) -> subprocess.CompletedProcess:
     """Run the command line ARGS in this process (``cli.run``, what the console script calls before
     it leaves), its stdout and stderr caught: the whole command, without a new interpreter's second of imports.

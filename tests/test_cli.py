@@ -10,7 +10,7 @@ import re
 import pytest
 import yaml
 
-from conftest import ROOT, SCENES, assert_picture, run_cli, run_process, small_landing_file
+from conftest import ROOT, SCENES, assert_picture, command_parsers, run_cli, run_process, small_landing_file
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -365,10 +365,9 @@ def test_the_objective_flag_offers_every_objective():
 
 
 def test_simulate_help_names_every_perturbation_preset():
-    from ungrasp_ompl.cli.parser import build_parser
     from ungrasp_ompl.perturbation import PRESETS
 
-    simulate = build_parser()._subparsers._group_actions[0].choices["simulate"]
+    simulate = command_parsers()["simulate"]
     text = " ".join(simulate.format_help().split())
     assert all(name in text for name in PRESETS), [n for n in PRESETS if n not in text]
 
@@ -376,9 +375,7 @@ def test_simulate_help_names_every_perturbation_preset():
 def test_the_synopsis_in_docs_cli_names_every_command_and_flag():
     """docs/cli.md's synopses (`ungrasp-ompl COMMAND ...` in its code blocks) name every command
     and each command's every flag, as the parser has them, and no flag it does not have."""
-    from ungrasp_ompl.cli.parser import build_parser
-
-    commands = build_parser()._subparsers._group_actions[0].choices
+    commands = command_parsers()
     blocks = (ROOT / "docs" / "cli.md").read_text().split("```")[1::2]
     synopsis: dict[str, set[str]] = {}
     for block in blocks:
@@ -429,4 +426,4 @@ def test_the_readme_has_one_example_per_command_and_each_parses():
         words = shlex.split(line, comments=True)
         assert words[0] == "ungrasp-ompl", line
         shown.append(parser.parse_args(words[1:]).command)
-    assert sorted(set(shown)) == sorted(parser._subparsers._group_actions[0].choices)
+    assert sorted(set(shown)) == sorted(command_parsers())

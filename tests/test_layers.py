@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 import ungrasp_ompl
+from conftest import command_parsers
 
 PACKAGE = Path(ungrasp_ompl.__file__).parent
 
@@ -141,13 +142,12 @@ def test_each_command_s_code_is_where_the_architecture_page_says():
     import re
 
     from ungrasp_ompl.cli import commands
-    from ungrasp_ompl.cli.parser import build_parser
 
     text = (PACKAGE.parent / "docs" / "architecture.md").read_text()
     table = text.split("## Where a command's code lives", 1)[1].split("\n## ", 1)[0]
     rows = [line.split("|")[1:-1] for line in table.splitlines() if line.startswith("| `")]
     listed = [name for cells in rows for name in re.findall(r"`(\w+)`", cells[0])]
-    assert sorted(listed) == sorted(build_parser()._subparsers._group_actions[0].choices)
+    assert sorted(listed) == sorted(command_parsers())
     for cells in rows:
         for entry in re.findall(r"`(\w+)`", cells[1]):
             assert callable(getattr(commands, entry, None)), entry
