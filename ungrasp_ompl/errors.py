@@ -38,6 +38,14 @@ class InputError(UngraspError, ValueError):
         super().__init__(f"{where}{field}: {reason}")
 
 
+class UnknownFieldError(InputError):
+    """A field a file's format does not have at that place; expected: the fields it has there."""
+
+    def __init__(self, field: str, expected: tuple[str, ...], source: str | None = None):
+        super().__init__(field, f"unknown field (expected one of: {', '.join(expected)})", source)
+        self.expected = expected
+
+
 class ToolError(UngraspError):
     """A tool the command relies on is missing or failed (an installation problem, not the input).
     The CLI reports it as one line and exits 1."""

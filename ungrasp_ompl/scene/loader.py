@@ -15,7 +15,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputError
+from ..errors import InputError, UnknownFieldError
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
 from ..io import parse_yaml
@@ -70,7 +70,7 @@ class SceneReader:
     def known(self, m: dict, prefix: str, keys: set[str]) -> None:
         for k in m:
             if k not in keys:
-                self.fail(f"{prefix}.{k}" if prefix else str(k), f"unknown field (expected one of: {', '.join(sorted(keys))})")
+                raise UnknownFieldError(f"{prefix}.{k}" if prefix else str(k), tuple(sorted(keys)), self.source)
 
     def number(self, m: dict, key: str, k: str, *, positive: bool = False, minimum: float | None = None,
                default: float | None = None, maximum: float | None = None, unit: str = "") -> float:
