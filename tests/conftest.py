@@ -82,6 +82,21 @@ def scenes():
     return {name: Scene.from_file(SCENES / f"{name}.yaml") for name in REFERENCE_SCENES}
 
 
+def paths(node, prefix=()):
+    """Every key path into a YAML tree below its root (sections and leaves)."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for k, v in items:
+        yield prefix + (k,)
+        yield from paths(v, prefix + (k,))
+
+
+def leaf(doc, path):
+    """The node at path."""
+    for k in path:
+        doc = doc[k]
+    return doc
+
+
 def command_parsers() -> dict:
     """The command line's commands: name -> its argparse parser, as the program builds them."""
     from ungrasp_ompl.cli.parser import build_parser

@@ -28,7 +28,7 @@ import yaml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from conftest import ROOT, run_cli, small_landing, small_landing_file
+from conftest import ROOT, leaf, paths, run_cli, small_landing, small_landing_file
 from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
 SHIPPED = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "scenes").glob("*.yaml"))]
@@ -66,14 +66,6 @@ BAD_VALUES = st.one_of(
 )
 
 
-def paths(node, prefix=()):
-    """Every key path into a YAML tree below its root (sections and leaves)."""
-    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-    for k, v in items:
-        yield prefix + (k,)
-        yield from paths(v, prefix + (k,))
-
-
 def replaced(doc, path, value):
     """A copy of doc with the node at path replaced by value."""
     doc = yaml.safe_load(yaml.safe_dump(doc))
@@ -81,13 +73,6 @@ def replaced(doc, path, value):
     for k in path[:-1]:
         node = node[k]
     node[path[-1]] = value
-    return doc
-
-
-def leaf(doc, path):
-    """The node at path."""
-    for k in path:
-        doc = doc[k]
     return doc
 
 

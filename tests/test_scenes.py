@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import SCENES, run_cli, small_landing_file
+from conftest import SCENES, leaf, paths, run_cli, small_landing_file
 from ungrasp_ompl.geometry import CollisionChecker
 from ungrasp_ompl.io import parse_yaml
 from ungrasp_ompl.mechanics import kinematic_validity
@@ -126,17 +126,6 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     assert result.states[-1][0] <= scene.goal.theta_max + 1e-12
 
 
-def _mappings(doc, path=()):
-    """The paths of every mapping in a parsed YAML document, itself first."""
-    if isinstance(doc, dict):
-        yield path
-        for k, v in doc.items():
-            yield from _mappings(v, (*path, k))
-    elif isinstance(doc, list):
-        for i, v in enumerate(doc):
-            yield from _mappings(v, (*path, i))
-
-
 def test_docs_scene_format_names_every_field_the_loader_takes():
     """Every mapping of every shipped scene and layout, given a field the loader does not know, is
     refused (UnknownFieldError) with that field's name and the fields it does know; docs/scene-format.md
@@ -153,12 +142,9 @@ def test_docs_scene_format_names_every_field_the_loader_takes():
     for shipped in shipped_scenes():
         doc = yaml.safe_load(resolve(shipped.name, shipped.kind).read_text())
         load = Layout.from_dict if shipped.kind == "layout" else Scene.from_dict
-        for path in _mappings(doc):
+        for path in [p for p in [(), *paths(doc)] if isinstance(leaf(doc, p), dict)]:
             bad = copy.deepcopy(doc)
-            node = bad
-            for k in path:
-                node = node[k]
-            node["not_a_field"] = 1
+            leaf(bad, path)["not_a_field"] = 1
             with pytest.raises(UnknownFieldError) as err:
                 load(bad)
             assert err.value.field.endswith("not_a_field"), (shipped.name, path, err.value)
