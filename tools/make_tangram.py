@@ -40,6 +40,7 @@ HEADER = """\
 # Frame coordinates: origin at the frame's inner corner, metres. Outlines are given about
 # each piece's centroid; target.position places that centroid in the frame.
 # Friction: wood on a laminate table about 0.35, wood on the 3D-printed digits about 0.45.
+# uncertainty: dry friction of plywood on laminate and PLA is known to +-30 % (humidity, dust, wear, speed; tables disagree)
 # Mass: birch plywood weighs 600-700 kg/m^3, so the pieces are simulated at 650 kg/m^3
 # (sim.density; the default, 1250, is a stiff plastic's); the `paper` errors' +-20 % on the
 # mass spans 520-780 kg/m^3.
@@ -81,7 +82,7 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
         "spread": True,
         "frame": {"center": [0.45, 0.0], "yaw_deg": 0, "inner_size": inner, "wall_height": 0.006,
                   "wall_thickness": 0.01},
-        "friction": {"G": 0.35, "A": 0.45, "B": 0.45},
+        "friction": {"G": 0.35, "A": 0.45, "B": 0.45, "uncertainty": 0.3},
         "digits": {"thumb_length": 0.06, "finger_length": 0.08, "thumb_tip_thickness": 0.002,
                    "thumb_base_thickness": 0.008, "finger_tip_thickness": 0.002, "finger_base_thickness": 0.008,
                    "width": 0.02, "palm_width": 0.08, "palm_length": 0.11},

@@ -263,7 +263,7 @@ def approaches(layout: Layout, i: int, placed: list[int], count: int,
     none of those in avoid (TilingOptions.avoid)."""
     piece = layout.pieces[i].object3d
     own = layout.scene(i)  # built once, at load
-    mu = own.mu_contacts
+    mu = tuple(m * (1.0 - own.friction_uncertainty) for m in own.mu_contacts)  # antipodal over the friction's range
     cand = piece.outline.candidates().joined(piece.outline.double_normals())
     gi, bi, margins = antipodal_pairs(cand.points, cand.normal_lo, cand.normal_hi, piece.outline.vertices,
                                       math.atan(mu[0]), math.atan(mu[2]))

@@ -124,8 +124,9 @@ def scene_variant(doc: dict, alpha: float, friction_scale: float, start_theta_de
     friction = base.pop("friction", None)
     angles = base.pop("friction_angle_deg", None)
     if isinstance(angles, dict):
-        friction = {c: math.tan(math.radians(float(v))) for c, v in angles.items()}
-    base["friction"] = {c: float(v) * friction_scale for c, v in (friction or {}).items()}
+        friction = {c: v if c == "uncertainty" else math.tan(math.radians(float(v))) for c, v in angles.items()}
+    # the coefficients scaled; how far they are known (a fraction of each) kept
+    base["friction"] = {c: v if c == "uncertainty" else float(v) * friction_scale for c, v in (friction or {}).items()}
     try:
         return Scene.from_dict(base, source=source, default_name=name)
     except InputError as exc:

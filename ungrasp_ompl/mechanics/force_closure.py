@@ -12,12 +12,18 @@ through the origin spanned by two of the wrenches has all the others on one
 closed side (such a plane carries a facet of the wrench cone). So for every
 pair (w_i, w_j) with n = w_i x w_j != 0 the other wrenches must reach both
 open sides of n. Everything is vectorised over states.
+
+A friction known only within a range (:attr:`Friction.uncertainty`, docs/model.md 4.7) is checked
+over the whole range: force_closure and force_closure_margin hold for it where they hold with every
+contact at the range's low end and, under the strict model, also with the sliding contacts at its
+high end (the sticking ones still low).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from itertools import combinations
@@ -46,22 +52,59 @@ REFERENCE_MU = (float(np.tan(np.radians(11))), float(np.tan(np.radians(17))), fl
 @dataclass(frozen=True)
 class Friction:
     """The friction of the plane's three contacts and how a sliding contact may use it: the one
-    value every force-closure and margin function takes."""
+    value every force-closure and margin function takes. With an uncertainty u > 0 the coefficients
+    are known only within a range, from ``low`` to ``high`` (the contacts' coefficients times 1 - u
+    and 1 + u, reduced to the plane as mu is), and force closure must hold over all of it
+    (docs/model.md 4.7)."""
 
     mu: tuple[float, float, float] = REFERENCE_MU
     """Coefficients at G, A, B (dimensionless; the manipulation plane's, docs/model.md 5.2)."""
     model: SlidingModel = SlidingModel.RELAXED
     """Which friction a sliding contact may apply (docs/model.md, section 4.3)."""
+    uncertainty: float = 0.0
+    """How far the true coefficients may lie from the contacts' nominal ones, as a fraction of them either way (0 <= u < 1; 0: known exactly)."""
+    low: tuple[float, float, float] | None = None
+    """Coefficients at G, A, B at the range's low end (the plane's, from the contacts' times 1 - u); None: mu times 1 - u."""
+    high: tuple[float, float, float] | None = None
+    """Coefficients at G, A, B at the range's high end (the plane's, from the contacts' times 1 + u); None: mu times 1 + u."""
 
     def __post_init__(self) -> None:
         if self.model not in SLIDING_MODELS:
             raise ValueError(f"sliding model must be one of {SLIDING_MODELS}, not {self.model!r}")
         object.__setattr__(self, "model", SlidingModel(self.model))
         object.__setattr__(self, "mu", tuple(float(m) for m in self.mu))
+        u = self.uncertainty
+        if isinstance(u, bool) or not isinstance(u, (int, float)) or not 0.0 <= u < 1.0:
+            raise ValueError(f"friction uncertainty must be a fraction in [0, 1), not {u!r}")
+        object.__setattr__(self, "uncertainty", float(u))
+        for name, factor in (("low", 1.0 - u), ("high", 1.0 + u)):
+            given = getattr(self, name)
+            end = tuple(m * factor for m in self.mu) if given is None or u == 0.0 else tuple(float(m) for m in given)
+            object.__setattr__(self, name, end)
+        if u > 0.0 and not all(lo <= m <= hi for lo, m, hi in zip(self.low, self.mu, self.high)):
+            raise ValueError(f"friction range must hold mu: low {self.low}, mu {self.mu}, high {self.high}")
+
+    @property
+    def secure_over(self) -> tuple[float, float]:
+        """The range as factors of the contacts' nominal coefficients: (1 - u, 1 + u)."""
+        return 1.0 - self.uncertainty, 1.0 + self.uncertainty
 
     def with_mu(self, mu: tuple[float, float, float]) -> "Friction":
-        """The same sliding model with other coefficients at G, A, B."""
+        """The same sliding model with other coefficients at G, A, B, known exactly."""
         return Friction(mu, self.model)
+
+    def ends(self, a_slides: bool, b_slides: bool) -> tuple["Friction", ...]:
+        """The exactly known frictions at which force closure decides the range for a contact mode
+        in which A and B slide or stick as given: every contact at the low end; under the strict
+        model with a sliding contact, also the sliding contacts at the high end and the sticking
+        ones at the low end. (A relaxed sliding contact offers the arc from its normal to its edge,
+        which only grows with mu, so the low end's wrench cone lies inside the high end's and the
+        low end decides alone; a strict one offers the edge alone, which turns with mu.)"""
+        out = (Friction(self.low, self.model),)
+        if self.model is SlidingModel.STRICT and (a_slides or b_slides):
+            out += (Friction((self.low[0], self.high[1] if a_slides else self.low[1],
+                              self.high[2] if b_slides else self.low[2]), self.model),)
+        return out
 
 
 #: The reference planner's friction with relaxed sliding: the default of every function below.
@@ -150,7 +193,8 @@ def contact_wrenches(
     Slots: G edge +, G edge -, A, A, B, B. A sticking contact fills its two
     slots with its cone edges; a sliding one fills the first with the edge
     opposing the sliding and the second with its normal (relaxed) or nothing
-    (strict). Each wrench is (moment about G, f_x, f_z) of a unit force.
+    (strict). Each wrench is (moment about G, f_x, f_z) of a unit force, for
+    friction's coefficients mu (the nominal ones of a friction known within a range).
     a_sign, b_sign as in
     :func:`~ungrasp_ompl.mechanics.contact.sliding_signs`.
     """
@@ -186,8 +230,14 @@ def force_closure_margin(
     margin is the smallest of these over pairs. Positive iff the wrenches
     positively span R^3, shrinking to zero as the state nears the loss of
     force closure; exactly zero without force closure. States with fewer than
-    two independent wrenches get -1.
+    two independent wrenches get -1. For a friction known within a range, the
+    smallest over the frictions that decide it (Friction.ends).
     """
+    return over_range(_force_closure_margin_at, theta, d, psi, a_sign, b_sign, friction, np.minimum)
+
+
+def _force_closure_margin_at(theta, d, psi, a_sign, b_sign, friction: Friction) -> NDArray[np.float64]:
+    """force_closure_margin for friction's coefficients mu alone."""
     unit = _unit(*_flat(_slots(theta, d, psi, a_sign, b_sign, friction), theta, d, psi, a_sign, b_sign))
     n_state = unit[0][0].shape[0]
     comp = np.empty((6, 3, n_state))
@@ -249,15 +299,53 @@ def force_closure(
     each open side of its plane, beyond FC_TOLERANCE |w_i x w_j| <= FC_TOLERANCE) reads the
     products' signs; the few other states (contacts aligned to within about 1e-9) are decided
     by force_closure_margin itself.
+
+    For a friction known within a range (Friction.uncertainty > 0), true where the test holds at
+    every friction that decides the range (Friction.ends); with uncertainty 0, one test at mu.
     """
+    return over_range(_force_closure_at, theta, d, psi, a_sign, b_sign, friction, np.logical_and)
+
+
+def _force_closure_at(theta, d, psi, a_sign, b_sign, friction: Friction) -> NDArray[np.bool_]:
+    """force_closure for friction's coefficients mu alone."""
     args = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign)))
     slots, masks = _slots(theta, d, psi, a_sign, b_sign, friction)
     unit = [w for w, m in zip(_unit(slots, masks), masks) if np.any(m)]  # an absent slot spans nothing
     shape = args[0].shape
     ok, unsure = (_spans_stacked if math.prod(shape) <= STACKED_STATES else _spans)(unit, shape)
     if unsure.any():
-        ok[unsure] = force_closure_margin(*(x[unsure] for x in args), friction) > FC_TOLERANCE
+        ok[unsure] = _force_closure_margin_at(*(x[unsure] for x in args), friction) > FC_TOLERANCE
     return ok
+
+
+def over_range(check: Callable[..., NDArray], theta: ArrayLike, d: ArrayLike, psi: ArrayLike, a_sign: ArrayLike,
+               b_sign: ArrayLike, friction: Friction, worst: Callable[[NDArray, NDArray], NDArray]) -> NDArray:
+    """A per-state test or margin over friction's range: check (a function of theta, d, psi,
+    a_sign, b_sign and an exactly known Friction, whose result has the states' common shape or is
+    that flattened) at mu when the friction is known exactly, else the worst (np.logical_and,
+    np.minimum) of its values at the frictions that decide the range in each state's contact mode
+    (Friction.ends). Where every state has the same sliding contacts (a lattice's mode), each
+    friction is checked on the arguments as given, so their broadcast shapes are kept."""
+    if friction.uncertainty == 0.0:
+        return check(theta, d, psi, a_sign, b_sign, friction)
+    low = check(theta, d, psi, a_sign, b_sign, friction.ends(False, False)[0])
+    modes = [(a, b) for a, b in ((True, False), (False, True), (True, True)) if len(friction.ends(a, b)) > 1]
+    if not modes:  # relaxed sliding: the low end decides alone
+        return low
+    args = [np.atleast_1d(np.asarray(x, dtype=float)) for x in (theta, d, psi, a_sign, b_sign)]
+    shape = np.broadcast_shapes(*(x.shape for x in args))
+    out = low.reshape(shape).copy()
+    a_slides, b_slides = np.broadcast_arrays(args[3] != 0, args[4] != 0, np.empty(shape))[:2]
+    for a, b in modes:
+        sel = (a_slides == a) & (b_slides == b)
+        if not sel.any():
+            continue
+        high = friction.ends(a, b)[1]
+        if sel.all():
+            out = worst(out, check(theta, d, psi, a_sign, b_sign, high).reshape(shape))
+        else:
+            out[sel] = worst(out[sel], check(*(np.broadcast_to(x, shape)[sel] for x in args), high))
+    return out.reshape(low.shape)
 
 
 def _spans(unit: list[tuple[NDArray, NDArray, NDArray]], shape: tuple[int, ...]

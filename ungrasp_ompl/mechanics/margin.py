@@ -57,7 +57,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .convex import signed_distance
-from .force_closure import FC_TOLERANCE, REFERENCE_FRICTION, Friction, SlidingModel, _pair_margin, contact_wrenches, force_closure
+from .force_closure import (FC_TOLERANCE, REFERENCE_FRICTION, Friction, SlidingModel, _pair_margin, contact_wrenches,
+                            force_closure, over_range)
 from .kinematics import DigitGeometry, digit_bodies, s_b, thumb_clearance
 
 _TRIPLES = list(combinations(range(6), 3))
@@ -216,7 +217,19 @@ def friction_margin(
     positive exactly where :func:`force_closure` holds, 0 on its boundary, negative outside (the
     angle by which every cone must grow); at most min(atan(mu)); -inf where no growth of the cones
     gives force closure. Arguments as for force_closure (a_sign, b_sign in {-1, 0, 1}).
+
+    For a friction known within a range (Friction.uncertainty > 0), the smallest of the margins
+    at the frictions that decide the range (Friction.ends: the cones narrowed from the low end,
+    and under the strict model also from the sliding contacts' high end). Under the relaxed model
+    that is the low end's margin alone: where force closure holds there, every cone narrowed by
+    delta from the high end holds the one narrowed from the low end, so the high end's margin is
+    never smaller.
     """
+    return over_range(_friction_margin_at, theta, d, psi, a_sign, b_sign, friction, np.minimum)
+
+
+def _friction_margin_at(theta, d, psi, a_sign, b_sign, friction: Friction) -> NDArray[np.float64]:
+    """friction_margin for friction's coefficients mu alone."""
     w, v, mask, fc0, monotone = _prepared(theta, d, psi, a_sign, b_sign, friction)
     out = np.full(len(w), _limits(friction.mu)[1])
     # where closure is monotone and still holds with the narrowest cone shrunk to a ray, the margin

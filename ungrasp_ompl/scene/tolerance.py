@@ -13,7 +13,8 @@ How an error moves a state (lengths over l, angles rad; section 4.6 derives each
   z (e) axes at the start lifts it by their vertical parts; the table's height error lowers
   everything by it; turns about the palm's x and z axes tip the plane, lowering the digits' edges
   by half their width (or the housing's thickness) times the horizontal part of the turn;
-* friction lost: every coefficient times (1 - loss) before the plane's reduction; a turn gamma
+* friction lost: every nominal coefficient times (1 - loss) before the plane's reduction (a range
+  of the scene's friction, section 4.7, is not applied on top of it); a turn gamma
   in the grasp turns the chord GB against the outline's normals at G and B, which reduces as
   beta + |gamma| (section 5.2);
 * thickness: the object's thickness times (1 + k) in every kinematic quantity (s_B, the opening,
@@ -236,6 +237,8 @@ class _Box:
         else:
             corners = [(lo, y) for lo in (0.0, loss) for y in (0.0, yaw)]
         sa3, sb3 = self.samples.a_sign[rows][:, None, None], self.samples.b_sign[rows][:, None, None]
+        # the true friction, lost by lo from the scene's nominal coefficients and known exactly: a
+        # range the scene gives (docs/model.md 4.7) bounds the same uncertainty and is not counted again
         for lo, y in corners:  # relaxed: closure only shrinks with friction, so the worst corner suffices
             fc &= force_closure(th3, d3, ps3, sa3, sb3, sc.friction.with_mu(self.mu(lo, y))).ravel()
         if not kinematic:
