@@ -20,6 +20,7 @@ from ungrasp_ompl.workflows.plan import PlanOptions, plan_scene
 from ungrasp_ompl.workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
 
 
+@pytest.mark.slow
 def test_the_plan_workflow_is_the_planner_s_plan_with_its_tolerance_and_export(tmp_path):
     scene = Scene.from_file("guitar_pick")
     run = plan_scene(scene, PlanOptions(planner="lattice"))
@@ -35,6 +36,7 @@ def test_the_plan_workflow_is_the_planner_s_plan_with_its_tolerance_and_export(t
     assert err.value.field == "cage" and "object.thickness" in err.value.reason and err.value.source is None
 
 
+@pytest.mark.slow
 def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):
     scene = Scene.from_file("guitar_pick")
     run = simulate_scene(scene, SimulateOptions(trials=2, perturb="none", jobs=1, planner="lattice"))
@@ -49,6 +51,7 @@ def test_the_simulate_workflow_returns_its_trials_as_values(tmp_path):
     assert all(files[k].is_file() for k in ("model", "view", "poses", "picture"))
 
 
+@pytest.mark.slow
 def test_the_simulate_workflow_plans_with_the_objective_asked_for(tmp_path):
     scene = Scene.from_file(small_landing_file("guitar_pick", tmp_path))
     run = simulate_scene(scene, SimulateOptions(trials=1, perturb="none", jobs=1, planner="lattice", objective="margin"))
@@ -59,7 +62,7 @@ def test_the_simulate_workflow_plans_with_the_objective_asked_for(tmp_path):
 
 @pytest.mark.parametrize("options, field", [
     (SimulateOptions(trials=0), "trials"), (SimulateOptions(jobs=0), "jobs"), (SimulateOptions(perturb="storm"), "perturb"),
-    (SimulateOptions(friction_scale=1.5), "friction_scale"), (SimulateOptions(thickness=0.2), "thickness"),
+    (SimulateOptions(thickness=0.2), "thickness"),
     (SimulateOptions(start_psi_offset=math.radians(100)), "start_psi_offset"),
     (SimulateOptions(objective="steepest"), "objective")])
 def test_simulate_options_name_their_field(options, field):
@@ -78,7 +81,7 @@ def test_a_layout_refuses_the_options_of_a_single_scene():
         assert err.value.field == field
 
 
-@pytest.mark.parametrize("args, flag", [(("--trials", "0"), "--trials"), (("--friction-scale", "2"), "--friction-scale"),
+@pytest.mark.parametrize("args, flag", [(("--trials", "0"), "--trials"), (("--world", "density=0"), "world.density"),
                                         (("--start-psi-offset-deg", "100"), "--start-psi-offset-deg")])
 def test_the_cli_names_the_flag_of_an_options_field(tmp_path, args, flag):
     proc = run_cli("simulate", "guitar_pick", *args, "--out", str(tmp_path / "o"))

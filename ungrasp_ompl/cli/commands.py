@@ -205,6 +205,7 @@ def simulate_command(args: argparse.Namespace) -> int:
 
     from ..layout import Layout
     from ..scene import Scene, read_yaml
+    from ..sim.world import World
     from ..workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
 
     out = Path(args.out)
@@ -215,8 +216,8 @@ def simulate_command(args: argparse.Namespace) -> int:
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
     options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
                               cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
-                              objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset, friction_scale=args.friction_scale,
-                              thickness=args.thickness, equal_digits=args.equal_digits)
+                              objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset,
+                              world=World.parse(args.world or ()), thickness=args.thickness, equal_digits=args.equal_digits)
     doc = read_yaml(path, "scene")
     if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
         layout = Layout.from_file(path)

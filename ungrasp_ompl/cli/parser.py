@@ -224,8 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
     sm.add_argument("--start-psi-offset-deg", type=float, default=None,
                     help="start the plan with psi this much larger, outside force closure (caging experiment)")
-    sm.add_argument("--friction-scale", type=float, default=1.0,
-                    help="simulate with every friction coefficient times this, in (0, 1] (a control)")
+    sm.add_argument("--world", action="append", default=None, metavar="KEY=VALUE",
+                    help="run the trials in a world the plan and its aim never see (repeatable): friction, "
+                         "friction_table, friction_digits, density, jaw_force (factors), stiffness (a factor in "
+                         "(0, 1] on the contacts' stiffness), cone (elliptic or pyramidal)")
     sm.add_argument("--thickness", type=float, default=None,
                     help="simulate an object of this thickness (m) with the motion planned for the scene's")
     sm.add_argument("--equal-digits", action="store_true",

@@ -12,7 +12,7 @@ import math
 import os
 from collections.abc import Callable, Iterator
 from contextlib import closing, contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from ..perturbation import Perturbation, TrialParams, trial_params
 from ..robot.pipeline import Aim
 from .setup import Variant
 from .trial import TrialSetup, run_trial
+from .world import World
 
 
 @dataclass
@@ -38,6 +39,7 @@ class SimulationReport:
     plan_problems: list["PlanProblem"] = field(default_factory=list)  #: why the model would reject the plan (empty: secure)
     trajectory_duration_s: float = 0.0
     aim: Aim = Aim()  #: how the hand's motion was moved from the plan's frame (robot.landing)
+    world: World = World()  #: how the world the trials ran in differs from the scene's
 
     @property
     def successes(self) -> int:
@@ -78,6 +80,7 @@ class SimulationReport:
             "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
+            "world": self.world.to_dict(),
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
             "aim_m": [self.aim.x, self.aim.y], "aim_turn_rad": self.aim.turn,
@@ -110,8 +113,9 @@ def _one(args: tuple[TrialSetup, TrialParams, int, int | None]) -> TrialResult:
 
 def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
              progress: Callable[[TrialResult], None] | None = None, scene: str = "",
-             variant: Variant = Variant(), cluster: str | None = None) -> SimulationReport:
-    """Run trials 0 .. trials-1 of a placement, each with its own seeded perturbation (the same
+             variant: Variant = Variant(), cluster: str | None = None, world: World = World()) -> SimulationReport:
+    """Run trials 0 .. trials-1 of a placement in world (sim.world: the world the setup, its plan
+    and its aim were made without), each with its own seeded perturbation (the same
     seed gives the same trials wherever they run), jobs at a time in worker processes
     (ungrasp_ompl.runner), or on the Ray cluster at the address cluster. A trial that raises, or whose worker dies, ends the campaign with
     that error (TaskLost for a worker that died).
@@ -120,9 +124,9 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: i
         raise InputError("trials", f"must be at least 1, got {trials}")
     if jobs < 1:
         raise InputError("jobs", f"must be at least 1, got {jobs}")
-    results = run_trials([setup], perturbation, trials, seed, jobs, progress, cluster)[0]
+    results = run_trials([replace(setup, world=world)], perturbation, trials, seed, jobs, progress, cluster)[0]
     return SimulationReport(scene, perturbation, variant, seed, results,
-                            trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim)
+                            trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim, world=world)
 
 
 def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,

@@ -142,6 +142,8 @@ class SimModelSpec:
     table_height: float = 0.0  #: m, where the table's top really is (a calibration error moves it)
     grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object)
     servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit
+    contact_time: float = SOLREF[0]  #: s, the contacts' reference time constant (MuJoCo's solref)
+    cone: str = "elliptic"  #: the contacts' friction cone: elliptic or pyramidal (MuJoCo's option)
 
 
 @dataclass
@@ -216,7 +218,7 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     """The MJCF text of the trial's world (see the module docstring for what moves how), with
     key as a <keyframe> when given."""
     g, f, obj = spec.gripper, spec.friction, spec.obj
-    solref, solimp = _floats(SOLREF), _floats(SOLIMP)
+    solref, solimp = _floats((spec.contact_time, SOLREF[1])), _floats(SOLIMP)
     half = g.max_opening / 2
     flat = g.finger_tip_radius <= 0.0
     thumb = _extrude_y(_digit(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
@@ -250,7 +252,7 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
         f'density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{spec.timestep:.9g}" cone="elliptic" impratio="{IMPRATIO:g}" integrator="implicitfast">
+  <option timestep="{spec.timestep:.9g}" cone="{spec.cone}" impratio="{IMPRATIO:g}" integrator="implicitfast">
     <flag multiccd="enable"/>
   </option>
   <default>

@@ -25,10 +25,10 @@ from .trial import PlannedTravel, TrialSetup
 
 @dataclass(frozen=True)
 class Variant:
-    """A deliberate difference between the simulated world and the planned one (the
-    experiments' controls); the defaults simulate the scene as planned."""
+    """A deliberate difference between the simulated object or digits and the planned ones (the
+    experiments' controls; sim.world.World holds the differences of the world's physics); the
+    defaults simulate the scene as planned."""
 
-    friction_scale: float = 1.0  #: factor (0, 1] on every friction coefficient
     thickness: float | None = None  #: the simulated object's thickness (m) instead of the scene's
     equal_digits: bool = False  #: the thumb made as long as the finger (alpha 0), the motion unchanged
 
@@ -103,7 +103,7 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     opts = scene.sim
     frame = plane_frame(scene)
     l = scene.object_length
-    mu_g, mu_a, mu_b = (m * variant.friction_scale for m in (scene.mu_contacts or scene.mu))
+    mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
     obj = SimObject(object_outline(scene), thickness, opts.density)
     spec = SimModelSpec(obj=obj, gripper=gripper_geometry(scene, robot, variant.equal_digits),
