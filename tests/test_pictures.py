@@ -17,7 +17,7 @@ from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.plotting import REGION_CLASSES, TRIAL_PARAM_LABELS, plan_figure, regions_figure, trials_figure
 
 #: An axis name in words (no snake_case) ending in its unit in parentheses.
-_NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \(([^()]*\b(deg|mm|m|s|mJ)\b[^()]*|fraction of l\b[^()]*|"
+_NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \(([^()]*\b(deg|mm|m|s|mJ|N)\b[^()]*|fraction of l\b[^()]*|"
                     r"x the scene's[^()]*|reference units|share of [^()]+|index)\)$")
 
 
@@ -117,7 +117,14 @@ def test_every_trial_error_has_a_label_with_its_unit():
     for key, label in TRIAL_PARAM_LABELS.items():
         assert _NAMED.match(label), label
         unit = key.rsplit("_", 1)[1]
-        assert label.endswith(f"({unit})") if unit in ("mm", "deg") else "x the scene's" in label
+        if unit in ("mm", "deg"):
+            assert label.endswith(f"({unit})"), label
+        elif unit == "n":  # newtons
+            assert label.endswith("(N)"), label
+        elif unit == "seed":  # a draw's seed: a number naming it
+            assert label.endswith("(index)"), label
+        else:
+            assert "x the scene's" in label, label
 
 
 def _map_result():

@@ -4,7 +4,9 @@ draws them (sim/), and a plan's tolerance (scene/tolerance.py) scales their box.
 Every error is drawn uniformly within its bound (a bounded error, as calibration leaves),
 from a numpy Generator seeded per trial, so a campaign is reproducible trial by trial.
 Friction is only ever scaled down: the scene's coefficients are what the plan relies on,
-and a simulation that grants more friction than that proves nothing.
+and a simulation that grants more friction than that proves nothing. The one error that is not
+bounded is a touch-off's (robot.touch_off): its force sensor's noise, Gaussian, one draw per
+reading, from a sequence whose seed the trial draws (sim.probe).
 """
 
 from __future__ import annotations
@@ -29,13 +31,13 @@ class TrialParams:
     palm_shift_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: the arm's calibration: palm offset along palm x, y, z (mm)
     palm_turn_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: ... and turn about palm x, y, z (deg)
     table_height_mm: float = 0.0  #: the table's top above where the plan believes it (mm)
-    probe_error_mm: float = 0.0  #: a touch-off's error (robot.touch_off): the table found this much higher than it is (mm)
+    probe_noise_n: float = 0.0  #: a touch-off's (robot.touch_off) force sensor: one standard deviation of a reading's noise (N); 0: an ideal sensor; negative: the draws of probe_seed turned the other way
+    probe_seed: int = 0  #: seeds the standard normal draws that, times probe_noise_n, are the noise of the touch-off's readings, one a control period
 
     @property
     def calibrated(self) -> bool:
         """No calibration error: the commanded trajectory and the table are where the plan has them."""
-        return (not any(self.palm_shift_mm) and not any(self.palm_turn_deg) and self.table_height_mm == 0.0
-                and self.probe_error_mm == 0.0)
+        return not any(self.palm_shift_mm) and not any(self.palm_turn_deg) and self.table_height_mm == 0.0
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -51,7 +53,7 @@ class TrialParams:
 @dataclass(frozen=True)
 class Perturbation:
     """Bounds of a trial's random errors; each is drawn uniformly within +-bound (friction in
-    [1 - friction, 1])."""
+    [1 - friction, 1]); a touch-off's sensor noise is Gaussian, of standard deviation probe_noise_n."""
 
     name: str
     shift_mm: float = 0.0  #: object position in the grasp, along and across GB (mm)
@@ -62,11 +64,12 @@ class Perturbation:
     palm_shift_mm: float = 0.0  #: the arm's calibration: palm position, along each palm axis (mm)
     palm_turn_deg: float = 0.0  #: the arm's calibration: palm orientation, about each palm axis (deg)
     table_mm: float = 0.0  #: the table's height (mm)
-    probe_mm: float = 0.0  #: where a touch-off (robot.touch_off) finds the table's height (mm)
+    probe_noise_n: float = 0.0  #: a touch-off's (robot.touch_off) force sensor: one standard deviation of a reading's noise (N)
 
     def sample(self, rng: np.random.Generator) -> TrialParams:
         """One trial's deviations (the calibration's drawn after the others, and the touch-off's
-        after it, so that adding each left the draws before it as they were)."""
+        sensor noise, its seed, after it, so that adding each left the draws before it as they were;
+        the seed takes one 64-bit word of the generator, as much as the uniform draw it replaced)."""
         u = rng.uniform(-1.0, 1.0, size=5)
         fr = rng.uniform(1.0 - self.friction, 1.0, size=3) if self.friction else np.ones(3)
         c = rng.uniform(-1.0, 1.0, size=7)
@@ -75,12 +78,13 @@ class Perturbation:
                            mass_scale=1.0 + self.mass * u[3], thickness_scale=1.0 + self.thickness * u[4],
                            palm_shift_mm=tuple(float(x) for x in self.palm_shift_mm * c[:3]),
                            palm_turn_deg=tuple(float(x) for x in self.palm_turn_deg * c[3:6]),
-                           table_height_mm=float(self.table_mm * c[6]),
-                           probe_error_mm=float(self.probe_mm * rng.uniform(-1.0, 1.0)) if self.probe_mm else 0.0)
+                           table_height_mm=float(self.table_mm * c[6]), probe_noise_n=self.probe_noise_n,
+                           probe_seed=int(rng.integers(2**63)) if self.probe_noise_n else 0)
 
     def mirrored(self, p: TrialParams) -> TrialParams:
         """p reflected through the middle of this box: every error turned the other way, and each
-        friction factor reflected about the middle of [1 - friction, 1]. With p, an antithetic pair
+        friction factor reflected about the middle of [1 - friction, 1], and the touch-off's sensor
+        noise the same draws turned the other way (its seed kept). With p, an antithetic pair
         whose two errors average to the box's middle, so that an effect linear in the errors
         cancels in the pair's mean (sim.landing.expected_landing)."""
         mid = 2.0 - self.friction  # twice the middle of the friction factors' range
@@ -89,7 +93,8 @@ class Perturbation:
                            mass_scale=2.0 - p.mass_scale, thickness_scale=2.0 - p.thickness_scale,
                            palm_shift_mm=tuple(-x for x in p.palm_shift_mm),
                            palm_turn_deg=tuple(-x for x in p.palm_turn_deg),
-                           table_height_mm=-p.table_height_mm, probe_error_mm=-p.probe_error_mm)
+                           table_height_mm=-p.table_height_mm, probe_noise_n=-p.probe_noise_n,
+                           probe_seed=p.probe_seed)
 
 
 #: The presets. `paper`: what an open-loop, camera-calibrated set-up like the paper's leaves
@@ -97,17 +102,18 @@ class Perturbation:
 #: the grasp (a hand-over and a camera a few pixels off), friction up to 20% below the scene's
 #: (surfaces vary, dust), mass +-20% and thickness +-5% (printing and cutting tolerances), and
 #: the arm's calibration: the palm's pose +-1 mm and +-0.5 deg about each axis, the table's
-#: height +-0.5 mm, and where a touch-off finds the table +-0.1 mm (when the scene's robot makes
-#: one). The others draw one kind of error at the paper's size.
+#: height +-0.5 mm, and (when the scene's robot touches the table off) the noise of the UR5e's
+#: wrist force sensor, 1.75 N a reading (robot.touch_off.FORCE_NOISE, docs/model.md 11.14). The
+#: others draw one kind of error at the paper's size.
 PRESETS: dict[str, Perturbation] = {p.name: p for p in (
     Perturbation("none"),
     Perturbation("paper", shift_mm=1.0, yaw_deg=2.0, friction=0.2, mass=0.2, thickness=0.05,
-                 palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_mm=0.1),
+                 palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_noise_n=1.75),
     Perturbation("grasp", shift_mm=1.0, yaw_deg=2.0),
     Perturbation("friction", friction=0.2),
     Perturbation("mass", mass=0.2),
     Perturbation("thickness", thickness=0.05),
-    Perturbation("calibration", palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_mm=0.1),
+    Perturbation("calibration", palm_shift_mm=1.0, palm_turn_deg=0.5, table_mm=0.5, probe_noise_n=1.75),
 )}
 
 

@@ -243,7 +243,8 @@ TRIAL_PARAM_LABELS = {
     **{f"palm_shift_{a}_mm": f"palm offset along palm {a}, calibration (mm)" for a in "xyz"},
     **{f"palm_turn_{a}_deg": f"palm turn about palm {a}, calibration (deg)" for a in "xyz"},
     "table_height_mm": "table top above the planned height (mm)",
-    "probe_error_mm": "table found above where it is, touch-off (mm)",
+    "probe_noise_n": "touch-off force reading noise, one sd (N)",
+    "probe_seed": "touch-off force noise draws, their seed (index)",
 }
 
 

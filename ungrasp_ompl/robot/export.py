@@ -400,12 +400,15 @@ def read_urscript_servo_targets(path: PathLike) -> NDArray[np.float64]:
 
 
 def write_touch_off_urscript(probe: TouchOff, path: PathLike) -> None:
-    """A URScript program for the touch-off before the plan (robot.touch_off):
-    with the hand empty, it sets the start pinch's opening, moves to probe.options.lift above
-    the start pinch, lowers the hand straight down at probe.options.speed until tool_contact
-    reports the contact, takes the pose where the contact began (the joint history that many
-    control periods back), goes back up and reports how much higher than the scene has it the
-    table stands (m) and the robot.base height (m) that corrects it."""
+    """A URScript program for the touch-off before the plan (robot.touch_off), with the options the
+    simulator's probe uses (probe.options: TouchOffOptions): with the hand empty, it sets the start
+    pinch's opening, moves to probe.options.lift above the start pinch, zeroes the force sensor,
+    lowers the hand straight down at probe.options.speed, one control period at a time, until the
+    vertical force reading reaches probe.options.threshold in magnitude (or halts once it has gone
+    probe.options.overtravel past the expected touch), takes the commanded pose there less the
+    hand's give at the threshold (probe.deflection, the cell's calibration), goes back up and
+    reports how much higher than the scene has it the table stands (m) and the robot.base height
+    (m) that corrects it."""
     o = probe.options
     q0 = _joint_list(probe.start_joints)
     lines = [
@@ -414,23 +417,35 @@ def write_touch_off_urscript(probe: TouchOff, path: PathLike) -> None:
         "# and the robot.base z that corrects it: set that in the scene and export the plan again.",
         f"# A table where the scene has it is met {probe.expected_descent:.6f} m below the probe's start",
         f"# ({o.lift:g} m above the start pinch, where the digits' lowest point is {probe.clearance:.6f} m above the table).",
+        f"# The descent stops at the first {o.period:g} s period whose vertical force reading reaches {o.threshold:g} N;",
+        "# the hand has then gone on past the first touch by the give of the digits at that force: deflection",
+        "# below, the cell's calibration, measured once by running this program over a surface of known height",
+        "# with deflection = 0 (the offset it then reports is minus the give). 0: not calibrated.",
         "def ungrasp_touch_off():",
         _GRIPPER_FUNCTION.rstrip("\n"),
         "",
+        f"  deflection = {probe.deflection:.6f}",
         f"  ungrasp_gripper_set_opening({probe.opening:.6f})",
         f"  q_pinch = {q0}",
         f"  p_top = pose_trans(p[0, 0, {o.lift:g}, 0, 0, 0], get_forward_kin(q_pinch))",
         f"  movej(get_inverse_kin(p_top, qnear=q_pinch), a={_MOVEJ_ACC:g}, v={_MOVEJ_VEL:g})",
-        "  p_top = get_actual_tcp_pose()",
-        "  step_back = 0",
-        "  while step_back <= 0:",
-        f"    speedl([0, 0, {-o.speed:g}, 0, 0, 0], a=0.5, t=get_steptime())",
-        "    step_back = tool_contact(direction=get_target_tcp_speed())",
+        "  sleep(0.5)",
+        "  zero_ftsensor()",
+        "  p_top = get_target_tcp_pose()",
+        "  reading = 0",
+        f"  while norm(reading) < {o.threshold:g}:",
+        f"    if p_top[2] - get_target_tcp_pose()[2] > {probe.expected_descent + o.overtravel:.6f}:",
+        "      stopl(3)",
+        "      popup(\"ungrasp touch-off: no table within reach\", \"ungrasp touch-off\", error=True, blocking=True)",
+        "      halt",
+        "    end",
+        f"    speedl([0, 0, {-o.speed:g}, 0, 0, 0], a=0.5, t={o.period:g})",
+        "    reading = get_tcp_force()[2]",
         "  end",
-        "  p_contact = get_forward_kin(get_actual_joint_positions_history(step_back))",
+        "  p_stop = get_target_tcp_pose()",
         "  stopl(3)",
         "  movel(p_top, a=0.5, v=0.01)",
-        f"  offset = {probe.expected_descent:.6f} - (p_top[2] - p_contact[2])",
+        f"  offset = {probe.expected_descent:.6f} - (p_top[2] - p_stop[2] - deflection)",
         "  textmsg(\"ungrasp touch-off: the table is higher than the scene has it by (m) \", offset)",
         f"  textmsg(\"ungrasp touch-off: set robot.base.position z (m) to \", {probe.base_z:.6f} - offset)",
         "end",

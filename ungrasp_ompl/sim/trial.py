@@ -30,15 +30,27 @@ from numpy.typing import NDArray
 
 from .drive import GripperDrive
 from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
+from .world import World
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
+from .probe import TouchOffProbe, calibrate, noise_sequence, periods_within, probing
 from ..perturbation import TrialParams
 from ..robot.pipeline import Aim
+from ..robot.touch_off import TouchOffOptions
 
 #: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
 SLIDE_MIN_RISE = 0.1
 #: No digit touching the object this long (s), or A or B absent this long when the termination
 #: begins, is a lost grip (docs/model.md 11.20); it bridges ticks at which a sliding contact parts.
 LOSS_WINDOW = 0.05
+#: How far (m) the object may move with a contact of its pinch parted before the grip counts as
+#: lost: the 1 mm shift in the grasp that the plans absorb (the `paper` errors' bound).
+GRIP_SLACK = 0.001
+#: Standard gravity (m/s^2).
+GRAVITY = 9.81
+#: The longest A or B may be absent before the termination (s): the time in which the object,
+#: held by nothing but gravity where that contact was, moves GRIP_SLACK, sqrt(2 GRIP_SLACK / g),
+#: 14.3 ms, seven control ticks of 2 ms (docs/model.md 11.22).
+MAX_CONTACT_GAP = (2.0 * GRIP_SLACK / GRAVITY) ** 0.5
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
 #: Slower than this (m/s, and STILL_SPIN rad/s) for STILL_WINDOW s, a free body on the table lies still.
@@ -74,7 +86,9 @@ class TrialSetup:
     set-up measured the table's height under the start pinch (robot.touch_off, touch_off_shift) and
     runs the plan from what it found; aim: how the hand's motion is moved from the plan's frame
     (robot.pipeline.Aim), by which the robot corrects the landing (sim.landing), the target staying
-    where it is.
+    where it is; world: how the world the trials run in differs from the scene's (sim.world), which
+    neither the plan nor its aim sees; max_contact_gap: the longest A or B may be absent before
+    the termination (s, Grip), inf for the rule that let one contact part for any time.
     """
 
     spec: SimModelSpec
@@ -91,6 +105,8 @@ class TrialSetup:
     handed_over: bool = False
     touch_off: bool = False
     aim: Aim = Aim()
+    world: World = World()
+    max_contact_gap: float = MAX_CONTACT_GAP
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
@@ -134,18 +150,36 @@ def digits_lowest(model, data, ids: ModelIds, drive: GripperDrive, error: NDArra
     return low
 
 
-def touch_off_shift(model, data, ids: ModelIds, drive: GripperDrive, error: NDArray, params: TrialParams) -> float:
-    """How far (m, along the world z the arm believes in) a touch-off moves every command of the
-    trial (robot.touch_off): the empty hand, at the start pinch's pose and opening, lowered
-    straight down until a digit touches the table, finds it as much higher than the plan has it
-    as the digits' lowest point (digits_lowest, on the simulated digits themselves) stands lower
-    above it, less the probe's own error (params.probe_error_mm); the set-up runs the plan that
-    much higher (docs/model.md 11.14). error: the arm's calibration (calibration_offset); the
-    table's top is at params.table_height_mm."""
-    planned = digits_lowest(model, data, ids, drive, np.eye(4))
-    found = digits_lowest(model, data, ids, drive, error) - params.table_height_mm / 1000 \
-        - params.probe_error_mm / 1000
-    return (planned - found) / float(error[2, 2])
+def touch_off_shift(setup: TrialSetup, model, ids: ModelIds, error: NDArray, params: TrialParams) -> TouchOffProbe:
+    """The trial's touch-off (robot.touch_off; sim.probe, docs/model.md 11.14): in the trial's
+    world (model, the object out of it while the probe runs) the empty hand, at the start pinch's
+    orientation and opening, starts TouchOffOptions.lift above the start pinch, as the arm
+    commands it and its calibration error (error, calibration_offset) takes it, and is lowered
+    along the arm's z until the wrist's force reading, with the sensor's noise
+    (params.probe_noise_n, probe_seed), passes the threshold. Its found (m) is the calibration's
+    descent (sim.probe.calibrate, on a table at the known height in the trial's world, none of the
+    trial's errors drawn) less the trial's: how much higher
+    than the plan has it the table stands, along the arm's z; the set-up runs the plan that much
+    higher. Only the commanded descent and the readings decide it. Its error, the record, is
+    found less what an exact probe would have found: how much lower than the plan has it the
+    simulated digits' lowest point stands above the trial's table (at params.table_height_mm),
+    error applied (digits_lowest), along the arm's z."""
+    import mujoco
+
+    drive, options = setup.drive, TouchOffOptions()
+    pinch, opening = (drive.palm[0] if drive.press_from is None else drive.press_from), float(drive.opening[0])
+    # calibrated once on a surface at a known height in the world the cell is (its contacts, its
+    # digits), with none of the trial's errors
+    calibration = calibrate(trial_spec(setup, TrialParams()), pinch, opening, options, params.probe_noise_n)
+    noise = noise_sequence(params.probe_noise_n, params.probe_seed, periods_within(calibration.reach, options))
+    # the arm's error as the trial's own commands take it: none at all where it is calibrated
+    with probing(model, ids, pinch, opening, options, None if params.calibrated else error) as hand:
+        descent = hand.descend(noise, options.threshold, calibration.reach)
+    found = calibration.descent - descent.descent
+    data = mujoco.MjData(model)  # the record, after the fact
+    exact = (digits_lowest(model, data, ids, drive, np.eye(4)) - digits_lowest(model, data, ids, drive, error)
+             + params.table_height_mm / 1000) / float(error[2, 2])
+    return TouchOffProbe(found, found - exact, descent, calibration)
 
 
 def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float,
@@ -197,15 +231,21 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, durat
 
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
-    """The nominal model with the trial's friction, mass, thickness and table height."""
-    spec = setup.spec
+    """The nominal model in the setup's world (setup.world: its friction, densities, cone, contact
+    stiffness and jaw force), with the trial's friction, mass, thickness and table height."""
+    spec, world = setup.spec, setup.world
     fg, fa, fb = params.friction_scale
+    table, digits = world.friction_factors
     fr = spec.friction
     obj = replace(spec.obj, thickness=spec.obj.thickness * params.thickness_scale,
-                  density=spec.obj.density * params.mass_scale / params.thickness_scale)
-    return replace(spec, obj=obj, table_height=params.table_height_mm / 1000,
-                   friction=replace(fr, table=fr.table * fg, finger=fr.finger * fa, thumb=fr.thumb * fb,
-                                    solids=fr.solids * fg))
+                  density=spec.obj.density * world.density * params.mass_scale / params.thickness_scale)
+    placed = tuple((name, replace(other, density=other.density * world.density), pose)
+                   for name, other, pose in spec.placed)
+    return replace(spec, obj=obj, placed=placed, table_height=params.table_height_mm / 1000,
+                   friction=replace(fr, table=fr.table * table * fg, finger=fr.finger * digits * fa,
+                                    thumb=fr.thumb * digits * fb, solids=fr.solids * table * fg),
+                   grip_force=spec.grip_force * world.jaw_force, cone=str(world.cone),
+                   contact_time=spec.contact_time * world.time_constant_factor)
 
 
 class Stillness:
@@ -248,6 +288,8 @@ class _Watch:
     over a thousand ticks)."""
 
     def __init__(self, model, ids: ModelIds):
+        import mujoco
+
         self.object = ids.object_geom
         self.table = ids.table_geom
         kind = [_OTHER] * model.ngeom
@@ -259,6 +301,16 @@ class _Watch:
             kind[g] = _SOLID
         kind[ids.table_geom] = _TABLE
         self.kind = kind
+        # a contact's normal force: its first constraint row under elliptic cones; under pyramidal
+        # ones the sum of its 2 (condim - 1) edge forces (each edge is the normal plus mu times a
+        # tangent, so their normal parts add up)
+        self.rows = 1 if model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else 2 * (3 - 1)
+
+    def _normal(self, force, adr: int) -> float:
+        """The normal force (N) of the contact whose constraint rows start at adr (-1: none)."""
+        if adr < 0:
+            return 0.0
+        return float(force[adr]) if self.rows == 1 else float(force[adr:adr + self.rows].sum())
 
     def look(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick:
         """What the object's contacts are now, and whether a digit touches the table. A is the
@@ -276,8 +328,7 @@ class _Watch:
                 mine.append((i, kind[g2 if g1 == obj else g1]))
             elif (g1 == table or g2 == table) and _FINGER <= kind[g2 if g1 == table else g1] <= _THUMB:
                 tick.digit_on_table = True
-                a = con.efc_address[i]
-                tick.table_push = max(tick.table_push, float(data.efc_force[a]) if a >= 0 else 0.0)
+                tick.table_push = max(tick.table_push, self._normal(data.efc_force, int(con.efc_address[i])))
         if not mine:
             return tick
         tick.touched = True
@@ -291,7 +342,7 @@ class _Watch:
             tick.sinking = max(tick.sinking, -dist[i])
             if k == _TABLE:
                 continue
-            f = float(force[adr[i]]) if adr[i] >= 0 else 0.0  # elliptic cones: row 0 is normal
+            f = self._normal(force, adr[i])
             if k == _THUMB:
                 tick.b = True
                 if f > 0:
@@ -317,10 +368,13 @@ class _Watch:
 @dataclass
 class Grip:
     """Whether the digits still hold the object, from whether A and B touch it at each control
-    tick before the termination (docs/model.md 11.20). The object is held while a digit presses
-    it; the grip is lost when no digit has touched it for LOSS_WINDOW (s), or when the termination
-    begins with A or B absent for LOSS_WINDOW. Times are s from the first primitive's start."""
+    tick before the termination (docs/model.md 11.20, 11.22). The grip is lost when A or B has
+    been absent for max_gap (s), when no digit has touched the object for LOSS_WINDOW, or when the
+    termination begins with A or B absent for the shorter of the two. Times are s from the first
+    primitive's start; max_gap inf is the rule of 11.20 alone (one contact may part for any time).
+    """
 
+    max_gap: float = MAX_CONTACT_GAP  #: the longest A or B may be absent (s)
     a_off: float | None = None  #: since when (s) the finger's contact A has been absent; None while it touches
     b_off: float | None = None  #: the same for the thumb's contact B
     a_gap: float = 0.0  #: the longest A has been absent so far (s), first tick without it to the last
@@ -328,9 +382,9 @@ class Grip:
     last: float = 0.0  #: the last tick noted (s)
 
     def note(self, t: float, a: bool, b: bool) -> float | None:
-        """Note the tick at t (s) with A and B touching or not; return when the object left the
-        hand (s, the first tick at which no digit touched it) once no digit has touched it for
-        LOSS_WINDOW, else None."""
+        """Note the tick at t (s) with A and B touching or not; return when the grip was lost (s,
+        the first tick of the absence that lost it) once A or B has been absent for max_gap or no
+        digit has touched the object for LOSS_WINDOW, else None."""
         self.a_off = None if a else (t if self.a_off is None else self.a_off)
         self.b_off = None if b else (t if self.b_off is None else self.b_off)
         if self.a_off is not None:
@@ -338,15 +392,19 @@ class Grip:
         if self.b_off is not None:
             self.b_gap = max(self.b_gap, t - self.b_off)
         self.last = t
-        if self.a_off is None or self.b_off is None:
-            return None
-        free = max(self.a_off, self.b_off)
-        return free if t - free >= LOSS_WINDOW else None
+        gone = [off for off in (self.a_off, self.b_off) if off is not None and t - off >= self.max_gap]
+        if self.a_off is not None and self.b_off is not None:
+            free = max(self.a_off, self.b_off)
+            if t - free >= LOSS_WINDOW:
+                gone.append(free)
+        return min(gone) if gone else None
 
     def pinch_lost(self) -> float | None:
         """At the termination's start: when (s) the contact that has been absent for the last
-        LOSS_WINDOW before it went (the earlier of A and B), or None if the pinch is there."""
-        gone = [off for off in (self.a_off, self.b_off) if off is not None and self.last - off >= LOSS_WINDOW]
+        LOSS_WINDOW (or max_gap, the shorter) before it went (the earlier of A and B), or None if
+        the pinch is there."""
+        window = min(LOSS_WINDOW, self.max_gap)
+        gone = [off for off in (self.a_off, self.b_off) if off is not None and self.last - off >= window]
         return min(gone) if gone else None
 
 
@@ -500,12 +558,13 @@ def _move_palm(model, data, ids: ModelIds, start: tuple[NDArray, NDArray], end: 
 START_RAISE_STEP, START_RAISE_MAX = 2.5e-4, 0.01
 
 
-def _start(setup: TrialSetup, params: TrialParams):
+def _start(setup: TrialSetup, params: TrialParams, probed: list | None = None):
     """The trial's compiled world at its first state (before the settling): model, data, ids,
-    the commanded palm poses (K, 4, 4) with the calibration error applied, and where the hand
-    starts from the first of them (3,) m: perturbed_start's lowering above it, a start press's
-    depth (GripperDrive.press_from), and as much more as keeps the object and the hand out of the
-    walls and the pieces down (START_RAISE_STEP)."""
+    the commanded palm poses (K, 4, 4) with the calibration error applied (and moved by what a
+    touch-off found: touch_off_shift), and where the hand starts from the first of them (3,) m:
+    perturbed_start's lowering above it, a start press's depth (GripperDrive.press_from), and as
+    much more as keeps the object and the hand out of the walls and the pieces down
+    (START_RAISE_STEP). probed: when a list is given, the touch-off's probe is appended to it."""
     import mujoco
 
     spec = trial_spec(setup, params)
@@ -515,13 +574,18 @@ def _start(setup: TrialSetup, params: TrialParams):
     drive = setup.drive
     error = calibration_offset(drive, params)  # the identity up to rounding where calibrated (trials are
     # chaotic enough that the rounding shows: where calibrated, the palm's own poses are used as they are)
-    if setup.touch_off and not params.calibrated:
-        error[:3, 3] += error[:3, 2] * touch_off_shift(model, data, ids, drive, error, params)  # error @ a lift
-    palm = drive.palm if params.calibrated else error @ drive.palm
+    probe = touch_off_shift(setup, model, ids, error, params) if setup.touch_off else None
+    if probe is not None and probed is not None:
+        probed.append(probe)
+    moved = probe is not None and probe.found != 0.0
+    if moved:
+        error[:3, 3] += error[:3, 2] * probe.found  # error @ a lift along the arm's z
+    exact = params.calibrated and not moved  # nothing moves the commands: they are used as they are
+    palm = drive.palm if exact else error @ drive.palm
     start, lowering = perturbed_start(setup, params, spec.obj.thickness, error)
     offset = np.array([0.0, 0.0, lowering])
     if drive.press_from is not None:
-        offset += (drive.press_from if params.calibrated else error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
+        offset += (drive.press_from if exact else error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
     quat = np.zeros(4)
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
     data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
@@ -573,7 +637,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     import mujoco
 
     wall = time.perf_counter()
-    spec, model, data, ids, palm, offset = _start(setup, params)
+    probed: list = []  # the touch-off's probe, for the record
+    spec, model, data, ids, palm, offset = _start(setup, params, probed)
     drive = setup.drive
     quats = _palm_quats(palm)
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
@@ -590,7 +655,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     lifting = drive.phase_start("retreat") if any(name == "retreat" for name, _, _ in drive.phases) else math.inf
     stillness = Stillness(model, ids)
     settled = False
-    grip = Grip()
+    grip = Grip(setup.max_contact_gap)
     solid_seen_at = -math.inf
     roll = sinking = dome = off_dome = table_push = 0.0
     failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
@@ -661,7 +726,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     share = off_dome / (dome + off_dome) if ids.finger_dome >= 0 and dome + off_dome > 0 else None
     return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
                        trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others,
-                       sinking * 1000, share, travel.travels(setup.planned), table_push, grip.a_gap, grip.b_gap)
+                       sinking * 1000, share, travel.travels(setup.planned), table_push, grip.a_gap, grip.b_gap,
+                       **(probed[0].result_fields() if probed else {}))
 
 
 def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
