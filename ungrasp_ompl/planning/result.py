@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..mechanics import Primitive, primitive_sliding_signs
+from ..mechanics import Friction, Primitive, primitive_sliding_signs
 from ..mechanics.roll import describe_restoring
 from ..scene import StateClass, StateDiagnosis
 from ..scene.tolerance import describe_tolerance
@@ -79,6 +79,11 @@ class PlanOutcome(Enum):
     #: A path was found, but its tolerance is below planning.min_tolerance: tolerance (the path's,
     #: scene.tolerance.Tolerance.to_dict), min_tolerance.
     BELOW_MIN_TOLERANCE = "below_min_tolerance"
+    #: A path was found, but the predicted landing moves more than planning.max_landing_spread over
+    #: the friction's range and both cones, and no path without P_dpsi is found within it either:
+    #: spread_m (the path's), max_landing_spread_m, without_p_dpsi (the spread without P_dpsi, m, or
+    #: why there is none).
+    LANDING_SPREAD = "landing_spread"
 
 
 def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: str = "the planner") -> str:
@@ -112,6 +117,12 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
         return (f"the path found tolerates {e['tolerance']['scale']:.3f} of the {e['tolerance']['perturbation']} errors, "
                 f"below planning.min_tolerance {e['min_tolerance']:g} (bound by "
                 f"{e['tolerance']['reason'].replace('_', ' ')}); try --objective tolerance")
+    if outcome is PlanOutcome.LANDING_SPREAD:
+        other = e["without_p_dpsi"]
+        other = f"{1000 * other:.2f} mm" if isinstance(other, float) else other
+        return (f"the path found lands the object {1000 * e['spread_m']:.2f} mm apart over friction x0.7-1.3 and both "
+                f"cones, beyond planning.max_landing_spread {1000 * e['max_landing_spread_m']:.2f} mm; without P_dpsi: "
+                f"{other}")
     return f"{planner} did not stop within {e['deadline_s']:.0f} s and was killed: {e['known']}"
 
 
@@ -214,12 +225,24 @@ class Plan:
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
     report: Report3D | None = None  # scenes with an outline
     tolerance: dict | None = None  # the plan's tolerance of the paper errors (scene.tolerance.Tolerance.to_dict)
+    friction: dict | None = None  # the friction planned with and its range (friction_record)
+    predicted_landing: dict | None = None  # where the release puts the object (mechanics.release.predict_landing)
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
     def solved(self) -> bool:
         """A path was found and passed re-validation."""
         return self.outcome is PlanOutcome.SOLVED
+
+    @property
+    def secure_over(self) -> tuple[float, float] | None:
+        """The factors (low, high) of the scene's friction coefficients over which every state of
+        the solved plan is force-closed in its leg's contact mode (docs/model.md 4.7): (1 - u,
+        1 + u) for the friction's uncertainty u; None when unsolved or the plan does not say."""
+        u = self.friction.get("uncertainty") if isinstance(self.friction, dict) else None
+        if not self.solved or isinstance(u, bool) or not isinstance(u, (int, float)) or not 0.0 <= u < 1.0:
+            return None
+        return 1.0 - u, 1.0 + u
 
     @property
     def reason(self) -> str | None:
@@ -241,6 +264,12 @@ class Plan:
              "seed": self.seed, "sliding_model": self.sliding_model, **asdict(self.solution),
              **asdict(self.diagnostics), "evidence": self.evidence, **report, "objective": self.objective,
              "tolerance": self.tolerance, "reason": self.reason, "schema_version": JSON_SCHEMA_VERSION}
+        if isinstance(self.friction, dict):
+            secure = self.secure_over
+            d["friction"] = {**self.friction, "secure_over": None if secure is None else list(secure)}
+        else:
+            d["friction"] = self.friction
+        d["predicted_landing"] = self.predicted_landing
         return d
 
     def to_json(self) -> str:
@@ -310,6 +339,9 @@ class Plan:
             if own["objective"] not in tuple(Objective):
                 raise InputError("objective", f"must be one of {', '.join(Objective)}, got {own['objective']!r}", source)
             own["objective"] = Objective(own["objective"])
+        if not isinstance(own.get("predicted_landing"), (dict, type(None))):
+            raise InputError("predicted_landing", f"must be a mapping or null, got {own['predicted_landing']!r:.80}",
+                             source)
         report = part(Report3D)
         solution = Solution(**{**part(Solution, ("states", "primitives")),
                                "states": [state(s, f"states[{k}]") for k, s in enumerate(states)], "primitives": steps})
@@ -331,6 +363,10 @@ class Plan:
         if self.solved:
             lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
                          f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
+            secure = self.secure_over
+            if secure is not None and secure != (1.0, 1.0):
+                lines.append(f"  secure for friction {secure[0]:.2f}-{secure[1]:.2f} x the scene's: every state "
+                             "force-closed in its contact mode over that range")
             if self.min_margin_deg is not None:
                 lines.append(f"  objective {self.objective}: smallest friction margin along the path, the start "
                              f"included, {self.min_margin_deg:.3f} deg{self._forced()} (held still at the start, "
@@ -339,6 +375,11 @@ class Plan:
                              + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
             if self.tolerance is not None:
                 lines.append("  " + describe_tolerance(self.tolerance))
+            if self.predicted_landing is not None:
+                p = self.predicted_landing
+                lines.append(f"  predicted landing (docs/model.md 11.24): {1000 * p['along_m']:+.2f} mm along GB from the "
+                             f"plan's (toward B +), {1000 * p['low_m']:+.2f} to {1000 * p['high_m']:+.2f} mm over "
+                             f"friction x0.7-1.3 and both cones (spread {1000 * p['spread_m']:.2f} mm)")
             first = self.time_to_first_solution_s
             stop = ("stopped at the lattice optimum: no path costs less" if self.stopped_by == StoppedBy.OPTIMUM
                     else f"stopped by {self.stopped_by}")
@@ -380,6 +421,14 @@ def _part_field(part: str, name: str) -> property:
 for _part, _kind in (("solution", Solution), ("diagnostics", Diagnostics), ("report", Report3D)):
     for _name in _kind.__dataclass_fields__:
         setattr(Plan, _name, _part_field(_part, _name))
+
+
+def friction_record(friction: Friction) -> dict[str, Any]:
+    """plan.json's friction (without secure_over, which Plan.to_dict adds): the plane's
+    coefficients at G, A, B planned with (mu), how far they are known (uncertainty, a fraction
+    either way) and the plane's coefficients at the range's ends (mu_low, mu_high)."""
+    return {"mu": list(friction.mu), "uncertainty": friction.uncertainty, "mu_low": list(friction.low),
+            "mu_high": list(friction.high)}
 
 
 def read_plan(path: str) -> Plan:

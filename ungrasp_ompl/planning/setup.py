@@ -19,6 +19,7 @@ import math
 from time import perf_counter
 from dataclasses import dataclass, replace
 from functools import cached_property
+from collections.abc import Callable
 from typing import Any
 from enum import Enum
 
@@ -37,8 +38,8 @@ from .lattice import lattice_search, optimum_cost
 from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins, Objective
 from .objective import PrimitiveCostObjective, RobustObjective, reduce_vertices
-from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, merge_legs,
-                     sequence_cost)
+from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, friction_record,
+                     merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -227,7 +228,8 @@ class UngraspSetup:
         """Plan, re-validate the path leg by leg in its travel direction, and report."""
         opts, scene = self.options, self.scene
         plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model, objective=opts.objective,
+                    sliding_model=scene.options.sliding_model, friction=friction_record(scene.friction),
+                    objective=opts.objective,
                     diagnostics=Diagnostics(setup_time_s=self.setup_time, resolution=[float(x) for x in self.atlas.res]),
                     holdable_map=HoldableMap.of(self.atlas))
         problem = self.ends_problem()
@@ -451,7 +453,8 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
     plan = Plan(outcome=PlanOutcome.NOT_FOUND, scene=scene.name, planner=LATTICE, seed=seed,
-                sliding_model=scene.options.sliding_model, objective=objective, holdable_map=HoldableMap.of(atlas),
+                sliding_model=scene.options.sliding_model, friction=friction_record(scene.friction),
+                objective=objective, holdable_map=HoldableMap.of(atlas),
                 diagnostics=Diagnostics(setup_time_s=t1 - t0, planning_time_s=t2 - t1,
                                         resolution=[float(x) for x in atlas.res], stopped_by=StoppedBy.PLANNER,
                                         lattice_optimum=result.cost))
@@ -505,7 +508,39 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
             result = _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
         else:
             result = _plan_here(scene, opts, atlas)
-    return with_tolerance_floor(scene, result)
+    result = with_tolerance_floor(scene, result)
+    if result.solved and scene.options.max_landing_spread is not None:
+        result = with_landing_spread(scene, result, lambda s: plan(s, planner, time, seed, iterations, **options))
+    return result
+
+
+def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene], Plan]) -> Plan:
+    """A solved plan held to the scene's planning.max_landing_spread (docs/model.md 11.24): with its
+    predicted landing (mechanics.release), kept when the landing moves no more than the bound over
+    the friction's range and both cones; else, when the plan has a P_dpsi (which carries the object
+    and makes its landing depend on friction), the scene planned again by replan without P_dpsi
+    (planning.forbid_partial) and that plan kept when it keeps the bound; else failed
+    (PlanOutcome.LANDING_SPREAD, path kept)."""
+    from ..mechanics.release import predict_landing
+
+    bound = scene.options.max_landing_spread
+    landing = predict_landing(scene, result)
+    result = replace(result, predicted_landing=landing.to_dict())
+    if landing.spread <= bound:
+        return result
+    without: float | str = "the plan has no P_dpsi"
+    if not scene.options.forbid_partial and any(p.type == "P_dpsi" for p in result.primitives):
+        strict = replace(scene, options=replace(scene.options, forbid_partial=True, max_landing_spread=None))
+        other = replan(strict)
+        if other.solved:
+            kept = predict_landing(strict, other)
+            if kept.spread <= bound:
+                return replace(other, predicted_landing=kept.to_dict())
+            without = kept.spread
+        else:
+            without = f"none found ({other.reason})"
+    return result.fail(PlanOutcome.LANDING_SPREAD, spread_m=landing.spread, max_landing_spread_m=bound,
+                       without_p_dpsi=without)
 
 
 def with_tolerance_floor(scene: Scene, result: Plan) -> Plan:
@@ -560,7 +595,7 @@ def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = 
     outcome = run_in_child(_plan_here, scene, opts, deadline=deadline)
     if outcome.status is TaskStatus.HUNG:
         return Plan(outcome=PlanOutcome.HUNG, scene=scene.name, planner=opts.planner, seed=opts.seed,
-                    sliding_model=scene.options.sliding_model,
+                    sliding_model=scene.options.sliding_model, friction=friction_record(scene.friction),
                     diagnostics=Diagnostics(stopped_by=StoppedBy.KILLED, planning_time_s=deadline or 0.0),
                     evidence=dict(deadline_s=deadline, known=UNRULY_PLANNERS.get(opts.planner, "")))
     if outcome.status is TaskStatus.DIED:

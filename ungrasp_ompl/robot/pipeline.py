@@ -145,6 +145,16 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
     return np.array([turned(a) for a in angles]), np.full(n, opening)
 
 
+def modelled_aim(scene: Scene, plan: Plan) -> Aim:
+    """The aim of robot.landing modelled: the hand moved back by the offset at which the model of
+    the fall (mechanics.release.predict_landing) lands the object on average over the friction's
+    range and both cones, in the world's x, y (m); no turn (the planar model has none)."""
+    from ..mechanics.release import predict_landing
+
+    x, y = predict_landing(scene, plan).world
+    return Aim(-x, -y, 0.0)
+
+
 def execute(scene: Scene, plan: Plan, aim: Aim | None = None) -> Execution:
     """Turn a solved plan into a timed, limit-checked joint trajectory of the UR5e and its gripper;
     aim: the whole motion turned and shifted from where the plan puts it (the landing's correction,

@@ -125,12 +125,20 @@ class SceneReader:
             lo, hi = math.radians(lo), math.radians(hi)
         return lo, hi
 
-    def friction(self, top: dict) -> tuple[float, float, float]:
+    def friction(self, top: dict) -> tuple[tuple[float, float, float], float]:
+        """The contacts' friction coefficients at G, A, B (from friction, or the tangents of
+        friction_angle_deg) and how far they are known: the uncertainty, a fraction of each
+        coefficient either way in [0, 1) (0 when not given: known exactly)."""
         if ("friction" in top) == ("friction_angle_deg" in top):
             self.fail("friction", "give exactly one of friction (coefficients) or friction_angle_deg")
         key = "friction" if "friction" in top else "friction_angle_deg"
         f = self.mapping(top[key], key)
-        self.known(f, key, {"G", "A", "B"})
+        self.known(f, key, {"G", "A", "B", "uncertainty"})
+        uncertainty = self.number(f, f"{key}.uncertainty", "uncertainty", minimum=0.0, default=0.0,
+                                  unit=" (a fraction of each coefficient)")
+        if uncertainty >= 1.0:
+            self.fail(f"{key}.uncertainty", f"must be below 1 (a fraction of each coefficient, either way), "
+                      f"got {uncertainty:g}")
         out = []
         for c in "GAB":
             v = self.number(f, f"{key}.{c}", c)
@@ -142,7 +150,7 @@ class SceneReader:
                 if not 0 <= v < 90:
                     self.fail(f"{key}.{c}", f"must lie in [0, 90) degrees, got {v:g}")
                 out.append(math.tan(math.radians(v)))
-        return tuple(out)
+        return tuple(out), uncertainty
 
     def obstacles(self, value: Any) -> list[Box]:
         if not isinstance(value, list):
@@ -202,6 +210,9 @@ class SceneReader:
         landing = m.get("landing", d.landing)
         if landing not in tuple(Landing):
             self.fail("robot.landing", f"must be one of {', '.join(Landing)}, got {landing!r}")
+        if landing == Landing.MODELLED and term == Termination.ROTATE:
+            self.fail("robot.landing", "modelled needs an opening termination (open, open_symmetric or open_lift): "
+                      "the model of the fall has no turn about the thumb's tip")
         pairs = m.get("landing_pairs", d.landing_pairs)
         if isinstance(pairs, bool) or not isinstance(pairs, int) or not 1 <= pairs <= 64:
             self.fail("robot.landing_pairs", f"must be a whole number from 1 to 64, got {pairs!r}")

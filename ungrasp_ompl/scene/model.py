@@ -24,6 +24,7 @@ from ..geometry.collision import Box, CollisionChecker, CollisionModel
 from ..geometry.plane import ManipulationPlane, choose_plane
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
+from ..mechanics.antipodal import effective_friction
 from ..mechanics.force_closure import SLIDING_MODELS, Friction, SlidingModel
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
@@ -116,6 +117,7 @@ class Scene:
     solids: tuple = ()  # convex Solids fixed in the world (a layout's frame walls, pieces placed already)
     sim: SimOptions = field(default_factory=SimOptions)  # how the scene is simulated
     planar_only: str | None = None  # why the robot cannot execute this scene's plans (None: robot-ready)
+    friction_uncertainty: float = 0.0  # how far mu_contacts may be off, a fraction of each either way (docs/model.md 4.7)
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -141,7 +143,7 @@ class Scene:
         obj = r.mapping(r.require(top, "object"), "object")
         r.known(obj, "object", {"length", "thickness", "outline", "target"})
         thickness = r.length(obj, "object.thickness", "thickness", zero=True, default=0.0)
-        mu_contacts = r.friction(top)
+        mu_contacts, uncertainty = r.friction(top)
         object3d, plane = None, None
         if "outline" in obj:
             if "length" in obj:
@@ -159,6 +161,15 @@ class Scene:
                 raise InputError("object.outline", f"makes the object length |GB| {length:.4g} m, over {MAX_LENGTH:g} m",
                                  source)
             mu = (plane.mu_g, mu_contacts[1], plane.mu_b)
+            if uncertainty > 0.0:  # the plane must meet every cone over the whole range (Assumption 2)
+                key = "friction" if "friction" in top else "friction_angle_deg"
+                for contact, m, beta in (("G", mu_contacts[0], plane.g.beta), ("B", mu_contacts[2], plane.b.beta)):
+                    low = m * (1.0 - uncertainty)
+                    if not beta < math.atan(low):
+                        raise InputError(f"{key}.uncertainty", f"puts the friction angle at {contact} as low as "
+                                         f"{math.degrees(math.atan(low)):.1f} deg, not above the "
+                                         f"{math.degrees(beta):.1f} deg GB makes with the boundary normal there, so "
+                                         "the manipulation plane misses that friction cone (Assumption 2)", source)
         else:
             if "contacts" in top:
                 raise InputError("contacts", "needs object.outline", source)
@@ -260,7 +271,7 @@ class Scene:
         pl = r.mapping(top.get("planning", {}), "planning")
         r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                                  "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                                 "min_tolerance", "table_clearance", "across_margin"})
+                                 "min_tolerance", "table_clearance", "across_margin", "max_landing_spread"})
         margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
         if margin >= digits.thumb_length * length:
             raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -297,6 +308,8 @@ class Scene:
             forbid_partial=forbid_partial,
             margin_weight=r.margin_weight(pl),
             min_tolerance=r.number(pl, "planning.min_tolerance", "min_tolerance", minimum=0.0, maximum=5.0, default=0.0),
+            max_landing_spread=(r.length(pl, "planning.max_landing_spread", "max_landing_spread")
+                                if "max_landing_spread" in pl else None),
             resolution=resolution,
             d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
             mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
@@ -313,7 +326,7 @@ class Scene:
                              source)
         return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
                    object3d, plane, mu_contacts, max_tilt, robot, sim=r.sim(top.get("sim", {})),
-                   planar_only=planar_only and planar_only.strip())
+                   planar_only=planar_only and planar_only.strip(), friction_uncertainty=uncertainty)
 
     def __repr__(self) -> str:
         """One line in SI units (metres; angles in degrees where marked _deg; d over l as in the files)."""
@@ -331,8 +344,24 @@ class Scene:
     # -- queries -----------------------------------------------------------------
     @property
     def friction(self) -> Friction:
-        """The plane's friction at G, A, B (mu) with the scene's sliding model: what force closure uses."""
-        return Friction(self.mu, self.options.sliding_model)
+        """The plane's friction at G, A, B (mu) with the scene's sliding model and, when the
+        friction is known only within a range (friction_uncertainty), the plane's coefficients at
+        the range's ends: what force closure uses (docs/model.md 4.7)."""
+        u = self.friction_uncertainty
+        if u == 0.0:
+            return Friction(self.mu, self.options.sliding_model)
+        return Friction(self.mu, self.options.sliding_model, u, self.plane_friction(1.0 - u),
+                        self.plane_friction(1.0 + u))
+
+    def plane_friction(self, factor: float) -> tuple[float, float, float]:
+        """The plane's coefficients at G, A, B with every contact's coefficient (mu_contacts) times
+        factor, reduced at G and B as mu is (docs/model.md 5.2: mu' = tan(arccos(cos(atan mu) /
+        cos beta)), NaN where the plane misses the cone); mu times factor for a scene without a
+        manipulation plane."""
+        if self.plane is None or self.mu_contacts is None:
+            return tuple(m * factor for m in self.mu)
+        g, a, b = (m * factor for m in self.mu_contacts)
+        return (float(effective_friction(g, self.plane.g.beta)), a, float(effective_friction(b, self.plane.b.beta)))
 
     def force_closure(self, q: ArrayLike, dq: ArrayLike | None = None) -> NDArray[np.bool_]:
         """Force closure of states q, shape (N, 3) (theta rad, d over l, psi rad).

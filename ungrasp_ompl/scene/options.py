@@ -45,6 +45,10 @@ class Landing(StrEnum):
     #: the mean landing of robot.landing_pairs antithetic pairs of simulated releases
     #: (docs/model.md 11.18).
     EXPECTED = "expected"
+    #: Where the model of the fall (mechanics.release) puts it on average over friction 0.7-1.3 times
+    #: the scene's and both friction cones: the hand is moved back by that offset, no release
+    #: simulated (docs/model.md 11.24); an opening termination only.
+    MODELLED = "modelled"
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,10 @@ class PlanningOptions:
     """The balanced objective's weight on friction margin (cost x deg): a step costs this times its L1 length over its margin in deg."""
     min_tolerance: float = 0.0
     """The least tolerance of the `paper` errors (a scale of their box, dimensionless; docs/model.md 4.6) a plan must have; 0: no floor."""
+    max_landing_spread: float | None = None
+    """The most the predicted landing may move along GB over friction x0.7-1.3 and both cones (m;
+    mechanics.release, docs/model.md 11.24); a plan with P_dpsi beyond it is planned again without
+    P_dpsi; None: no bound."""
 
 
 @dataclass(frozen=True)
@@ -131,8 +139,9 @@ class RobotOptions:
     landing: Landing = Landing.PLANNED
     """Where the hand aims the object: planned (the plan's last state turned flat about G),
     simulated (corrected by where the release, simulated with no error, puts it and how it turns
-    it: robot.pipeline.Aim) or expected (corrected by where it puts it on average under the
-    `paper` errors)."""
+    it: robot.pipeline.Aim), expected (corrected by where it puts it on average under the
+    `paper` errors, over a range of worlds) or modelled (corrected by where the model of the fall
+    puts it on average over the friction's range and both cones)."""
     landing_pairs: int = 4
     """Antithetic pairs of `paper` draws whose simulated releases landing expected averages
     (count); each pair costs two trials when the plan is executed."""

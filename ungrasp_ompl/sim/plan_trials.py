@@ -54,20 +54,26 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int 
     hand is aimed by where the release, simulated in the scene's own world (no variant) with no
     error or on average over drawn ones, lands the object (sim.landing; left as planned when the
     release with no error does not put it down; the drawn ones jobs at a time, or on the Ray
-    cluster at the address cluster). Raises the
+    cluster at the address cluster; with robot.landing modelled, by where the model of the fall lands
+    it, robot.pipeline.modelled_aim, no release simulated). Raises the
     robot's UngraspError when it cannot execute the plan (out of reach, an arm collision, beyond
     the joint limits)."""
     from ..planning.setup import with_3d_report
-    from ..robot.pipeline import execute
+    from ..robot.pipeline import execute, modelled_aim
+    from ..scene.options import Landing
     from .landing import robot_landing
     from .setup import trial_setup
 
     if scene.plane is not None and plan.object is None:
         plan = with_3d_report(scene, plan)  # the object and its plane, which the placement needs
-    execution = execute(scene, plan)
-    landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot, jobs, cluster)
-    if landing is not None and any(landing.aim):
-        execution = execute(scene, plan, landing.aim)
+    if scene.robot.landing is Landing.MODELLED:  # the model's aim: no release simulated
+        execution = execute(scene, plan, modelled_aim(scene, plan))
+    else:
+        execution = execute(scene, plan)
+        landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot, jobs,
+                                cluster)
+        if landing is not None and any(landing.aim):
+            execution = execute(scene, plan, landing.aim)
     aim = execution.aims[0]
     return execution, trial_setup(scene, plan, execution.trajectory, execution.robot, variant, aim=aim)
 

@@ -31,10 +31,11 @@ from ..layout import Layout
 from ..perturbation import Perturbation
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, plane_frame
+from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, modelled_aim, plane_frame
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
+from ..scene.options import Landing
 from ..tiling import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from .campaign import trial_runner
 from .landing import robot_landing
@@ -157,8 +158,11 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     for p, (_, setup) in zip(tiling.placements, setups):
         key = (_key(p), np.asarray(p.plan.states, dtype=float).tobytes())
         if key not in landings:
-            landing = robot_landing(setup, p.scene.robot)
-            landings[key] = Aim() if landing is None else landing.aim
+            if p.scene.robot.landing is Landing.MODELLED:
+                landings[key] = modelled_aim(p.scene, p.plan)
+            else:
+                landing = robot_landing(setup, p.scene.robot)
+                landings[key] = Aim() if landing is None else landing.aim
         asked.append(landings[key])
     if not any(any(a) for a in asked):
         return AimedTiling(execution, setups)

@@ -113,18 +113,21 @@ class ScenePlan:
 
     def execute(self, jobs: int = 1) -> Execution:
         """The plan on the arm: inverse kinematics, timing and the gripper's openings (with
-        robot.landing simulated or expected, aimed by where the release lands the object:
-        sim.landing, the expected landing's releases jobs at a time)."""
+        robot.landing simulated or expected, aimed by where the simulated release lands the object:
+        sim.landing, the expected landing's releases jobs at a time; modelled, by where the model of
+        the fall lands it: robot.pipeline.modelled_aim)."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
         from ..scene.options import Landing
 
+        from ..robot.pipeline import execute, modelled_aim
+
+        if self.scene.robot.landing is Landing.MODELLED:
+            return execute(self.scene, self.plan, modelled_aim(self.scene, self.plan))
         if self.scene.robot.landing is not Landing.PLANNED:
             from ..sim.plan_trials import placement
 
             return placement(self.scene, self.plan, jobs=jobs)[0]
-        from ..robot.pipeline import execute
-
         return execute(self.scene, self.plan)
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
@@ -147,7 +150,8 @@ class ScenePlan:
 def plan_scene(scene: Scene, options: PlanOptions,
                progress: Callable[[CertifyProgress], None] | None = None) -> ScenePlan:
     """Plan the scene (or certify options.certify's candidates, progress reporting each step),
-    measure the plan's tolerance and, with options.cage, its weakest cage."""
+    measure the plan's tolerance, predict where its release lands the object (an object with a
+    thickness and an opening termination: mechanics.release) and, with options.cage, its weakest cage."""
     options.validated(scene)
     certification = None
     if options.certify is None:
@@ -162,6 +166,13 @@ def plan_scene(scene: Scene, options: PlanOptions,
         result = certification.plan
     if result.solved and result.tolerance is None:
         result = dataclasses.replace(result, tolerance=scene.tolerance(result).to_dict())
+    if result.solved and result.predicted_landing is None and scene.object_thickness > 0.0:
+        from ..mechanics.release import ReleaseModelError, predict_landing
+
+        try:
+            result = dataclasses.replace(result, predicted_landing=predict_landing(scene, result).to_dict())
+        except ReleaseModelError:  # a termination the model of the fall does not cover (rotate)
+            pass
     cage = None
     if options.cage and result.solved:
         from ..robustness import cage_profile

@@ -13,7 +13,7 @@ import io
 import json
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import InputError
@@ -36,6 +36,7 @@ from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
 from ..sim.tiling import TilingAttempt, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
+from ..sim.world import World
 from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
 from .tile import first_touch_off, layout_summary
@@ -67,8 +68,9 @@ class SimulateOptions:
     """rounded or flat instead of the scene's finger tip; None: the scene's."""
     start_psi_offset: float | None = None
     """Start the plan with psi larger by this (rad; the caging experiment); None: as planned."""
-    friction_scale: float = 1.0
-    """Factor in (0, 1] on every simulated friction coefficient (a control)."""
+    world: World = World()
+    """How the world the trials run in differs from the scene's (sim.world): neither the plan nor
+    the hand's aim sees it."""
     thickness: float | None = None
     """The simulated object's thickness (m) instead of the scene's, the motion unchanged."""
     equal_digits: bool = False
@@ -93,14 +95,10 @@ class SimulateOptions:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
                     raise InputError(name, "applies to a single scene, not to a layout")
-            if self.equal_digits or self.friction_scale != 1.0 or self.objective != Objective.COST:
-                name = "equal_digits" if self.equal_digits else "friction_scale" if self.friction_scale != 1.0 \
-                    else "objective"
-                raise InputError(name, "applies to a single scene, not to a layout")
+            if self.equal_digits or self.objective != Objective.COST:
+                raise InputError("equal_digits" if self.equal_digits else "objective",
+                                 "applies to a single scene, not to a layout")
             return self
-        if not 0.0 < self.friction_scale <= 1.0:
-            raise InputError("friction_scale", f"must lie in (0, 1]: the simulator never grants more friction than "
-                             f"the scene's, got {self.friction_scale:g}")
         if self.thickness is not None and not 0.0 < self.thickness < 0.05:
             raise InputError("thickness", f"must be a thickness in metres in (0, 0.05), got {self.thickness:g}")
         if self.thickness is None and scene.object_thickness <= 0.0:
@@ -142,14 +140,20 @@ class SceneSimulation:
         errs, yaw, (low, high) = s["position_error_mm"], s["yaw_error_deg"], s["success_interval_95"]
         n = len(report.trials)
         lines.append(f"{scene.name}: {len(self.plan.primitives)} primitives, {self.setup.drive.times[-1]:.2f} s from the "
-                     f"first primitive to the end of the retreat; errors '{report.perturbation.name}', seed {report.seed}")
+                     f"first primitive to the end of the retreat; errors '{report.perturbation.name}', seed {report.seed}"
+                     + ("" if report.world.nominal else
+                        f"; in a world the plan and its aim never saw: {report.world.describe()}"))
         lines.append(f"success {report.successes}/{n} (95 % interval {100 * low:.0f}-{100 * high:.0f} %; placed within "
                      f"{1000 * scene.sim.max_error:g} mm of the target)" + (
                          f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
                          f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
-        if scene.robot.landing is not Landing.PLANNED:
+        if scene.robot.landing is Landing.MODELLED:
+            lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the model of the fall "
+                         "puts the object on average over friction x0.7-1.3 and both cones (robot.landing: modelled)")
+        elif scene.robot.landing is not Landing.PLANNED:
             where = ("with no error put the object" if scene.robot.landing is Landing.SIMULATED else
-                     f"put the object on average over {scene.robot.landing_pairs} pairs of 'paper' draws")
+                     f"put the object on average over {scene.robot.landing_pairs} pairs of 'paper' draws, each "
+                     "in a world of its own")
             lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the release simulated "
                          f"{where} (robot.landing: {scene.robot.landing})" if any(report.aim) else
                          f"robot.landing is {scene.robot.landing}, but the release simulated with no error did not place "
@@ -178,7 +182,8 @@ class SceneSimulation:
         files.update(export_all(trajectory, out, touch_off(self.scene, self.plan, trajectory)))
         first = trial_params(self.report.perturbation, self.report.seed, 1)[0]
         write_text_atomic(files["model"], trial_mjcf(self.setup, first))
-        rows = [t.to_row() for t in self.report.trials]
+        world = {f"world_{k}": v for k, v in self.report.world.to_dict().items()}
+        rows = [{**t.to_row(), **world} for t in self.report.trials]
         buf = io.StringIO()
         writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
         writer.writeheader()
@@ -201,8 +206,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     perturbation = options.perturbation()
     if options.finger_tip is not None:
         scene = scene.with_digits(finger_tip=options.finger_tip)
-    variant = Variant(friction_scale=options.friction_scale, thickness=options.thickness,
-                      equal_digits=options.equal_digits)
+    variant = Variant(thickness=options.thickness, equal_digits=options.equal_digits)
     if options.plan is not None:
         result = read_plan(options.plan)
     else:
@@ -215,9 +219,9 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
     execution, setup = placement(scene, result, variant, options.workers, options.cluster)
     report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
-                      cluster=options.cluster)
+                      cluster=options.cluster, world=options.world)
     report.plan_problems = problems
-    return SceneSimulation(scene, result, options, execution, setup, report)
+    return SceneSimulation(scene, result, options, execution, replace(setup, world=options.world), report)
 
 
 @dataclass
@@ -253,6 +257,8 @@ class LayoutSimulation:
         lines = layout_summary(self.layout, self.tiling, self.execution, self.short)
         if self.attempts:
             pieces = len(self.attempts[0].names)
+            if not self.options.world.nominal:
+                lines.append(f"in a world the tiling and its aims never saw: {self.options.world.describe()}")
             lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")
             if self.placed != self.successes:
                 lines.append(f"placed by the paper's criterion (any error) {self.placed}/{len(self.attempts)}")
@@ -266,7 +272,8 @@ class LayoutSimulation:
             raise ValueError("nothing was simulated: the layout has no tiling")
         out = Path(out)
         files = export_all(self.execution.trajectory, out, first_touch_off(self.tiling, self.execution))
-        doc = {"layout": self.layout.name, "attempts": len(self.attempts), "successes": self.successes,
+        doc = {"layout": self.layout.name, "world": self.options.world.to_dict(),
+               "attempts": len(self.attempts), "successes": self.successes,
                "placed_paper_criterion": self.placed,
                "results": [{"attempt": a.attempt, "success": a.success, "placed": a.placed, "cause": a.cause(),
                             "pieces": [dict(name=n, **t.to_row()) for n, t in zip(a.names, a.pieces)]}
@@ -284,7 +291,8 @@ def simulate_layout(layout: Layout, options: SimulateOptions,
     tiling, aimed = tile_aimed(layout, TilingOptions(planner=options.planner, time=options.time, seed=options.seed))
     if aimed is None:
         return LayoutSimulation(layout, tiling, options)
-    attempts = simulate_tiling(layout, aimed.setups, options.perturbation(), options.trials, options.seed,
+    setups = [(name, replace(setup, world=options.world)) for name, setup in aimed.setups]
+    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.seed,
                                options.workers, progress, cluster=options.cluster)
     return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.short)
 

@@ -1,0 +1,217 @@
+"""Hold the release model's landing (mechanics.release) to the simulator's.
+
+For each object scene (guitar_pick, puzzle_piece, fabric_chalk) the RRT* plan of seed 1 is executed
+with the hand as planned (robot.landing: planned) and its release simulated in four worlds (nominal,
+friction x0.7, friction x1.3, pyramidal cones): once with no error drawn and with --draws `paper`
+draws. Beside each, the model's landing from the plan's last state (what predict_landing gives the
+plan) and, as a diagnosis, from the object's pose the simulation actually reached when the
+termination began (the simulated P_dpsi carries the object with the hand, docs/model.md 11.13).
+Offsets are the outline centroid's, in the manipulation plane's frame (along GB, + toward B;
+across), mm. Columns: planned (the model from the plan's last state), model (from where the carry
+through the plan's P_dpsi leaves the object: what predict_landing gives), sim start (from the pose
+the simulation reached), sim 0-err (the simulated landing along GB with no error drawn), model-sim,
+across (the simulated landing across GB), outcome (the no-error trial's), model mean and sim mean
+(over the no-error trial and the drawn ones that placed the object, the model at each draw's
+friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
+thumb tip) when the termination began. A pyramidal world's model is the pyramid's two bounds.
+
+    python tools/landing_check.py [--objects guitar_pick,puzzle_piece] [--draws 4] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from ungrasp_ompl.mechanics.release import (  # noqa: E402
+    PyramidReach,
+    ReleaseStart,
+    carried_start,
+    fall,
+    predict_landing,
+    release_setup,
+)
+from ungrasp_ompl.perturbation import PRESETS, TrialParams  # noqa: E402
+from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
+from ungrasp_ompl.scene import Scene  # noqa: E402
+from ungrasp_ompl.scene.options import Landing  # noqa: E402
+from ungrasp_ompl.sim.landing import landing_offset  # noqa: E402
+from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
+from ungrasp_ompl.sim.trial import placement_turn, run_trial  # noqa: E402
+from ungrasp_ompl.sim.world import Cone, World  # noqa: E402
+
+OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+WORLDS = {"nominal": World(), "friction x0.7": World(friction=0.7), "friction x1.3": World(friction=1.3),
+          "pyramidal": World(cone=Cone.PYRAMIDAL)}
+
+
+def in_plane(frame: np.ndarray, offset: np.ndarray) -> tuple[float, float]:
+    """A world (x, y) offset as (along GB, across GB) in the plane's frame (m)."""
+    return float(offset @ frame[:2, 0]), float(offset @ frame[:2, 1])
+
+
+def termination_pose(setup, record, frame) -> tuple[float, float, float]:
+    """From a recorded trial: the object's G (plane x, m) and tilt (rad) when the termination
+    began, and B's distance from the commanded thumb tip along the face (m)."""
+    drive = setup.drive
+    t0 = drive.phase_start("termination")
+    k = int(np.argmin([abs(t - t0) for t, _ in record]))
+    inv = np.linalg.inv(frame)
+    pose = inv @ np.array(record[k][1])
+    x = pose[:3, 0]
+    theta = math.atan2(x[2], math.hypot(x[0], x[1]))
+    b = pose[:3, :3] @ setup.b_point + pose[:3, 3]
+    i = int(np.argmin(np.abs(drive.times - t0)))
+    palm = inv @ drive.palm[i]
+    tip = palm[:3, 3] - drive.opening[i] / 2 * palm[:3, 0] + setup.spec.gripper.thumb_length * palm[:3, 2]
+    s_b = float((tip - b) @ palm[:3, 2])
+    return float(pose[0, 3]), theta, s_b
+
+
+def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0)
+                 ) -> list[float]:
+    """The model's landings (plane x of G, m) in world, the coefficients also times scale (a draw's
+    factors on mu_G and mu_B): one with Coulomb's cone, the pyramid's two bounds with pyramidal
+    cones."""
+    g, b = world.friction * mu_g * scale[0], world.friction * mu_b * scale[1]
+    if world.cone is Cone.ELLIPTIC:
+        return [fall(setup, g, b).offset]
+    reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis)
+    return [fall(setup, g * reach.table[k], b * reach.thumb[k]).offset for k in (0, 1)]
+
+
+def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False) -> dict:
+    """The comparison for one object scene (forbid_partial: planned without P_dpsi)."""
+    scene = Scene.from_file(str(ROOT / "scenes" / f"{name}.yaml"))
+    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+    if forbid_partial:
+        scene = scene.with_options(forbid_partial=True)
+    plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1)
+    if not plan.solved:
+        return {"object": name, "unsolved": plan.reason}
+    wall = time.perf_counter()
+    prediction = predict_landing(scene, plan)
+    predict_s = time.perf_counter() - wall
+    _, setup = placement(scene, plan)
+    frame = np.asarray(setup.target_pose)
+    mu_g, _, mu_b = scene.mu_contacts or scene.mu
+    base = release_setup(scene, tuple(plan.states[-1]))
+    carried = replace(base, start=carried_start(scene, plan, base))
+    rows = []
+    for label, world in WORLDS.items():
+        here = replace(setup, world=world)
+        record: list = []
+        nominal = run_trial(here, TrialParams(), record=record)
+        along, across = in_plane(frame, landing_offset(here, np.array(nominal.final_pose)))
+        g0, th0, sb0 = termination_pose(here, record, frame)
+        # the model from the pose the simulation reached: G and theta there, the thumb's face through
+        # its B at its distance from the tip
+        ex, ez = base.hand.axis
+        bx, bz = g0 + base.body.length * math.cos(th0), base.body.length * math.sin(th0)
+        measured = replace(base, start=ReleaseStart(g0, th0),
+                           hand=replace(base.hand, tip=(bx + sb0 * ex, bz + sb0 * ez)))
+        planned = model_worlds(base, mu_g, mu_b, world)
+        through = model_worlds(carried, mu_g, mu_b, world)
+        from_sim = model_worlds(measured, mu_g, mu_b, world)
+        rng = np.random.default_rng(seed)
+        drawn, modelled = [], [float(np.mean(through))]
+        for _ in range(draws):
+            params = PRESETS["paper"].sample(rng)
+            r = run_trial(here, params)
+            if r.placed:
+                drawn.append(in_plane(frame, landing_offset(here, np.array(r.final_pose))))
+                fg, _, fb = params.friction_scale
+                modelled.append(float(np.mean(model_worlds(carried, mu_g, mu_b, world, (fg, fb)))))
+        everything = [(along, across)] + drawn
+        rows.append({"world": label, "sim_along_mm": along * 1e3, "sim_across_mm": across * 1e3,
+                     "sim_turn_deg": math.degrees(placement_turn(np.array(nominal.final_pose), frame)),
+                     "sim_outcome": nominal.outcome.value,
+                     "sim_mean_along_mm": float(np.mean([a for a, _ in everything])) * 1e3,
+                     "sim_mean_across_mm": float(np.mean([c for _, c in everything])) * 1e3,
+                     "sim_draws_placed": len(drawn), "model_mean_mm": float(np.mean(modelled)) * 1e3,
+                     "sim_placed": nominal.placed,
+                     "sim_start_g_mm": g0 * 1e3, "sim_start_theta_deg": math.degrees(th0), "sim_start_sb_mm": sb0 * 1e3,
+                     "model_planned_mm": [x * 1e3 for x in planned], "model_mm": [x * 1e3 for x in through],
+                     "model_from_sim_start_mm": [x * 1e3 for x in from_sim]})
+    return {"object": name, "predict_s": predict_s, "primitives": [str(p.type) for p in plan.primitives],
+            "carried_start_g_mm": carried.start.g * 1e3, "carried_start_theta_deg": math.degrees(carried.start.theta),
+            "plan_start_theta_deg": math.degrees(base.start.theta),
+            "plan_sb_mm": float(np.dot(np.subtract(base.hand.tip, (base.body.length * math.cos(base.start.theta),
+                                                                   base.body.length * math.sin(base.start.theta))),
+                                       base.hand.axis)) * 1e3,
+            "prediction": prediction.to_dict(), "worlds": rows}
+
+
+def _span(values: list[float]) -> str:
+    """One value, or the range of two (mm)."""
+    return f"{values[0]:.2f}" if len(values) == 1 else f"{min(values):.2f}..{max(values):.2f}"
+
+
+def table(results: list[dict]) -> str:
+    """The comparison as a text table (mm): the model from the plan's last state (planned), from the
+    carried start (model, what predict_landing gives), from the pose the simulation reached (from sim
+    start); the simulation with no error drawn (along and across GB, its outcome) and its mean with
+    the drawn trials that placed the object; model - sim mean; the simulation's pose when the
+    termination began (G mm, theta deg, s_B mm)."""
+    head = (f"{'object':<13} {'world':<14} {'planned':>8} {'model':>13} {'sim start':>13} {'sim 0-err':>9} "
+            f"{'model-sim':>9} {'across':>7} {'outcome':<12} {'model mean':>10} {'sim mean':>8} {'n':>2} "
+            f"{'sim G, theta, s_B':>22}")
+    lines = [head, "-" * len(head)]
+    for res in results:
+        if "unsolved" in res:
+            lines.append(f"{res['object']:<13} no plan: {res['unsolved']}")
+            continue
+        for row in res["worlds"]:
+            m = sum(row["model_mm"]) / len(row["model_mm"])
+            diff = f"{m - row['sim_along_mm']:>9.2f}" if row["sim_placed"] else f"{'-':>9}"
+            lines.append(f"{res['object']:<13} {row['world']:<14} {_span(row['model_planned_mm']):>8} "
+                         f"{_span(row['model_mm']):>13} {_span(row['model_from_sim_start_mm']):>13} "
+                         f"{row['sim_along_mm']:>9.2f} {diff} {row['sim_across_mm']:>7.2f} {row['sim_outcome']:<12.12} "
+                         f"{row['model_mean_mm']:>10.2f} {row['sim_mean_along_mm']:>8.2f} "
+                         f"{row['sim_draws_placed'] + 1:>2} {row['sim_start_g_mm']:>7.2f} "
+                         f"{row['sim_start_theta_deg']:>6.2f} {row['sim_start_sb_mm']:>7.2f}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--objects", default=",".join(OBJECTS))
+    parser.add_argument("--draws", type=int, default=4, help="`paper` draws per world (default 4)")
+    parser.add_argument("--seed", type=int, default=1, help="the draws' seed")
+    parser.add_argument("--time", type=float, default=1.0, help="RRT*'s planning time (s)")
+    parser.add_argument("--forbid-partial", action="store_true", help="plan without P_dpsi (planning.forbid_partial)")
+    parser.add_argument("--json", help="write the results there")
+    args = parser.parse_args(argv)
+    results = []
+    for name in args.objects.split(","):
+        res = check(name, args.draws, args.seed, args.time, args.forbid_partial)
+        results.append(res)
+        if "unsolved" in res:
+            print(f"{name}: no plan ({res['unsolved']})", flush=True)
+            continue
+        p = res["prediction"]
+        print(f"{name}: predicted {p['along_m'] * 1e3:.2f} mm along GB (nominal {p['nominal_m'] * 1e3:.2f}, spread "
+              f"{p['spread_m'] * 1e3:.2f}, carried {p['carried_m'] * 1e3:.2f}) in {res['predict_s'] * 1e3:.0f} ms; the "
+              f"plan's pressed start theta {res['plan_start_theta_deg']:.2f} deg, s_B {res['plan_sb_mm']:.2f} mm; "
+              f"carried start G {res['carried_start_g_mm']:.2f} mm, theta {res['carried_start_theta_deg']:.2f} deg; "
+              "primitives "
+              + " ".join(res["primitives"]),
+              flush=True)
+    print(table(results))
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
