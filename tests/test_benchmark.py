@@ -96,6 +96,7 @@ def test_margin_objective_bench_keeps_no_planner_above_the_lattice_bottleneck(tm
     assert all(r.tolerance is None for r in result.runs)  # measured under the tolerance objective only
 
 
+@pytest.mark.slow
 def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
     """bench --objective tolerance: each solved run carries its path's tolerance, the lattice's is
     the tolerance plan's own, the summary's median is the runs', and runs.csv reads back whole."""
@@ -216,6 +217,7 @@ def test_a_run_status_comes_from_the_plans_outcome():
     assert run_task(Task("u", unheld, LATTICE, -1, 1, 0.3)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
 
 
+@pytest.mark.slow
 def test_seeded_runs_are_reproducible_in_fresh_and_reused_processes():
     """With an iteration budget, a run's result depends on its seed only: the same seed in
     another process, or later in the same worker after other seeds, gives the same path cost,

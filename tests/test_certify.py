@@ -9,6 +9,7 @@ again by ``simulate --plan``, which must count the same successes on the same se
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 from hypothesis import given, settings
@@ -101,7 +102,7 @@ def test_certify_refuses_a_scene_the_simulator_cannot_take():
     assert err.value.field == "trials" and "thickness" in err.value.reason
 
 
-OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=0.5, jobs=1)
+OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=1.0, jobs=1)  # RRT* finds the pick's path within 6,000 iterations
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +155,7 @@ def test_plan_certify_writes_plan_json_that_simulate_replays(certified, pick_fil
     _, result = certified
     out = tmp_path / "plan"
     r = run_cli("plan", str(pick_file), "--certify", "2", "--candidates", "2", "--seed", "1",
-                "--time", "0.5", "--jobs", "2", "--out", str(out))
+                "--time", "1", "--jobs", "2", "--out", str(out))
     assert r.returncode == 0, r.stderr
     kept = result.candidates[result.kept]
     assert f"kept candidate #{kept.index} ({kept.source.label()}): success {kept.successes}/2" in r.stdout
@@ -179,9 +180,10 @@ def test_plan_certify_writes_plan_json_that_simulate_replays(certified, pick_fil
 
 @pytest.mark.slow
 def test_a_candidate_with_the_path_of_an_earlier_one_shares_its_trials(tmp_path):
-    """On the fabric chalk the lattice's balanced optimum is the path of the cost or the margin
-    optimum: it is not simulated again but counted with that one's trials."""
-    scene = Scene.from_file(small_landing_file("fabric_chalk", tmp_path))
+    """On the fabric chalk with its friction known exactly the lattice's balanced optimum is the path of
+    the cost or the margin optimum (over its friction's +-30 %, docs/model.md 4.7, it is a third path):
+    it is not simulated again but counted with that one's trials."""
+    scene = replace(Scene.from_file(small_landing_file("fabric_chalk", tmp_path)), friction_uncertainty=0.0)
     result = certify(scene, CertifyOptions(trials=1, candidates=3, planner="lattice", jobs=1))
     cost, margin, balanced = result.candidates
     assert [c.source.objective for c in result.candidates] == ["cost", "margin", "balanced"]

@@ -321,7 +321,7 @@ def test_a_plan_read_back_has_the_primitives_the_planner_gave_as_typed_values(tm
     from ungrasp_ompl.mechanics.contact import Primitive
     from ungrasp_ompl.planning.result import read_plan
 
-    planned = plan(Scene.from_file("guitar_pick"), planner=planner, seed=1, time=0.2)
+    planned = plan(Scene.from_file("guitar_pick"), planner=planner, seed=1, time=1.0)
     (tmp_path / "plan.json").write_text(planned.to_json())
     read = read_plan(tmp_path / "plan.json")
     assert read.primitives == planned.primitives
@@ -393,16 +393,16 @@ def test_the_synopsis_in_docs_cli_names_every_command_and_flag():
 
 
 def test_every_key_of_plan_json_is_in_its_document(asymmetric_seed_1, tmp_path):
-    """Every key plan.json holds (at the top, in a primitive, the tolerance, the manipulation plane
-    and its contacts, the stability report), for a planar scene and an object, is named in
-    docs/plan-json.md."""
-    r = run_cli("plan", "guitar_pick", "--seed", "1", "--time", "0.2", "--out", str(tmp_path / "pick"))
+    """Every key plan.json holds (at the top, in a primitive, the friction, the tolerance, the
+    manipulation plane and its contacts, the stability report), for a planar scene and an object, is
+    named in docs/plan-json.md."""
+    r = run_cli("plan", "guitar_pick", "--seed", "1", "--time", "1", "--out", str(tmp_path / "pick"))
     assert r.returncode == 0, r.stderr
     named = set(re.findall(r"`(\w+)`", (ROOT / "docs" / "plan-json.md").read_text()))
     keys = set()
     for path in (asymmetric_seed_1[1], tmp_path / "pick"):
         doc = json.loads((path / "plan.json").read_text())
-        parts = [doc, *doc["primitives"], doc["tolerance"], doc["tolerance"]["physical"]]
+        parts = [doc, *doc["primitives"], doc["tolerance"], doc["tolerance"]["physical"], doc["friction"]]
         if doc["manipulation_plane"] is not None:  # null for a planar scene, as object and the report are
             plane, report = doc["manipulation_plane"], doc["stability_report"]
             parts += [doc["object"], plane, *plane["contacts"].values(), report, report["x_moments"],

@@ -47,6 +47,7 @@ def _rows(path: Path, columns=None) -> list[dict[str, str]]:
     return [{k: r[k] for k in columns} for r in rows] if columns else rows
 
 
+@pytest.mark.slow
 def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
     here = run_map(SCENE, MapOptions(**SMALL_MAP, out=tmp_path / "here"))
     there = run_map(SCENE, MapOptions(**SMALL_MAP, out=tmp_path / "ray", cluster=cluster))
@@ -60,6 +61,7 @@ def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
     assert all(c.task_status is TaskStatus.DONE for c in there.cells)
 
 
+@pytest.mark.slow
 def test_a_bench_on_ray_matches_the_local_pool_run_by_run(cluster, tmp_path):
     options = dict(planners=("RRTConnect", "lattice"), runs=2, time=0.3, iterations=1500, jobs=2, seed=5)
     run_benchmark([SCENE], BenchmarkOptions(**options, out=tmp_path / "here"))
@@ -78,6 +80,7 @@ def _nap(task: tuple[str, int]) -> tuple[int, int]:
     return index, os.getpid()
 
 
+@pytest.mark.slow
 def test_a_worker_killed_during_a_campaign_is_replaced_and_the_campaign_completes(cluster, tmp_path):
     killed = []
 
@@ -115,6 +118,7 @@ def _fail(task: str) -> int:
     return 1
 
 
+@pytest.mark.slow
 def test_a_task_that_keeps_failing_is_reported_not_lost(cluster):
     tasks = ["raise", "die", "ok"]
     outcomes = {o.index: o for o in RayRunner(cluster, fresh=True, max_retries=1).run(_fail, tasks)}
@@ -126,6 +130,7 @@ def test_a_task_that_keeps_failing_is_reported_not_lost(cluster):
     assert hung.status is TaskStatus.HUNG and hung.wall_time_s < 30
 
 
+@pytest.mark.slow
 def test_an_interrupted_map_resumes_without_redoing_what_is_done(cluster, tmp_path):
     out = tmp_path / "map"
 

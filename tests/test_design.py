@@ -30,6 +30,7 @@ def _rows(path):
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_the_chosen_design_is_the_most_tolerant_of_the_grid(designed):
     result, files = designed
     rows = _rows(files["csv"])
@@ -63,6 +64,7 @@ def test_the_recommended_scene_file_has_the_chosen_digits_and_plans(designed):
     assert scene.tolerance(plan).scale == pytest.approx(best.tolerance, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_a_design_search_reproduces(designed, tmp_path):
     result, files = designed
     again = run_design("guitar_pick", GRID).write(tmp_path)

@@ -4,6 +4,7 @@ force over every path of a small lattice, the margin plan against the cost plan,
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -88,8 +89,12 @@ def path_figures(atlas: SecurityAtlas, legs, reference: float, known: dict) -> t
 def test_margin_search_against_brute_force(name):
     """On a small lattice, every secure path enumerated: the search's path keeps the largest
     smallest margin (its bottleneck), has the fewest primitive changes among those, the least
-    tie-break among those, and then the least cost."""
+    tie-break among those, and then the least cost. The pick's friction is taken as known exactly:
+    at its +-30 % only theta 27.25-27.5 deg lets psi open from 0 at the start's d (docs/model.md 4.7),
+    which the small lattice's 2 deg steps pass over (the chalk keeps its range)."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
+    if name == "guitar_pick":
+        scene = replace(scene, friction_uncertainty=0.0)
     atlas, goal_box = small_problem(scene)
     margins = LatticeMargins(atlas, "margin", goal_box)
     result = lattice_search(atlas, goal_box, "margin", margins)

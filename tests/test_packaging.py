@@ -139,6 +139,7 @@ def test_commands_take_a_shipped_name_from_any_directory(tmp_path):
     assert not (tmp_path / "tiles").exists()
 
 
+@pytest.mark.slow
 def test_wheel_carries_the_urdf_and_every_scene(tmp_path):
     """Build the wheel as `pip install .` would (from a copy: the build writes beside the sources)
     and look inside; the CI also installs it and runs commands from it."""

@@ -35,13 +35,14 @@ def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     """Each robot-ready scene's plan, by either planner, is executed and exported within the arm's
     limits and clear of the table and obstacles, the hand aimed by its expected landing; the
     hand aimed by its release simulated with no error here instead of the scene's expected landing
-    (conftest.small_landing: one simulated release instead of nine, a small budget as the planning
-    time)."""
+    (conftest.small_landing: one simulated release instead of nine). RRT* gets 3 s: at its
+    friction's +-30 % (docs/model.md 4.7) the 1.5 mm pick's seed 2 finds no path within 2 s
+    (12,000 iterations)."""
     assert Scene.from_file(name).robot.landing is Landing.EXPECTED
     scene = small_landing_file(name, tmp_path)
     assert Scene.from_file(scene).robot.landing is Landing.SIMULATED
     out = tmp_path / "out"
-    proc = run_cli("plan", str(scene), "--planner", planner, "--seed", "2", "--time", "0.5", "--export", str(out))
+    proc = run_cli("plan", str(scene), "--planner", planner, "--seed", "2", "--time", "3", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (out / "trajectory.json").is_file() and (out / "plan.json").is_file()
     assert "planar-only" not in proc.stdout

@@ -159,7 +159,8 @@ def test_stability_command_tall_prism_and_puzzle_piece():
 
 @pytest.mark.parametrize("name", SHIPPED_3D)
 def test_shipped_objects_plan_with_their_plane(tmp_path, name):
-    proc = run_cli("plan", str(SCENES / f"{name}.yaml"), "--seed", "1", "--time", "1", "--out", str(tmp_path))
+    # --time 2: at its friction's +-30 % (docs/model.md 4.7) RRT* finds the 1.5 mm pick's path, seed 1, within 2 s
+    proc = run_cli("plan", str(SCENES / f"{name}.yaml"), "--seed", "1", "--time", "2", "--out", str(tmp_path))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "mu'_G" in proc.stdout and "mu'_B" in proc.stdout and "manipulation plane: G" in proc.stdout
     plan = json.loads((tmp_path / "plan.json").read_text())

@@ -309,11 +309,11 @@ def test_each_piece_takes_the_approach_whose_plan_tolerates_most(tmp_path):
 
 # -- the approaches -------------------------------------------------------------------------
 def test_an_approach_whose_plane_the_digits_do_not_fit_is_a_reason_not_an_error():
-    """With a grippy thumb (friction B 1.2) some pairs G, B are so short that the finger's extra
-    length over |GB| (digits.alpha) leaves (-1, 1): such an approach is ruled out with the scene's
-    own words, and every other one still gives the scene."""
+    """With a grippy thumb (friction B 1.2, known exactly) some pairs G, B are so short that the
+    finger's extra length over |GB| (digits.alpha) leaves (-1, 1): such an approach is ruled out
+    with the scene's own words, and every other one still gives the scene."""
     doc = yaml.safe_load(TANGRAM.read_text())
-    doc["friction"]["B"] = 1.2
+    doc["friction"].update(B=1.2, uncertainty=0)
     layout = Layout.from_dict(doc)
     names = [p.name for p in layout.pieces]
     i, placed = names.index("small_triangle_1"), []

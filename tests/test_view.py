@@ -74,6 +74,7 @@ def _drawn(img: np.ndarray) -> float:
     return float(np.mean(np.abs(img - background[:, None, :]).sum(axis=-1) > 30))
 
 
+@pytest.mark.slow
 def test_page_is_self_contained(export):
     html = (export / "view.html").read_text()
     assert "MeshCat.Viewer" in html and "handle_command_bytearray" in html  # meshcat's viewer, inlined

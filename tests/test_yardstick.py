@@ -16,11 +16,13 @@ SEEDS = range(1, 6)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["reference_asymmetric", "guitar_pick"])
+@pytest.mark.parametrize("name", ["reference_asymmetric", "fabric_chalk"])
 def test_no_planner_beats_the_yardstick(name):
     """Every planner that can solve these problems (FMT* and BFMT* cannot, setup.KNOWN_LIMITATIONS),
     seeds 1-5: every solved plan (its legs re-validated with the exact mechanics) costs at least
-    the lattice optimum, counted as plans count it."""
+    the lattice optimum, counted as plans count it. The chalk plans over its friction's +-30 %
+    (docs/model.md 4.7); the picks at theirs pass a gate one lattice step wide that most of these
+    runs of 0.2 s miss."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     atlas = SecurityAtlas(scene, planning_box(scene))
     exact = lattice_plan(scene, atlas=atlas)
@@ -39,11 +41,12 @@ def test_no_planner_beats_the_yardstick(name):
 
 
 def test_rrt_star_stops_at_the_optimum_reproducibly():
-    """Seeded RRT* on guitar_pick, with the reference goal and without clearances, reaches the
-    lattice optimum within its budget: it stops there (stopped_by says so, long before the
-    budget), and the same seed stops at the same iteration with the same plan."""
+    """Seeded RRT* on guitar_pick, with the reference goal, without clearances and with its friction
+    known exactly, reaches the lattice optimum within its budget: it stops there (stopped_by says so,
+    long before the budget), and the same seed stops at the same iteration with the same plan."""
     doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
     doc.update(BEFORE_CLEARANCES)
+    doc["friction"]["uncertainty"] = 0
     scene = Scene.from_dict(doc)
     atlas = SecurityAtlas(scene, planning_box(scene))
     optimum = lattice_plan(scene, atlas=atlas).lattice_optimum
@@ -57,8 +60,9 @@ def test_rrt_star_stops_at_the_optimum_reproducibly():
 
 @pytest.mark.slow
 def test_plan_bench_and_cage_report_one_friction_margin(tmp_path):
-    """One plan of guitar_pick (its first primitive turns psi, so the start's margin in that
-    primitive's mode, 3.50 deg, is not its margin held still, 4.97 deg): `plan` (plan.json), the
+    """One plan of guitar_pick with its friction known exactly (its first primitive turns psi, so the
+    start's margin in that primitive's mode, 3.81 deg, is not its margin held still, 5.48 deg; at
+    the shipped +-30 % no plan can turn psi first, docs/model.md 4.7): `plan` (plan.json), the
     bench's run on the same task and `cage --plan` report the same smallest friction margin to
     1e-6 deg, the start included, and it is the smallest of the mechanics' margins at the states
     the plan passes, each in its leg's mode (an independent evaluation)."""
@@ -73,7 +77,11 @@ def test_plan_bench_and_cage_report_one_friction_margin(tmp_path):
     from ungrasp_ompl.mechanics.margin import friction_margin
     from ungrasp_ompl.planning.result import read_plan
 
-    scene_file = SCENES / "guitar_pick.yaml"
+    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    doc["friction"]["uncertainty"] = 0
+    scene_file = tmp_path / "scene" / "guitar_pick.yaml"
+    scene_file.parent.mkdir()
+    scene_file.write_text(yaml.safe_dump(doc))
     proc = run_cli("plan", str(scene_file), "--seed", "1", "--time", "0.5", "--iterations", "3000",
                    "--out", str(tmp_path))
     assert proc.returncode == 0, proc.stdout + proc.stderr

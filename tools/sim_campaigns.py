@@ -18,6 +18,10 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
 * caging: the pick's plan started steeper, by the smallest theta offset (whole degrees) that
   puts the start outside force closure in the model, rounded against flat tip; the row prints
   the deviation and the friction margin at the deviated start (negative);
+* worlds: the three objects' base plans, their hands aimed as in base, run in worlds neither the
+  plan nor the aim saw (sim.world, docs/model.md 11.21): every friction x0.7 and x1.3, pyramidal
+  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2);
+* unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
   that thumb, and what stops it), and a fifth of the friction;
@@ -28,6 +32,9 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   next seed, so that none of the row's trials is one the design was chosen on; beside them the
   scenes' own digits planned to the same free goal, to tell the digits' part from the goal's.
 
+`--previous-grip-rule` judges every trial by the lost-grip rule that let one contact of the pinch
+part for any time (docs/model.md 11.20) instead of the bound of 11.22, to report rows under both.
+
 `--timestep S` runs every row with MuJoCo's step set to S seconds in place of the scenes' own
 (sim.timestep), the rest of each scene unchanged: the timestep convergence study of
 docs/results.md runs the campaign so at 0.05 and 0.025 ms.
@@ -35,7 +42,11 @@ docs/results.md runs the campaign so at 0.05 and 0.025 ms.
 Every row has a Wilson 95 % interval on its success rate; success is placed within the scene's
 sim.max_error of the target by the strict verdict, and the paper's own criterion (no grip lost
 before the termination, then flat: placed, any error, with its mean error) is given beside it
-(docs/model.md 11.4). Prints one markdown table and draws ours beside the paper's into the figure.
+(docs/model.md 11.4), and the deepest any trial of the row sank into a digit or the table. Prints
+one markdown table, writes it to --table and draws ours beside the paper's into the figure.
+
+The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
+directory unless it is set), so that a plan's rows in several worlds share one aim.
 """
 
 from __future__ import annotations
@@ -43,7 +54,9 @@ from __future__ import annotations
 import argparse
 import collections
 import math
+import os
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -59,12 +72,23 @@ from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: 
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
+from ungrasp_ompl.scene.options import Landing  # noqa: E402
+from ungrasp_ompl.sim.landing import CACHE_VARIABLE  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant  # noqa: E402
+from ungrasp_ompl.sim.trial import MAX_CONTACT_GAP  # noqa: E402
+from ungrasp_ompl.sim.world import World  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 #: MuJoCo's step (s) for every row, or None for the scenes' own (--timestep).
 TIMESTEP: float | None = None
+#: The longest one contact may be absent before the termination (s): the verdict's own, or inf
+#: for the rule of docs/model.md 11.20 (--previous-grip-rule).
+MAX_GAP: float = MAX_CONTACT_GAP
+#: The worlds of the `worlds` rows: label, world (docs/model.md 11.21).
+WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
+          ("pyramidal cones", World(cone="pyramidal")), ("density x0.5", World(density=0.5)),
+          ("density x2", World(density=2.0)), ("stiffness x0.25 (time constant x2)", World(stiffness=0.25)))
 
 
 @dataclass
@@ -81,11 +105,13 @@ class Row:
     paper_rate: tuple[int, int] | None  #: the paper's successes and trials, where it gives them
     model: str  #: what the model says of the plan that ran
     causes: str
+    sinking: str = "-"  #: the deepest any trial sank into a digit or the table (mm), or "-"
 
     def line(self) -> str:
         low, high = wilson_interval(self.successes, self.trials)
         return (f"| {self.label} | {self.successes}/{self.trials} ({100 * low:.0f}-{100 * high:.0f} %) | "
-                f"{self.placed}/{self.trials} ({self.placed_error}) | {self.errors} | {self.paper} | {self.model} | {self.causes} |")
+                f"{self.placed}/{self.trials} ({self.placed_error}) | {self.errors} | {self.paper} | {self.model} | "
+                f"{self.causes} | {self.sinking} |")
 
 
 def _stepped(scene: Scene) -> Scene:
@@ -126,18 +152,21 @@ def _plan(scene: Scene, seed: int):
 
 
 def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, paper: str,
-        paper_rate: tuple[int, int] | None = None, variant: Variant = Variant(), model: str | None = None) -> Row:
-    """Execute and simulate one plan; the row of the table."""
+        paper_rate: tuple[int, int] | None = None, variant: Variant = Variant(), model: str | None = None,
+        world: World = World()) -> Row:
+    """Execute and simulate one plan, in world; the row of the table."""
     problems = plan_problems(scene, result)
-    report = simulate(placement(scene, result, variant)[1], PRESETS["paper"], trials, seed,
-                      jobs, scene=scene.name, variant=variant)
+    setup = replace(placement(scene, result, variant)[1], max_contact_gap=MAX_GAP)
+    report = simulate(setup, PRESETS["paper"], trials, seed, jobs, scene=scene.name, variant=variant, world=world)
     s = report.to_dict()
     err, placed = s["position_error_mm"], s["placed_position_error_mm"]
     errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"
     placed_err = f"mean {placed['mean']:.2f} mm" if placed["mean"] is not None else "-"
     causes = "; ".join(f"{n} {c}" for c, n in report.causes().items()) or "-"
     verdict = model or ("secure" if not problems else "rejected: " + str(problems[0].failure).split(" at (")[0])
-    return Row(label, report.successes, trials, report.placed, placed_err, errs, paper, paper_rate, verdict, causes)
+    sinking = f"{s['max_penetration_mm']:.3f}" if s["max_penetration_mm"] is not None else "-"
+    return Row(label, report.successes, trials, report.placed, placed_err, errs, paper, paper_rate, verdict, causes,
+               sinking)
 
 
 def caging_deviation(scene: Scene, result) -> tuple[float, float]:
@@ -223,14 +252,19 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=40, help="trials per row (default 40)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--only", default="base,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
+    ap.add_argument("--only", default="base,worlds,unaimed,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
+    ap.add_argument("--previous-grip-rule", action="store_true",
+                    help="judge lost grips by the rule that let one contact part for any time (docs/model.md 11.20)")
+    ap.add_argument("--table", type=Path, default=None, help="also write the table (markdown) to this file")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
                     help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
-    global TIMESTEP
+    global TIMESTEP, MAX_GAP
     TIMESTEP = args.timestep
+    MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
+    os.environ.setdefault(CACHE_VARIABLE, tempfile.mkdtemp(prefix="landings-"))
     only = set(args.only.split(","))
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
@@ -240,9 +274,9 @@ def main() -> None:
         rows.append(row)
         print(row.line(), flush=True)
 
-    print("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) | paper "
-          "| the model on the plan | failures |")
-    print("|---|---|---|---|---|---|---|")
+    header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
+              "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
+    print(header)
     base_paper = "109/120 over the objects, mean < 2.6 mm"
 
     def objects(total: str | None, scene_of, paper: str = base_paper) -> None:
@@ -257,6 +291,18 @@ def main() -> None:
 
     if "base" in only:
         objects("base: the three objects", lambda name: (f"base: {name}, rounded tip", _scene(name, "rounded")))
+    if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.21)
+        for name in OBJECTS:
+            scene = _scene(name, "rounded")
+            result = _plan(scene, s)
+            for label, world in WORLDS:
+                show(run(f"world: {name}, {label}", scene, result, n, j, s, "-", world=world))
+    if "unaimed" in only:  # the hand as planned: no aim fitted in any world
+        def unaimed(name: str):
+            scene = _scene(name, "rounded")
+            return (f"unaimed (landing: planned): {name}, rounded tip",
+                    replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED)))
+        objects("unaimed: the three objects", unaimed)
     if "edge" in only:
         objects(None, lambda name: (f"edge: {name}, flat tip", _scene(name, "flat")), "better than point contact")
     if "open" in only:  # without the touch-off (docs/model.md 11.14): the arm's calibration alone
@@ -298,7 +344,7 @@ def main() -> None:
         show(run("control: pick, the asymmetric plan run with equal digits", scene, _plan(scene, s), n, j, s,
                  "not placeable", variant=Variant(equal_digits=True), model=verdict))
         show(run("control: pick, a fifth of the friction", scene, _plan(scene, s), n, j, s, "(must fail)",
-                 variant=Variant(friction_scale=0.2)))
+                 world=World(friction=0.2)))
     if "tangram" in only:
         for rank in ("first", "tolerance"):
             for tip in ("rounded", "flat"):
@@ -323,7 +369,14 @@ def main() -> None:
         show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
                  "109/120", (109, 120), "secure", "-"))
     step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
-    print(f"\n{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}")
+    rule = "the previous lost-grip rule (11.20)" if args.previous_grip_rule else "the lost-grip bound (11.22)"
+    footer = f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}"
+    print(f"\n{footer}")
+    if args.table is not None:
+        from ungrasp_ompl.io import write_text_atomic
+
+        write_text_atomic(args.table, "\n".join([header, *(r.line() for r in rows), "", footer, ""]))
+        print(f"wrote {args.table}")
     if rows:
         draw(rows, args.figure)
         print(f"wrote {args.figure}")
