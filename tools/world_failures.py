@@ -1,0 +1,391 @@
+"""Does the out-of-plane margin predict which trials fail in worlds the plan did not know?
+(docs/model.md 11.23)
+
+For each object scene's RRT* plan (seed 1, 1 s), the margin along the plan (scene/stability3d.py:
+the start press and every leg, each state in its leg's contact mode) and the simulated outcome in
+worlds the plan did not see (sim/world.py). Two predictions are printed:
+
+* per world, from the world alone: the margin at the world's friction times the `paper` draw's
+  lowest factor (0.8) at every contact, with the world's cone (pyramidal or elliptic), the grasp
+  1 mm off GB: the plan is predicted to lose trials where it is negative somewhere;
+* per trial, from the world and the trial's draw: the margin at the world's friction times that
+  trial's drawn factors at G, A and B, the grasp off GB by the trial's own shift across it.
+
+A trial counts as held unless it fails before the termination (grip lost, turned out of the plane,
+B past the thumb's tip, a digit on the table); a placement off target is held. Also printed: the
+planner's own view, the margin at the scene's friction range's low end (1 - u) with pyramidal cones.
+
+With --cage, the same question for the energy-bounded cage (docs/model.md 4.5): over several plans
+per object (RRT* seeds 1 to 6, the lattice's cost and margin plans), the cage along each plan (its
+smallest escape energy, the share of its states fully caged, the escape energy at the start) and the
+out-of-plane margin at the worst draw, against how many trials each plan holds in the worlds
+friction x0.7 and pyramidal cones; Spearman's rank correlation of each measure with the trials held.
+These placements aim the hand as planned (robot.landing: planned), which moves the whole motion
+along the table and changes no contact, to keep the study to about 20 minutes of one core.
+
+With --needed, the friction factor (on every contact's coefficient) each leg of the RRT* plans
+needs for a margin of at least 0, with elliptic and with pyramidal cones, beside the factor planar
+force closure needs (section 4). With --forces, a rigid-body reading of one trial of an object's
+RRT* plan (the first of --objects) in the nominal world, friction x0.7 and pyramidal cones: the
+trial's outcome, and at chosen ticks of the settling (the start press) and after it, the turn out of
+the plane (a roll about GB and a turn of GB about the vertical), G's slip across the plane, and each
+contact's normal force, the ratios of its tangential force in the plane and across it to the normal,
+and where it touches the object (MuJoCo's mj_contactForce in each contact's frame, summed over a
+digit's contact points); --no-error reads the trial without any error, --impratio runs a copy of its
+model with friction rows that much stiffer than the normal one (the simulator's 10).
+
+Usage (about 4 minutes of one core with 6 trials; --cage about 20; --needed 1; --forces 2):
+
+    .venv/bin/python tools/world_failures.py --trials 6
+    .venv/bin/python tools/world_failures.py --trials 2 --objects guitar_pick --worlds friction=0.7
+    .venv/bin/python tools/world_failures.py --cage --trials 3
+    .venv/bin/python tools/world_failures.py --needed
+    .venv/bin/python tools/world_failures.py --forces --trial 0
+    .venv/bin/python tools/world_failures.py --forces --trial 1 --objects puzzle_piece --ticks 0 0.1 0.2 0.3 0.4
+    .venv/bin/python tools/world_failures.py --forces --no-error --impratio 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ungrasp_ompl import planning
+from ungrasp_ompl.perturbation import PRESETS, preset, trial_params
+from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.scene.stability3d import OutOfPlaneLoads, plan_out_of_plane, plan_states, out_of_plane_margin
+from ungrasp_ompl.sim.outcome import Outcome
+from ungrasp_ompl.sim.plan_trials import placement
+from ungrasp_ompl.sim.trial import run_trial
+from ungrasp_ompl.sim.world import World
+
+OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+WORLDS = ("friction=1", "friction=0.7", "friction=1.3", "cone=pyramidal")
+#: Outcomes that are not a failure to hold the object (placed, whether on target or not).
+HELD = (Outcome.SUCCESS, Outcome.OFF_TARGET)
+
+
+def world_of(item: str) -> World:
+    """The world of one KEY=VALUE item (friction=1 is the nominal world)."""
+    return World.parse([item])
+
+
+def legs_line(result) -> str:
+    """'press +0.65, P_theta +0.65, ...' (N), the smallest push of each leg."""
+    return ", ".join(f"{name} {value:+.2f}" if math.isfinite(value) else f"{name} -inf"
+                     for name, value in result.of_legs())
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trials", type=int, default=6)
+    parser.add_argument("--seed", type=int, default=1, help="the trials' seed (the plans use seed 1)")
+    parser.add_argument("--objects", nargs="+", default=list(OBJECTS))
+    parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
+    parser.add_argument("--cage", action="store_true", help="the cage study over several plans per object")
+    parser.add_argument("--needed", action="store_true", help="the friction each leg needs")
+    parser.add_argument("--forces", action="store_true", help="the contact forces of one trial (of the first of --objects)")
+    parser.add_argument("--trial", type=int, default=0, help="the trial --forces reads")
+    parser.add_argument("--no-error", action="store_true", help="--forces reads a trial without any error")
+    parser.add_argument("--impratio", type=float, default=None,
+                        help="--forces runs a copy of the trial's model with this impratio (the simulator's is 10)")
+    parser.add_argument("--ticks", type=float, nargs="+", default=[-0.29, -0.25, -0.20, -0.15, -0.10, 0.0, 0.3],
+                        help="when --forces reads it (s from the first primitive's start; negative: the settling)")
+    args = parser.parse_args(argv)
+    if args.cage:
+        return cage_study(args.objects, args.trials, args.seed)
+    if args.needed:
+        return friction_needed(args.objects)
+    if args.forces:
+        return contact_forces(args.objects[0], args.trial, args.seed, tuple(args.ticks), args.no_error, args.impratio)
+    draw_low = 1.0 - PRESETS["paper"].friction
+    totals: dict[str, list[int]] = {}
+    per_trial_rows = []
+    for name in args.objects:
+        scene = Scene.from_file(name)
+        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+        if not plan.solved:
+            print(f"{name}: RRT* found no plan")
+            continue
+        u = scene.friction_uncertainty
+        low = plan_out_of_plane(scene, plan, scene.plane_friction(1.0 - u), "pyramidal")
+        print(f"\n{name}: RRT* seed 1, {' '.join(str(p.type) for p in plan.primitives)}")
+        print(f"  planner's view (friction x{1 - u:g}, pyramidal, 1 mm off): {legs_line(low)}")
+        t0 = time.perf_counter()
+        _, setup = placement(scene, plan)
+        print(f"  placement {time.perf_counter() - t0:.0f} s")
+        states = plan_states(scene, plan)
+        params = trial_params(preset("paper"), args.seed, args.trials)
+        for item in args.worlds:
+            world = world_of(item)
+            cone = str(world.cone)
+            table, digits = world.friction_factors
+            worst = (table * draw_low, digits * draw_low, digits * draw_low)
+            mu = _plane_mu(scene, worst)
+            res = plan_out_of_plane(scene, plan, mu, cone)
+            first = res.first_below()
+            verdict = "holds" if first is None else f"fails in {first[0]}"
+            print(f"  {world.describe():24s} predicted (draw's worst, x{worst[0]:.2f}/{worst[1]:.2f}): {verdict}; "
+                  f"{legs_line(res)}")
+            counts = totals.setdefault(f"{name} {world.describe()}", [0, 0, 0, 0, 0])
+            for k, p in enumerate(params):
+                factors = tuple(f * g for f, g in zip((table, digits, digits), p.friction_scale))
+                own = out_of_plane_margin(scene, states.states, states.a_sign, states.b_sign, _plane_mu(scene, factors),
+                                          cone, OutOfPlaneLoads(offset=abs(p.shift_across_mm) / 1000), states.slide)
+                below = np.flatnonzero(own.push < 0.0)
+                leg = None if not len(below) else ("press" if states.primitive[below[0]] < 0
+                                                   else states.names[states.primitive[below[0]]])
+                t1 = time.perf_counter()
+                r = run_trial(replace(setup, world=world), p, k, args.seed)
+                held = r.outcome in HELD
+                predicted = leg is None
+                counts[0] += 1
+                counts[1] += held
+                counts[2] += predicted
+                counts[3] += held == predicted
+                counts[4] += (not held) and (not predicted)
+                print(f"    trial {k}: friction x{factors[0]:.2f}/{factors[1]:.2f}/{factors[2]:.2f}, across "
+                      f"{p.shift_across_mm:+.2f} mm -> predicted {'held' if predicted else 'lost in ' + leg}, "
+                      f"margin min {own.push.min():+.2f} N; simulated {r.outcome.value}"
+                      f"{'' if r.phase is None else ' in ' + r.phase} ({time.perf_counter() - t1:.1f} s)", flush=True)
+                per_trial_rows.append((name, world.describe(), k, predicted, held))
+    print("\nper trial: object, world: trials, held, predicted held, predictions right, failures predicted")
+    for key, (n, held, pred, right, caught) in totals.items():
+        print(f"  {key:42s} {n:3d} {held:5d} {pred:9d} {right:9d} {caught:5d}/{n - held}")
+    n = len(per_trial_rows)
+    if n:
+        right = sum(p == h for *_, p, h in per_trial_rows)
+        tp = sum((not p) and (not h) for *_, p, h in per_trial_rows)
+        fails = sum(not h for *_, _, h in per_trial_rows)
+        alarms = sum((not p) for *_, p, _ in per_trial_rows)
+        print(f"overall: {right}/{n} right; {tp}/{fails} failures predicted; {tp}/{alarms} predicted failures real")
+    return 0
+
+
+CAGE_PLANS = (tuple(("RRTstar", seed, "cost") for seed in range(1, 7))
+              + (("lattice", 1, "cost"), ("lattice", 1, "margin")))
+CAGE_WORLDS = ("friction=0.7", "cone=pyramidal")
+
+
+def cage_study(objects: list[str], trials: int, seed: int) -> int:
+    """Print, per plan, the cage's measures, the out-of-plane margin at the worst draw of each world
+    and the trials held in each world; then Spearman's rank correlations with the trials held."""
+    from scipy.stats import spearmanr
+
+    from ungrasp_ompl.robustness import cage_profile
+    from ungrasp_ompl.scene.options import Landing
+
+    draw_low = 1.0 - PRESETS["paper"].friction
+    rows = []
+    print("object, plan: primitives | cage: min escape (mJ), fully caged share, start (mJ) | "
+          "margin at the worst draw (N) per world | trials held per world")
+    for name in objects:
+        scene = Scene.from_file(name)
+        scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+        params = trial_params(preset("paper"), seed, trials)
+        for planner, plan_seed, objective in CAGE_PLANS:
+            options = {"objective": objective} if planner == "lattice" else {}
+            plan = planning.plan(scene, planner=planner, time=1.0, seed=plan_seed, **options)
+            label = f"{planner}{'' if planner == 'lattice' else ' seed ' + str(plan_seed)} {objective}"
+            if not plan.solved:
+                print(f"{name}, {label}: no plan")
+                continue
+            energy = cage_profile(scene, plan).escape_energy
+            caged = float(np.isinf(energy).mean())
+            margins, held = [], []
+            try:
+                _, setup = placement(scene, plan)
+            except Exception as exc:  # the robot cannot execute it: no trials
+                print(f"{name}, {label}: not executable ({exc})")
+                continue
+            for item in CAGE_WORLDS:
+                world = world_of(item)
+                table, digits = world.friction_factors
+                mu = _plane_mu(scene, (table * draw_low, digits * draw_low, digits * draw_low))
+                margins.append(plan_out_of_plane(scene, plan, mu, str(world.cone)).smallest)
+                held.append(sum(run_trial(replace(setup, world=world), p, k, seed).outcome in HELD
+                                for k, p in enumerate(params)))
+            fmt = lambda e: "inf" if math.isinf(e) else f"{e * 1000:.3f}"  # noqa: E731
+            print(f"{name}, {label}: {' '.join(str(p.type) for p in plan.primitives)} | {fmt(energy.min())}, "
+                  f"{caged:.2f}, {fmt(energy[0])} | " + ", ".join(f"{m:+.2f}" for m in margins)
+                  + " | " + ", ".join(f"{h}/{trials}" for h in held), flush=True)
+            rows.append((name, float(energy.min()), caged, float(energy[0]), margins, held))
+    print("\nSpearman's rank correlation with the trials held (rho, p; nan: a measure without spread)")
+    for group in [None, *objects]:
+        mine = [r for r in rows if group is None or r[0] == group]
+        for w, item in enumerate(CAGE_WORLDS):
+            held = [r[5][w] for r in mine]
+            for label, values in (("cage min escape", [r[1] for r in mine]),
+                                  ("cage fully caged share", [r[2] for r in mine]),
+                                  ("out-of-plane margin", [r[4][w] for r in mine])):
+                ranked = [v if math.isfinite(v) else (1e9 if v > 0 else -1e9) for v in values]
+                spread = len(set(ranked)) > 1 and len(set(held)) > 1
+                rho, p = spearmanr(ranked, held) if spread else (math.nan, math.nan)
+                print(f"  {group or 'all objects':13s} {item:16s} {label:24s} rho {rho:+.2f} p {p:.3f} over "
+                      f"{len(mine)} plans, {sum(held)}/{trials * len(mine)} trials held")
+    return 0
+
+
+def friction_needed(objects: list[str]) -> int:
+    """Print, per leg of each object's RRT* plan, the least factor on the contacts' coefficients at
+    which the out-of-plane margin (1 mm off) is at least 0, elliptic and pyramidal, and at which
+    planar force closure holds (bisection to 1e-3 on [0.3, 1.5])."""
+    from ungrasp_ompl.mechanics.force_closure import Friction
+    from ungrasp_ompl.mechanics.margin import friction_margin
+
+    def least(holds) -> float:
+        lo, hi = 0.3, 1.5
+        if holds(lo):
+            return lo
+        while hi - lo > 1e-3:
+            mid = (lo + hi) / 2
+            lo, hi = (lo, mid) if holds(mid) else (mid, hi)
+        return hi
+
+    print("object: leg needs factor (margin elliptic / pyramidal / planar force closure; 0.30: at most that)")
+    for name in objects:
+        scene = Scene.from_file(name)
+        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+        st = plan_states(scene, plan)
+        cells = []
+        for leg in sorted(set(st.primitive.tolist())):
+            m = st.primitive == leg
+            q, sa, sb, sl = st.states[m], st.a_sign[m], st.b_sign[m], st.slide[m]
+            need = [least(lambda f, c=cone: out_of_plane_margin(scene, q, sa, sb, scene.plane_friction(f), c,
+                                                                OutOfPlaneLoads(), sl).push.min() >= 0.0)
+                    for cone in ("elliptic", "pyramidal")]
+            need.append(least(lambda f: friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, Friction(
+                scene.plane_friction(f), scene.options.sliding_model)).min() > 0.0))
+            cells.append(f"{'press' if leg < 0 else st.names[leg]} {need[0]:.2f}/{need[1]:.2f}/{need[2]:.2f}")
+        print(f"  {name}: " + ", ".join(cells))
+    return 0
+
+
+def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], no_error: bool = False,
+                   impratio: float | None = None) -> int:
+    """Print the rigid-body reading of one trial of an object's RRT* plan (see the module docstring),
+    and the trial's outcome in each world; no_error: the trial without any error; impratio: run a
+    copy of the trial's model with that impratio instead of the simulator's (not a world of
+    sim/world.py: a probe of how stiffly friction holds)."""
+    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.sim import trial as sim_trial
+
+    if impratio is not None:
+        build = sim_trial.build_mjcf
+        sim_trial.build_mjcf = lambda spec, key=None: re.sub(r'impratio="[^"]*"', f'impratio="{impratio:g}"',
+                                                             build(spec, key))
+
+
+    scene = Scene.from_file(name)
+    plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+    _, setup = placement(scene, plan)
+    params = TrialParams() if no_error else trial_params(preset("paper"), seed, trial + 1)[trial]
+    frame = setup.target_pose[:3, :3]  # the plane's: x toward B, y across, z up
+    print(f"{name}, RRT* seed 1, trial {trial}: shift across {params.shift_across_mm:+.2f} mm, friction "
+          f"factors {', '.join(f'{f:.2f}' for f in params.friction_scale)}")
+    for item in ("friction=1", "friction=0.7", "cone=pyramidal"):
+        world = world_of(item)
+        result = run_trial(replace(setup, world=world), params, trial, seed)
+        print(f"== {world.describe()}: {result.outcome.value}{'' if result.phase is None else ' in ' + result.phase}")
+        for t, pose, contacts in _replay(replace(setup, world=world), params, ticks):
+            rel = frame.T @ pose[:3, :3]
+            yaw = math.degrees(math.atan2(rel[1, 0], rel[0, 0]))
+            roll = math.degrees(math.asin(max(-1.0, min(1.0, rel[2, 1]))))
+            out = math.degrees(math.acos(min(1.0, abs(rel[1, 1]))))
+            theta = math.degrees(math.asin(max(-1.0, min(1.0, rel[2, 0]))))
+            cells = []
+            for name in "GAB":
+                if name not in contacts:
+                    cells.append(f"{name} -")
+                    continue
+                force, normal, where, mu = contacts[name]
+                n_force = abs(force @ normal)
+                if n_force < 1e-6:
+                    cells.append(f"{name} -")
+                    continue
+                tang = force - (force @ normal) * normal
+                cells.append(f"{name} N {n_force:.2f} in-plane {math.hypot(tang[0], tang[2]) / n_force:.3f} "
+                             f"across {abs(tang[1]) / n_force:.3f} (mu {mu:.3f}) at ({where[0] * 1000:.1f}, "
+                             f"{where[1] * 1000:+.2f}) mm")
+            print(f"  t {t:+.2f} s: out {out:.2f} deg (roll {roll:+.2f}, yaw {yaw:+.2f}), theta {theta:.2f}, "
+                  f"G across {contacts['_g_across'] * 1000:+.3f} mm | " + "; ".join(cells))
+    return 0
+
+def _replay(setup, params, times):
+    """Step one trial as sim.trial.run_trial does (its settling and drive; no verdict) and yield, at
+    the tick nearest each of times (s from the first primitive's start, negative in the settling),
+    (t, the object's world pose, {contact: (force on the object in the plane frame summed over the
+    digit's points (N), the contact's normal in the plane frame, where it touches in the object's
+    frame (m), mu), '_g_across': G's slip across the plane since the settling began (m)})."""
+    import mujoco
+
+    from ungrasp_ompl.sim import trial as T
+
+    spec, model, data, ids, palm, offset = T._start(setup, params)
+    drive = setup.drive
+    quats = T._palm_quats(palm)
+    frame = setup.target_pose[:3, :3]
+    kind = {g: "A" for g in ids.finger_geoms} | {g: "B" for g in ids.thumb_geoms} | {ids.table_geom: "G"}
+    f6 = np.zeros(6)
+    wanted = sorted(times)
+    g0 = data.xpos[ids.object_body].copy()
+
+    def look(t):
+        pose = T._pose(data, ids.object_body)
+        found = {"_g_across": float((frame.T @ (pose[:3, 3] - g0))[1])}
+        sums: dict[str, list] = {}
+        for i in range(data.ncon):
+            c = data.contact[i]
+            g1, g2 = int(c.geom[0]), int(c.geom[1])
+            if ids.object_geom not in (g1, g2) or kind.get(g2 if g1 == ids.object_geom else g1) is None:
+                continue
+            name = kind[g2 if g1 == ids.object_geom else g1]
+            mujoco.mj_contactForce(model, data, i, f6)
+            rows = c.frame.reshape(3, 3)
+            sign = 1.0 if g2 == ids.object_geom else -1.0  # the force on the object
+            entry = sums.setdefault(name, [np.zeros(3), sign * rows[0], [], float(c.friction[0])])
+            entry[0] = entry[0] + sign * (rows.T @ f6[:3])
+            entry[2].append(pose[:3, :3].T @ (c.pos - pose[:3, 3]))
+        for name, (force, normal, points, mu) in sums.items():
+            found[name] = (frame.T @ force, frame.T @ normal, np.mean(points, axis=0), mu)
+        return t, pose, found
+
+    steps = max(1, round(setup.settle_time / model.opt.timestep))
+    moving = steps // 2 if np.any(offset) else 0
+    quat = T._palm_quats(palm[0][None])[0]
+    target = np.round((np.array([w for w in wanted if w < 0]) + setup.settle_time) / model.opt.timestep).astype(int)
+    for i in range(steps):
+        if i < moving:
+            frac = (i + 1) / moving
+            pos = palm[0][:3, 3] + offset * (1.0 - frac)
+            data.mocap_pos[ids.palm_mocap], data.mocap_quat[ids.palm_mocap] = pos, quat
+        mujoco.mj_step(model, data)
+        if i + 1 in target:
+            yield look((i + 1) * model.opt.timestep - setup.settle_time)
+    period = float(drive.times[1] - drive.times[0])
+    substeps = max(1, round(period / spec.timestep))
+    later = [w for w in wanted if w >= 0]
+    for k in range(1, len(drive.times)):
+        if not later:
+            return
+        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
+        T._move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
+        t = float(drive.times[k])
+        if t >= later[0] - 1e-9:
+            later.pop(0)
+            yield look(t)
+
+def _plane_mu(scene: Scene, factors: tuple[float, float, float]) -> tuple[float, float, float]:
+    """The plane's coefficients at G, A, B with the contacts' own scaled by factors (each reduced
+    to the plane as Scene.plane_friction reduces them)."""
+    per = [scene.plane_friction(f) for f in factors]
+    return per[0][0], per[1][1], per[2][2]
+
+if __name__ == "__main__":
+    sys.exit(main())
