@@ -43,8 +43,9 @@ def small_landing(doc: dict) -> dict:
     """A scene document whose robot, where the scene aims by the expected landing (robot.landing
     expected: nine simulated releases), aims by the release simulated with no error drawn
     (robot.landing simulated: one release): the small budget, as the tests' planning times, for
-    tests about something else than the landing. The expected landing is tested in test_simulation
-    and test_execution, and run by CI's check of the installed wheel."""
+    tests about something else than the landing. The shipped object scenes aim by the model of the
+    fall (robot.landing modelled, milliseconds) and pass unchanged; the expected landing is tested
+    in test_simulation."""
     robot = doc.get("robot", {})
     if robot.get("landing") != "expected":
         return doc

@@ -173,7 +173,7 @@ def test_broken_files_exit_2(tmp_path, command, content):
 
 @pytest.fixture(scope="session")
 def exported(tmp_path_factory):
-    """What plan --export DIR writes for guitar_pick (with small_landing): plan.json,
+    """What plan --export DIR writes for guitar_pick: plan.json,
     trajectory.json, view_scene.json; the scene file beside DIR. (RRT*, seed 1, first finds the
     pick's path, secure over its friction's +-30 %, after some 5,000 iterations: --time 1.)"""
     base = tmp_path_factory.mktemp("exported")

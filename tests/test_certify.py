@@ -107,8 +107,8 @@ OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=1.0, jobs=1)  # RR
 
 @pytest.fixture(scope="module")
 def pick_file(tmp_path_factory):
-    """The guitar pick's scene aimed by one simulated release (conftest.small_landing): the tests here
-    are about the choice among candidates, which the aim does not enter."""
+    """The guitar pick's scene as a file of its own (conftest.small_landing_file): the tests here are
+    about the choice among candidates, which the aim does not enter."""
     return small_landing_file("guitar_pick", tmp_path_factory.mktemp("scene"))
 
 

@@ -3,11 +3,13 @@ the others say why not; every obstacle is bounded."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import yaml
 
-from conftest import SCENES, leaf, paths, run_cli, small_landing_file
+from conftest import SCENES, leaf, paths, run_cli
 from ungrasp_ompl.geometry import CollisionChecker
 from ungrasp_ompl.io import parse_yaml
 from ungrasp_ompl.mechanics import kinematic_validity
@@ -33,19 +35,16 @@ def test_the_object_scenes_are_robot_ready_and_the_planar_ones_say_why():
 @pytest.mark.parametrize("name", READY)
 def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     """Each robot-ready scene's plan, by either planner, is executed and exported within the arm's
-    limits and clear of the table and obstacles, the hand aimed by its expected landing; the
-    hand aimed by its release simulated with no error here instead of the scene's expected landing
-    (conftest.small_landing: one simulated release instead of nine). RRT* gets 3 s: at its
-    friction's +-30 % (docs/model.md 4.7) the 1.5 mm pick's seed 2 finds no path within 2 s
-    (12,000 iterations)."""
-    assert Scene.from_file(name).robot.landing is Landing.EXPECTED
-    scene = small_landing_file(name, tmp_path)
-    assert Scene.from_file(scene).robot.landing is Landing.SIMULATED
+    limits and clear of the table and obstacles, the hand aimed by the model of its fall
+    (robot.landing: modelled). RRT* gets 3 s: at its friction's +-30 % (docs/model.md 4.7) the
+    1.5 mm pick's seed 2 finds no path within 2 s (12,000 iterations)."""
+    assert Scene.from_file(name).robot.landing is Landing.MODELLED
     out = tmp_path / "out"
-    proc = run_cli("plan", str(scene), "--planner", planner, "--seed", "2", "--time", "3", "--export", str(out))
+    proc = run_cli("plan", name, "--planner", planner, "--seed", "2", "--time", "3", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (out / "trajectory.json").is_file() and (out / "plan.json").is_file()
     assert "planar-only" not in proc.stdout
+    assert json.loads((out / "plan.json").read_text())["predicted_landing"]["spread_m"] > 0.0
 
 
 def test_the_c_parser_reads_every_shipped_file_as_pure_python_yaml_does():

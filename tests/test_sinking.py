@@ -1,6 +1,6 @@
-"""How deep the contacts sink (docs/model.md 11.2): the bound docs/results.md states from the
-campaign's base rows (40 `paper` trials per object, seed 1), held on 40 other trials per object
-(seed 2) of the same plans."""
+"""How deep the contacts sink (docs/model.md 11.2): the bound docs/results.md states from 80
+`paper` trials per object of the campaign's base plans (seeds 1 and 2), held on 40 other trials
+per object (seed 3) of the same plans."""
 
 from __future__ import annotations
 
@@ -13,21 +13,21 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.sim.campaign import simulate
 from ungrasp_ompl.sim.plan_trials import placement
 
-#: The deepest (mm) the campaign's base rows sank into a digit or the table, rounded up to the
-#: next hundredth of a millimetre (docs/results.md, "Sinking").
-SINKING_BOUND_MM = 0.10
+#: The deepest (mm) 80 trials per object of the base plans sank into a digit or the table (0.041
+#: mm, seeds 1 and 2), rounded up to the next hundredth of a millimetre (docs/results.md, "Sinking").
+SINKING_BOUND_MM = 0.05
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
 def test_sinking_stays_within_its_measured_bound(name):
     """40 `paper` trials of the object's base plan (RRT*, seed 1, as the campaign plans it) drawn
-    with seed 2: every control tick of the primitives sinks no deeper than the bound, and the
+    with seed 3: every control tick of the primitives sinks no deeper than the bound, and the
     contacts do sink (a trial that measured nothing would pass any bound)."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     assert result.solved
-    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, seed=2, jobs=1, scene=name)
+    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, seed=3, jobs=1, scene=name)
     depths = [t.max_penetration_mm for t in report.trials]
     assert max(depths) <= SINKING_BOUND_MM, sorted(depths)[-5:]
     assert sum(d > 0.0 for d in depths) >= 30

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 import yaml
 
@@ -22,8 +24,10 @@ def test_no_planner_beats_the_yardstick(name):
     seeds 1-5: every solved plan (its legs re-validated with the exact mechanics) costs at least
     the lattice optimum, counted as plans count it. The chalk plans over its friction's +-30 %
     (docs/model.md 4.7); the picks at theirs pass a gate one lattice step wide that most of these
-    runs of 0.2 s miss."""
+    runs of 0.2 s miss. The chalk's bound on its landing's spread, which plans again without P_dpsi
+    after the search, is left out: the yardstick is the search's."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
+    scene = replace(scene, options=replace(scene.options, max_landing_spread=None))
     atlas = SecurityAtlas(scene, planning_box(scene))
     exact = lattice_plan(scene, atlas=atlas)
     assert exact.solved and exact.cost == pytest.approx(exact.lattice_optimum, abs=1e-9)

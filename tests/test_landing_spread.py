@@ -1,0 +1,71 @@
+"""The predicted landing in planning (docs/model.md 11.24): planning.max_landing_spread replans
+without P_dpsi or fails with the spreads as evidence, robot.landing modelled aims the hand by the
+model's mean landing, and the scene file refuses what the model cannot do."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+import yaml
+
+from conftest import SCENES
+from ungrasp_ompl import Scene
+from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.mechanics.contact import Primitive
+from ungrasp_ompl.mechanics.release import predict_landing
+from ungrasp_ompl.planning import plan
+from ungrasp_ompl.planning.result import PlanOutcome
+from ungrasp_ompl.robot.pipeline import Aim, modelled_aim
+from ungrasp_ompl.scene.options import Landing
+
+
+def _bounded(name: str, bound: float | None) -> Scene:
+    scene = Scene.from_file(SCENES / f"{name}.yaml")
+    return replace(scene, options=replace(scene.options, max_landing_spread=bound))
+
+
+def test_a_bound_on_the_spread_plans_the_puzzle_piece_without_p_dpsi():
+    """Unbounded, the puzzle piece's RRT* plan of seed 1 has a P_dpsi and its landing spreads more
+    than 4 mm over the friction's range; bounded at 4 mm, the plan has no P_dpsi, keeps the bound,
+    and carries its predicted landing, which is the model's for that plan."""
+    free = plan(_bounded("puzzle_piece", None), planner="RRTstar", time=1.0, seed=1)
+    assert free.solved and Primitive.DPSI in [p.type for p in free.primitives]
+    assert predict_landing(_bounded("puzzle_piece", None), free).spread > 0.004
+    scene = _bounded("puzzle_piece", 0.004)
+    kept = plan(scene, planner="RRTstar", time=1.0, seed=1)
+    assert kept.solved and Primitive.DPSI not in [p.type for p in kept.primitives]
+    assert kept.predicted_landing["spread_m"] <= 0.004
+    assert kept.predicted_landing == predict_landing(scene, kept).to_dict()
+
+
+def test_a_bound_no_plan_keeps_fails_with_both_spreads():
+    """The guitar pick has no secure path without P_dpsi: bounded at 4 mm, planning fails with the
+    path's spread (beyond the bound) and the reason there is none without P_dpsi."""
+    result = plan(_bounded("guitar_pick", 0.004), planner="RRTstar", time=1.0, seed=1)
+    assert not result.solved and result.outcome is PlanOutcome.LANDING_SPREAD
+    assert result.evidence["spread_m"] > result.evidence["max_landing_spread_m"] == 0.004
+    assert isinstance(result.evidence["without_p_dpsi"], str)
+
+
+def test_the_modelled_aim_moves_the_hand_back_by_the_mean_predicted_landing():
+    """robot.landing modelled: the aim is minus the model's mean landing in the world's x, y, no turn."""
+    scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
+    assert scene.robot.landing is Landing.MODELLED
+    result = plan(scene, planner="lattice")
+    x, y = predict_landing(scene, result).world
+    assert modelled_aim(scene, result) == Aim(-x, -y, 0.0) and (x, y) != (0.0, 0.0)
+
+
+@pytest.mark.parametrize("edit, field", [
+    ({"robot": {"landing": "modelled", "termination": "rotate"}}, "robot.landing"),
+    ({"planning": {"max_landing_spread": -0.001}}, "planning.max_landing_spread"),
+    ({"planning": {"max_landing_spread": "wide"}}, "planning.max_landing_spread"),
+])
+def test_the_scene_file_refuses_what_the_model_cannot_do(edit, field):
+    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    for section, values in edit.items():
+        doc[section] = {**doc.get(section, {}), **values}
+    with pytest.raises(InputError) as err:
+        Scene.from_dict(doc)
+    assert err.value.field == field
