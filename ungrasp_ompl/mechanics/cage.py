@@ -52,10 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
 from .convex import ConvexShape, minkowski_difference
-from .kinematics import DigitGeometry, contact_point, digit_axis, digit_bodies, digit_polygons, thumb_normal
-
-#: Standard gravity, m/s^2.
-GRAVITY = 9.81
+from .kinematics import GRAVITY, DigitGeometry, contact_point, digit_axis, digit_bodies, digit_polygons, thumb_normal
 #: The 26 neighbours of a grid cell, as index offsets; the first 13 are one of each opposite pair.
 _OFFSETS = [o for o in np.ndindex(3, 3, 3) if o != (1, 1, 1)]
 _OFFSETS = [tuple(int(x) - 1 for x in o) for o in _OFFSETS]

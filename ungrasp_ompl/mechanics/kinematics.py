@@ -105,6 +105,8 @@ def thumb_normal(theta: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
     return np.stack([-np.sin(theta + psi), np.cos(theta + psi)], axis=-1)
 
 
+#: Standard gravity (m/s^2), for the mechanics' statics and dynamics and the simulator's rules.
+GRAVITY = 9.81
 #: How each opening termination moves the digits and the housing per unit of opening: the
 #: parts of n_B and of the face's normal in each body's travel (docs/model.md 7).
 _RELEASES = {"open": {"palm": (0.5, 0.0), "finger": (1.0, 0.0), "thumb": (0.0, 0.0)},

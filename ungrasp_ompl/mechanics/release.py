@@ -62,14 +62,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import UngraspError
-from .kinematics import digit_axis, pressed_state, release_travel, s_b, thumb_tip
+from .kinematics import GRAVITY, digit_axis, pressed_state, release_travel, s_b, thumb_tip
 
 if TYPE_CHECKING:
     from ..planning.result import Plan
     from ..scene import Scene
 
-#: Standard gravity (m/s^2).
-GRAVITY = 9.81
 #: The integrator's step (s): landings move by less than 0.03 mm from 1 ms to 0.1 ms on the shipped plans.
 STEP = 5e-4
 #: The share of the joint and gripper limits the export's timing uses (robot.timing.TOPPRA_MARGIN).

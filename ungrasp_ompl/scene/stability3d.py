@@ -53,11 +53,9 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import InputError, ToolError
 from ..mechanics.contact import primitive_sliding_signs, sliding_signs
 from ..mechanics.force_closure import SlidingModel
-from ..mechanics.kinematics import contact_d, digit_axis, pressed_state, s_b, thumb_normal
+from ..mechanics.kinematics import GRAVITY, contact_d, digit_axis, pressed_state, s_b, thumb_normal
 from .model import Scene
 
-#: Standard gravity (m/s^2).
-GRAVITY = 9.81
 #: How far (rad) the object may turn out of the plane over a leg by its sliding contacts' sideways
 #: slip, by default: the simulated verdict's bound (sim.trial.LEFT_PLANE_DEG, 10 deg).
 DEFAULT_TURN = math.radians(10.0)

@@ -33,6 +33,7 @@ from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
 from .world import World
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from .probe import TouchOffProbe, calibrate, noise_sequence, periods_within, probing
+from ..mechanics.kinematics import GRAVITY
 from ..perturbation import TrialParams
 from ..robot.pipeline import Aim
 from ..robot.touch_off import TouchOffOptions
@@ -45,8 +46,6 @@ LOSS_WINDOW = 0.05
 #: How far (m) the object may move with a contact of its pinch parted before the grip counts as
 #: lost: the 1 mm shift in the grasp that the plans absorb (the `paper` errors' bound).
 GRIP_SLACK = 0.001
-#: Standard gravity (m/s^2).
-GRAVITY = 9.81
 #: The longest A or B may be absent before the termination (s): the time in which the object,
 #: held by nothing but gravity where that contact was, moves GRIP_SLACK, sqrt(2 GRIP_SLACK / g),
 #: 14.3 ms, seven control ticks of 2 ms (docs/model.md 11.22).

@@ -120,14 +120,12 @@ class ScenePlan:
             raise ValueError("the scene has no plan to execute")
         from ..scene.options import Landing
 
-        from ..robot.pipeline import execute, modelled_aim
-
-        if self.scene.robot.landing is Landing.MODELLED:
-            return execute(self.scene, self.plan, modelled_aim(self.scene, self.plan))
-        if self.scene.robot.landing is not Landing.PLANNED:
+        if self.scene.robot.landing is not Landing.PLANNED:  # placement aims it as robot.landing says
             from ..sim.plan_trials import placement
 
             return placement(self.scene, self.plan, jobs=jobs)[0]
+        from ..robot.pipeline import execute
+
         return execute(self.scene, self.plan)
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
