@@ -80,15 +80,25 @@ def test_each_key_changes_the_compiled_world_by_its_factor(pick):
             assert np.allclose(model.actuator_forcerange[ids.actuator], force)
 
 
-def test_the_trials_own_errors_compose_with_the_world(pick):
-    """A trial's friction factor (the `paper` errors) and the world's multiply."""
-    setup = replace(_setup(pick), world=World(friction=1.3, friction_digits=0.5))
-    spec = trial_spec(setup, TrialParams(friction_scale=(0.9, 0.8, 0.85)))
-    nominal = _setup(pick).spec.friction
-    assert spec.friction.table == pytest.approx(nominal.table * 1.3 * 0.9)
-    assert spec.friction.finger == pytest.approx(nominal.finger * 1.3 * 0.5 * 0.8)
-    assert spec.friction.thumb == pytest.approx(nominal.thumb * 1.3 * 0.5 * 0.85)
-    assert spec.friction.solids == pytest.approx(nominal.solids * 1.3 * 0.9)
+def test_a_world_that_sets_a_pairs_friction_fixes_it_and_the_other_errors_compose(pick):
+    """Where the world sets a pair's friction, the trial's drawn friction factor does not apply to
+    that pair (the world's factor is its error); pairs the world leaves alone keep their draw, and
+    the other worlds' factors multiply; the compounding rule multiplies every draw."""
+    base = _setup(pick)
+    nominal = base.spec.friction
+    drawn = TrialParams(friction_scale=(0.9, 0.8, 0.85))
+    cases = {  # world: factors applied at (G, A, B), then under the compounding rule
+        World(friction=0.7): ((0.7, 0.7, 0.7), (0.7 * 0.9, 0.7 * 0.8, 0.7 * 0.85)),
+        World(friction_table=0.7): ((0.7, 0.8, 0.85), (0.7 * 0.9, 0.8, 0.85)),
+        World(friction_digits=1.3): ((0.9, 1.3, 1.3), (0.9, 1.3 * 0.8, 1.3 * 0.85)),
+        World(density=2.0): ((0.9, 0.8, 0.85), (0.9, 0.8, 0.85)),
+    }
+    for world, rules in cases.items():
+        for compounded, (g, a, b) in zip((False, True), rules):
+            spec = trial_spec(replace(base, world=world, friction_draw_in_world=compounded), drawn)
+            got = (spec.friction.table / nominal.table, spec.friction.finger / nominal.finger,
+                   spec.friction.thumb / nominal.thumb, spec.friction.solids / nominal.solids)
+            assert got == pytest.approx((g, a, b, g)), (world, compounded)
 
 
 @pytest.mark.parametrize("cone", list(Cone))

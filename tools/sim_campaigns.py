@@ -85,6 +85,8 @@ TIMESTEP: float | None = None
 #: The longest one contact may be absent before the termination (s): the verdict's own, or inf
 #: for the rule of docs/model.md 11.20 (--previous-grip-rule).
 MAX_GAP: float = MAX_CONTACT_GAP
+#: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
+COMPOUNDED_FRICTION: bool = False
 #: The worlds of the `worlds` rows: label, world (docs/model.md 11.21).
 WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
           ("pyramidal cones", World(cone="pyramidal")), ("density x0.5", World(density=0.5)),
@@ -156,7 +158,8 @@ def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, pap
         world: World = World()) -> Row:
     """Execute and simulate one plan, in world; the row of the table."""
     problems = plan_problems(scene, result)
-    setup = replace(placement(scene, result, variant)[1], max_contact_gap=MAX_GAP)
+    setup = replace(placement(scene, result, variant)[1], max_contact_gap=MAX_GAP,
+                    friction_draw_in_world=COMPOUNDED_FRICTION)
     report = simulate(setup, PRESETS["paper"], trials, seed, jobs, scene=scene.name, variant=variant, world=world)
     s = report.to_dict()
     err, placed = s["position_error_mm"], s["placed_position_error_mm"]
@@ -255,14 +258,18 @@ def main() -> None:
     ap.add_argument("--only", default="base,worlds,unaimed,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
     ap.add_argument("--previous-grip-rule", action="store_true",
                     help="judge lost grips by the rule that let one contact part for any time (docs/model.md 11.20)")
+    ap.add_argument("--compounded-friction", action="store_true",
+                    help="draw the `paper` friction error on top of a world's friction factor "
+                         "(docs/decisions/0100-a-world-fixes-its-friction.md)")
     ap.add_argument("--table", type=Path, default=None, help="also write the table (markdown) to this file")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
                     help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION
     TIMESTEP = args.timestep
+    COMPOUNDED_FRICTION = args.compounded_friction
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
     os.environ.setdefault(CACHE_VARIABLE, tempfile.mkdtemp(prefix="landings-"))
     only = set(args.only.split(","))
@@ -370,7 +377,10 @@ def main() -> None:
                  "109/120", (109, 120), "secure", "-"))
     step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
     rule = "the previous lost-grip rule (11.20)" if args.previous_grip_rule else "the lost-grip bound (11.22)"
-    footer = f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}"
+    friction = ("a world's friction compounded with the drawn friction error" if COMPOUNDED_FRICTION
+                else "a world's friction fixes its pairs (decision 0100)")
+    footer = (f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}, "
+              f"{friction}")
     print(f"\n{footer}")
     if args.table is not None:
         from ungrasp_ompl.io import write_text_atomic

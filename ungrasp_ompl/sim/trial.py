@@ -87,7 +87,10 @@ class TrialSetup:
     (robot.pipeline.Aim), by which the robot corrects the landing (sim.landing), the target staying
     where it is; world: how the world the trials run in differs from the scene's (sim.world), which
     neither the plan nor its aim sees; max_contact_gap: the longest A or B may be absent before
-    the termination (s, Grip), inf for the rule that let one contact part for any time.
+    the termination (s, Grip), inf for the rule that let one contact part for any time;
+    friction_draw_in_world: a pair's drawn friction error applies on top of the world's factor for
+    that pair (the compounding rule, for comparison; by default a world that sets a pair's
+    friction fixes it, docs/decisions/0100-a-world-fixes-its-friction.md).
     """
 
     spec: SimModelSpec
@@ -106,6 +109,7 @@ class TrialSetup:
     aim: Aim = Aim()
     world: World = World()
     max_contact_gap: float = MAX_CONTACT_GAP
+    friction_draw_in_world: bool = False
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
@@ -231,10 +235,16 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, durat
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
     """The nominal model in the setup's world (setup.world: its friction, densities, cone, contact
-    stiffness and jaw force), with the trial's friction, mass, thickness and table height."""
+    stiffness and jaw force), with the trial's friction, mass, thickness and table height. The
+    trial's drawn friction factors apply only to pairs whose friction the world leaves alone
+    (unless setup.friction_draw_in_world)."""
     spec, world = setup.spec, setup.world
     fg, fa, fb = params.friction_scale
     table, digits = world.friction_factors
+    if not setup.friction_draw_in_world:  # the world's factor is the pair's friction error
+        table_fixed, digits_fixed = world.fixed_friction
+        fg = 1.0 if table_fixed else fg
+        fa, fb = (1.0, 1.0) if digits_fixed else (fa, fb)
     fr = spec.friction
     obj = replace(spec.obj, thickness=spec.obj.thickness * params.thickness_scale,
                   density=spec.obj.density * world.density * params.mass_scale / params.thickness_scale)

@@ -101,6 +101,14 @@ class World:
         return self.friction * self.friction_table, self.friction * self.friction_digits
 
     @property
+    def fixed_friction(self) -> tuple[bool, bool]:
+        """Whether the world sets the friction of the object's pairs with (the table and the
+        solids, the digits): a trial then draws no friction error for them (docs/decisions/
+        0100-a-world-fixes-its-friction.md)."""
+        return (self.friction != 1.0 or self.friction_table != 1.0,
+                self.friction != 1.0 or self.friction_digits != 1.0)
+
+    @property
     def time_constant_factor(self) -> float:
         """The factor on the contacts' time constant that the stiffness factor makes (>= 1)."""
         return 1.0 / math.sqrt(self.stiffness)
