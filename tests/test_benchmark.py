@@ -130,7 +130,7 @@ def test_a_cost_only_planner_is_refused_a_robust_objective(tmp_path):
 @pytest.mark.slow
 def test_plots_are_png(bench):
     out, _ = bench
-    for name in ("success_vs_time.png", "cost_vs_time.png"):
+    for name in ("success_vs_time.png", "final_cost.png"):
         assert_picture(out / name)
 
 

@@ -10,7 +10,7 @@ import re
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from figure_marks import axis_names, legend_texts, unexplained_marks
+from figure_marks import all_texts, axis_names, drawn_extents, legend_texts, overlap, unexplained_marks
 
 from conftest import SCENES
 from ungrasp_ompl import Scene, plan
@@ -59,7 +59,8 @@ def test_regions_legend_has_each_class_colour():
     fig = regions_figure(scene, d_values=2, step_deg=5.0)
     try:
         (legend,) = fig.legends
-        assert [t.get_text() for t in legend.get_texts()] == list(REGION_CLASSES)
+        assert [t.get_text() for t in legend.get_texts()][:len(REGION_CLASSES)] == list(REGION_CLASSES)
+        assert unexplained_marks(fig) == []
         images = [im for ax in fig.axes for im in ax.images]
         assert len(images) == 2
         for im in images:
@@ -69,6 +70,64 @@ def test_regions_legend_has_each_class_colour():
                 colour = im.cmap(im.norm(cls))
                 handle = legend.legend_handles[int(cls)]
                 np.testing.assert_allclose(handle.get_facecolor(), colour)
+        assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+@pytest.fixture(scope="module")
+def pick():
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    return scene, plan(scene, planner="lattice", seed=1)
+
+
+def _passes_through(line, points: np.ndarray) -> bool:
+    """The line's drawn (finite) points include every one of points (N, 2)."""
+    xy = np.column_stack([np.asarray(v, dtype=float) for v in line.get_data()])
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    return len(xy) > 0 and all(np.min(np.hypot(*(xy - p).T)) < 1e-6 for p in points)
+
+
+@pytest.mark.parametrize("with_plan", [True, False])
+def test_regions_slices_carry_information_and_show_start_goal_and_path(pick, with_plan):
+    """guitar_pick's C-space is one class (kinematically invalid) at d >= 0.85 l: no such slice
+    is drawn. Every slice shows the start, the goal's theta-psi box and (given a plan) the whole
+    path, all within its limits; and the path is drawn solid on a slice at each d it holds."""
+    scene, result = pick
+    assert result.solved
+    fig = regions_figure(scene, step_deg=3.0, plan=result if with_plan else None)
+    try:
+        slices = [ax for ax in fig.axes if ax.images]
+        assert 2 <= len(slices) <= 6
+        to_deg = np.array([math.degrees(1), math.degrees(1)])
+        start = scene.start[[0, 2]] * to_deg
+        glo, ghi = scene.goal.box()
+        corner, size = glo[[0, 2]] * to_deg, (ghi - glo)[[0, 2]] * to_deg
+        ways = [result.primitives[0].start] + [w for p in result.primitives for w in p.waypoints[1:]]
+        vertices = np.array(ways)[:, [0, 2]] * to_deg
+        solid = set()
+        for ax in slices:
+            (image,) = ax.images
+            cls = np.asarray(image.get_array())
+            counts = np.bincount(cls.ravel().astype(int))
+            assert np.count_nonzero(counts) >= 2 and counts.max() <= 0.97 * cls.size  # not (nearly) one class
+            assert any(_passes_through(line, [start]) and len(line.get_xdata()) == 1 for line in ax.lines)
+            boxes = [p for p in ax.patches if isinstance(p, plt.Rectangle)]
+            assert any(np.allclose(b.get_xy(), corner) and np.allclose((b.get_width(), b.get_height()), size)
+                       for b in boxes)
+            (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+            shown = np.vstack([start, corner, corner + size] + ([vertices] if with_plan else []))
+            assert np.all((shown[:, 0] > x0) & (shown[:, 0] < x1) & (shown[:, 1] > y0) & (shown[:, 1] < y1))
+            if with_plan:
+                assert any(_passes_through(line, vertices) for line in ax.lines)  # the whole path
+                for line in ax.lines:
+                    if len(line.get_xdata()) > 1 and not _passes_through(line, vertices):  # the part at this d
+                        solid |= {k for k, v in enumerate(vertices) if _passes_through(line, [v])}
+            else:
+                assert all(len(line.get_xdata()) == 1 for line in ax.lines)
+        if with_plan:
+            assert solid == set(range(len(vertices)))  # every corner of the path is solid on a slice at its d
+        assert unexplained_marks(fig) == []
         assert_named_axes(fig)
     finally:
         plt.close(fig)
@@ -102,9 +161,31 @@ def test_trials_legend_names_every_mark_and_each_error_in_words():
         assert {"target outline", "final outline, placed", "final outline, failed", "trial placed",
                 "trial failed"} <= texts
         drawn = [k for k in report.trials[0].params if len({t.params[k] for t in report.trials}) > 1]
-        xlabels = {ax.get_xlabel() for ax in fig.axes[1:]}
+        xlabels = {ax.get_xlabel().replace("\n", " ") for ax in fig.axes[1:]}
         assert xlabels == {TRIAL_PARAM_LABELS[k] for k in drawn}
         assert_named_axes(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_trials_picture_is_a_grid_of_readable_panels():
+    """The paper's errors draw 16 of them: their panels go in a grid of ceil(sqrt(16 + 4)) columns
+    (the outlines take 2 x 2 cells), each readable, in a picture at most 1600 px wide."""
+    from ungrasp_ompl import plotting
+
+    report = _report([k % 3 != 0 for k in range(16)])
+    keys = [k for k in report.trials[0].params if len({t.params[k] for t in report.trials}) > 1]
+    assert len(keys) == 16
+    fig = trials_figure(report, np.array([[0.0, 0.0], [0.03, 0.0], [0.03, 0.01], [0.0, 0.01]]), np.eye(4))
+    try:
+        assert fig.get_size_inches()[0] * plotting.DPI <= 1600
+        panels = fig.axes[1:]
+        assert len(panels) == len(keys)
+        ((rows, cols),) = {ax.get_subplotspec().get_gridspec().get_geometry() for ax in panels}
+        assert cols == math.ceil(math.sqrt(len(keys) + 4)) and rows * cols >= len(keys) + 4
+        assert len({ax.get_subplotspec().rowspan.start for ax in panels}) == rows
+        for box in drawn_extents(fig, panels):  # display pixels at the figure's dpi, scaled to the picture's
+            assert box.width * plotting.DPI / fig.dpi >= 200 and box.height * plotting.DPI / fig.dpi >= 140
     finally:
         plt.close(fig)
 
@@ -183,7 +264,7 @@ def test_stability_names_each_roll_direction():
     """The prism roll's +1 direction (a right-handed turn about G->B) lifts the side left of
     G->B seen from the finger (+z, the top face): so the print's words say which range is which."""
     from ungrasp_ompl.mechanics.roll import ROLL_WAYS, _rotate, describe_restoring
-    from ungrasp_ompl.scene.stability import analyse
+    from ungrasp_ompl.scene.stability import analyse, describe_roll
 
     x, left = np.array([1.0, 0.0, 0.0]), np.array([[0.5, 1.0, 0.0]])  # +y: left of +x seen from +z
     assert np.cross(x, left[0] - [0.5, 0, 0]) @ [0, 0, 1] > 0
@@ -193,10 +274,14 @@ def test_stability_names_each_roll_direction():
     assert describe_restoring({1: (0.25, 30.0), -1: None}) == (
         "left side up 0.25..30.00 deg, right side up none (sides of G->B seen from the finger)")
 
+    words = describe_roll({1: (0.25, 30.0), -1: None}, False, 30.0)  # each way named with its range
+    assert re.search(r"0\.25 to 30\.00 deg with its left side up and at no tilt with its right side up", words), words
+
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     report = analyse(scene, [("start", scene.start)])
-    (line,) = [ln for ln in report.lines() if "prism roll" in ln]
-    assert re.search(r"left side up [0-9.]+\.\.[0-9.]+ deg, right side up [0-9.]+\.\.[0-9.]+ deg", line), line
+    (line,) = [ln for ln in report.lines() if "theta 30.0 deg, d 0.770, psi 0.0 deg" in ln]
+    ranges = [report.rolls[0].ranges_deg()[k] for k in (0, 1)]
+    assert all(f"{r[0]:.2f} to {r[1]:.2f} deg" in line for r in ranges), line
 
 
 @pytest.mark.slow
@@ -256,6 +341,112 @@ def test_bench_pictures_name_every_mark(monkeypatch):
             assert_named_axes(fig)
         finally:
             plt.close(fig)
+
+
+def _seven_planners():
+    """An experiment of the default planners on the pick, some runs unsolved."""
+    from datetime import datetime
+
+    from ungrasp_ompl.benchmark.ompl_log import Experiment
+    from ungrasp_ompl.benchmark.tasks import RunStatus
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    names = ["RRTstar", "InformedRRTstar", "BITstar", "FMT", "AORRTC", "RRTConnect", "lattice"]
+    runs = {p: [_run(p, k, None if (k + i) % 4 == 0 else 78.0 + k) for k in range(8)] for i, p in enumerate(names)}
+    return Experiment("pick", scene, names, runs, 77.5, RunStatus.EXACT, 1, 0.5, 8, datetime(2026, 1, 1), 2)
+
+
+def _sweep_result():
+    from ungrasp_ompl.benchmark.ompl_log import cost_units
+    from ungrasp_ompl.benchmark.options import SweepOptions
+    from ungrasp_ompl.benchmark.sweep import SweepPoint, SweepResult
+
+    points = [SweepPoint(a, [_run("RRTstar", k, c) for k, c in enumerate(costs)], _run("lattice", 0, optimum))
+              for a, costs, optimum in ((0.1, (None, None), None), (0.2, (86.0, 87.0), 85.5),
+                                        (0.3, (84.0, 85.0), 83.5), (0.4, (None, None), None))]
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    return SweepResult("pick", "RRTstar", points, cost_units(scene), SweepOptions(alphas=(0.1, 0.2, 0.3, 0.4)))
+
+
+@pytest.mark.parametrize("picture", ["success", "final_cost", "sweep"])
+def test_bench_legends_leave_the_data_clear(monkeypatch, picture):
+    """No legend lies over a panel's data area (seven planners' steps reach every corner)."""
+    from ungrasp_ompl.benchmark.plots import plot_final_cost, plot_success_vs_time, plot_sweep
+
+    figures = _captured(monkeypatch)
+    if picture == "success":
+        plot_success_vs_time([_seven_planners()], None)
+    elif picture == "final_cost":
+        plot_final_cost([_seven_planners()], None)
+    else:
+        plot_sweep(_sweep_result(), 0.5, None)
+    (fig,) = figures
+    try:
+        panels = [ax for ax in fig.axes if ax.lines]
+        legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        assert panels and legends
+        boxes = drawn_extents(fig, legends + panels)
+        for legend in boxes[:len(legends)]:
+            assert not any(overlap(legend, panel) for panel in boxes[len(legends):])
+            assert fig.bbox.contains(legend.x0, legend.y0) and fig.bbox.contains(legend.x1, legend.y1)
+    finally:
+        plt.close(fig)
+
+
+def test_sweep_axis_names_do_not_overlap(monkeypatch):
+    from ungrasp_ompl.benchmark.plots import plot_sweep
+
+    figures = _captured(monkeypatch)
+    plot_sweep(_sweep_result(), 0.5, None)
+    (fig,) = figures
+    try:
+        top, bottom = drawn_extents(fig, [ax.yaxis.label for ax in fig.axes])
+        assert not overlap(top, bottom)
+        for box in (top, bottom):
+            assert fig.bbox.contains(box.x0, box.y0) and fig.bbox.contains(box.x1, box.y1)
+    finally:
+        plt.close(fig)
+
+
+def test_bench_writes_pictures_of_what_it_recorded_and_a_table_that_fits(monkeypatch, tmp_path):
+    """bench (its runs made up): no picture stands in for data not recorded, and the summary
+    table fits 100 columns with no column empty in every row."""
+    import dataclasses
+
+    from ungrasp_ompl.benchmark import BenchmarkOptions, bench, run_benchmark
+    from ungrasp_ompl.benchmark.statistics import SUMMARY_COLUMNS
+    from ungrasp_ompl.benchmark.table import format_table
+
+    def made_up(tasks, runner, progress=None, stream=None):
+        return [dataclasses.replace(_run(t.planner, max(t.run, 0), None if t.run == 1 else 86.0 + t.run),
+                                    group=t.group, seed=t.seed) for t in tasks]
+
+    monkeypatch.setattr(bench, "run_tasks", made_up)
+    figures = _captured(monkeypatch)
+    planners = ("RRTstar", "InformedRRTstar", "BITstar", "RRTConnect")
+    result = run_benchmark([SCENES / "reference_asymmetric.yaml"],
+                           BenchmarkOptions(planners=planners, runs=3, time=0.5, jobs=1, out=tmp_path / "b"))
+    try:
+        assert figures
+        for fig in figures:
+            assert not any("not recorded" in text for text in all_texts(fig))
+    finally:
+        for fig in figures:
+            plt.close(fig)
+    filled = [c for c in SUMMARY_COLUMNS if any(c.value(r) is not None for r in result.summary)]
+    assert len(filled) < len(SUMMARY_COLUMNS)  # some are empty here (the tolerance objective's)
+    lines = format_table(SUMMARY_COLUMNS, result.summary).split("\n")
+    assert max(map(len, lines)) <= 100
+    blocks = "\n".join(lines).split("\n\n")
+    shown = 0
+    for block in blocks:
+        rows = [re.split(r"\s{2,}", row.strip()) for row in block.split("\n")[-len(result.summary):]]
+        assert len({len(r) for r in rows}) == 1  # one cell per column in every row
+        columns = list(zip(*rows))
+        assert columns[:2] == [tuple(r.scene for r in result.summary), tuple(r.planner for r in result.summary)]
+        assert all(any(cell != "-" for cell in column) for column in columns)  # no empty column
+        shown += len(columns) - 2
+    assert shown == len(filled) - 2  # every column with a value, once (scene and planner in every block)
 
 
 def test_sweep_picture_names_every_mark(monkeypatch):

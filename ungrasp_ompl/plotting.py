@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 
 import matplotlib
 
@@ -36,45 +37,154 @@ def legend_marks(*axes) -> dict:
     return marks
 
 
+#: The pictures' resolution (dots per inch).
+DPI = 110
+
+
 def _save(fig, path: str | os.PathLike[str]) -> None:
     # zlib's fastest level: a third of the time of the default for a file about a third larger
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110, pil_kwargs={"compress_level": 1}))
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs={"compress_level": 1}))
     plt.close(fig)
 
 
-def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, step_deg: float = 1.0) -> None:
+def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, step_deg: float = 1.0,
+                 plan: Plan | None = None) -> None:
     """Write regions_figure's picture to path (PNG)."""
-    _save(regions_figure(scene, d_values, step_deg), path)
+    _save(regions_figure(scene, d_values, step_deg, plan), path)
 
 
-def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0):
-    """The C-space map as theta-psi slices at d_values values of d, sampled every step_deg (deg):
-    free, not force-closed, in collision, kinematically invalid (all contacts sticking), like the
-    reference planner's map; a legend names each class's colour. Returns the matplotlib Figure."""
+#: The class of a kinematically invalid state (scene.StateClass.KINEMATICS's value).
+_INVALID = 3
+#: The share of a slice's states (0-1) that other classes than its commonest must cover for it to be drawn.
+_REGION_OTHERS = 0.03
+#: Candidate values of d that regions_figure screens for slices that carry information (count).
+_REGION_CANDIDATES = 24
+
+
+def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0, plan: Plan | None = None):
+    """The C-space map as theta-psi slices at up to d_values values of d, sampled every step_deg
+    (deg): free, not force-closed, in collision, kinematically invalid (all contacts sticking),
+    like the reference planner's map. Only slices that carry information are drawn (classes other
+    than the slice's commonest cover _REGION_OTHERS of it or more): first at the d values the
+    plan's path holds (with a plan), the start's and the middle of the goal's range, then others
+    spread over d. On every slice: the start, the goal region's theta-psi box and, with a solved
+    plan, its path (thick where it is at the slice's d, dashed elsewhere). psi above the rows that
+    differ in some slice is left out (the title says so). One legend names the classes' colours
+    and the marks. Returns the matplotlib Figure."""
+    from .geometry.collision import CollisionChecker
+
     lo, hi = scene.bounds
     th = np.arange(lo[0], hi[0] + 1e-9, math.radians(step_deg))
     ps = np.arange(lo[2], hi[2] + 1e-9, math.radians(step_deg))
+    T, P = np.meshgrid(th, ps, indexing="ij")
+    checker = CollisionChecker(scene.collision_model())
+    cache: dict[float, np.ndarray] = {}
+
+    def classes(d: float) -> np.ndarray:
+        if d not in cache:
+            q = np.column_stack([T.ravel(), np.full(T.size, d), P.ravel()])
+            cache[d] = scene.classify(q, checker).reshape(T.shape)
+        return cache[d]
+
+    route = _path_points(plan) if plan is not None and plan.primitives else None
+    glo, ghi = scene.goal.box()
     # B stays on the thumb (s_B = d cos psi - alpha >= 0) only for d >= alpha
-    ds = np.linspace(max(lo[1], scene.digits.alpha, 0.05), hi[1], d_values)
-    cols = 3
-    rows = int(math.ceil(d_values / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False, constrained_layout=True)
+    d_lo = max(lo[1], scene.digits.alpha, 0.05)
+    anchors = [float(d) for d in (route[:, 1] if route is not None else [])]
+    anchors += [float(scene.start[1]), float((glo[1] + ghi[1]) / 2)]
+    close = (hi[1] - d_lo) / (2 * _REGION_CANDIDATES)  # d values this near show the same slice
+
+    def wanted(d: float, chosen: list[float]) -> bool:
+        """A new slice, whose commonest class leaves others their share of it."""
+        commonest = np.bincount(classes(d).ravel()).max()
+        return all(abs(d - e) > close for e in chosen) and commonest <= (1 - _REGION_OTHERS) * T.size
+
+    ds: list[float] = []
+    for d in anchors:  # the path's, the start's and the goal's d first
+        if len(ds) < d_values and d_lo - 1e-9 <= d <= hi[1] + 1e-9 and wanted(d, ds):
+            ds.append(d)
+    rest = [float(d) for d in np.linspace(d_lo, hi[1], _REGION_CANDIDATES) if wanted(float(d), ds)]
+    while rest and len(ds) < d_values:  # then the others, each as far as can be from those chosen
+        d = max(rest, key=lambda x: min([abs(x - e) for e in ds], default=math.inf))
+        ds.append(d)
+        rest = [x for x in rest if abs(x - d) > close]
+    ds.sort()
+    conv = np.array([180 / math.pi, 1.0, 180 / math.pi])
+    psi_top = _informative_psi(ps, [classes(d) for d in ds], [float(scene.start[2]), float(ghi[2])]
+                               + ([float(route[:, 2].max())] if route is not None else []), step_deg)
+    nrows = max(1, int(math.ceil(len(ds) / 3)))
+    cols = min(3, max(1, len(ds)))
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 3.6 * nrows + 0.6), squeeze=False,
+                             constrained_layout=True)
     cmap = ListedColormap(_REGION_COLOURS)
+    start = scene.start * conv
+    fine = _densified(route) if route is not None else None
     for ax, d in zip(axes.flat, ds):
-        T, P = np.meshgrid(th, ps, indexing="ij")
-        q = np.column_stack([T.ravel(), np.full(T.size, d), P.ravel()])
-        cls = scene.classify(q).reshape(T.shape)
-        ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5,
+        cls = classes(d)
+        ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5, interpolation="nearest",
                   extent=[math.degrees(th[0]), math.degrees(th[-1]), math.degrees(ps[0]), math.degrees(ps[-1])])
-        ax.set_title(f"d = {d:.2f} l")
+        ax.add_patch(plt.Rectangle((glo[0] * conv[0], glo[2] * conv[2]), (ghi[0] - glo[0]) * conv[0],
+                                   (ghi[2] - glo[2]) * conv[2], fill=False, color="#1f78b4", lw=2,
+                                   label=f"goal region: theta-psi box (d {glo[1]:.2f}-{ghi[1]:.2f} l)"))
+        if fine is not None:
+            ax.plot(fine[:, 0] * conv[0], fine[:, 2] * conv[2], color="k", lw=1, ls="--",
+                    label="the plan's path, theta and psi (at any d)")
+            here = np.where(np.abs(fine[:, 1] - d) <= close, fine[:, 2], np.nan)
+            ax.plot(fine[:, 0] * conv[0], here * conv[2], color="k", lw=3,
+                    label=f"the plan's path at this slice's d (within {close:.2f} l)")
+        ax.plot(start[0], start[2], "o", color="white", markeredgecolor="k", ms=8, zorder=4, label="start (theta, psi)")
+        roles = [r for r, hit in (("start", abs(d - scene.start[1]) <= close),
+                                  ("goal", glo[1] - close <= d <= ghi[1] + close),
+                                  ("path", route is not None and bool(np.any(np.abs(route[:, 1] - d) <= close))))
+                 if hit]
+        ax.set_title(f"d = {d:.2f} l" + (f" ({', '.join(roles)})" if roles else ""))
+        # a margin about the map: marks on its edges (psi 0, theta 0) stay in sight
+        ax.set_xlim(math.degrees(th[0]) - 3, math.degrees(th[-1]) + 3)
+        ax.set_ylim(math.degrees(ps[0]) - 3, psi_top)
         ax.set_xlabel(AXIS_LABELS[0])
         ax.set_ylabel(AXIS_LABELS[2])
     for ax in list(axes.flat)[len(ds):]:
         ax.axis("off")
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in _REGION_COLOURS]
-    fig.legend(handles, REGION_CLASSES, loc="outside lower center", ncol=4)
-    fig.suptitle(f"{scene.name}: C-space map ({scene.options.sliding_model} sliding, contacts sticking)")
+    marks = legend_marks(*axes.flat)
+    fig.legend(handles + list(marks.values()), list(REGION_CLASSES) + list(marks.keys()), loc="outside lower center",
+               ncol=4, fontsize=9)
+    title = f"{scene.name}: C-space map ({scene.options.sliding_model} sliding, contacts sticking)"
+    if route is not None:
+        title += f" with {plan.planner}'s path"
+    if psi_top < math.degrees(ps[-1]) - 1e-6:
+        title += f"\npsi above {psi_top:.0f} deg: {REGION_CLASSES[_INVALID]} in every slice (not drawn)"
+    if not ds:
+        title += "\nno value of d shows more than one class"
+    fig.suptitle(title)
     return fig
+
+
+def _path_points(plan: Plan) -> np.ndarray:
+    """The plan's path as the corners of its straight legs (theta rad, d, psi rad), in order."""
+    points = [plan.primitives[0].start]
+    for p in plan.primitives:
+        points += (p.waypoints or [p.start, p.end])[1:]
+    return np.array(points, dtype=float)
+
+
+def _densified(points: np.ndarray, per_leg: int = 40) -> np.ndarray:
+    """The polyline through points with per_leg points on each leg (to mark where d is near a value)."""
+    t = np.linspace(0.0, 1.0, per_leg)[:, None]
+    legs = [a + t * (b - a) for a, b in zip(points[:-1], points[1:])]
+    return np.vstack(legs) if legs else points
+
+
+def _informative_psi(ps: np.ndarray, slices: list[np.ndarray], keep: list[float], step_deg: float) -> float:
+    """The top of the psi axis (deg): the rows above it are kinematically invalid in every slice
+    and above every psi in keep (rad); a margin of a few rows is left."""
+    top = math.degrees(ps[-1])
+    if not slices:
+        return top
+    uniform = np.all([np.all(c == _INVALID, axis=0) for c in slices], axis=0)  # per psi row
+    varied = np.flatnonzero(~uniform)
+    last = max([ps[varied[-1]] if varied.size else ps[0]] + keep)
+    return min(top, math.degrees(last) + max(8.0, 4 * step_deg))
 
 
 def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 5000) -> None:
@@ -254,9 +364,9 @@ def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.
 
 
 def trials_figure(report, outline: np.ndarray, target: np.ndarray):
-    """Simulated trials: (left) each trial's final object outline over the target outline, top
-    view in mm about the target's centroid, green for success and red for failure; (right) success
-    against each perturbation the trials drew. report: a sim SimulationReport; outline: the
+    """Simulated trials: (top left, large) each trial's final object outline over the target
+    outline, top view in mm about the target's centroid, green for success and red for failure;
+    (small panels, in a grid) success against each perturbation the trials drew. report: a sim SimulationReport; outline: the
     object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4).
     Returns the matplotlib Figure."""
     def placed(pose: np.ndarray) -> np.ndarray:
@@ -267,18 +377,13 @@ def trials_figure(report, outline: np.ndarray, target: np.ndarray):
     want = placed(target)
     centre = want.mean(axis=0)
     keys = [k for k in report.trials[0].params if len({round(t.params[k], 9) for t in report.trials}) > 1]
-    cols = max(1, math.ceil(len(keys) / 2))
-    fig = plt.figure(figsize=(4.6 + 2.6 * cols, 5.0))
-    grid = fig.add_gridspec(2, 1 + cols, width_ratios=[1.8] + [1] * cols)
-    axes = [fig.add_subplot(grid[:, 0])] + [fig.add_subplot(grid[k % 2, 1 + k // 2]) for k in range(max(1, len(keys)))]
+    fig, axes = _trial_axes(max(1, len(keys)))
     ax = axes[0]
     ax.fill(*((want - centre) * 1000).T, color="0.85", label="target outline")
     for t in report.trials:
         got = (placed(t.final_pose) - centre) * 1000
         colour, word = outcome[bool(t.success)]
         ax.plot(*np.vstack([got, got[:1]]).T, color=colour, lw=0.8, alpha=0.7, label=f"final outline, {word}")
-    unique = legend_marks(ax)
-    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left")
     ax.set_aspect("equal")
     ax.set_xlabel("world x from the target's centre (mm)")
     ax.set_ylabel("world y from the target's centre (mm)")
@@ -297,11 +402,27 @@ def trials_figure(report, outline: np.ndarray, target: np.ndarray):
                 ax.scatter(x[sel], y[sel] + jitter[sel], color=colour, s=14, label=f"trial {word}")
         ax.set_yticks([0, 1], ["failed", "placed"])
         ax.set_ylim(-0.4, 1.4)
-        ax.set_xlabel(TRIAL_PARAM_LABELS.get(key, key.replace("_", " ")), fontsize=8)
+        ax.set_xlabel(textwrap.fill(TRIAL_PARAM_LABELS.get(key, key.replace("_", " ")), 34), fontsize=8)
         ax.tick_params(labelsize=7)
-    drawn = legend_marks(*axes[1:])
-    if drawn:
-        fig.legend(drawn.values(), drawn.keys(), loc="lower right", ncol=2, fontsize=8,
-                   title="right: each trial's error drawn", title_fontsize=8)
-    fig.tight_layout(rect=(0, 0.07 if drawn else 0, 1, 1))
+        if key.endswith("_seed"):  # a seed names its draws: its size means nothing
+            ax.set_xticks([])
+    drawn = legend_marks(*axes)
+    fig.legend(drawn.values(), drawn.keys(), loc="outside lower center", ncol=5, fontsize=8)
     return fig
+
+
+#: The size of one small panel of the trials' picture (inches): readable at the pictures' dpi.
+TRIAL_PANEL_INCHES = (2.8, 2.3)
+
+
+def _trial_axes(panels: int):
+    """A figure of a grid of small panels, the first axes (the outlines) over the top-left 2 x 2
+    cells and one axes per panel after it, row by row: ceil(sqrt(panels + 4)) columns (at least
+    3). Returns the figure and its axes."""
+    cols = max(3, math.ceil(math.sqrt(panels + 4)))
+    rows = max(2, math.ceil((panels + 4) / cols))
+    w, h = TRIAL_PANEL_INCHES
+    fig = plt.figure(figsize=(w * cols, h * rows + 0.7), layout="constrained")
+    grid = fig.add_gridspec(rows, cols)
+    free = [(r, c) for r in range(rows) for c in range(cols) if not (r < 2 and c < 2)]
+    return fig, [fig.add_subplot(grid[:2, :2])] + [fig.add_subplot(grid[r, c]) for r, c in free[:panels]]

@@ -3,7 +3,7 @@ the database, a summary and plots.
 
 Outputs in the options' ``out`` directory: ``<scene>.log`` per scene in OMPL's benchmark log
 format (its parser reads one experiment per file), ``benchmark.db`` made from the logs,
-``summary.csv``, ``success_vs_time.png``, ``cost_vs_time.png``, and ``runs.csv`` (every run's
+``summary.csv``, ``success_vs_time.png``, ``final_cost.png``, and ``runs.csv`` (every run's
 row, streamed as runs finish, which ``resume`` reads back). Times in seconds, costs in
 reference units.
 """
@@ -130,7 +130,7 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     write_csv(files["summary"], SUMMARY_COLUMNS, summary)
     files["success_plot"] = out / "success_vs_time.png"
     plot_success_vs_time(experiments, files["success_plot"])
-    files["cost_plot"] = out / "cost_vs_time.png"
+    files["cost_plot"] = out / "final_cost.png"
     plot_final_cost(experiments, files["cost_plot"])
     units = sorted({cost_units(scene) for scene in scenes.values()})
     optima = {exp.key: exp.optimum for exp in experiments}

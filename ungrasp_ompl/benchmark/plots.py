@@ -1,8 +1,11 @@
-"""The benchmark's and the sweep's pictures (PNG, written atomically): success against time,
-final cost per planner, and success and cost against alpha."""
+"""The benchmark's and the sweep's pictures (PNG, written atomically): success against time, and
+success and cost against alpha; the map's and the design search's heat maps. Each drawing
+function returns a matplotlib Figure; plot_* writes it."""
 
 from __future__ import annotations
 
+import math
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,13 +39,35 @@ def save_png(fig, path: Path) -> None:
 
 
 def _panels(n: int, width: float = 6.0, height: float = 4.0):
+    """A figure of n panels in a grid of ceil(sqrt(n)) columns (unused cells left blank), laid out
+    with room for a legend below; returns it and the n axes."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, n, figsize=(width * n, height), squeeze=False, constrained_layout=True)
-    return fig, list(axes[0])
+    cols = max(1, math.ceil(math.sqrt(n)))
+    rows = max(1, math.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows + 0.8), squeeze=False,
+                             layout="constrained")
+    for ax in axes.flat[n:]:
+        ax.set_axis_off()
+    return fig, list(axes.flat[:n])
+
+
+def _legend_below(fig, axes, ncol: int = 3) -> None:
+    """One legend under the panels, outside the data, naming each label of the axes' marks once."""
+    from ..plotting import legend_marks
+
+    marks = legend_marks(*axes)
+    if marks:
+        fig.legend(marks.values(), marks.keys(), loc="outside lower center", ncol=ncol, fontsize=8)
 
 
 def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
-    """Per scene and planner: the fraction of runs whose first solution came by time t (s)."""
+    """Write success_figure's picture to path (PNG)."""
+    save_png(success_figure(experiments), path)
+
+
+def success_figure(experiments: Sequence[Experiment]):
+    """Per scene and planner: the fraction of runs whose first solution came by time t (s); one
+    legend below the panels. Returns the matplotlib Figure."""
     fig, axes = _panels(len(experiments))
     for ax, exp in zip(axes, experiments):
         times = [r.time_to_first_solution_s for runs in exp.runs.values() for r in runs if r.solved]
@@ -58,13 +83,19 @@ def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
         ax.axvline(exp.time_limit, color="grey", linestyle=":", label=f"time limit {exp.time_limit:g} s")
         ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="runs solved by time t (share of runs)",
                title=f"{exp.key}: first solution by time t")
-        ax.legend(fontsize=8, loc="lower right")
-    save_png(fig, path)
+    _legend_below(fig, axes, ncol=4)
+    return fig
 
 
 def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
-    """Per scene: the final cost (reference units) of each planner's solved runs, with the
-    lattice optimum as a line. Costs over time are not recorded; this is the cost at the end."""
+    """Write final_cost_figure's picture to path (PNG)."""
+    save_png(final_cost_figure(experiments), path)
+
+
+def final_cost_figure(experiments: Sequence[Experiment]):
+    """Per scene: each planner's final costs (reference units) over its solved runs, a box and the
+    runs themselves, with the lattice optimum as a line; one legend below the panels. Returns the
+    matplotlib Figure."""
     fig, axes = _panels(len(experiments))
     rng = np.random.default_rng(0)
     for ax, exp in zip(axes, experiments):
@@ -81,23 +112,28 @@ def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
                            color="tab:blue", label="one run's final cost")
         if exp.optimum is not None:
             ax.axhline(exp.optimum, color="black", linestyle="--", label=f"lattice optimum {exp.optimum:.2f}")
-        _legend_once(ax)
         ax.set_xticks(range(len(labels)), labels, fontsize=8)
         ax.set(xlim=(-0.6, len(labels) - 0.4), ylabel=f"final cost ({cost_units(exp.scene)})",
-               title=f"{exp.key}: final cost after {exp.time_limit:g} s\n(cost over time is not recorded)")
-    save_png(fig, path)
+               title=f"{exp.key}: final cost after {exp.time_limit:g} s")
+    _legend_below(fig, axes, ncol=1)
+    return fig
 
 
 def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
-    """Success rate and cost (reference units) against alpha."""
+    """Write sweep_figure's picture to path (PNG)."""
+    save_png(sweep_figure(result, time_limit), path)
+
+
+def sweep_figure(result: "SweepResult", time_limit: float):
+    """Success rate and cost (reference units) against alpha, the y-axes' names wrapped to their
+    panels' height and one legend below. Returns the matplotlib Figure."""
     plt = pyplot()
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6.0), sharex=True, constrained_layout=True)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 7.0), sharex=True, layout="constrained")
     alphas = [p.alpha for p in result.points]
     nan = float("nan")
-    top.plot(alphas, [p.success_rate for p in result.points], "o-", label=result.planner)
-    top.set(ylim=(-0.05, 1.05), ylabel=f"success rate (share of runs of {time_limit:g} s)",
-            title=f"{result.scene}: sweep over alpha")
-    top.legend(fontsize=8)
+    top.plot(alphas, [p.success_rate for p in result.points], "o-", label=f"{result.planner} success rate")
+    top.set(ylim=(-0.05, 1.05), title=f"{result.scene}: sweep over alpha")
+    top.set_ylabel(textwrap.fill(f"success rate (share of runs of {time_limit:g} s)", 28))
     bottom.plot(alphas, [nan if p.median_cost is None else p.median_cost for p in result.points], "o-",
                 label=f"{result.planner} median cost")
     bottom.plot(alphas, [nan if p.lattice_optimum is None else p.lattice_optimum for p in result.points], "k--x",
@@ -105,18 +141,10 @@ def plot_sweep(result: "SweepResult", time_limit: float, path: Path) -> None:
     blocked = [p.alpha for p in result.points if not p.lattice_reachable]
     for a in blocked:
         bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path")
-    bottom.set(xlabel="alpha: finger - thumb length (fraction of l)", ylabel=f"cost ({result.units})")
-    _legend_once(bottom)
-    save_png(fig, path)
-
-
-def _legend_once(ax) -> None:
-    """A legend naming each label of the axes' marks once (by its first mark), if there are any."""
-    from ..plotting import legend_marks
-
-    unique = legend_marks(ax)
-    if unique:
-        ax.legend(unique.values(), unique.keys(), fontsize=8)
+    bottom.set_xlabel("alpha: finger - thumb length (fraction of l)")
+    bottom.set_ylabel(textwrap.fill(f"cost ({result.units})", 28))
+    _legend_below(fig, [top, bottom], ncol=2)
+    return fig
 
 
 def _edges(values: Sequence[float]) -> np.ndarray:
@@ -246,8 +274,8 @@ def map_figure(result: "MapResult"):
     return fig
 
 
-__all__ = ["map_figure", "map_reason", "map_reasons", "plot_final_cost", "plot_map", "plot_success_vs_time",
-           "plot_sweep", "pyplot", "save_png"]
+__all__ = ["final_cost_figure", "map_figure", "map_reason", "map_reasons", "plot_final_cost", "plot_map", "plot_success_vs_time", "plot_sweep", "pyplot",
+           "save_png", "success_figure", "sweep_figure"]
 
 
 def plot_design(result: "DesignResult", path: Path) -> None:
