@@ -350,8 +350,10 @@ def test_plan_reports_its_smallest_escape_energy_on_request(tmp_path):
     out = tmp_path / "run"
     proc = run_cli("plan", str(SCENES / "guitar_pick.yaml"), "--planner", "lattice", "--cage", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
-    assert "cage: smallest escape energy" in proc.stdout
     doc = json.loads((out / "plan.json").read_text())["cage"]
+    energy = doc["min_escape_energy_mj"]
+    assert ("infinite" if energy is None else f"{energy:.4f} mJ") in proc.stdout, proc.stdout
+    assert f"primitive {doc['primitive'] + 1} ({doc['primitive_type']})" in proc.stdout
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     again = scene.cage([doc["state"]])[0]
     assert again.outcome.value == doc["outcome"]
@@ -393,7 +395,7 @@ def test_cage_warns_of_a_plan_the_scene_rejects(tmp_path):
     """A plan made for another object runs, with the legs this scene's model rejects named."""
     plan_dir = tmp_path / "puzzle"
     assert run_cli("plan", "puzzle_piece", "--planner", "lattice", "--out", str(plan_dir)).returncode == 0
-    proc = run_cli("cage", "guitar_pick", "--plan", str(plan_dir / "plan.json"))
+    proc = run_cli("cage", "guitar_pick", "--plan", str(plan_dir / "plan.json"), "--force")
     assert proc.returncode == 0, proc.stderr
     assert "warning: the model rejects this plan for guitar_pick: primitive" in proc.stdout
 

@@ -344,6 +344,16 @@ def open_runner(jobs: int, cluster: str | None = None, fresh: bool = True) -> It
         runner.close()
 
 
+def default_jobs() -> int:
+    """The worker processes a command runs when not told (--jobs): all cores (count)."""
+    return max(1, os.cpu_count() or 1)
+
+
+def resolve_jobs(jobs: int | None) -> int | None:
+    """jobs as given, or all cores (default_jobs) for None; the caller checks a given value."""
+    return default_jobs() if jobs is None else jobs
+
+
 def run_in_child(fn: Callable[..., R], *args: Any, deadline: float | None = None) -> TaskOutcome[R]:
     """Call fn(*args) in a fresh child process, stopped after deadline seconds if given.
     Returns its outcome: DONE with the value, FAILED with the exception, HUNG or DIED."""
@@ -472,4 +482,4 @@ def _leave() -> None:
 
 
 __all__ = ["InlineRunner", "LocalRunner", "RayRunner", "Runner", "TaskLost", "TaskOutcome", "TaskStatus",
-           "UnsentError", "open_runner", "run_in_child"]
+           "UnsentError", "default_jobs", "open_runner", "resolve_jobs", "run_in_child"]

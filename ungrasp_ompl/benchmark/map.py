@@ -31,7 +31,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..planning.result import PlanOutcome
 from ..planning.setup import HANG_GRACE_S, LATTICE
-from ..runner import TaskStatus, open_runner
+from ..runner import TaskStatus, open_runner, resolve_jobs
 from ..scene import Scene, read_yaml
 from ..stream import RowStream
 from .options import check_jobs, check_out, check_time, validate_planners
@@ -62,8 +62,8 @@ class MapOptions:
     """Simulated trials per cell with a plan (count); 0: none."""
     perturb: str = "paper"
     """The simulated trials' perturbation preset (see ``simulate --perturb``)."""
-    jobs: int = 2
-    """Cells at a time on this machine (count of child processes); unused on a cluster."""
+    jobs: int | None = None
+    """Cells at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
     cluster: str | None = None
     """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     resume: bool = False
@@ -72,10 +72,11 @@ class MapOptions:
     """Output directory for map.csv and map.png."""
 
     def validated(self) -> "MapOptions":
-        """These options checked; InputError naming the option otherwise."""
+        """These options checked, jobs None as all cores; InputError naming the option otherwise."""
         (planner,) = validate_planners([self.planner], "planner")
         check_time(self.time)
-        check_jobs(self.jobs)
+        jobs = resolve_jobs(self.jobs)
+        check_jobs(jobs)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
         if isinstance(self.simulate, bool) or not isinstance(self.simulate, int) or not 0 <= self.simulate <= 10000:
@@ -97,7 +98,7 @@ class MapOptions:
             from ..perturbation import preset
 
             preset(self.perturb)  # InputError("perturb") for an unknown preset
-        return replace(self, planner=planner, alphas=tuple(map(float, self.alphas)),
+        return replace(self, planner=planner, jobs=jobs, alphas=tuple(map(float, self.alphas)),
                        friction_scales=tuple(map(float, self.friction_scales)))
 
 
@@ -314,6 +315,13 @@ class MapResult:
         """The cells whose task failed, hung or died."""
         return [c for c in self.cells if c.task_status is not TaskStatus.DONE]
 
+    @property
+    def simulated(self) -> tuple[int, int, int]:
+        """Over the cells: (simulated trials that placed the object, simulated trials, cells whose
+        plan the robot cannot execute) (counts)."""
+        sims = [c.sim_successes for c in self.cells if c.sim_successes is not None]
+        return sum(sims), len(sims) * self.options.simulate, sum(c.executable is False for c in self.cells)
+
     def summary(self) -> str:
         """What the map found, in a few lines: cells computed and kept, where a secure path exists
         and the planner solved, the cells that failed."""
@@ -323,7 +331,8 @@ class MapResult:
         lines = [f"{self.scene}: {len(o.alphas)} x {len(o.friction_scales)} cells (alpha x friction scale), "
                  f"{self.ran} computed now, {len(cells) - self.ran} kept from {self.files['csv']}",
                  f"  a secure path exists in {exists}; {o.planner} ({o.time:g} s, seed {o.seed}) solved {solved}"
-                 + (f"; simulated {o.simulate} trials per solved cell ({o.perturb})" if o.simulate else "")]
+                 + (f"; simulated {o.simulate} trials per solved cell ({o.perturb}): {self.simulated[0]}/"
+                    f"{self.simulated[1]} placed, {self.simulated[2]} cells not executable" if o.simulate else "")]
         if self.failed:
             first = self.failed[0]
             lines.append(f"  {len(self.failed)} cells failed (task_status in map.csv), e.g. alpha {first.alpha:g}, "

@@ -16,6 +16,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..planning.margins import Objective
 from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
+from ..runner import resolve_jobs
 
 
 @dataclass(frozen=True)
@@ -28,8 +29,8 @@ class BenchmarkOptions:
     """Runs per scene and planner (count); run k is seeded with seed + k."""
     time: float = 1.0
     """Planning time per run (s): wall time, or with iterations the hard cap is 5 times it."""
-    jobs: int = 2
-    """Runs at a time on this machine (count of child processes); unused on a cluster."""
+    jobs: int | None = None
+    """Runs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
     seed: int = 1
     """Seed of OMPL's RNG for run 0 (run k gets seed + k), seeded afresh per run."""
     out: str | os.PathLike[str] = "benchmark"
@@ -46,14 +47,16 @@ class BenchmarkOptions:
     cost, margin, balanced or tolerance."""
 
     def validated(self) -> "BenchmarkOptions":
-        """These options with the planner names checked and duplicates dropped; InputError otherwise."""
-        check_runs(self.runs, self.time, self.jobs, self.seed, self.out)
+        """These options with the planner names checked and duplicates dropped, jobs None as all cores;
+        InputError otherwise."""
+        jobs = resolve_jobs(self.jobs)
+        check_runs(self.runs, self.time, jobs, self.seed, self.out)
         check_iterations(self.iterations)
         planners = tuple(validate_planners(self.planners))
         objective = check_objective(self.objective, LATTICE)
         for planner in planners:
             check_objective(objective, planner)
-        return replace(self, planners=planners, objective=objective)
+        return replace(self, planners=planners, objective=objective, jobs=jobs)
 
 
 @dataclass(frozen=True)
@@ -68,8 +71,8 @@ class SweepOptions:
     """Runs per alpha (count); run k is seeded with seed + k."""
     time: float = 1.0
     """Planning time per run (s), wall time (or the cap of 5 times it with iterations)."""
-    jobs: int = 2
-    """Runs at a time on this machine (count of child processes); unused on a cluster."""
+    jobs: int | None = None
+    """Runs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
     seed: int = 1
     """Seed of OMPL's RNG for run 0 (run k gets seed + k)."""
     out: str | os.PathLike[str] = "sweep"
@@ -82,14 +85,15 @@ class SweepOptions:
     """Keep the runs already in out/runs.csv and run only the others."""
 
     def validated(self) -> "SweepOptions":
-        """These options checked; InputError naming the option otherwise."""
+        """These options checked, jobs None as all cores; InputError naming the option otherwise."""
         (planner,) = validate_planners([self.planner], "planner")
-        check_runs(self.runs, self.time, self.jobs, self.seed, self.out)
+        jobs = resolve_jobs(self.jobs)
+        check_runs(self.runs, self.time, jobs, self.seed, self.out)
         check_iterations(self.iterations)
         alphas = tuple(float(a) for a in self.alphas)
         if not alphas:
             raise InputError("alpha", "gives no value")
-        return replace(self, planner=planner, alphas=alphas)
+        return replace(self, planner=planner, alphas=alphas, jobs=jobs)
 
 
 def validate_planners(planners: Iterable[str], option: str = "planners") -> list[str]:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..errors import EXIT_NO_SOLUTION, EXIT_OK, InputError
 from ..shipped import resolve, shipped_scenes
-from .progress import Progress, map_status, tile_progress, trial_progress
+from .progress import Progress, Steps, Ticker, map_status, tile_progress, trial_progress
 
 
 def plan_command(args: argparse.Namespace) -> int:
@@ -20,7 +20,8 @@ def plan_command(args: argparse.Namespace) -> int:
     from ..workflows.plan import PlanOptions, plan_scene
 
     scene = Scene.from_file(path)
-    out = Path(args.out) if args.out else None
+    # --certify spends minutes: what it finds is kept, in ./plan when no --out is given
+    out = Path(args.out) if args.out else Path("plan") if args.certify is not None else None
     export = Path(args.export) if args.export else None
     for flag, path in (("--out", out), ("--export", export)):
         if path is not None and path.exists() and not path.is_dir():
@@ -31,12 +32,7 @@ def plan_command(args: argparse.Namespace) -> int:
         raise InputError("--jobs", "applies only with --certify N or --export DIR")
     if args.jobs is not None and args.jobs < 1:
         raise InputError("--jobs", f"must be at least 1, got {args.jobs}")
-
-    def jobs() -> int:
-        """--jobs, else all cores (sim.campaign imported only where trials run, not for a plain plan)."""
-        from ..sim.campaign import default_jobs
-
-        return default_jobs() if args.jobs is None else args.jobs
+    jobs = _all_cores() if args.jobs is None else args.jobs
 
     certify = None
     if args.certify is not None:
@@ -44,29 +40,77 @@ def plan_command(args: argparse.Namespace) -> int:
 
         certify = CertifyOptions(
             trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
-            objective=args.objective, time=args.time, iterations=args.iterations,
-            jobs=jobs())
+            objective=args.objective, time=args.time, iterations=args.iterations, jobs=jobs)
     options = PlanOptions(planner=args.planner, time=args.time, iterations=args.iterations,
                           objective=args.objective, cage=args.cage, certify=certify).validated(scene)
     seed = _seed(args.seed)  # drawn (and printed) only for options that can run
     options = dataclasses.replace(options, seed=seed, certify=certify and dataclasses.replace(certify, seed=seed))
     bars = {"planning": Progress("candidates", "planning"), "simulating": Progress("trials", "simulate")}
-    result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
+    with Ticker("planning", 0.0 if certify or args.planner == "lattice" else args.time):
+        result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
     print(result.summary())
-    if out is not None and (result.certification is None or result.certification.certified):
-        files = result.write(out)
-        print(f"wrote {files['plan']} and {files['cspace']}")
+    steps = Steps("export", (("drawing the C-space picture",) if out is not None else ())
+                  + ("executing on the arm", "writing the trajectory")) if export is not None else None
+    cleared = _Cleared()
+    if out is not None and result.certification is not None and not result.certification.certified:
+        print(f"wrote {result.write_certification(cleared(out))}")
+    elif out is not None:
+        if steps is not None:
+            steps.start("drawing the C-space picture")
+        files = result.write(cleared(out))
+        print("wrote " + _and([files["plan"], files["cspace"]] + ([files["certify"]] if "certify" in files else [])))
     if not result.solved:
+        cleared.note()
         return EXIT_NO_SOLUTION
     if export is not None:
         if scene.planar_only:
             print(f"note: {scene.name} is planar-only: {scene.planar_only}")
-        execution = result.execute(jobs())
+        steps.start("executing on the arm")
+        execution = result.execute(jobs)
         print(execution.summary())
-        paths = result.export(export, execution)
+        steps.start("writing the trajectory")
+        paths = result.export(cleared(export), execution)
+        steps.finish()
         print("wrote " + ", ".join(str(p) for p in paths.values()))
         print(f"view it: ungrasp-ompl view {export}  (writes {export / 'view.html'})")
+    cleared.note()
     return EXIT_OK
+
+
+class _Cleared:
+    """The directories a command writes a plan's files into, each cleared of an earlier plan's
+    files (workflows.plan_files) once, just before its first file is written; note() prints the
+    files removed that were not written again."""
+
+    def __init__(self) -> None:
+        self.removed: dict[Path, tuple[Path, list[Path]]] = {}  # resolved: (as given, files removed)
+
+    def __call__(self, directory: Path) -> Path:
+        from ..workflows.plan_files import clear_plan_files
+
+        key = directory.resolve()
+        if key not in self.removed:
+            self.removed[key] = directory, clear_plan_files(directory)
+        return directory
+
+    def note(self) -> None:
+        for directory, removed in self.removed.values():
+            gone = [p.name for p in removed if not p.exists()]
+            if gone:
+                print(f"note: removed an earlier plan's {_and(gone)} from {directory}")
+
+
+def _and(items: list) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    words = [str(i) for i in items]
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def _all_cores() -> int:
+    """What every --jobs defaults to: all cores (runner.default_jobs)."""
+    from ..runner import default_jobs
+
+    return default_jobs()
 
 
 def _seed(given: int | None) -> int:
@@ -101,8 +145,16 @@ def cage_command(args: argparse.Namespace) -> int:
         raise InputError("--out", f"{out} exists and is not a directory")
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
     options = CageOptions(plan=args.plan, planner=args.planner, time=args.time, seed=args.seed, squeeze=args.squeeze,
-                          refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset)
-    report = cage_report(scene, options)
+                          refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset, force=args.force,
+                          jobs=args.jobs)
+    bar = Progress("states", "cage")
+    with Ticker("planning", 0.0 if args.plan or args.planner == "lattice" else args.time) as ticker:
+        def progress(p) -> None:
+            ticker.stop()  # the plan is there: its cage's states are counted now
+            bar.show(p.done, p.total)
+
+        report = cage_report(scene, options, progress)
+    _warn_of_another_scene(args, report.scene, report.plan)
     print(report.summary())
     if not report.plan.solved:
         return EXIT_NO_SOLUTION
@@ -191,12 +243,15 @@ def tile_command(args: argparse.Namespace) -> int:
     seed = _seed(args.seed)
     result = tile_layout(layout, dataclasses.replace(options, seed=seed), tile_progress(Progress("pieces")))
     print(result.summary())
-    doc, picture, cspaces = result.write(out)
+    cleared = _Cleared()
+    doc, picture, cspaces = result.write(cleared(out))
     print(f"wrote {doc}, {picture} and {len(cspaces)} C-space pictures")
     if result.execution is None:
+        cleared.note()
         return EXIT_NO_SOLUTION
     print("wrote " + ", ".join(str(p) for p in result.export(out).values()))
     print(f"view it: ungrasp-ompl view {out}  (writes {out / 'view.html'})")
+    cleared.note()
     return EXIT_OK
 
 
@@ -208,7 +263,13 @@ def simulate_command(args: argparse.Namespace) -> int:
     from ..sim.world import World
     from ..workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
 
-    out = Path(args.out)
+    if args.out is not None:
+        out = Path(args.out)
+    elif args.plan is not None:  # beside the plan executed: DIR/simulation for --plan DIR or DIR/plan.json
+        given = Path(args.plan)
+        out = (given if given.is_dir() else given.parent) / "simulation"
+    else:
+        out = Path("simulation")
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     shipped = next((s for s in shipped_scenes() if s.name == args.scene), None)
@@ -217,7 +278,8 @@ def simulate_command(args: argparse.Namespace) -> int:
     options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
                               cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
                               objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset,
-                              world=World.parse(args.world or ()), thickness=args.thickness, equal_digits=args.equal_digits)
+                              world=World.parse(args.world or ()), thickness=args.thickness, equal_digits=args.equal_digits,
+                              force=args.force)
     doc = read_yaml(path, "scene")
     if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
         layout = Layout.from_file(path)
@@ -225,20 +287,40 @@ def simulate_command(args: argparse.Namespace) -> int:
         print(run.summary())
         if run.execution is None:
             return EXIT_NO_SOLUTION
-        files = run.write(out)
+        cleared = _Cleared()
+        files = run.write(cleared(out))
         print(f"wrote {files['summary']} and the trajectory")
+        cleared.note()
         return EXIT_OK
     scene = Scene.from_dict(doc, source=str(path), default_name=path.stem)
-    run = simulate_scene(scene, options, trial_progress(args.trials))
+    step = trial_progress(args.trials)
+    with Ticker("planning", 0.0 if args.plan or args.planner == "lattice" else args.time) as ticker:
+        def progress(trial) -> None:
+            ticker.stop()  # planned and executed: the trials are counted now
+            step(trial)
+
+        run = simulate_scene(scene, options, progress)
+    _warn_of_another_scene(args, run.scene, run.plan)
     print(run.summary())
     if run.report is None:
         return EXIT_NO_SOLUTION
-    files = run.write(out)
+    cleared = _Cleared()
+    files = run.write(cleared(out))
     print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory, "
           f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
           f"'start': python -m mujoco.viewer --mjcf={files['model']})")
     print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
+    cleared.note()
     return EXIT_OK
+
+
+def _warn_of_another_scene(args: argparse.Namespace, scene, plan) -> None:
+    """The warning of --force: the --plan run was made for another scene (one line)."""
+    from ..workflows.plan_files import plan_made_for
+
+    other = plan_made_for(scene, plan) if args.plan is not None else None
+    if other is not None:
+        print(f"warning: --plan {args.plan} was made for scene {other!r}, not {scene.name!r} (run anyway: --force)")
 
 
 def view_command(args: argparse.Namespace) -> int:
@@ -257,11 +339,15 @@ def view_command(args: argparse.Namespace) -> int:
 def regions_command(args: argparse.Namespace) -> int:
     from ..plotting import draw_regions
     from ..scene import Scene
+    from ..workflows.plan_files import read_plan_for
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     if not args.out.lower().endswith(".png"):
         raise InputError("--out", "must name a .png file")
-    draw_regions(scene, args.out)
+    plan = None if args.plan is None else read_plan_for(scene, args.plan, force=args.force)
+    if plan is not None:
+        _warn_of_another_scene(args, scene, plan)
+    draw_regions(scene, args.out, plan=plan)
     print(f"wrote {args.out}")
     return EXIT_OK
 

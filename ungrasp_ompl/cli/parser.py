@@ -33,8 +33,13 @@ def _argument_error(message: str) -> InputError:
     return InputError("arguments", message)
 
 
+#: The longest --time any command takes (s): a day. A planner's budget beyond it is a typo (1e12),
+#: not a plan worth waiting for.
+MAX_SECONDS = 86400.0
+
+
 def _seconds(text: str) -> float:
-    """A --time value: a finite number of seconds > 0."""
+    """A --time value: a number of seconds in (0, MAX_SECONDS]."""
     try:
         value = float(text)
     except ValueError:
@@ -43,6 +48,8 @@ def _seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
     if value == float("inf"):
         raise argparse.ArgumentTypeError(f"must be a finite number of seconds, got {text}")
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SECONDS:.0f} s (a day), got {text}")
     return value
 
 
@@ -76,17 +83,23 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--iterations", type=int, default=None,
                     help="planner iterations (default with a seed: 6000 per second of --time; "
                          "1000 for PRM and PRMstar)")
-    pl.add_argument("--out", default=None, help="directory for plan.json and cspace.png")
+    pl.add_argument("--out", default=None,
+                    help="directory for plan.json and cspace.png (and certify.csv with --certify; default: none, "
+                         "./plan with --certify)")
     pl.add_argument("--export", default=None, metavar="DIR",
                     help="also time the plan on the UR5e and its gripper and write the joint trajectory "
-                         "(CSV, JSON, ROS 2 YAML, URScript) and plan.json to DIR")
+                         "(CSV, JSON, ROS 2 YAML, URScript) and plan.json to DIR. The files an earlier plan left in "
+                         "--out or DIR (plan.json, cspace.png, the trajectory, the view, a simulation's or a "
+                         "tiling's files) are removed first, so that a directory never mixes two plans' files; "
+                         "other files stay")
     pl.add_argument("--cage", action="store_true",
                     help="also find the smallest escape energy (the energy-bounded cage, gravity only) along the "
                          "plan and where (takes seconds; in plan.json under cage)")
     pl.add_argument("--certify", type=int, default=None, metavar="N",
                     help="plan several candidates (--candidates), simulate N trials of each with the paper "
                          "perturbation, and keep the one with the highest Wilson 95 %% lower bound on success "
-                         "(in plan.json under certification)")
+                         "(in plan.json under certification; every candidate in certify.csv, both in --out, "
+                         "default ./plan)")
     pl.add_argument("--candidates", type=int, default=None, metavar="K",
                     help="candidate plans with --certify (default 4): objectives in turn (--objective first), "
                          "for each the planner with --seed then the lattice; then the planner with seed + 1, + 2, ...")
@@ -100,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help=f"comma-separated planners (default {','.join(BENCH_PLANNERS)})")
     bn.add_argument("--runs", type=int, default=10, help="runs per scene and planner (default 10)")
     bn.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
-    bn.add_argument("--jobs", type=int, default=2, help="parallel worker processes (default 2)")
+    bn.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
     bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     bn.add_argument("--iterations", type=int, default=None,
                     help="planner iterations per run: runs become reproducible like plan --seed (5x --time as a "
@@ -117,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--planner", default="RRTstar")
     sw.add_argument("--runs", type=int, default=5, help="runs per alpha (default 5)")
     sw.add_argument("--time", type=_seconds, default=1.0, help="seconds per run (default 1)")
-    sw.add_argument("--jobs", type=int, default=2)
+    sw.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
     sw.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     sw.add_argument("--iterations", type=int, default=None,
                     help="planner iterations per run (reproducible runs); default: stop on wall time")
@@ -140,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--simulate", type=int, default=0, metavar="N",
                     help="also simulate N trials of each cell's plan (needs an object thickness)")
     mp.add_argument("--perturb", default="paper", help="perturbation preset of the simulated trials (default paper)")
-    mp.add_argument("--jobs", type=int, default=2, help="cells at a time on this machine (default 2)")
+    mp.add_argument("--jobs", type=int, default=None, help="cells at a time on this machine (default: all cores)")
     mp.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
     mp.add_argument("--resume", action="store_true", help="keep the cells already done in OUT/map.csv")
     mp.add_argument("--out", default="map", help="output directory (default ./map): map.csv and map.png")
@@ -161,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="also simulate N trials of each design's plan and choose by success (Wilson lower bound)")
     dn.add_argument("--perturb", default="paper", help="error preset of the simulated trials (default paper)")
     dn.add_argument("--seed", type=int, default=1, help="seed of the simulated trials' errors (default 1)")
-    dn.add_argument("--jobs", type=int, default=2, help="designs at a time on this machine (default 2)")
+    dn.add_argument("--jobs", type=int, default=None, help="designs at a time on this machine (default: all cores)")
     dn.add_argument("--cluster", default=None, metavar="ADDRESS",
                     help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
     dn.add_argument("--out", default="design", help="output directory (default ./design): design.csv, design.png, "
@@ -173,7 +186,10 @@ def build_parser() -> argparse.ArgumentParser:
     cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
     cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
     cg.add_argument("--plan", default=None, help="plan.json to examine, or a directory holding one (plan --export "
-                    "DIR); default: plan the scene, as plan does")
+                    "DIR); default: plan the scene, as plan does. A plan made for another scene is refused "
+                    "(exit 2) unless --force")
+    cg.add_argument("--force", action="store_true",
+                    help="examine a --plan made for another scene (a warning names both)")
     cg.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
     cg.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds when planning (default 1)")
     cg.add_argument("--seed", type=int, default=1, help="seed when planning (default 1)")
@@ -186,6 +202,8 @@ def build_parser() -> argparse.ArgumentParser:
     cg.add_argument("--refine", type=float, default=1.0, metavar="FACTOR",
                     help="divide the pose grid's steps (and its penetration tolerance) by FACTOR, to see whether "
                          "the answer holds on a finer grid (default 1; 2 takes about 8 times as long)")
+    cg.add_argument("--jobs", type=int, default=None,
+                    help="parallel worker processes over the plan's states (default: all cores)")
     cg.add_argument("--out", default=None, help="directory for cage.png and cage.json")
 
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
@@ -201,14 +219,18 @@ def build_parser() -> argparse.ArgumentParser:
                     help="once an order is found, each piece's approach: the first the search proved (default) or "
                          "the one whose lattice plan tolerates most of the paper errors")
     tl.add_argument("--out", default="tiling", help="output directory (default ./tiling): tiling.json, "
-                    "layout.png, a C-space picture per piece and the exported trajectory")
+                    "layout.png, a C-space picture per piece and the exported trajectory (the files an earlier "
+                    "plan, tiling or simulation left there are removed first; other files stay)")
 
     sm = sub.add_parser("simulate", help="execute a plan in MuJoCo: success rate and placement errors over "
                         "perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
                     "turn), or the name of a shipped one")
     sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of "
-                    "planning (may be one the model rejects for this scene: a warning says why)")
+                    "planning (may be one the model rejects for this scene: a warning says why; one made for "
+                    "another scene is refused, exit 2, unless --force)")
+    sm.add_argument("--force", action="store_true",
+                    help="execute a --plan made for another scene (a warning names both)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
     sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
     sm.add_argument("--objective", default="cost", choices=OBJECTIVE_NAMES,
@@ -218,7 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "
                     "friction, mass, thickness, calibration")
     sm.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
-    sm.add_argument("--out", default="simulation", help="output directory (default ./simulation)")
+    sm.add_argument("--out", default=None,
+                    help="output directory (default: DIR/simulation beside --plan's plan.json, else ./simulation); "
+                         "the files an earlier plan or simulation left there are removed first, other files stay")
     sm.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
     sm.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
                     help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
@@ -244,6 +268,9 @@ def build_parser() -> argparse.ArgumentParser:
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     rg.add_argument("--out", required=True, help="PNG file to write")
+    rg.add_argument("--plan", default=None, help="plan.json (or a directory holding one) made for the scene: "
+                    "its path, start and goal are drawn on every slice")
+    rg.add_argument("--force", action="store_true", help="draw a --plan made for another scene (with a warning)")
 
     sub.add_parser("scenes", help="list the shipped scenes and layouts, which every command takes by name")
     return p

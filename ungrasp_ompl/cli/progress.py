@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 import time
 
 
@@ -57,6 +58,64 @@ class Progress:
             self.bar.close()
             self.bar = None
             Progress.open.remove(self)
+
+
+#: A planning budget above this (s) shows a bar of its seconds (Ticker): a planner reports no
+#: progress of its own, and a silent minute looks like a hang.
+TICK_ABOVE_S = 10.0
+
+
+class Ticker:
+    """A bar of seconds for work that reports no progress of its own (a planner's time budget): a
+    thread advances it once a second while the work runs, never to its end (the work may take longer
+    than its budget, or stop early); stop() (or leaving the with block) wipes it. Starts only for a
+    budget above TICK_ABOVE_S seconds."""
+
+    def __init__(self, stage: str, seconds: float) -> None:
+        self.total = max(1, int(round(seconds)))
+        """The budget in whole seconds."""
+        self.bar = Progress("s", stage)
+        self.done = threading.Event()
+        self.thread = None if seconds <= TICK_ABOVE_S else threading.Thread(target=self._tick, daemon=True)
+
+    def _tick(self) -> None:
+        started = time.monotonic()
+        while not self.done.wait(1.0):
+            self.bar.show(min(int(time.monotonic() - started), self.total - 1), self.total)
+
+    def __enter__(self) -> "Ticker":
+        if self.thread is not None:
+            self.thread.start()
+        return self
+
+    def stop(self) -> None:
+        """End the bar (again: nothing)."""
+        self.done.set()
+        if self.thread is not None and self.thread.is_alive():
+            self.thread.join()
+        self.bar.close(ok=False)
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+class Steps:
+    """A bar of the named steps of a command (plan --export: executing on the arm, writing the
+    files), each shown as it starts; in a log a line as each ends (with the next one's name)."""
+
+    def __init__(self, stage: str, steps: tuple[str, ...]) -> None:
+        self.steps = steps
+        self.bar = Progress("steps", stage)
+        self.at = 0
+
+    def start(self, step: str) -> None:
+        """step (one of the steps) begins: the steps before it are done."""
+        self.at = self.steps.index(step)
+        self.bar.show(self.at, len(self.steps), step)
+
+    def finish(self) -> None:
+        """Every step is done."""
+        self.bar.show(len(self.steps), len(self.steps), "done")
 
 
 def map_status(p) -> str:

@@ -62,6 +62,12 @@ class PlanOptions:
         return self
 
 
+#: certify.csv's columns (ScenePlan.write_certification): a candidate's fields of plan.json's
+#: certification.candidates, and whether it was kept. Costs in reference units, times in seconds.
+CERTIFY_COLUMNS = ("index", "kept", "source", "planner", "objective", "seed", "status", "cost", "successes", "trials",
+                   "wilson_low", "wilson_high", "same_as", "causes", "why", "planning_time_s")
+
+
 @dataclass
 class ScenePlan:
     """A scene's plan and what was found about it (see the module)."""
@@ -102,14 +108,38 @@ class ScenePlan:
         return {**self.plan.to_dict(), **extra}
 
     def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
-        """Write plan.json and cspace.png (the C-space map with the path) into out, atomically."""
+        """Write plan.json and cspace.png (the C-space map with the path) into out, atomically, and
+        certify.csv when certified (write_certification); returns their paths by kind."""
         out = Path(out)
         files = {"plan": out / "plan.json", "cspace": out / "cspace.png"}
         write_text_atomic(files["plan"], json.dumps(self.document(), indent=2) + "\n")
         from ..plotting import draw_plan
 
         draw_plan(self.scene, self.plan, files["cspace"])
+        if self.certification is not None:
+            files["certify"] = self.write_certification(out)
         return files
+
+    def write_certification(self, out: str | os.PathLike[str]) -> Path:
+        """Write certify.csv into out, atomically: a row per candidate (CERTIFY_COLUMNS, as
+        plan.json's certification.candidates holds them; kept 1 or 0; causes as "cause: count; ...";
+        an empty cell for none), whether one was kept or not. Returns its path."""
+        import csv
+        import io
+
+        if self.certification is None:
+            raise ValueError("the plan was not certified (PlanOptions.certify)")
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(CERTIFY_COLUMNS)
+        for c in self.certification.candidates:
+            row = c.to_dict()
+            row["kept"] = int(c.index == self.certification.kept)
+            row["causes"] = "; ".join(f"{cause}: {n}" for cause, n in (row["causes"] or {}).items())
+            writer.writerow(["" if row[k] is None else row[k] for k in CERTIFY_COLUMNS])
+        path = Path(out) / "certify.csv"
+        write_text_atomic(path, buf.getvalue())
+        return path
 
     def execute(self, jobs: int = 1) -> Execution:
         """The plan on the arm: inverse kinematics, timing and the gripper's openings (with
@@ -214,4 +244,4 @@ def kept_line(result: CertifyResult) -> str:
             f"{sum(c.simulated for c in result.candidates)} simulated)")
 
 
-__all__ = ["PlanOptions", "ScenePlan", "certification_table", "kept_line", "plan_scene"]
+__all__ = ["CERTIFY_COLUMNS", "PlanOptions", "ScenePlan", "certification_table", "kept_line", "plan_scene"]
