@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import astuple, replace
 
 import numpy as np
@@ -619,7 +620,7 @@ def test_simulate_command_writes_its_files(tmp_path):
     r = run_cli("simulate", str(SCENES / "guitar_pick.yaml"), "--planner", "lattice", "--trials", "2",
                 "--perturb", "none", "--jobs", "1", "--out", str(out))
     assert r.returncode == 0, r.stderr
-    assert "success 2/2" in r.stdout
+    assert re.search(r"^success: 2/2 ", r.stdout, re.M), r.stdout
     assert (out / "model.xml").exists()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["successes"] == 2 and summary["trials"] == 2

@@ -78,12 +78,15 @@ class CageMinimum:
 
     def describe(self) -> str:
         """One line for a person (millijoules and degrees)."""
+        from .mechanics.cage import CageOutcome
+
         theta, d, psi = self.state
-        energy = "inf" if math.isinf(self.escape_energy) else f"{self.escape_energy * 1000:.4f}"
-        counts = ", ".join(f"{n} {o.replace('_', ' ')}" for o, n in self.counts.items() if n)
-        return (f"cage: smallest escape energy {energy} mJ ({self.outcome.replace('_', ' ')}), first at (theta "
-                f"{math.degrees(theta):.1f} deg, d {d:.3f}, psi {math.degrees(psi):.1f} deg) in primitive "
-                f"{self.primitive + 1} ({self.primitive_type}); {self.samples} states: {counts}")
+        energy = "infinite" if math.isinf(self.escape_energy) else f"{self.escape_energy * 1000:.4f} mJ"
+        counts = ", ".join(f"{n} {CageOutcome(o).label}" for o, n in self.counts.items() if n)
+        return (f"energy-bounded cage (docs/model.md 4.5): the least energy the object needs to escape the digits "
+                f"and the table along the plan is {energy}, first at theta {math.degrees(theta):.1f} deg, d {d:.3f}, "
+                f"psi {math.degrees(psi):.1f} deg in primitive {self.primitive + 1} ({self.primitive_type}), where it is "
+                f"{CageOutcome(self.outcome).describe()}; of the {self.samples} states checked: {counts}")
 
     def to_dict(self) -> dict:
         """For plan.json: energies in millijoules (null for inf), the state in radians and over l."""

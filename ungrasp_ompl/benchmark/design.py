@@ -35,7 +35,7 @@ import yaml
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..planning.result import PlanOutcome
-from ..runner import TaskStatus, open_runner
+from ..runner import TaskStatus, open_runner, resolve_jobs
 from ..scene import Scene, read_yaml
 from .options import check_jobs, check_out
 
@@ -66,8 +66,8 @@ class DesignOptions:
     """The simulated trials' error preset (see ``simulate --perturb``)."""
     seed: int = 1
     """Seed of the simulated trials' errors (the lattice plans need none)."""
-    jobs: int = 2
-    """Designs at a time on this machine (count of child processes); unused on a cluster."""
+    jobs: int | None = None
+    """Designs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
     cluster: str | None = None
     """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     out: str | os.PathLike[str] = "design"
@@ -82,7 +82,8 @@ class DesignOptions:
             raise InputError("finger_tip", f"must be rounded or flat, got {self.finger_tip!r}")
         if self.goal not in ("free", "scene"):
             raise InputError("goal", f"must be free or scene, got {self.goal!r}")
-        check_jobs(self.jobs)
+        jobs = resolve_jobs(self.jobs)
+        check_jobs(jobs)
         check_out(self.out)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
@@ -110,7 +111,7 @@ class DesignOptions:
                 raise InputError("tip_radii", f"must be lengths >= 0 m, got {r!r}")
         if len(alphas) * len(radii) > MAX_DESIGNS:
             raise InputError("alphas", f"and tip_radii give more than {MAX_DESIGNS} designs")
-        return replace(self, alphas=tuple(map(float, alphas)), tip_radii=tuple(map(float, radii)))
+        return replace(self, alphas=tuple(map(float, alphas)), tip_radii=tuple(map(float, radii)), jobs=jobs)
 
 
 @dataclass(frozen=True)
@@ -244,24 +245,37 @@ class DesignResult:
         """What a person reads: the grid's size, the chosen digits against the scene's own."""
         o, n = self.options, len(self.designs)
         planned = sum(d.outcome is PlanOutcome.SOLVED for d in self.designs)
-        lines = [f"{self.scene}: {n} designs ({len(o.alphas)} alpha x {len(o.tip_radii)} tip radius, {o.finger_tip} tip), "
-                 f"{planned} with a secure plan to the {o.goal} goal region"
-                 + (f", {o.simulate} trials each ({o.perturb})" if o.simulate else "")]
+        radii = (f" x {len(o.tip_radii)} radii of the finger's rounded tip" if o.finger_tip == "rounded"
+                 else " with a flat finger tip")
+        goal = ("that lets go wherever its digits can (d and psi anywhere within the bounds)" if o.goal == "free"
+                else "to the scene's goal region")
+        lines = [f"{self.scene}: {n} digit designs ({len(o.alphas)} digit asymmetries alpha, the finger's length beyond "
+                 f"the thumb's over l,{radii}), {planned} with a secure plan {goal}"
+                 + (f"; each plan simulated {o.simulate} times ({o.perturb} errors)" if o.simulate else "")]
         own = next((d for d in self.designs if math.isclose(d.alpha, self.own[0], abs_tol=1e-9)
                     and math.isclose(d.tip_radius, self.own[1], abs_tol=1e-12)), None)
-        for label, d in (("chosen", self.best), ("the scene's own", own)):
+        chosen = ("chosen, the most successful in simulation" if o.simulate
+                  else "chosen, the plan most tolerant of errors")
+        for label, d, missing in ((chosen, self.best, "no design has a secure plan"),
+                                  ("the scene's own digits", own, "not in the grid")):
             if d is None:
-                lines.append(f"  {label}: " + ("no design has a secure plan" if label == "chosen" else "not in the grid"))
+                lines.append(f"  {label}: {missing}")
                 continue
-            text = (f"  {label}: alpha {d.alpha:g}, tip radius {d.tip_radius * 1000:g} mm: ")
+            tip = f", tip radius {d.tip_radius * 1000:g} mm" if o.finger_tip == "rounded" else ""
+            text = f"  {label}: alpha {d.alpha:g}{tip}: "
             if d.outcome is not PlanOutcome.SOLVED:
-                text += d.error or (d.outcome.value if d.outcome else d.task_status.value)
+                text += d.error or (d.outcome.describe() if d.outcome else f"its task {d.task_status.value}")
             else:
-                text += (f"cost {d.cost:.2f}, tolerance {d.tolerance:.3f} (grasp shift {d.tolerated_shift_mm:.3f} mm, "
-                         f"bound by {d.binding})")
+                from ..scene.tolerance import ToleranceReason
+
+                beyond = (ToleranceReason(d.binding).describe() if d.binding in {r.value for r in ToleranceReason}
+                          else d.binding)
+                text += (f"its plan costs {d.cost:.2f} and survives errors up to {d.tolerance:.3f} times the paper's "
+                         f"bounds (the grasp {d.tolerated_shift_mm:.3f} mm off); beyond that, {beyond}")
                 if d.wilson is not None:
                     low, high = d.wilson
-                    text += f", {d.successes}/{d.trials} placed (95 % {low:.0%}-{high:.0%})"
+                    text += (f"; {d.successes}/{d.trials} simulated trials placed the object (95 % confidence "
+                             f"interval {low:.0%}-{high:.0%})")
             lines.append(text)
         return "\n".join(lines)
 

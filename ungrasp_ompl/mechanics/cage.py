@@ -108,6 +108,18 @@ class CageOutcome(Enum):
     #: No free path leads far away at any energy.
     FULLY_CAGED = "fully_caged"
 
+    @property
+    def label(self) -> str:
+        """Its name in words ('fully caged'), for tables (files keep the value)."""
+        return self.value.replace("_", " ")
+
+    def describe(self) -> str:
+        """What it means for the object, in words for a person."""
+        return {CageOutcome.NOT_CAGED: "not caged: if the contacts let go, the object can get away without gaining "
+                                       "energy",
+                CageOutcome.CAGED: "caged: to get away the object must first gain energy",
+                CageOutcome.FULLY_CAGED: "fully caged: the object cannot get away at any energy"}[self]
+
 
 @dataclass(frozen=True)
 class Cage:

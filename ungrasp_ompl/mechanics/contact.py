@@ -35,6 +35,12 @@ class Primitive(StrEnum):
     #: The finger slides toward B while psi grows (or holds).
     DPSI = "P_dpsi"
 
+    def describe(self) -> str:
+        """What the primitive does, in words for a person (files keep the name)."""
+        return {Primitive.THETA: "the pinch pivots about G, every contact sticking",
+                Primitive.PSI: "the thumb turns about B, the object's end sliding on it",
+                Primitive.DPSI: "the finger slides along the object toward B as the thumb turns"}[self]
+
 
 #: The paper's primitives: which coordinates each one moves, and the sign of
 #: its forward (paper) direction in (theta, d, psi).

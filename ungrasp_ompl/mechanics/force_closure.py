@@ -41,6 +41,11 @@ class SlidingModel(StrEnum):
     #: A sliding contact applies one wrench, on its friction cone's edge.
     STRICT = "strict"
 
+    def describe(self) -> str:
+        """The model in words for a person (files keep the name)."""
+        return ("a sliding contact may push anywhere between its friction cone's edge and its normal"
+                if self is SlidingModel.RELAXED else "a sliding contact pushes along its friction cone's edge only")
+
 
 SLIDING_MODELS = tuple(m.value for m in SlidingModel)
 

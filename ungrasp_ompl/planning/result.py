@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mechanics import Friction, Primitive, primitive_sliding_signs
-from ..mechanics.roll import describe_restoring
+from ..mechanics.force_closure import SlidingModel
 from ..scene import StateClass, StateDiagnosis
 from ..scene.tolerance import describe_tolerance
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
@@ -33,6 +33,15 @@ class StoppedBy(StrEnum):
     OPTIMUM = "optimum"  #: the path reached the exact lattice optimum: no path can cost less
     NOT_STARTED = "not started"  #: planning could not start (PlanOutcome's evidence says why)
     KILLED = "killed"  #: a planner that ignores its time limit was stopped after its deadline
+
+    def describe(self) -> str:
+        """Why the planner stopped, in words for a person (plan.json keeps the value)."""
+        return {StoppedBy.PLANNER: "the planner returned its first path",
+                StoppedBy.ITERATIONS: "its iteration budget ran out",
+                StoppedBy.TIME: "its time ran out",
+                StoppedBy.OPTIMUM: "it reached the exact lattice optimum: no path costs less",
+                StoppedBy.NOT_STARTED: "planning could not start",
+                StoppedBy.KILLED: "it ignored its time limit and was stopped"}[self]
 
 
 @dataclass
@@ -85,6 +94,20 @@ class PlanOutcome(Enum):
     #: why there is none).
     LANDING_SPREAD = "landing_spread"
 
+    def describe(self) -> str:
+        """The outcome in a few words for a person, without its evidence (describe_outcome says more)."""
+        return {PlanOutcome.SOLVED: "solved",
+                PlanOutcome.START_NOT_HELD: "the start pinch cannot hold the object",
+                PlanOutcome.GOAL_EMPTY: "no state of the goal region can be held with room to let go",
+                PlanOutcome.NO_SECURE_PATH: "no secure path exists",
+                PlanOutcome.NOT_FOUND: "no path found within the budget, though one exists",
+                PlanOutcome.INVALID_PATH: "the path found failed re-validation",
+                PlanOutcome.HUNG: "the planner did not stop and was killed",
+                PlanOutcome.BELOW_MIN_TOLERANCE: "the path found tolerates less error than the scene asks "
+                                                 "(planning.min_tolerance)",
+                PlanOutcome.LANDING_SPREAD: "the path found lands the object less predictably than the scene asks "
+                                            "(planning.max_landing_spread)"}[self]
+
 
 def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: str = "the planner") -> str:
     """One sentence for a person from an outcome and its evidence."""
@@ -102,8 +125,12 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
         if e.get("outside_box"):
             return "goal region lies outside the planning box"
         if e.get("holdable"):
-            return (f"goal region is empty: the gripper cannot let go ({e.get('termination', 'open')}) at any "
-                    "goal state without a collision")
+            from ..scene.options import Termination
+
+            how = e.get("termination", "open")
+            how = Termination(how).describe() if how in tuple(Termination) else how
+            return (f"goal region is empty: the gripper cannot let go ({how}) at any goal state without a "
+                    "collision")
         return ("goal region is empty: no lattice state inside it is kinematically valid, collision-free and "
                 "force-closed")
     if outcome is PlanOutcome.NO_SECURE_PATH:
@@ -114,9 +141,11 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
     if outcome is PlanOutcome.INVALID_PATH:
         return f"the returned path fails re-validation: {e['problem']}"
     if outcome is PlanOutcome.BELOW_MIN_TOLERANCE:
-        return (f"the path found tolerates {e['tolerance']['scale']:.3f} of the {e['tolerance']['perturbation']} errors, "
-                f"below planning.min_tolerance {e['min_tolerance']:g} (bound by "
-                f"{e['tolerance']['reason'].replace('_', ' ')}); try --objective tolerance")
+        from ..scene.tolerance import ToleranceReason
+
+        return (f"the path found survives errors up to {e['tolerance']['scale']:.3f} times the "
+                f"{e['tolerance']['perturbation']} error bounds, below planning.min_tolerance {e['min_tolerance']:g} "
+                f"(beyond that, {ToleranceReason(e['tolerance']['reason']).describe()}); try --objective tolerance")
     if outcome is PlanOutcome.LANDING_SPREAD:
         other = e["without_p_dpsi"]
         other = f"{1000 * other:.2f} mm" if isinstance(other, float) else other
@@ -350,65 +379,155 @@ class Plan:
                    and None not in report.values() else None, **own)
 
     def summary(self) -> str:
-        """A few lines for a person: outcome, cost, the primitive sequence."""
+        """What `plan` prints, for a person: the plane (3D scenes), the outcome, the cost against the
+        exact lattice optimum, what holds the object and how much error the plan survives, the
+        predicted landing, how planning went, the primitives and how the object is held out of
+        the plane. Identifiers stay in plan.json."""
         lines = []
         mp = self.manipulation_plane
         if mp is not None:
-            g, b = mp["G"], mp["B"]
-            lines.append(f"manipulation plane: G ({g[0] * 1000:.2f}, {g[1] * 1000:.2f}) mm {mp['contacts']['G']['kind']}, "
-                         f"B ({b[0] * 1000:.2f}, {b[1] * 1000:.2f}) mm {mp['contacts']['B']['kind']}, "
-                         f"l = {mp['length_m'] * 1000:.2f} mm, friction margin {math.degrees(mp['margin_rad']):.2f} deg")
-            lines.append(f"effective friction: mu'_G {self.mu_eff['G']:.4f}, mu_A {self.mu_eff['A']:.4f}, "
-                         f"mu'_B {self.mu_eff['B']:.4f}")
-        if self.solved:
-            lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}, {self.sliding_model} sliding): "
-                         f"cost {self.cost:.2f} = L1 {self.l1_length:.2f} + {self.mode_switches} primitive changes")
-            secure = self.secure_over
-            if secure is not None and secure != (1.0, 1.0):
-                lines.append(f"  secure for friction {secure[0]:.2f}-{secure[1]:.2f} x the scene's: every state "
-                             "force-closed in its contact mode over that range")
-            if self.min_margin_deg is not None:
-                lines.append(f"  objective {self.objective}: smallest friction margin along the path, the start "
-                             f"included, {self.min_margin_deg:.3f} deg{self._forced()} (held still at the start, "
-                             f"before it moves: {self.start_margin_deg:.3f} deg)")
-                lines.append("  smallest friction margin of each primitive: "
-                             + ", ".join(f"{m:.3f}" for m in self.margin_profile_deg) + " deg")
-            if self.tolerance is not None:
-                lines.append("  " + describe_tolerance(self.tolerance))
-            if self.predicted_landing is not None:
-                p = self.predicted_landing
-                lines.append(f"  predicted landing (docs/model.md 11.24): {1000 * p['along_m']:+.2f} mm along GB from the "
-                             f"plan's (toward B +), {1000 * p['low_m']:+.2f} to {1000 * p['high_m']:+.2f} mm over "
-                             f"friction x0.7-1.3 and both cones (spread {1000 * p['spread_m']:.2f} mm)")
-            first = self.time_to_first_solution_s
-            stop = ("stopped at the lattice optimum: no path costs less" if self.stopped_by == StoppedBy.OPTIMUM
-                    else f"stopped by {self.stopped_by}")
-            lines.append(f"  first solution {first:.3f} s, planning {self.planning_time_s:.2f} s "
-                         f"({self.iterations} iterations, {stop}), setup {self.setup_time_s:.2f} s")
-            for p in self.primitives:
-                s, e = _deg(p.start), _deg(p.end)
-                slide = ", ".join(f"{c} slides ({w.replace('_', ' ')})" for c, w in p.sliding.items()) or "all stick"
-                lines.append(f"  {p.type:<7} {s} -> {e}  {slide}; 3D stability {p.stability}")
-            if self.stability_report is not None:
-                rep = self.stability_report
-                lines.append(f"  x-moments (every leg): {rep['x_moments']['mechanism']}"
-                             f" -> {'held' if rep['x_moments']['ok'] else 'NOT held'}")
-                for r in rep["roll_simulation"]:
-                    tilts = r["restoring_tilt_deg"]
-                    rng = describe_restoring({1: tilts["positive"], -1: tilts["negative"]})
-                    lines.append(f"  prism roll at {r['label']}: {'self-restoring' if r['self_restoring'] else 'NOT self-restoring'}"
-                                 f" over tilts {rng}")
-        else:
+            g, b, kinds = mp["G"], mp["B"], mp["contacts"]
+            lines.append(f"manipulation plane (docs/model.md 5): the vertical plane through G, where the object touches "
+                         f"the table, at ({g[0] * 1000:.2f}, {g[1] * 1000:.2f}) mm on its outline "
+                         f"({_OUTLINE_WORDS.get(kinds['G']['kind'], kinds['G']['kind'])}), and B, where the thumb holds "
+                         f"it, at ({b[0] * 1000:.2f}, {b[1] * 1000:.2f}) mm "
+                         f"({_OUTLINE_WORDS.get(kinds['B']['kind'], kinds['B']['kind'])}); l = |GB| = "
+                         f"{mp['length_m'] * 1000:.2f} mm; GB lies {math.degrees(mp['margin_rad']):.2f} deg inside the "
+                         "friction cones at G and B")
+            lines.append(f"friction in that plane: {self.mu_eff['G']:.3f} at G (object on table), {self.mu_eff['A']:.3f} "
+                         f"at A (finger on object), {self.mu_eff['B']:.3f} at B (object on thumb)")
+        if not self.solved:
             lines.append(f"no solution for {self.scene} with {self.planner}: {self.reason}")
+            return "\n".join(lines)
+        changes = self.cost - self.l1_length
+        lines.append(f"solved {self.scene} with {self.planner} (seed {self.seed}): {len(self.primitives)} primitives, "
+                     f"cost {self.cost:.2f} = path length {self.l1_length:.2f} (theta and psi in degrees, d weighted; "
+                     f"docs/model.md 6) + {changes:.2f} for {self.mode_switches} "
+                     f"{'change' if self.mode_switches == 1 else 'changes'} of primitive")
+        lines.append("  " + self._against_optimum())
+        lines.append(f"  optimised for {_OBJECTIVE_WORDS.get(self.objective, str(self.objective))}")
+        secure = self.secure_over
+        over = (f", with friction anywhere from {secure[0]:.2f} to {secure[1]:.2f} times the scene's"
+                if secure is not None and secure != (1.0, 1.0) else "")
+        sliding = (SlidingModel(self.sliding_model).describe() if self.sliding_model in tuple(SlidingModel)
+                   else f"sliding model {self.sliding_model}")
+        lines.append(f"  every state is force-closed in its contact mode{over}: the contacts can resist any push in "
+                     f"the plane ({sliding})")
+        if self.min_margin_deg is not None:
+            lines.append(f"  friction margin (how far every friction cone could narrow before a contact slips, "
+                         f"docs/model.md 4.4): {self.min_margin_deg:.3f} deg at the least along the path{self._forced()}; "
+                         f"{self.start_margin_deg:.3f} deg at the start, held still")
+            lines.append("  friction margin of each primitive, at its least: "
+                         + ", ".join(f"{k}. {p.type} {m:.3f} deg" for k, (p, m)
+                                     in enumerate(zip(self.primitives, self.margin_profile_deg), 1)))
+        if self.tolerance is not None:
+            lines.append("  " + describe_tolerance(self.tolerance).replace("\n", "\n  "))
+        if self.predicted_landing is not None:
+            p = self.predicted_landing
+            lines.append(f"  where the object lands, by the model of its fall (docs/model.md 11.24): "
+                         f"on average {_along(p['along_m'])}; {_span(p['low_m'], p['high_m'])} "
+                         f"with friction 0.7 to 1.3 times the scene's and either friction-cone model (a spread of "
+                         f"{1000 * p['spread_m']:.2f} mm)")
+        first = self.time_to_first_solution_s
+        why = StoppedBy(self.stopped_by).describe() if self.stopped_by in tuple(StoppedBy) else self.stopped_by
+        lines.append(f"  planning took {self.planning_time_s:.2f} s, the first path after {first:.3f} s; it stopped "
+                     f"after {self.iterations} iterations because {why}; building the lattice took "
+                     f"{self.setup_time_s:.2f} s")
+        lines.append("  the primitives (theta: the object's angle to the table; d: how far the finger's contact A lies "
+                     "from B, as a fraction of l; psi: the thumb's angle to the object at B):")
+        for k, p in enumerate(self.primitives, 1):
+            lines.append(f"  {k}. {_primitive_words(p)}")
+        if self.stability_report is not None:
+            from ..scene.stability import describe_roll, describe_x_moments
+
+            rep = self.stability_report
+            lines.append("  rolling about GB, on every primitive: " + describe_x_moments(rep))
+            for r in rep["roll_simulation"]:
+                tilts = r["restoring_tilt_deg"]
+                lines.append(f"  at the {r['label']}: " + describe_roll({1: tilts["positive"], -1: tilts["negative"]},
+                                                                         r["self_restoring"], r.get("max_tilt_deg")))
         return "\n".join(lines)
+
+    def _against_optimum(self) -> str:
+        """The plan's cost against the exact lattice optimum, or why it is not compared."""
+        opt, objective = self.lattice_optimum, self.objective
+        if opt is None:
+            return "exact optimum: not computed (--planner lattice runs the exact search)"
+        more = self.cost - opt
+        if self.planner == "lattice" and more <= 1e-9:
+            best = "no secure path on it costs less" if objective == Objective.COST else \
+                f"no secure path on it does better for the {objective} objective"
+            return f"exact optimum: this is the exact search's path over the planning lattice: {best}"
+        if self.planner == "lattice":  # docs/model.md 8.2: no straight legs realise the optimum's path
+            return (f"exact optimum: the exact search's optimum costs {opt:.2f}, but no straight legs realise its "
+                    f"path; this plan, the best without such steps, costs {more:.2f} more")
+        if more <= 1e-9:
+            return f"exact optimum: no secure path on the planning lattice costs less than this plan's {opt:.2f}"
+        return (f"exact optimum: the cheapest secure path on the planning lattice costs {opt:.2f}; this plan costs "
+                f"{more:.2f} ({100 * more / opt:.1f} %) more")
 
     def _forced(self) -> str:
         """How the smallest margin compares with the lattice's bottleneck, when known."""
         if self.margin_forced is None:
             return ""
         if self.margin_forced:
-            return ", forced (no secure lattice path passes more)"
-        return f", below the {self.margin_bottleneck_deg:.3f} deg some secure lattice path keeps"
+            return " (the most any secure lattice path keeps)"
+        return f" (some secure lattice path keeps {self.margin_bottleneck_deg:.3f} deg)"
+
+
+#: The kinds of outline at G and B (geometry.plane.ContactPoint.kind) in words.
+_OUTLINE_WORDS = {"edge": "a straight side", "corner": "a sharp corner", "smooth": "a curve"}
+
+#: What each objective optimises, in words (planning.margins.Objective).
+_OBJECTIVE_WORDS = {
+    Objective.COST: "the cost: the shortest path with the fewest changes of primitive",
+    Objective.MARGIN: "the largest friction margin along the path, then the cost",
+    Objective.BALANCED: "the cost, with a penalty where the friction margin is small",
+    Objective.TOLERANCE: "the largest tolerance of errors along the path, then the cost",
+}
+
+#: PrimitiveStep.sliding's friction directions on the object, as the contact moves.
+_SLIDE_WORDS = {("A", "toward_B"): "the finger slides toward B", ("A", "toward_G"): "the finger slides toward G",
+                ("B", "toward_palm"): "the object's end slides toward the thumb's tip",
+                ("B", "toward_tip"): "the object's end slides toward the thumb's base"}
+
+
+def _primitive_words(p: PrimitiveStep) -> str:
+    """One primitive for a person: what it does, what moves from where to where, which contacts
+    slide which way, and how it holds the object out of the plane."""
+    what = Primitive(p.type).describe() if p.type in tuple(Primitive) else str(p.type)
+    if p.direction != "forward":
+        what += ", run backwards"
+    moves, still = [], []
+    for k, (name, unit) in enumerate((("theta", " deg"), ("d", ""), ("psi", " deg"))):
+        a, b = p.start[k], p.end[k]
+        fmt = (lambda x: f"{x:.3f}") if k == 1 else (lambda x: f"{math.degrees(x):.1f}")
+        (moves if abs(a - b) > 1e-12 else still).append(f"{name} {fmt(a)} -> {fmt(b)}{unit}" if abs(a - b) > 1e-12
+                                                          else f"{name} {fmt(a)}{unit}")
+    slides = [_SLIDE_WORDS.get((c, w), f"{c} slides") for c, ways in p.sliding.items() for w in ways.split("/")]
+    contacts = "; ".join(slides) if slides else "no contact slides"
+    held = {"full": "stable against pushes and twists out of the plane",
+            "partial": "out of the plane, it resists sideways pushes but not twists about the vertical (two contacts "
+                       "slide)"}.get(p.stability, p.stability)
+    return f"{p.type}, {what}: {', '.join(moves)} ({', '.join(still)}); {contacts}; {held}"
+
+
+def _along(offset: float) -> str:
+    """An offset along GB (m, + toward B) in words: '2.62 mm from the plan's landing, toward G along GB'."""
+    mm = 1000 * offset
+    if abs(mm) < 0.005:
+        return "0.00 mm from the plan's landing"
+    return f"{abs(mm):.2f} mm from the plan's landing, toward {'B' if mm > 0 else 'G'} along GB"
+
+
+def _span(low: float, high: float) -> str:
+    """The range of offsets along GB (m, + toward B) in words."""
+    lo, hi = 1000 * low, 1000 * high
+    if hi <= 0.0:
+        return f"{abs(hi):.2f} to {abs(lo):.2f} mm toward G"
+    if lo >= 0.0:
+        return f"{lo:.2f} to {hi:.2f} mm toward B"
+    return f"{abs(lo):.2f} mm toward G to {hi:.2f} mm toward B"
 
 
 def _part_field(part: str, name: str) -> property:

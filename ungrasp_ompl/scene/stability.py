@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mechanics.kinematics import across_support, pressed_state
-from ..mechanics.roll import RollResult, describe_restoring, roll_simulation
+from ..mechanics.roll import ROLL_WAYS, ROLL_WAYS_NOTE, RollResult, roll_simulation
 from .model import Scene
 
 
@@ -69,31 +69,92 @@ class StabilityReport:
                 "self_restoring": self.self_restoring}
 
     def lines(self) -> list[str]:
+        """The stability command's lines on the contacts, the roll about GB and each state's roll
+        simulation (for a person: no identifiers)."""
         out = []
         for name in "GAB":
-            c = self.contacts[name]
-            radius = c["radius_m"]
-            line = f"  contact {name}: {c['kind']} ({'edge' if c['edge_contact'] else 'point'} contact)"
-            if name != "A":
-                line += ", radius of curvature " + ("inf" if radius is None else f"{radius * 1000:.2f} mm")
-                along, across = c["touched_from_m"]["along"], c["touched_from_m"]["across"]
-                if abs(across) >= FELT_OFFSET:
-                    face = "the table" if name == "G" else "the thumb's face"
-                    line += (f"; {face} touches the outline {abs(across) * 1000:.3f} mm across GB from it "
-                             f"({along * 1000:.4f} mm further out): a moment about GB the plan does not count")
-            out.append(line)
-        out.append(f"  x-moments: {self.x_mechanism} -> {'held' if self.x_stable else 'NOT held'}")
+            out.append("  " + _contact_words(name, self.contacts[name]))
+        out.append("  rolling about GB: " + describe_x_moments(self.to_dict()))
         for r in self.rolls:
             q = r.state
-            ranges = describe_restoring({d.sign: x for d, x in zip(r.result.directions, r.ranges_deg())})
-            verdict = "self-restoring" if r.result.self_restoring else "NOT self-restoring"
-            out.append(f"  prism roll at {r.label} (theta {math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi "
-                       f"{math.degrees(q[2]):.1f} deg): {verdict}; rolled each way up to "
-                       f"{math.degrees(r.result.max_tilt):.0f} deg, restores over tilts {ranges}")
+            ranges = {d.sign: x for d, x in zip(r.result.directions, r.ranges_deg())}
+            out.append(f"  at the {r.label} (theta {math.degrees(q[0]):.1f} deg, d {q[1]:.3f}, psi "
+                       f"{math.degrees(q[2]):.1f} deg): "
+                       + describe_roll(ranges, r.result.self_restoring, math.degrees(r.result.max_tilt)))
             if r.across is not None:
-                out.append(f"    A {r.across * 1000:.2f} mm inside the supports across the plane: a grasp "
-                           "further off across GB tips the object out of it")
+                out.append(f"    the finger presses {r.across * 1000:.2f} mm inside the supports across the plane (the "
+                           "table's and the thumb's): a grasp shifted further than that across GB tips the object out "
+                           "of the plane")
         return out
+
+
+def _contact_words(name: str, c: dict) -> str:
+    """One contact of StabilityReport.contacts in words: what touches what, the outline there."""
+    what = {"G": "G, the object on the table", "A": "A, the finger on the object",
+            "B": "B, the object on the thumb's face"}[name]
+    kind = "an edge contact (a line)" if c["edge_contact"] else "a point contact"
+    if name == "A":
+        tip = "flat" if c["kind"].startswith("flat") else "rounded"
+        return f"contact {what}: the finger's {tip} tip, {kind}"
+    radius = c["radius_m"]
+    outline = {"edge": "a straight side of the outline", "corner": "a sharp corner of the outline",
+               "smooth": "a curve of the outline"}.get(c["kind"], c["kind"])
+    shape = "" if radius is None or radius == 0.0 else f" (radius of curvature {radius * 1000:.2f} mm)"
+    line = f"contact {what}: {outline}{shape}, {kind}"
+    along, across = c["touched_from_m"]["along"], c["touched_from_m"]["across"]
+    if abs(across) >= FELT_OFFSET:
+        face = "the table" if name == "G" else "the thumb's face"
+        line += (f"; {face} touches the outline {abs(across) * 1000:.3f} mm across GB from it "
+                 f"({along * 1000:.4f} mm further out): a moment about GB the plan does not count")
+    return line
+
+
+def describe_x_moments(report: dict) -> str:
+    """How the grasp holds the object against rolling about GB (x-moments), in words, from
+    StabilityReport.to_dict() (plan.json's stability_report)."""
+    contacts, edges, ok = report["contacts"], report["edge_contacts"], report["x_moments"]["ok"]
+    if edges:
+        return f"held, directly by the edge contact at {' and '.join(edges)}"
+    cusps = [n for n in "GB" if contacts[n]["radius_m"] == 0.0]
+    if cusps:
+        return (f"NOT held: the outline has a sharp corner at {' and '.join(cusps)}, where the finger's push at A "
+                "cannot bring the object back")
+    radii = " and ".join(f"{_radius(contacts[n]['radius_m'])} at {n}" for n in "GB")
+    if ok:
+        return f"held by the finger's push at A, which brings the object back when it rolls (outline radius {radii})"
+    return (f"NOT held: the finger's push at A would bring the object back (outline radius {radii}), but the "
+            "object does not roll back on its own")
+
+
+def _reduced(mu_plane: float, mu: float, beta: float) -> str:
+    """A contact's friction coefficient in the plane, against the scene's when GB meets the outline off its normal."""
+    if abs(mu_plane - mu) < 5e-5:
+        return f"{mu_plane:.3f}"
+    return (f"{mu_plane:.3f} (the scene's {mu:.3f}, less because GB meets the outline {math.degrees(beta):.1f} deg "
+            "off its normal)")
+
+
+def _radius(radius: float | None) -> str:
+    return "infinite" if radius is None else f"{radius * 1000:.2f} mm"
+
+
+def describe_roll(ranges_deg: dict[int, tuple[float, float] | None], restoring: bool,
+                  max_tilt_deg: float | None = None) -> str:
+    """The roll simulation's verdict in words: whether the object, tipped sideways about GB, rolls
+    back on its own, and over which tilts (ranges_deg by mechanics.roll.RollDirection.sign, a
+    (first, last) tilt in deg or None: never)."""
+    def span(r: tuple[float, float] | None) -> str:
+        return "at no tilt" if r is None else f"from {r[0]:.2f} to {r[1]:.2f} deg"
+
+    pos, neg = ranges_deg.get(1), ranges_deg.get(-1)
+    same = (pos is None and neg is None) or (pos is not None and neg is not None
+                                             and all(abs(a - b) < 5e-3 for a, b in zip(pos, neg)))
+    where = (f"{span(pos)} either way" if same else
+             f"{span(pos)} with its {ROLL_WAYS[1]} and {span(neg)} with its {ROLL_WAYS[-1]} ({ROLL_WAYS_NOTE})")
+    tried = "" if max_tilt_deg is None else f", tried up to {max_tilt_deg:.0f} deg each way"
+    if restoring:
+        return f"tipped sideways about GB, the object rolls back on its own {where}{tried}"
+    return f"tipped sideways about GB, the object does NOT always roll back on its own: only {where}{tried}"
 
 
 def describe(scene: Scene) -> str:
@@ -105,18 +166,25 @@ def describe(scene: Scene) -> str:
     plane = scene.plane
     g, b = plane.g.point * 1000, plane.b.point * 1000
     lo, hi = scene.goal.box()
-    report = analyse(scene, [("start", scene.start), ("goal centre", (lo + hi) / 2)])
-    verdict = "self-restoring" if report.self_restoring else "NOT self-restoring"
+    report = analyse(scene, [("start", scene.start), ("goal region's centre", (lo + hi) / 2)])
+    restores = "rolls back on its own when tipped sideways" if report.self_restoring else \
+        "does NOT roll back on its own when tipped sideways"
+    partial = ("; the scene forbids motions with two sliding contacts" if scene.options.forbid_partial else "")
     return "\n".join([
-        f"{scene.name}: object {scene.object3d.thickness * 1000:.2f} mm thick, l = |GB| = {plane.length * 1000:.2f} mm",
-        f"  G ({g[0]:.2f}, {g[1]:.2f}) mm, B ({b[0]:.2f}, {b[1]:.2f}) mm, friction margin "
-        f"{math.degrees(plane.margin):.2f} deg{' (fixed by the scene)' if plane.fixed else ''}",
-        f"  effective friction: mu'_G {plane.mu_g:.4f} (from {scene.mu_contacts[0]:.4f}), "
-        f"mu'_B {plane.mu_b:.4f} (from {scene.mu_contacts[2]:.4f})",
+        f"{scene.name}: how the grasp holds the object out of its manipulation plane (docs/model.md 5); the object "
+        f"is {scene.object3d.thickness * 1000:.2f} mm thick",
+        f"  the manipulation plane is the vertical plane through G, where the object touches the table, at "
+        f"({g[0]:.2f}, {g[1]:.2f}) mm on its outline, and B, where the thumb holds it, at ({b[0]:.2f}, {b[1]:.2f}) mm"
+        f"{' (both fixed by the scene)' if plane.fixed else ''}: l = |GB| = {plane.length * 1000:.2f} mm; the line GB "
+        f"lies {math.degrees(plane.margin):.2f} deg inside the friction cones at G and B (the pinch's room before it "
+        "slips)",
+        f"  friction in the plane: {_reduced(plane.mu_g, scene.mu_contacts[0], plane.g.beta)} at G, "
+        f"{_reduced(plane.mu_b, scene.mu_contacts[2], plane.b.beta)} at B",
         *report.lines(),
-        "  legs: P_theta and P_psi keep full stability (at most one sliding contact); P_dpsi partial "
-        f"(two sliding, no z-moments){'; forbidden by the scene' if scene.options.forbid_partial else ''}",
-        f"verdict: the grasp is {verdict} in roll; x-moments {'held' if report.x_stable else 'NOT held'}"])
+        "  out of the plane, P_theta (the pivot about G) and P_psi (the thumb's turn) hold every sideways force and "
+        "twist (at most one contact slides); P_dpsi (the finger's slide) holds sideways forces but not twists "
+        f"about the vertical (two contacts slide){partial}",
+        f"verdict: the grasp {restores}; rolling about GB is {'held' if report.x_stable else 'NOT held'}"])
 
 
 def _across(scene: Scene, q) -> float | None:

@@ -73,6 +73,42 @@ class ToleranceReason(Enum):
     NO_TERMINATION = "no_termination"  #: the gripper cannot let go from the moved last state
     NONE = "none"  #: nothing fails up to the largest scale (all friction lost)
 
+    def describe(self) -> str:
+        """What fails, in words for a person (plan.json keeps the value)."""
+        return _REASON_WORDS[self]
+
+
+_REASON_WORDS = {
+    ToleranceReason.NOT_FORCE_CLOSED: "the contacts can no longer hold the object (force closure is lost: some push in "
+                                      "the plane would make it slip)",
+    ToleranceReason.B_PAST_THUMB_TIP: "the object's end B slides off the thumb's tip",
+    ToleranceReason.B_PAST_THUMB_BASE: "the object's end B moves past the base of the thumb",
+    ToleranceReason.A_OFF_OBJECT: "the finger's contact A comes off the object",
+    ToleranceReason.A_OFF_SUPPORT: "the finger presses beside the supports across the plane, so the object tips out "
+                                   "of the plane",
+    ToleranceReason.APERTURE: "the gripper would have to open wider than its stroke",
+    ToleranceReason.DIGIT_IN_TABLE: "a digit or the gripper's housing would go into the table",
+    ToleranceReason.OBSTACLE: "a digit or the gripper's housing would hit an obstacle",
+    ToleranceReason.G_LIFTED: "the hand lifts the object's end G off the table, so the object hangs in the pinch "
+                              "and the plan's first motion never begins",
+    ToleranceReason.NO_TERMINATION: "the gripper can no longer let go without a digit hitting the table or an "
+                                    "obstacle",
+    ToleranceReason.NONE: "nothing fails",
+}
+
+#: Each error component (COMPONENTS) in words for a person, and the bound of the box it takes
+#: (Perturbation's field), its unit and the factor from that field to the unit.
+COMPONENT_WORDS = {
+    "shift_along": ("a grasp shifted along the object (along GB)", "shift_mm", "mm", 1.0),
+    "shift_across": ("a grasp shifted across the object (across GB)", "shift_mm", "mm", 1.0),
+    "yaw": ("the object turned in the grasp", "yaw_deg", "deg", 1.0),
+    "friction": ("less friction at every contact", "friction", "% less", 100.0),
+    "thickness": ("an object thicker or thinner than the scene says", "thickness", "%", 100.0),
+    "palm_shift": ("the hand off its calibrated position", "palm_shift_mm", "mm", 1.0),
+    "palm_turn": ("the hand turned off its calibrated orientation", "palm_turn_deg", "deg", 1.0),
+    "table_height": ("the table higher or lower than calibrated", "table_mm", "mm", 1.0),
+}
+
 
 #: The error components, as TrialParams names them (the friction loss counts G, A, B together).
 #: The first scale tried (dimensionless); the scale doubles from it until a state fails.
@@ -131,7 +167,7 @@ class Tolerance:
     """How many states of the plan were checked."""
 
     def describe(self) -> str:
-        """One line for a person (millimetres and degrees): the plan summary's line."""
+        """For a person (millimetres, degrees, per cent; two lines): the plan summary's."""
         return describe_tolerance(self.to_dict())
 
     @classmethod
@@ -342,17 +378,76 @@ class _Box:
 
 
 def describe_tolerance(tol: dict) -> str:
-    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) as one line for a person, in
-    millimetres and degrees."""
-    p = tol["physical"]
+    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) for a person, in millimetres,
+    degrees and per cent: what errors the plan survives together, then (a second line, indented)
+    where a larger error first breaks it, what fails there and which error alone it tolerates least."""
+    from ..mechanics.contact import Primitive
+
+    s, p, name = tol["scale"], tol["physical"], tol["perturbation"]
+    reason = ToleranceReason(tol["reason"])
+    bounds = "the paper's error bounds (docs/model.md 11.3)" if name == "paper" else f"the '{name}' error bounds"
     theta, d, psi = tol["state"]
-    where = (f"{tol['reason'].replace('_', ' ')} at (theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi "
-             f"{math.degrees(psi):.1f} deg) in primitive {tol['primitive'] + 1} ({tol['primitive_type']}), "
-             f"bound by {tol['component'].replace('_', ' ')}")
-    return (f"tolerance {tol['scale']:.3f} of the {tol['perturbation']} errors: grasp shift {p['shift_mm']:.3f} mm, "
-            f"turn {p['yaw_deg']:.2f} deg, friction {-round(100 * p['friction_loss']):d} %, palm {p['palm_shift_mm']:.2f} mm"
-            f" / {p['palm_turn_deg']:.2f} deg, table {p['table_mm']:.2f} mm; "
-            + ("nothing fails" if tol["reason"] == "none" else where))
+    at = f"theta {math.degrees(theta):.1f} deg, d {d:.3f}, psi {math.degrees(psi):.1f} deg"
+    k, kind = tol["primitive"], tol["primitive_type"]
+    if reason is ToleranceReason.G_LIFTED:
+        where = "at the start"
+    elif reason is ToleranceReason.NO_TERMINATION:
+        where = f"at the end, where the gripper lets go ({at})"
+    else:
+        words = Primitive(kind).describe() if kind in tuple(Primitive) else kind
+        where = f"during primitive {k + 1} ({kind}: {words}), at {at}"
+    least = COMPONENT_WORDS.get(tol["component"], (tol["component"],))[0] + _alone(tol)
+    if reason is ToleranceReason.NONE:
+        return (f"tolerance of errors: the plan stays secure under any error up to {s:.3f} times {bounds}: "
+                f"{_errors(p)}; nothing fails up to there (docs/model.md 4.6)")
+    if s <= 0.0:
+        first = COMPONENT_WORDS.get(tol["component"], (tol["component"],))[0]
+        return (f"tolerance of errors: none (docs/model.md 4.6): the smallest error within {bounds} breaks the plan "
+                f"{where}: {reason.describe()}\n  the error that does it first: {first}")
+    return (f"tolerance of errors: the plan stays secure under any error up to {s:.3f} times {bounds}, all at once: "
+            f"{_errors(p)} (docs/model.md 4.6)\n  a larger error first breaks it {where}: {reason.describe()}; "
+            f"the error it tolerates least there: {least}")
+
+
+def _errors(p: dict) -> str:
+    """The box at the tolerance's scale (Tolerance.physical) in words, the components with a bound."""
+    words = []
+    if p.get("shift_mm"):
+        words.append(f"the grasp {p['shift_mm']:.3f} mm off along and across the object")
+    if p.get("yaw_deg"):
+        words.append(f"the object turned {p['yaw_deg']:.2f} deg in the grasp")
+    if p.get("friction_loss"):
+        words.append(f"{100 * p['friction_loss']:.1f} % less friction")
+    if p.get("thickness_fraction"):
+        words.append(f"the object {100 * p['thickness_fraction']:.1f} % thicker or thinner")
+    if p.get("palm_shift_mm") or p.get("palm_turn_deg"):
+        words.append(f"the hand {p.get('palm_shift_mm', 0.0):.3f} mm and {p.get('palm_turn_deg', 0.0):.2f} deg off "
+                     "its calibrated pose")
+    if p.get("table_mm"):
+        words.append(f"the table {p['table_mm']:.3f} mm higher or lower")
+    return ", ".join(words) or "no error"
+
+
+def _alone(tol: dict) -> str:
+    """' (alone, up to 0.287 mm)': the binding component's own tolerance in its unit, when the box's
+    bound is known (a preset's, or the tolerance's box at a scale above 0); empty otherwise."""
+    scale = tol.get("component_scales", {}).get(tol["component"])
+    if tol["component"] not in COMPONENT_WORDS or scale is None or math.isinf(scale):
+        return ""
+    _, field, unit, factor = COMPONENT_WORDS[tol["component"]]
+    if tol["perturbation"] in PRESETS:
+        bound = getattr(PRESETS[tol["perturbation"]], field)
+    else:
+        physical = {"shift_mm": "shift_mm", "yaw_deg": "yaw_deg", "friction": "friction_loss",
+                    "thickness": "thickness_fraction", "palm_shift_mm": "palm_shift_mm",
+                    "palm_turn_deg": "palm_turn_deg", "table_mm": "table_mm"}[field]
+        if tol["scale"] <= 0.0:
+            return ""
+        bound = tol["physical"][physical] / tol["scale"]
+    value = scale * bound * factor
+    if value <= 0.0:
+        return ""
+    return f" (alone, up to {value:.3f} {unit})" if unit in ("mm",) else f" (alone, up to {value:.2f} {unit})"
 
 
 def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> NDArray[np.float64]:

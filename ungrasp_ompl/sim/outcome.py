@@ -27,10 +27,27 @@ class Outcome(enum.Enum):
     def success(self) -> bool:
         return self is Outcome.SUCCESS
 
+    def describe(self) -> str:
+        """What happened, in words for a person (trials.csv and summary.json keep the value)."""
+        return _OUTCOME_WORDS[self]
+
     @property
     def placed(self) -> bool:
         """The paper's criterion holds (precision aside)."""
         return self in (Outcome.SUCCESS, Outcome.OFF_TARGET)
+
+
+_OUTCOME_WORDS = {
+    Outcome.SUCCESS: "placed flat on its target",
+    Outcome.GRIP_LOST: "the grip was lost (no digit on the object, or the pinch gone when letting go began)",
+    Outcome.B_PAST_THUMB_TIP: "the object's end B slid off the thumb's tip",
+    Outcome.LEFT_PLANE: "the object turned out of the manipulation plane and escaped",
+    Outcome.HIT_SOLID: "a wall or a piece already down pushed the object off",
+    Outcome.DIGIT_HIT_TABLE: "a digit touched the table before letting go",
+    Outcome.NOT_FLAT: "the object was let go but does not lie flat",
+    Outcome.DIGIT_TOUCHING: "a digit still touches the object after the retreat",
+    Outcome.OFF_TARGET: "placed flat, but farther from its target than the scene allows",
+}
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,11 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Callable
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,9 +25,14 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
-from ..planning.result import Plan, read_plan
-from ..robustness import CageMinimum, CageProfile, cage_profile
+from ..planning.result import Plan
+from ..robustness import CageMinimum, CageProfile
+from ..runner import InlineRunner, LocalRunner, resolve_jobs
 from ..scene import Scene
+from .plan_files import read_plan_for
+
+if TYPE_CHECKING:
+    from ..mechanics.cage import Cage, CageGrid
 
 
 @dataclass(frozen=True)
@@ -47,6 +55,10 @@ class CageOptions:
     """rounded or flat instead of the scene's finger tip; None: the scene's."""
     start_psi_offset: float | None = None
     """Start the plan with psi larger by this (rad; the paper's deviated start); None: as planned."""
+    force: bool = False
+    """Examine a plan made for another scene (plan.json names its scene); False: refuse it (InputError)."""
+    jobs: int | None = None
+    """Worker processes computing the states' cages (count); None: all cores."""
 
     def validated(self, scene: Scene) -> "CageOptions":
         """These options checked against the scene; InputError naming the field otherwise."""
@@ -59,6 +71,11 @@ class CageOptions:
             raise InputError("squeeze", f"must be a force in newtons >= 0, got {self.squeeze!r}")
         if self.start_psi_offset is not None:
             check_psi_offset(self.start_psi_offset)
+        if self.force and self.plan is None:
+            raise InputError("force", "applies only with plan (a plan.json to examine)")
+        jobs = resolve_jobs(self.jobs)
+        if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+            raise InputError("jobs", f"must be a positive integer, got {jobs!r}")
         return self
 
 
@@ -95,20 +112,26 @@ class CageReport:
         if not plan.solved:
             return "\n".join(lines + [plan.summary()])
         if self.planned:
-            lines.append(f"planned {scene.name} with {plan.planner} (seed {plan.seed}): cost {plan.cost:.2f}")
+            lines.append(f"planned {scene.name} with {plan.planner} (seed {plan.seed}): {len(plan.primitives)} "
+                         f"primitives, cost {plan.cost:.2f}")
         if o.start_psi_offset is not None:
             start = plan.states[0]
             held = scene.diagnose(start)
-            lines.append(f"deviated start: psi {math.degrees(start[2]):.1f} deg ({held.describe('it')}; friction margin "
-                         f"{float(scene.margin(start).friction_deg[0]):.2f} deg with every contact sticking)")
+            lines.append(f"deviated start: psi {math.degrees(start[2]):.1f} deg, the thumb turned further than planned "
+                         f"({held.describe('it')}; friction margin {float(scene.margin(start).friction_deg[0]):.2f} deg "
+                         "with every contact sticking)")
         profile, margins = self.profile, self.margins
         cage0 = profile.cages[0]
-        lines.append(f"cage of {scene.name} along the plan: {len(profile.cages)} states, grid "
-                     f"{cage0.spacing[0] * 1000:.2f} mm / {math.degrees(cage0.spacing[2]):.2f} deg over the whole turn, "
-                     f"penetration tolerance {cage0.tolerance * 1000:.2f} mm"
-                     + (f", squeeze {o.squeeze:g} N" if o.squeeze else ", gravity only"))
-        lines.append(f"  {'state (theta deg, d, psi deg)':<34} {'primitive':<8} {'cage':<12} {'escape mJ':>10} "
-                     f"{'margin deg':>10}")
+        lines.append(f"energy-bounded cage of {scene.name} along the plan (docs/model.md 4.5): if the contacts let go, "
+                     f"could the object escape the digits and the table under "
+                     + (f"gravity and a {o.squeeze:g} N squeeze where the finger presses" if o.squeeze else "gravity alone")
+                     + f"? {len(profile.cages)} states checked, the object's poses on a grid of "
+                     f"{cage0.spacing[0] * 1000:.2f} mm and {math.degrees(cage0.spacing[2]):.2f} deg over a whole turn, "
+                     f"overlapping the digits or the table by up to {cage0.tolerance * 1000:.2f} mm")
+        lines.append("  escape energy: what the object must gain to get away (infinite: it cannot; 0: it falls out "
+                     "freely); friction margin: how far every friction cone could narrow before a contact slips")
+        lines.append(f"  {'state (theta deg, d, psi deg)':<30} {'primitive':<9}  {'cage':<11}  {'escape energy':>13}  "
+                     f"{'friction margin':>15}")
         last = None
         for k, (q, c) in enumerate(zip(profile.samples.states, profile.cages)):
             prim = plan.primitives[profile.samples.primitive[k]].type
@@ -116,12 +139,12 @@ class CageReport:
             if row == last and k != len(profile.cages) - 1:
                 continue  # where something changes, and the last state
             last = row
-            energy = "inf" if math.isinf(c.escape_energy) else f"{c.escape_energy_mj:.4f}"
-            lines.append(f"  ({math.degrees(q[0]):5.1f}, {q[1]:.3f}, {math.degrees(q[2]):5.1f}){'':<13} {prim:<8} "
-                         f"{c.outcome.value:<12} {energy:>10} {math.degrees(margins[k]):>10.2f}")
-        start_energy = "inf" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f}"
-        lines.append(f"start: {cage0.outcome.value.replace('_', ' ')} (escape energy {start_energy} mJ)")
-        lines.append(f"{self.weakest.describe()}; smallest friction margin along the path "
+            energy = "infinite" if math.isinf(c.escape_energy) else f"{c.escape_energy_mj:.4f} mJ"
+            lines.append(f"  ({math.degrees(q[0]):5.1f}, {q[1]:.3f}, {math.degrees(q[2]):5.1f}){'':<9} {prim:<9}  "
+                         f"{c.outcome.label:<11}  {energy:>13}  {math.degrees(margins[k]):>11.2f} deg")
+        start_energy = "infinite" if math.isinf(cage0.escape_energy) else f"{cage0.escape_energy_mj:.4f} mJ"
+        lines.append(f"at the start: {cage0.outcome.describe()} (escape energy {start_energy})")
+        lines.append(f"{self.weakest.describe()}; the smallest friction margin along the path is "
                      f"{math.degrees(self.smallest_margin):.3f} deg")
         return "\n".join(lines)
 
@@ -144,17 +167,64 @@ class CageReport:
         return [out / "cage.json", out / "cage.png"]
 
 
-def cage_report(scene: Scene, options: CageOptions = CageOptions()) -> CageReport:
-    """Plan the scene (or read options.plan), deviate its start if asked, and profile its cage
-    and friction margins; a report without a profile when planning finds no plan. Raises
-    InputError naming the option or the scene field before any work."""
+@dataclass(frozen=True)
+class CageProgress:
+    """How far the cage profile has got."""
+
+    done: int
+    """States whose cage is computed (count)."""
+    total: int
+    """States along the plan (count)."""
+
+
+#: Chunks of states per worker process (so that the workers stay busy to the end, and the progress
+#: advances in steps of a few states).
+CHUNKS_PER_JOB = 4
+
+
+def _chunk_cages(task: tuple[Scene, NDArray[np.float64], CageGrid, float]) -> list[Cage]:
+    """The cages of a chunk of states (a worker's task: Scene.cage)."""
+    scene, states, grid, squeeze = task
+    return scene.cage(states, grid, squeeze)
+
+
+def profile_cages(scene: Scene, plan: Plan, grid: CageGrid, squeeze: float = 0.0, jobs: int = 1,
+                  progress: Callable[[CageProgress], None] | None = None) -> CageProfile:
+    """robustness.cage_profile with the states' cages computed in chunks, jobs worker processes at
+    a time (this process for one job); progress is called after each chunk. squeeze in newtons. Raises the cage's InputError (a grid too fine)."""
+    from ..robustness import plan_samples
+
+    samples = plan_samples(plan)
+    n = len(samples.states)
+    pieces = [k for k in np.array_split(np.arange(n), min(n, max(10, CHUNKS_PER_JOB * jobs))) if len(k)]
+    tasks = [(scene, samples.states[k], grid, squeeze) for k in pieces]
+    cages: list[list[Cage] | None] = [None] * len(tasks)
+    runner = InlineRunner() if jobs == 1 or len(tasks) == 1 else LocalRunner(min(jobs, len(tasks)), fresh=False)
+    done = 0
+    if progress:
+        progress(CageProgress(0, n))
+    with closing(runner.run(_chunk_cages, tasks)) as outcomes:
+        for outcome in outcomes:
+            cages[outcome.index] = outcome.unwrap()
+            done += len(pieces[outcome.index])
+            if progress:
+                progress(CageProgress(done, n))
+    return CageProfile(samples, [c for chunk in cages for c in chunk])
+
+
+def cage_report(scene: Scene, options: CageOptions = CageOptions(),
+                progress: Callable[[CageProgress], None] | None = None) -> CageReport:
+    """Plan the scene (or read options.plan: one made for another scene only with options.force),
+    deviate its start if asked, and profile its cage (options.jobs worker processes; progress
+    called as states are done) and friction margins; a report without a profile when planning
+    finds no plan. Raises InputError naming the option or the scene field before any work."""
     from ..mechanics.cage import CageGrid
     from ..planning import plan as plan_scene
     from ..planning.path_margin import path_friction_margin, plan_friction_margins
 
     o = options.validated(scene)
     if o.plan is not None:
-        result = read_plan(o.plan)
+        result = read_plan_for(scene, o.plan, o.force)
         report = CageReport(scene, result, o, problems=plan_problems(scene, result))
     else:
         result = plan_scene(scene, planner=o.planner, time=o.time, seed=o.seed)
@@ -166,7 +236,8 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions()) -> CageRepor
     if o.start_psi_offset is not None:
         report.plan = result = deviated_plan(result, o.start_psi_offset)
     try:
-        report.profile = cage_profile(scene, result, grid=CageGrid().refined(o.refine), squeeze=o.squeeze)
+        report.profile = profile_cages(scene, result, CageGrid().refined(o.refine), o.squeeze, resolve_jobs(o.jobs),
+                                       progress)
     except InputError as exc:
         if exc.field != "grid":
             raise
@@ -176,4 +247,4 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions()) -> CageRepor
     return report
 
 
-__all__ = ["CageOptions", "CageReport", "cage_report"]
+__all__ = ["CageOptions", "CageProgress", "CageReport", "cage_report", "profile_cages"]

@@ -23,7 +23,7 @@ from ..perturbation import Perturbation, preset, trial_params
 from ..planning import plan as plan_scene
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.margins import Objective
-from ..planning.result import Plan, read_plan
+from ..planning.result import Plan
 from ..plotting import draw_trials
 from ..robot.export import export_all
 from ..robot.touch_off import touch_off
@@ -39,6 +39,7 @@ from ..sim.trial import TrialSetup, trial_mjcf
 from ..sim.world import World
 from ..tiling import Tiling, TilingOptions
 from ..view.record import write_view_record
+from .plan_files import read_plan_for
 from .tile import first_touch_off, layout_summary
 
 
@@ -75,6 +76,8 @@ class SimulateOptions:
     """The simulated object's thickness (m) instead of the scene's, the motion unchanged."""
     equal_digits: bool = False
     """Simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)."""
+    force: bool = False
+    """Execute a plan made for another scene (plan.json names its scene); False: refuse it (InputError)."""
 
     @property
     def workers(self) -> int:
@@ -91,6 +94,8 @@ class SimulateOptions:
         if self.trials < 1 or self.workers < 1:
             raise InputError("trials" if self.trials < 1 else "jobs", "must be at least 1")
         self.perturbation()
+        if self.force and self.plan is None:
+            raise InputError("force", "applies only with plan (a plan.json to execute)")
         if scene is None:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
@@ -139,33 +144,40 @@ class SceneSimulation:
         s = report.to_dict()
         errs, yaw, (low, high) = s["position_error_mm"], s["yaw_error_deg"], s["success_interval_95"]
         n = len(report.trials)
-        lines.append(f"{scene.name}: {len(self.plan.primitives)} primitives, {self.setup.drive.times[-1]:.2f} s from the "
-                     f"first primitive to the end of the retreat; errors '{report.perturbation.name}', seed {report.seed}"
+        lines.append(f"{scene.name}: {n} trials in MuJoCo of the plan's {len(self.plan.primitives)} primitives "
+                     f"({self.setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat); "
+                     f"{errors_words(report.perturbation)}; seed {report.seed}"
                      + ("" if report.world.nominal else
-                        f"; in a world the plan and its aim never saw: {report.world.describe()}"))
-        lines.append(f"success {report.successes}/{n} (95 % interval {100 * low:.0f}-{100 * high:.0f} %; placed within "
-                     f"{1000 * scene.sim.max_error:g} mm of the target)" + (
-                         f"; placement error mean {errs['mean']:.2f} mm, max {errs['max']:.2f} mm; yaw error mean "
-                         f"{yaw['mean']:.2f} deg, max {yaw['max']:.2f} deg (successful trials)" if report.successes else ""))
+                        f"; the simulated world differs from the one the plan and its aim assume: "
+                        f"{report.world.describe()}"))
+        lines.append(f"success: {report.successes}/{n} trials placed the object flat within "
+                     f"{1000 * scene.sim.max_error:g} mm of its target (95 % confidence interval of the success rate: "
+                     f"{100 * low:.0f}-{100 * high:.0f} %)" + (
+                         f"; in those it lay {errs['mean']:.2f} mm from its target on average ({errs['max']:.2f} mm at "
+                         f"most) and turned {yaw['mean']:.2f} deg on average ({yaw['max']:.2f} deg at most)"
+                         if report.successes else ""))
         if scene.robot.landing is Landing.MODELLED:
-            lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the model of the fall "
-                         "puts the object on average over friction x0.7-1.3 and both cones (robot.landing: modelled)")
+            lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to where the model of the "
+                         "object's fall puts it on average over friction 0.7 to 1.3 times the scene's and either "
+                         "friction-cone model")
         elif scene.robot.landing is not Landing.PLANNED:
             where = ("with no error put the object" if scene.robot.landing is Landing.SIMULATED else
-                     f"put the object on average over {scene.robot.landing_pairs} pairs of 'paper' draws, each "
-                     "in a world of its own")
-            lines.append(f"the hand aimed {report.aim.describe()} from the plan's landing, where the release simulated "
-                         f"{where} (robot.landing: {scene.robot.landing})" if any(report.aim) else
-                         f"robot.landing is {scene.robot.landing}, but the release simulated with no error did not place "
-                         "the object by the strict verdict: the hand aimed as planned")
+                     f"put the object on average over {scene.robot.landing_pairs} pairs of draws of the paper's "
+                     "errors, each in a world of its own")
+            lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to where the release "
+                         f"simulated {where}" if any(report.aim) else
+                         "the hand was aimed as planned: the release simulated with no error did not place the object "
+                         "by the strict verdict, so there was no landing to aim by")
         if report.placed != report.successes:
             placed = s["placed_position_error_mm"]
-            lines.append(f"placed by the paper's criterion (any error) {report.placed}/{n}; their error mean "
-                         f"{placed['mean']:.2f} mm, max {placed['max']:.2f} mm")
-        lines += [f"  {k} x {cause}" for cause, k in report.causes().items()]
+            lines.append(f"by the paper's criterion alone (flat, no digit touching, however far from the target) "
+                         f"{report.placed}/{n} trials placed it, {placed['mean']:.2f} mm from the target on average "
+                         f"({placed['max']:.2f} mm at most)")
+        lines += [f"  {k} {'trial' if k == 1 else 'trials'}: {what}" for what, k in failure_words(report.trials)]
         wall = sum(t.wall_time_s for t in report.trials) / n
-        lines.append(f"real-time factor {report.real_time_factor():.1f} per worker ({wall:.2f} s wall per trial); "
-                     f"deepest sinking into a digit or the table {s['max_penetration_mm']:.3f} mm")
+        lines.append(f"the simulation ran at {report.real_time_factor():.1f} times real time per worker process "
+                     f"({wall:.2f} s of computing per trial); the object sank at most {s['max_penetration_mm']:.3f} mm "
+                     "into a digit or the table (the simulated contacts are slightly soft)")
         return "\n".join(lines)
 
     def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
@@ -197,6 +209,49 @@ class SceneSimulation:
         return files
 
 
+def errors_words(p: Perturbation) -> str:
+    """The errors each trial draws (a perturbation preset's bounds), in words for a person."""
+    words = []
+    if p.shift_mm or p.yaw_deg:
+        words.append(f"the object up to {p.shift_mm:g} mm off in the grasp along and across it and turned up to "
+                     f"{p.yaw_deg:g} deg")
+    if p.friction:
+        words.append(f"friction up to {100 * p.friction:g} % lower")
+    if p.mass:
+        words.append(f"mass {100 * p.mass:g} % either way")
+    if p.thickness:
+        words.append(f"thickness {100 * p.thickness:g} % either way")
+    if p.palm_shift_mm or p.palm_turn_deg:
+        words.append(f"the hand's calibration up to {p.palm_shift_mm:g} mm and {p.palm_turn_deg:g} deg off")
+    if p.table_mm:
+        words.append(f"the table's height {p.table_mm:g} mm either way")
+    if p.probe_noise_n:
+        words.append(f"the touch-off's force readings {p.probe_noise_n:g} N noisy")
+    if not words:
+        return "no errors drawn"
+    name = "the paper's" if p.name == "paper" else f"the '{p.name}' preset's"
+    return f"each trial draws random errors within {name} bounds (docs/model.md 11.3): " + ", ".join(words)
+
+
+def failure_words(trials: list) -> list[tuple[str, int]]:
+    """The failed trials in words, counted by what happened and where ('the grip was lost ... during
+    primitive 5 (P_dpsi: ...)', 3), most first."""
+    from collections import Counter
+
+    from ..mechanics.contact import Primitive
+
+    def where(t) -> str:
+        if t.phase is None:
+            return ""
+        if t.phase in tuple(Primitive):
+            return f" during primitive {t.phase_index + 1} ({t.phase}: {Primitive(t.phase).describe()})"
+        return {"termination": " while the gripper let go", "retreat": " during the hand's retreat"}.get(
+            t.phase, f" during the {t.phase}")
+
+    counts = Counter(t.outcome.describe() + where(t) for t in trials if not t.success)
+    return counts.most_common()
+
+
 def simulate_scene(scene: Scene, options: SimulateOptions,
                    progress: Callable[[object], None] | None = None) -> SceneSimulation:
     """Plan the scene (or read options.plan), execute the plan, and run options.trials perturbed
@@ -208,7 +263,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
         scene = scene.with_digits(finger_tip=options.finger_tip)
     variant = Variant(thickness=options.thickness, equal_digits=options.equal_digits)
     if options.plan is not None:
-        result = read_plan(options.plan)
+        result = read_plan_for(scene, options.plan, options.force)
     else:
         result = plan_scene(scene, planner=options.planner, time=options.time, seed=options.seed,
                             objective=options.objective)
