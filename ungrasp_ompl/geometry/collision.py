@@ -9,7 +9,10 @@ fixed in the world: a frame's walls, pieces placed already) are checked in 3D.
 The object is checked against the obstacles and solids only (it touches the
 table at G and the digits at A and B): as a slab of the digits' width along GB,
 or, when the scene has its outline, as the whole outline's convex prism, tilted
-by theta about the plane's normal through G.
+by theta about the plane's normal through G. A pincer's digits (CollisionModel.pincer) are its
+own: each runs from its tip to the joint's level, the finger along its link, and the housing sits
+behind the joint (mechanics.pincer); a state the pincer cannot make (its finger out of reach, its joint
+angle outside its range) counts as a collision ("pincer/joint range").
 
 A numpy broad phase (bounding boxes in the plane, vectorised over states) sends only the
 state/body pairs that may touch to the narrow phase. Where a target is, within the slab a
@@ -31,12 +34,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..mechanics.kinematics import (DigitGeometry, digit_offsets, finger_corner, housing_centre, housing_offsets,
                                    release_travel, thumb_tip)
+from ..mechanics import pincer as pincer_kinematics
+from ..mechanics.pincer import PincerSpec
 from .solids import Solid, prism_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
 #: How far the digits may press into the table while the gripper lets go (m): robot.collision.TABLE_GAP.
 RELEASE_TABLE_GAP = 5e-4
+#: Most lattice states a pincer's lattice check places at once (its digits turn with every
+#: coordinate, so their outlines are computed per state: a slice of theta at a time).
+PINCER_LATTICE_CHUNK = 250_000
 
 
 def _prism(outline: NDArray, width: float) -> fcl.Convex:
@@ -157,6 +165,9 @@ class CollisionModel:
     #: are checked there against obstacles, solids and the release's table; the planned digits
     #: keep the scene's clearance over the table.
     lowered: float = 0.0
+    #: The gripper's joint when it is a pincer (robot.gripper, m; mechanics.pincer): its digits turn
+    #: about it, and the housing sits behind it; None: the parallel jaws.
+    pincer: PincerSpec | None = None
 
 
 class CollisionChecker:
@@ -167,10 +178,16 @@ class CollisionChecker:
         l = model.length
         dg = model.digits
         self._length = l
+        #: The pincer's joint radius and offset over l (None: the parallel jaws).
+        self._pincer = None if model.pincer is None else model.pincer.scaled(l)
+        thumb_length, finger_length = dg.thumb_length, dg.finger_length
+        if self._pincer is not None:  # each digit runs from its tip to the joint's level
+            thumb_length = pincer_kinematics.thumb_reach(dg, self._pincer[0])
+            finger_length = self._pincer[0] + dg.finger_tip_radius
         # Digit outlines in their own frame (x from tip toward palm, z along n_B), metres.
-        thumb = np.array([[0, 0], [dg.thumb_length, 0], [dg.thumb_length, -dg.thumb_base_thickness],
+        thumb = np.array([[0, 0], [thumb_length, 0], [thumb_length, -dg.thumb_base_thickness],
                           [0, -dg.thumb_tip_thickness]]) * l
-        finger = np.array([[0, 0], [dg.finger_length, 0], [dg.finger_length, dg.finger_base_thickness],
+        finger = np.array([[0, 0], [finger_length, 0], [finger_length, dg.finger_base_thickness],
                            [0, dg.finger_tip_thickness]]) * l
         t = max(model.thickness, 1e-6)
         width = dg.width * l
@@ -236,6 +253,12 @@ class CollisionChecker:
         housing's centre) and its outline relative to that point (..., 4, 2), over l. The
         reference points are where the hand runs: CollisionModel.lowered below the plan's."""
         dg = self.model.digits
+        if self._pincer is not None:
+            frames = self._pincer_frames(theta, d, psi)
+            if self.model.lowered:
+                down = np.array([0.0, self.model.lowered / self._length])
+                frames = {body: (angle, ref - down, offsets) for body, (angle, ref, offsets) in frames.items()}
+            return frames
         beta = theta + psi
         thumb, finger = digit_offsets(theta, psi, dg)
         frames = {
@@ -248,6 +271,40 @@ class CollisionChecker:
             down = np.array([0.0, self.model.lowered / self._length])
             frames = {body: (angle, ref - down, offsets) for body, (angle, ref, offsets) in frames.items()}
         return frames
+
+    def _pincer_pose(self, theta: NDArray, d: NDArray, psi: NDArray) -> pincer_kinematics.PincerPose:
+        """The pincer at states (theta, d, psi), over l (mechanics.pincer.pincer_pose)."""
+        return pincer_kinematics.pincer_pose(theta, d, psi, self.model.digits, *self._pincer)
+
+    def _pincer_frames(self, theta: NDArray, d: NDArray, psi: NDArray
+                       ) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
+        """_frames for a pincer: its thumb at its own tip along its face, its finger along its link
+        from the joint to its tip, the housing behind the joint (mechanics.pincer), over l, where the
+        plan has them."""
+        dg = self.model.digits
+        pose = self._pincer_pose(theta, d, psi)
+        thumb, finger = pincer_kinematics.digit_outlines(pose, dg)
+        frames = {"thumb": (pincer_kinematics.plane_angle(-pose.thumb_z), pose.thumb_tip, thumb),
+                  "finger": (pincer_kinematics.plane_angle(-pose.finger_z), pose.finger_corner, finger)}
+        if "palm" in self._bodies:
+            centre, outline = pincer_kinematics.housing(pose, dg)
+            frames["palm"] = (pincer_kinematics.plane_angle(-pose.palm_z), centre, outline)
+        return frames
+
+    def out_of_reach(self, q: ArrayLike) -> NDArray[np.bool_]:
+        """For each state q (N, 3): whether a pincer cannot make it (its finger does not reach the
+        state, or its joint angle lies outside 0 to max_angle); all False for the parallel jaws,
+        whose opening the kinematic checks bound."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self._pincer is None:
+            return np.zeros(len(q), dtype=bool)
+        return self._beyond_joint(q[:, 0], q[:, 1], q[:, 2])
+
+    def _beyond_joint(self, theta: NDArray, d: NDArray, psi: NDArray) -> NDArray[np.bool_]:
+        angle = self._pincer_pose(theta, d, psi).angle
+        with np.errstate(invalid="ignore"):
+            inside = (angle >= -1e-12) & (angle <= self.model.pincer.max_angle + 1e-12)
+        return ~inside  # NaN (out of the finger's reach) is outside
 
     def _object_pose(self, theta: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         """The object's frame angle (N,), frame origin (N, 2) and outline (N, 4, 2), metres, at the
@@ -320,6 +377,8 @@ class CollisionChecker:
         hit = np.zeros(len(q), dtype=bool)
         if not len(q):
             return hit
+        if self._pincer is not None:
+            hit |= self.out_of_reach(q)
         if self._targets:
             thetas, which = np.unique(q[:, 0], return_inverse=True)
             hit |= self._hits({"object": self._object_pose(thetas)})[which]
@@ -340,9 +399,17 @@ class CollisionChecker:
         th, d, ps = (np.asarray(a, dtype=float).reshape(s) for a, s in zip(axes, ((-1, 1, 1), (1, -1, 1), (1, 1, -1))))
         shape = (th.shape[0], d.shape[1], ps.shape[2])
         l = self._length
+        if self._pincer is not None:  # the pincer's digits turn with every coordinate: a slice of theta at a time
+            step = max(1, PINCER_LATTICE_CHUNK // (shape[1] * shape[2]))
+            if shape[0] > step:
+                return np.concatenate([self.in_collision_lattice(
+                    (th.ravel()[i:i + step], d.ravel(), ps.ravel()), None if where is None else where[i:i + step])
+                    for i in range(0, shape[0], step)])
         todo = np.ones(shape, dtype=bool) if where is None else where.copy()
         frames = self._frames(th, d, ps)
         hit = np.zeros(shape, dtype=bool)
+        if self._pincer is not None:
+            hit |= self._beyond_joint(th, d, ps)
         for _, ref, offsets in frames.values():
             hit |= (ref[..., 1] + offsets[..., 1].min(axis=-1)) * l < -self._table_gap
         hit &= todo
@@ -386,7 +453,11 @@ class CollisionChecker:
         """Whether the gripper hits something while it lets go from states q (N, 3) (paper fig. 10d).
 
         kinds 'open', 'open_symmetric' and 'open_lift': the gripper opens by amount (m), its
-        bodies moving as mechanics.release_travel has them. kind 'rotate': the
+        bodies moving as mechanics.release_travel has them; a pincer's joint opens instead by the
+        turn that moves its finger's tip by amount (PincerSpec.opening_angle), its digits and
+        housing turning about the joint: with 'open' the thumb stays and the housing turns half as
+        far as the finger, with 'open_symmetric' the housing stays and the digits turn half of it
+        each (mechanics.pincer; a pincer has no 'open_lift'). kind 'rotate': the
         gripper turns by amount (rad) about the thumb tip, the way that lifts the finger. Checked
         at steps poses along the way, where the hand runs (CollisionModel.lowered below the plan);
         the digits may press into the table by RELEASE_TABLE_GAP, as the robot's own check allows.
@@ -395,13 +466,26 @@ class CollisionChecker:
         poses = self._digit_poses(q)
         pivot = poses["thumb"][1]  # the thumb tip
         lift = np.where(poses["finger"][1][:, 0] < pivot[:, 0], -1.0, 1.0)  # turning sign that raises the finger
-        travel = None if kind == "rotate" else release_travel(q[:, 0], q[:, 2], kind)
+        opens = self._pincer is not None and kind != "rotate"
+        travel = None if kind == "rotate" or opens else release_travel(q[:, 0], q[:, 2], kind)
+        if opens:  # the pincer's joint opens: its digits turn about it (mechanics.pincer)
+            pose = self._pincer_pose(q[:, 0], q[:, 1], q[:, 2])
+            joint = pose.joint * self._length - np.array([0.0, self.model.lowered])  # where the hand runs
+            sense = np.sign(pose.palm_z[:, 0] * pose.palm_x[:, 1] - pose.palm_z[:, 1] * pose.palm_x[:, 0])
+            share = {"open": {"thumb": 0.0, "finger": 1.0, "palm": 0.5},
+                     "open_symmetric": {"thumb": -0.5, "finger": 0.5, "palm": 0.0}}[kind]
+            opening = self.model.pincer.opening_angle(amount)
+            about = pincer_kinematics.turn_about
         hit = np.zeros(len(q), dtype=bool)
         for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
             moved = {}
             turn = lift * amount * f
             for body, (angle, origin, outline) in poses.items():
-                if kind == "rotate":
+                if opens:
+                    a = np.full(len(q), share[body] * opening * f)
+                    moved[body] = (angle + sense * a, about(origin, joint, a, pose.palm_z, pose.palm_x),
+                                   about(outline, joint, a, pose.palm_z, pose.palm_x))
+                elif kind == "rotate":
                     moved[body] = (angle + turn, _turned(origin, pivot, turn), _turned(outline, pivot, turn))
                 else:
                     shift = travel[body] * (amount * f)
@@ -412,6 +496,8 @@ class CollisionChecker:
     def contacts(self, q: ArrayLike) -> list[str]:
         """The colliding (body, target) pairs of one state, as 'body/target' names."""
         q = np.atleast_2d(np.asarray(q, dtype=float))[:1]
+        if self.out_of_reach(q)[0]:
+            return ["pincer/joint range"]
         poses = self._poses(q)
         out = [f"{body}/table" for body, (_, _, outline) in poses.items()
                if body != "object" and self._below_table(outline, self._table_gap)[0]]

@@ -3,7 +3,8 @@
 UR e-series arm.
 
 Units everywhere: time in seconds; arm joints in rad, rad/s, rad/s^2; the gripper opening
-in m, m/s, m/s^2. Every file is written atomically (ungrasp_ompl.io): after a failed write
+in m, m/s, m/s^2 (a pincer's joint angle, ``gripper_angle``, in rad, rad/s, rad/s^2: the
+trajectory's last joint says which). Every file is written atomically (ungrasp_ompl.io): after a failed write
 the file at the path is still its previous self.
 """
 
@@ -26,7 +27,7 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..io import parse_yaml, read_json_file, write_atomic, write_text_atomic
 from .touch_off import TouchOff
-from .trajectory import ARM_JOINTS, GRIPPER_JOINT, JointTrajectory
+from .trajectory import ARM_JOINTS, GRIPPER_JOINT, PINCER_JOINT, JointTrajectory
 
 #: Version of the CSV/JSON/YAML/URScript layouts written here.
 SCHEMA_VERSION = 1
@@ -42,14 +43,18 @@ UNITS = {
     "arm_positions": "rad", "arm_velocities": "rad/s", "arm_accelerations": "rad/s^2",
     "gripper_positions": "m", "gripper_velocities": "m/s", "gripper_accelerations": "m/s^2",
 }
+#: A pincer's units (its last joint the joint angle, PINCER_JOINT).
+PINCER_UNITS = {**UNITS, "gripper_positions": "rad", "gripper_velocities": "rad/s", "gripper_accelerations": "rad/s^2"}
 _CSV_SUFFIXES = ("pos", "vel", "acc")
 #: servoj limits from the URScript manual.
 _LOOKAHEAD_RANGE_S = (0.03, 0.2)
 _GAIN_RANGE = (100.0, 2000.0)
 #: movej to the first pose: modest joint acceleration (rad/s^2) and speed (rad/s).
 _MOVEJ_ACC, _MOVEJ_VEL = 1.0, 0.5
-#: The URScript export commands the gripper again once its opening moved this far, m.
+#: The URScript export commands the gripper again once its opening moved this far, m (a pincer's
+#: angle: GRIPPER_RESEND_RAD, rad, 0.06 mm at a 60 mm joint radius).
 GRIPPER_RESEND_M = 1e-4
+GRIPPER_RESEND_RAD = 1e-3
 _FILES = {"csv": "trajectory.csv", "json": "trajectory.json", "ros2_arm": "trajectory_ros2_arm.yaml",
           "ros2_gripper": "trajectory_ros2_gripper.yaml", "urscript": "trajectory.urscript"}
 
@@ -58,6 +63,11 @@ Point = tuple[float, list[float], list[float], list[float]]
 
 
 # --- shared helpers ----------------------------------------------------------------------
+
+def is_pincer(traj: JointTrajectory) -> bool:
+    """Whether the trajectory's gripper is a pincer: its last joint is PINCER_JOINT (rad)."""
+    return bool(traj.joint_names) and traj.joint_names[-1] == PINCER_JOINT
+
 
 def _num(x: float) -> str:
     """A float in full precision (round-trips exactly)."""
@@ -170,7 +180,7 @@ def write_json(traj: JointTrajectory, path: PathLike) -> None:
     head = {
         "schema_version": SCHEMA_VERSION,
         "format": JSON_FORMAT,
-        "units": UNITS,
+        "units": PINCER_UNITS if is_pincer(traj) else UNITS,
         "joint_names": list(traj.joint_names),
         "segments": [{"name": s, "start": int(a), "end": int(b)} for s, a, b in traj.segments],
     }
@@ -228,6 +238,13 @@ ROS2_GOALS = {
         "# otherwise needs its name and units here). It follows the opening over time, which a\n"
         "# GripperCommand action (one target) cannot.\n")),
 }
+#: A pincer's gripper goal: its joint angle.
+_PINCER_GOAL = ((PINCER_JOINT,), (
+    f"# The pincer alone: '{PINCER_JOINT}', the angle its digits are turned apart from closed (rad,\n"
+    "# rad/s, rad/s^2), for a joint_trajectory_controller/JointTrajectoryController that commands\n"
+    f"# the joint's position interface (joints: [{PINCER_JOINT}]; a joint named or zeroed otherwise\n"
+    "# needs its name and offset here). It follows the angle over time, which a GripperCommand\n"
+    "# action (one target) cannot.\n"))
 _SEND_NOTE = (
     "# Send it as `ros2 action send_goal` does (rosidl_runtime_py.set_message_fields on a\n"
     "# FollowJointTrajectory.Goal from this YAML, then an rclpy ActionClient); a long goal exceeds\n"
@@ -237,11 +254,12 @@ _SEND_NOTE = (
 
 def write_ros2_yaml(traj: JointTrajectory, path: PathLike, part: str) -> None:
     """The goal of a ROS 2 control_msgs/action/FollowJointTrajectory for one controller as YAML:
-    part "arm" (ARM_JOINTS, rad, rad/s, rad/s^2) or "gripper" (GRIPPER_JOINT, m, m/s, m/s^2),
-    a trajectory_msgs/JointTrajectory with every sample, time_from_start the sample time (s)."""
+    part "arm" (ARM_JOINTS, rad, rad/s, rad/s^2) or "gripper" (GRIPPER_JOINT, m, m/s, m/s^2; a
+    pincer's PINCER_JOINT, rad, rad/s, rad/s^2), a trajectory_msgs/JointTrajectory with every
+    sample, time_from_start the sample time (s)."""
     if part not in ROS2_GOALS:
         raise InputError("part", f"must be one of {', '.join(ROS2_GOALS)}, got {part!r}")
-    joints, note = ROS2_GOALS[part]
+    joints, note = _PINCER_GOAL if part == "gripper" and is_pincer(traj) else ROS2_GOALS[part]
     missing = [j for j in joints if j not in traj.joint_names]
     if missing:
         raise InputError("joint_names", f"lack {', '.join(missing)} for the {part}'s ROS 2 goal")
@@ -334,6 +352,17 @@ def _joint_list(q: Iterable[float]) -> str:
     return "[" + ", ".join(f"{v:.6f}" for v in q) + "]"
 
 
+_PINCER_FUNCTION = """\
+  # Gripper hook: command the pincer's joint angle, angle_rad in radians from closed.
+  # PLACEHOLDER: integrators replace the body with their gripper's call, e.g. a message over
+  # a socket to its joint's position controller (convert radians to the joint's own units and
+  # zero there). It is called between servoj steps, so it must not block: return within the
+  # 2 ms control period (send the command, or hand it to a thread), never wait for the motion.
+  def ungrasp_gripper_set_angle(angle_rad):
+    textmsg("gripper angle ", angle_rad)
+  end
+"""
+
 _GRIPPER_FUNCTION = """\
   # Gripper hook: command the distance between the digit faces, opening_m in metres.
   # PLACEHOLDER: integrators replace the body with their gripper's call, e.g. the
@@ -351,12 +380,16 @@ def write_urscript(traj: JointTrajectory, path: PathLike, lookahead_time: float 
                    gain: float = 300) -> None:
     """A URScript program that streams the arm's positions (rad), linearly resampled every
     CONTROL_PERIOD_S (s), with servoj, and calls ungrasp_gripper_set_opening(m) whenever the
-    commanded opening has moved more than GRIPPER_RESEND_M (and once at the start).
+    commanded opening has moved more than GRIPPER_RESEND_M (and once at the start); a pincer's
+    ungrasp_gripper_set_angle(rad), whenever its angle has moved more than GRIPPER_RESEND_RAD.
     lookahead_time in s (0.03..0.2), gain 100..2000 (servoj's ranges). The trajectory's
-    joints must be ARM_JOINTS then GRIPPER_JOINT."""
+    joints must be ARM_JOINTS then GRIPPER_JOINT (or PINCER_JOINT)."""
     _checked(traj)
-    if tuple(traj.joint_names) != ARM_JOINTS + (GRIPPER_JOINT,):
+    pincer = is_pincer(traj)
+    if not pincer and tuple(traj.joint_names) != ARM_JOINTS + (GRIPPER_JOINT,):
         raise InputError("joint_names", f"URScript export needs {ARM_JOINTS + (GRIPPER_JOINT,)}")
+    if pincer and tuple(traj.joint_names) != ARM_JOINTS + (PINCER_JOINT,):
+        raise InputError("joint_names", f"URScript export needs {ARM_JOINTS + (PINCER_JOINT,)}")
     if not _LOOKAHEAD_RANGE_S[0] <= lookahead_time <= _LOOKAHEAD_RANGE_S[1]:
         raise InputError("lookahead_time", f"{lookahead_time} s is outside servoj's {_LOOKAHEAD_RANGE_S}")
     if not _GAIN_RANGE[0] <= gain <= _GAIN_RANGE[1]:
@@ -366,23 +399,27 @@ def write_urscript(traj: JointTrajectory, path: PathLike, lookahead_time: float 
     arm, opening = samples[:, : len(ARM_JOINTS)], samples[:, len(ARM_JOINTS)]
     servo = f"0, 0, {CONTROL_PERIOD_S:g}, {lookahead_time:g}, {gain:g})"
 
+    setter, resend = ("ungrasp_gripper_set_angle", GRIPPER_RESEND_RAD) if pincer else \
+        ("ungrasp_gripper_set_opening", GRIPPER_RESEND_M)
     lines = [
         f"# Generated by ungrasp-ompl (export schema version {SCHEMA_VERSION}).",
         f"# Duration {traj.duration:.6f} s: {len(times)} servoj steps of {CONTROL_PERIOD_S:g} s"
         f" ({1 / CONTROL_PERIOD_S:g} Hz), lookahead {lookahead_time:g} s, gain {gain:g}.",
-        f"# Arm joints (rad): {', '.join(ARM_JOINTS)}; gripper: {GRIPPER_JOINT} (m).",
+        f"# Arm joints (rad): {', '.join(ARM_JOINTS)}; gripper: "
+        + (f"{PINCER_JOINT} (rad)." if pincer else f"{GRIPPER_JOINT} (m)."),
         "def ungrasp_program():",
-        _GRIPPER_FUNCTION.rstrip("\n"),
+        (_PINCER_FUNCTION if pincer else _GRIPPER_FUNCTION).rstrip("\n"),
         "",
-        "  # Set the gripper to the plan's first opening, then move (joint space) to the first pose.",
-        f"  ungrasp_gripper_set_opening({opening[0]:.6f})",
+        "  # Set the gripper to the plan's first " + ("angle" if pincer else "opening")
+        + ", then move (joint space) to the first pose.",
+        f"  {setter}({opening[0]:.6f})",
         f"  movej({_joint_list(arm[0])}, a={_MOVEJ_ACC:g}, v={_MOVEJ_VEL:g})",
         "  # Stream the trajectory, one servoj per control period.",
     ]
     sent = opening[0]
     for q, x in zip(arm, opening):
-        if abs(x - sent) > GRIPPER_RESEND_M:
-            lines.append(f"  ungrasp_gripper_set_opening({x:.6f})")
+        if abs(x - sent) > resend:
+            lines.append(f"  {setter}({x:.6f})")
             sent = x
         lines.append(f"  servoj({_joint_list(q)}, {servo}")
     lines += ["  stopj(2.0)", "end", "", "ungrasp_program()", ""]

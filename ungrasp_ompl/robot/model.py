@@ -17,6 +17,14 @@ Trajectory configuration (7,): the six arm joints (rad) in ``ARM_JOINTS`` order,
 opening (m, the distance between the digit faces), as in ``trajectory.JOINT_NAMES``. The Pinocchio
 model has one more coordinate: the two jaw slides (-opening/2, +opening/2); ``configuration``
 expands a trajectory configuration into it.
+
+A pincer (``load_ur5e(..., pincer=...)``, mechanics.pincer) has a hinge instead of the slides: the
+palm frame's origin is then on the joint's axis (palm y), z bisects the digits toward their tips
+and x points toward the finger; each digit turns about the axis by half the joint angle phi (rad,
+0 closed), the thumb by -phi/2 and the finger by +phi/2 (a turn about +y takes z toward x), the
+coordinates (-phi/2, +phi/2) of the two hinges. The trajectory's last column is phi
+(``trajectory.PINCER_JOINT_NAMES``). The thumb's face lies joint_offset from the axis, the finger's
+tip centre joint_radius from it; each digit's collision box runs from its tip to the joint's level.
 """
 
 from __future__ import annotations
@@ -35,7 +43,8 @@ except ImportError:  # pragma: no cover
 
 from ..errors import InputError
 from ..robots import ur5e_urdf
-from .trajectory import ARM_JOINTS, GRIPPER_JOINT
+from ..mechanics.pincer import PincerLinks
+from .trajectory import ARM_JOINTS, GRIPPER_JOINT, PINCER_JOINT
 
 #: UR5e published DH table (m, rad); standard DH, T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
 DH_A = np.array([0.0, -0.425, -0.3922, 0.0, 0.0, 0.0])
@@ -61,6 +70,11 @@ PALM_WIDTH_Y = 0.06
 
 PALM_FRAME = "ungrasp_palm"
 THUMB_SLIDE = "gripper_thumb_slide"
+#: A pincer's thumb hinge (its finger's is trajectory.PINCER_JOINT) and its digits' frames: origin on
+#: the digit's contact face at the joint's level, z along the face toward the tip, x across the gap
+#: toward the finger (the thumb's body at smaller x, the finger's at larger x).
+THUMB_HINGE = "gripper_thumb_hinge"
+PINCER_THUMB_FRAME, PINCER_FINGER_FRAME = "gripper_thumb", "gripper_finger"
 TOOL0_FRAME = "tool0"
 
 
@@ -111,6 +125,7 @@ class RobotModel:
     a_max: NDArray[np.float64]
     gripper: GripperSpec
     base: NDArray[np.float64]
+    pincer: PincerLinks | None = None  #: a pincer's links (m, rad); None: the parallel jaws
 
     @property
     def tool0_frame(self) -> int:
@@ -220,13 +235,53 @@ def _add_gripper(model: pin.Model, geometry: pin.GeometryModel, spec: GripperSpe
     return palm
 
 
-def load_ur5e(gripper: GripperSpec, base: ArrayLike | None = None, urdf: Path | str | None = None
-              ) -> RobotModel:
+def _rot_y(angle: float) -> NDArray[np.float64]:
+    """The rotation by angle (rad) about y, taking z toward x."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _add_pincer(model: pin.Model, geometry: pin.GeometryModel, spec: GripperSpec, links: PincerLinks) -> int:
+    """Append the palm frame on the pincer's joint, its two hinges (THUMB_HINGE and PINCER_JOINT,
+    about palm y), the digits' frames, and the palm, thumb and finger collision boxes. Returns the
+    palm frame id."""
+    tool0 = model.getFrameId(TOOL0_FRAME)
+    wrist = model.frames[tool0].parentJoint
+    palm_in_wrist = model.frames[tool0].placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, spec.palm_depth]))
+    palm = model.addFrame(pin.Frame(PALM_FRAME, wrist, tool0, palm_in_wrist, pin.FrameType.OP_FRAME))
+    palm_size = (spec.palm_width, spec.palm_thickness, spec.palm_depth)
+    palm_center = pin.SE3(np.eye(3), np.array([0.0, 0.0, -spec.palm_depth / 2]))
+    model.appendBodyToJoint(wrist, pin.Inertia.FromBox(GRIPPER_BODY_MASS, *palm_size), palm_in_wrist * palm_center)
+    geometry.addGeometryObject(_box("gripper_palm", wrist, palm, palm_in_wrist * palm_center, palm_size))
+    half = links.max_angle / 2
+    torque = np.array([links.joint_torque])
+    speed = np.array([GRIPPER_VEL_LIMIT / links.radius / 2])
+    # each digit's frame in its hinge's, closed: turned half the closed angle, its face's foot
+    # offset from the axis (the thumb's by the joint offset, the finger's by its tip's rounding)
+    for name, frame, sign, across, length, limits in (
+            (THUMB_HINGE, PINCER_THUMB_FRAME, -1.0, links.offset, links.thumb_reach, (-half, 0.0)),
+            (PINCER_JOINT, PINCER_FINGER_FRAME, 1.0, links.tip_radius, links.finger_length, (0.0, half))):
+        hinge = model.addJoint(wrist, pin.JointModelRY(), palm_in_wrist, name, torque, speed,
+                               np.array([limits[0]]), np.array([limits[1]]))
+        model.addJointFrame(hinge, palm)
+        turn = _rot_y(sign * links.closed_angle / 2)
+        digit = pin.SE3(turn, turn @ np.array([-across, 0.0, 0.0]))
+        digit_frame = model.addFrame(pin.Frame(frame, hinge, palm, digit, pin.FrameType.OP_FRAME))
+        centre = digit * pin.SE3(np.eye(3), np.array([sign * spec.digit_thickness / 2, 0.0, length / 2]))
+        size = (spec.digit_thickness, spec.finger_width, length)
+        model.appendBodyToJoint(hinge, pin.Inertia.FromBox(GRIPPER_FINGER_MASS, *size), centre)
+        geometry.addGeometryObject(_box(frame, hinge, digit_frame, centre, size))
+    return palm
+
+
+def load_ur5e(gripper: GripperSpec, base: ArrayLike | None = None, urdf: Path | str | None = None,
+              pincer: PincerLinks | None = None) -> RobotModel:
     """Load the UR5e (the shipped ``ungrasp_ompl/robots/ur5e.urdf``) with ``gripper`` on its flange.
 
     base: 4x4 pose of the arm's base frame in the world (default identity). urdf: another URDF
     with the same link and joint names (default ``ungrasp_ompl.robots.ur5e_urdf()``, the shipped
-    one, found with importlib.resources).
+    one, found with importlib.resources). pincer: the gripper's digits hinge on one joint with these
+    links (its housing and digit sizes from gripper), rather than slide apart.
     """
     path = Path(urdf) if urdf is not None else ur5e_urdf()
     if not path.is_file():
@@ -239,24 +294,31 @@ def load_ur5e(gripper: GripperSpec, base: ArrayLike | None = None, urdf: Path | 
     if missing or not model.existFrame(TOOL0_FRAME):
         raise InputError("robot.urdf", f"{path}: missing {', '.join(missing) or TOOL0_FRAME}")
     _place_base(model, geometry, pin.SE3(base_pose))
-    palm = _add_gripper(model, geometry, gripper)
+    palm = _add_gripper(model, geometry, gripper) if pincer is None else _add_pincer(model, geometry, gripper, pincer)
 
     arm_ids = tuple(model.getJointId(name) for name in ARM_JOINTS)
     arm_q = [model.joints[j].idx_q for j in arm_ids]
     n_arm = len(arm_ids)
-    # limits in trajectory coordinates: the arm joints, then the opening
+    # limits in trajectory coordinates: the arm joints, then the opening (a pincer's joint angle:
+    # the finger tip's speed and acceleration limits at the joint radius)
+    if pincer is None:
+        stroke, speed, accel = gripper.max_opening, GRIPPER_VEL_LIMIT, GRIPPER_ACCEL_LIMIT
+    else:
+        stroke, speed, accel = (pincer.max_angle, GRIPPER_VEL_LIMIT / pincer.radius,
+                                GRIPPER_ACCEL_LIMIT / pincer.radius)
     q_lower = np.append(model.lowerPositionLimit[arm_q], 0.0)
-    q_upper = np.append(model.upperPositionLimit[arm_q], gripper.max_opening)
-    v_max = np.append(np.asarray(model.velocityLimit)[arm_q], GRIPPER_VEL_LIMIT)
-    a_max = np.array([ARM_ACCEL_LIMIT] * n_arm + [GRIPPER_ACCEL_LIMIT])
+    q_upper = np.append(model.upperPositionLimit[arm_q], stroke)
+    v_max = np.append(np.asarray(model.velocityLimit)[arm_q], speed)
+    a_max = np.array([ARM_ACCEL_LIMIT] * n_arm + [accel])
     return RobotModel(model=model, data=model.createData(), collision_model=geometry, tcp_frame=palm,
                       arm_joint_ids=arm_ids, q_lower=q_lower, q_upper=q_upper, v_max=v_max,
-                      a_max=a_max, gripper=gripper, base=base_pose.copy())
+                      a_max=a_max, gripper=gripper, base=base_pose.copy(), pincer=pincer)
 
 
 def configuration(robot: RobotModel, q: ArrayLike, opening: float = 0.0) -> NDArray[np.float64]:
     """The Pinocchio configuration (8,) of a trajectory configuration: the arm's (6,) with
-    ``opening`` (m), or the arm and the opening (7,); the jaws at -opening/2 and +opening/2."""
+    ``opening`` (m), or the arm and the opening (7,); the jaws at -opening/2 and +opening/2 (a
+    pincer's opening is its joint angle, rad: its hinges at -angle/2 and +angle/2)."""
     q = np.asarray(q, dtype=float).ravel()
     n_arm = len(robot.arm_joint_ids)
     if q.size == n_arm + 1:
@@ -279,17 +341,24 @@ def tcp_pose(robot: RobotModel, q: ArrayLike) -> NDArray[np.float64]:
 
 def thumb_tip(robot: RobotModel, q: ArrayLike) -> NDArray[np.float64]:
     """World position (3,) of the thumb's contact-face tip: palm origin - opening/2 along palm x +
-    thumb_length along palm z. q (7,) includes the opening (m)."""
+    thumb_length along palm z (a pincer's: thumb_reach along its face from the joint's foot). q (7,)
+    includes the opening (m; a pincer's joint angle, rad)."""
     if np.size(q) != len(robot.arm_joint_ids) + 1:
         raise ValueError(f"thumb_tip needs q with the opening ({len(robot.arm_joint_ids) + 1} entries)")
+    if robot.pincer is not None:
+        return _point_on(robot, q, robot.model.getFrameId(PINCER_THUMB_FRAME), (0.0, 0.0, robot.pincer.thumb_reach))
     return _point_on(robot, q, robot.model.getFrameId(THUMB_SLIDE), (0.0, 0.0, robot.gripper.thumb_length))
 
 
 def finger_tip(robot: RobotModel, q: ArrayLike) -> NDArray[np.float64]:
     """World position (3,) of the finger's contact-face tip: palm origin + opening/2 along palm x +
-    finger_length along palm z. q (7,) includes the opening (m)."""
+    finger_length along palm z (a pincer's: its face's end, the joint radius and the tip's rounding
+    along it from the joint's level). q (7,) includes the opening (m; a pincer's joint angle, rad)."""
     if np.size(q) != len(robot.arm_joint_ids) + 1:
         raise ValueError(f"finger_tip needs q with the opening ({len(robot.arm_joint_ids) + 1} entries)")
+    if robot.pincer is not None:
+        return _point_on(robot, q, robot.model.getFrameId(PINCER_FINGER_FRAME),
+                         (0.0, 0.0, robot.pincer.finger_length))
     finger_frame = robot.model.getFrameId(GRIPPER_JOINT)
     return _point_on(robot, q, finger_frame, (0.0, 0.0, robot.gripper.finger_length))
 

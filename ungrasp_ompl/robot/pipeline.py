@@ -7,7 +7,9 @@ Cartesian IK, then TOPPRA along the fixed path, as much lower), the termination
 maneuver (paper fig. 10d: open the gripper, or turn it about the thumb tip;
 TOPPRA), the retreat (the palm lifted straight up; TOPPRA). Every
 sample is checked against the joint limits and for collision of the arm and
-gripper with the table and the obstacles.
+gripper with the table and the obstacles. A pincer (robot.gripper, mechanics.pincer)
+gives the trajectory its joint angle (rad) instead of the opening, and lets go by
+opening its joint.
 """
 
 from __future__ import annotations
@@ -30,9 +32,10 @@ from ..scene.options import Termination
 from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
+from ..mechanics.pincer import PincerLinks, pincer_links
 from .placement import contact_points_world, default_plane_frame, densify, palm_poses
 from .timing import Samples, TimingError, Untimeable, ruckig_move, toppra_path
-from .trajectory import JOINT_NAMES, JointTrajectory
+from .trajectory import JOINT_NAMES, PINCER_JOINT_NAMES, JointTrajectory
 
 #: Sampling period of the exported trajectory (s); the URScript export resamples at 500 Hz.
 SAMPLE_PERIOD = 0.008
@@ -71,32 +74,46 @@ class Execution:
     aims: tuple["Aim", ...] = ()  # per plan: how the hand's motion is moved from the plan's frame (robot.landing)
 
     def summary(self) -> str:
+        """What the arm's trajectory is and how closely it follows the plan, for a person."""
         tr = self.trajectory
-        return (f"trajectory: {tr.duration:.2f} s, {len(tr.times)} samples; largest joint velocity "
-                f"{100 * self.velocity_fraction:.0f}% and acceleration {100 * self.acceleration_fraction:.0f}% of their "
-                f"limits; IK residual {self.ik_residual_m * 1000:.4f} mm / {self.ik_residual_rad * 1000:.4f} mrad; "
-                f"contacts within {self.contact_error_m * 1000:.3f} mm of the plan" + self._aimed())
+        return (f"arm trajectory: {tr.duration:.2f} s, {len(tr.times)} samples; the joints reach at most "
+                f"{100 * self.velocity_fraction:.0f} % of their velocity limits and {100 * self.acceleration_fraction:.0f} % "
+                f"of their acceleration limits; the inverse kinematics reach the planned hand poses within "
+                f"{self.ik_residual_m * 1000:.4f} mm and {self.ik_residual_rad * 1000:.4f} mrad, and the digit tips stay "
+                f"within {self.contact_error_m * 1000:.3f} mm of the planned contacts" + self._aimed())
 
     def _aimed(self) -> str:
         """The summary's clause on the aims (robot.landing), empty when no plan was aimed."""
         if not any(map(any, self.aims)):
             return ""
         if len(self.aims) == 1:
-            return f"; the hand aimed {self.aims[0].describe()} from the plan's frame (robot.landing)"
-        return ("; the hand aimed " + ", ".join(aim.describe() for aim in self.aims)
-                + " from the plans' frames, plan by plan (robot.landing)")
+            return (f"; the hand's whole motion is moved {self.aims[0].describe()} from where the plan puts it, so that "
+                    "the object lands on its target (as the scene's robot.landing asks)")
+        return ("; each plan's hand motion is moved from where its plan puts it, so that its object lands on its "
+                "target (as its scene's robot.landing asks): " + ", ".join(aim.describe() for aim in self.aims))
 
 
 def gripper_spec(scene: Scene) -> GripperSpec:
-    """The gripper whose digits the planner assumed (scene digits, metres)."""
+    """The gripper whose digits the planner assumed (scene digits, metres); a pincer's digits run
+    from their tips to its joint's level (mechanics.pincer)."""
     l, dg = scene.object_length, scene.digits
     max_opening = 0.106 if math.isinf(dg.max_aperture) else dg.max_aperture * l
-    return GripperSpec(finger_length=dg.finger_length * l, thumb_length=dg.thumb_length * l,
+    links = gripper_links(scene)
+    finger, thumb = (dg.finger_length * l, dg.thumb_length * l) if links is None else \
+        (links.finger_length, links.thumb_reach)
+    return GripperSpec(finger_length=finger, thumb_length=thumb,
                        finger_width=dg.width * l, digit_thickness=dg.thumb_tip_thickness * l,
                        palm_depth=dg.palm_length * l if dg.palm_length else scene.robot.palm_depth,
                        max_opening=max_opening,
                        palm_width=dg.palm_width * l if dg.palm_width else GripperSpec.palm_width,
                        palm_thickness=dg.palm_thickness * l if dg.palm_thickness else GripperSpec.palm_thickness)
+
+
+def gripper_links(scene: Scene) -> PincerLinks | None:
+    """The scene's pincer as the robot builds it (robot.gripper, m), or None for the parallel jaws."""
+    if scene.robot.gripper is None:
+        return None
+    return pincer_links(scene.robot.gripper, scene.digits, scene.object_length)
 
 
 def plane_frame(scene: Scene) -> NDArray[np.float64]:
@@ -106,9 +123,19 @@ def plane_frame(scene: Scene) -> NDArray[np.float64]:
 
 
 def _tips(robot: RobotModel, poses: NDArray, openings: NDArray) -> tuple[NDArray, NDArray]:
-    """Thumb and finger tips (N, 3) of palm poses and openings (the gripper's own geometry)."""
+    """Thumb and finger tips (N, 3) of palm poses and openings (the gripper's own geometry; a
+    pincer's openings are its joint angles, each digit turned half of it and half the closed
+    angle from the palm's z, robot.model)."""
     g = robot.gripper
     z, x, o = poses[:, :3, 2], poses[:, :3, 0], poses[:, :3, 3]
+    links = robot.pincer
+    if links is not None:
+        half = (np.asarray(openings, dtype=float)[:, None] + links.closed_angle) / 2
+        c, s = np.cos(half), np.sin(half)
+        thumb_z, thumb_x = c * z - s * x, c * x + s * z
+        finger_z, finger_x = c * z + s * x, c * x - s * z
+        return (o - links.offset * thumb_x + links.thumb_reach * thumb_z,
+                o - links.tip_radius * finger_x + links.finger_length * finger_z)
     half = openings[:, None] / 2 * x
     return o - half + g.thumb_length * z, o + half + g.finger_length * z
 
@@ -119,6 +146,8 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
     its palm pose) in the plane frame."""
     opts = scene.robot
     n = 40
+    if robot.pincer is not None and opts.termination != Termination.ROTATE:
+        return _pincer_termination(scene, pose, opening, robot.pincer, n)
     if opts.termination != Termination.ROTATE:
         openings = np.minimum(opening + np.linspace(0.0, opts.termination_opening, n + 1)[1:],
                               robot.gripper.max_opening)
@@ -143,6 +172,23 @@ def _termination(scene: Scene, state: NDArray, pose: NDArray, opening: float, fr
     sign = 1.0 if finger_height(1e-3) > finger_height(-1e-3) else -1.0
     angles = np.linspace(0.0, sign * opts.termination_angle, n + 1)[1:]
     return np.array([turned(a) for a in angles]), np.full(n, opening)
+
+
+def _pincer_termination(scene: Scene, pose: NDArray, angle: float, links: PincerLinks, n: int
+                        ) -> tuple[NDArray, NDArray]:
+    """A pincer's palm poses and joint angles as it lets go from its last pose and angle: the joint
+    opens by the turn that moves the finger's tip by robot.termination_opening (at most to its
+    range's end), the palm staying ('open_symmetric') or turning about the joint by half that, the
+    way of the finger, so that the thumb stays on B ('open'); docs/model.md 7, mechanics.pincer."""
+    spec = scene.robot.gripper
+    angles = np.minimum(angle + np.linspace(0.0, spec.opening_angle(scene.robot.termination_opening), n + 1)[1:],
+                        links.max_angle)
+    poses = np.repeat(pose[None], n, axis=0)
+    if scene.robot.termination == Termination.OPEN:
+        for k, a in enumerate((angles - angle) / 2):  # about palm y: z toward x
+            c, s = math.cos(a), math.sin(a)
+            poses[k, :3, :3] = pose[:3, :3] @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return poses, angles
 
 
 def modelled_aim(scene: Scene, plan: Plan) -> Aim:
@@ -177,10 +223,12 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     aims = [Aim()] * len(jobs) if aims is None else [Aim(*map(float, aim)) for aim in aims]
     first = jobs[0][0]
     spec = gripper_spec(first)
-    robot = load_ur5e(spec, np.array(first.robot.base))
-    robot_key = (spec, tuple(np.ravel(first.robot.base)))
+    links = gripper_links(first)
+    robot = load_ur5e(spec, np.array(first.robot.base), pincer=links)
+    robot_key = (spec, tuple(np.ravel(first.robot.base))) if links is None else \
+        (spec, tuple(np.ravel(first.robot.base)), links)
     v_max, a_max = robot.v_max, robot.a_max
-    j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK)
+    j_max = np.append(np.full(6, ARM_JERK), GRIPPER_JERK if links is None else GRIPPER_JERK / links.radius)
     home_arm = np.asarray(first.robot.home, dtype=float)
     pieces: list[tuple[str, Samples]] = []
     owners: list[int] = []  # the job of each piece
@@ -210,7 +258,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
             pieces.append((prefix + name, samples))
             owners.append(k)
         current = parts[-1][1].q[-1]
-    trajectory = _concatenate(pieces)
+    trajectory = _concatenate(pieces, JOINT_NAMES if links is None else PINCER_JOINT_NAMES)
     for k, (scene, _) in enumerate(jobs):
         spans = [seg for seg, owner in zip(trajectory.segments, owners) if owner == k]
         lo, hi = spans[0][1], spans[-1][2]
@@ -274,8 +322,8 @@ class Aim(NamedTuple):
         return out
 
     def describe(self) -> str:
-        """'0.97 mm' or '0.97 mm and 3.68 deg'."""
-        turn = f" and {math.degrees(abs(self.turn)):.2f} deg" if round(math.degrees(self.turn), 2) else ""
+        """'0.97 mm' or '0.97 mm and turned 3.68 deg'."""
+        turn = f" and turned {math.degrees(abs(self.turn)):.2f} deg" if round(math.degrees(self.turn), 2) else ""
         return f"{1000 * self.shift:.2f} mm{turn}"
 
 
@@ -359,7 +407,7 @@ def _joined(pieces: list[Samples]) -> Samples:
     return Samples(np.concatenate(t), np.concatenate(q), np.concatenate(qd), np.concatenate(qdd))
 
 
-def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
+def _concatenate(pieces: list[tuple[str, Samples]], names: tuple[str, ...] = JOINT_NAMES) -> JointTrajectory:
     t, q, qd, qdd, segs = [], [], [], [], []
     offset, count = 0.0, 0
     for k, (name, s) in enumerate(pieces):
@@ -371,7 +419,7 @@ def _concatenate(pieces: list[tuple[str, Samples]]) -> JointTrajectory:
         segs.append((name, start, count - 1))
         offset += float(s.t[-1])
     return JointTrajectory(np.concatenate(t), np.concatenate(q), np.concatenate(qd), np.concatenate(qdd),
-                           JOINT_NAMES, segs)
+                           names, segs)
 
 
 def _contact_error(scene: Scene, robot: RobotModel, states: NDArray, frame: NDArray, offsets: NDArray,
@@ -397,7 +445,7 @@ class LimitViolation:
     """A joint beyond one of its limits somewhere on a trajectory: where it is furthest beyond."""
 
     joint: str
-    """The joint's name (JOINT_NAMES)."""
+    """The joint's name (the trajectory's joint_names: JOINT_NAMES, or PINCER_JOINT_NAMES)."""
     quantity: str
     """position, velocity or acceleration."""
     value: float
@@ -425,6 +473,6 @@ def check_limits(traj: JointTrajectory, robot: RobotModel, tol: float = 1e-6) ->
         beyond = np.maximum(values - hi, lo - values)
         for j in np.flatnonzero((beyond > slack).any(axis=0)):
             k = int(np.argmax(beyond[:, j]))
-            out.append(LimitViolation(JOINT_NAMES[j], name, float(values[k, j]), float(lo[j]), float(hi[j]),
+            out.append(LimitViolation(traj.joint_names[j], name, float(values[k, j]), float(lo[j]), float(hi[j]),
                                       float(traj.times[k])))
     return out

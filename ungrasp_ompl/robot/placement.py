@@ -15,6 +15,11 @@ move it, and the dome rolls on the object as the digits turn against it), the
 thumb's face through B, the thumb tip alpha l short of the finger's corner
 along e. Legs are sampled densely so that contacts stay
 within 0.1 mm of their planned places between samples.
+
+A pincer (scene.robot.gripper, mechanics.pincer) makes the same states by its joint: the palm frame's
+origin is then on the joint's axis, z bisecting the digits toward their tips and x toward the
+finger, and the gripper's coordinate is the joint angle (rad) instead of the opening; its thumb's
+tip and its finger's tip corner are its own (mechanics.pincer.pincer_pose).
 """
 
 from __future__ import annotations
@@ -24,8 +29,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import EXIT_NO_SOLUTION, UngraspError
 from ..mechanics.kinematics import (aperture, contact_point, digit_axis, finger_corner, object_axis,
                                    thumb_normal, thumb_tip)
+from ..mechanics.pincer import PincerPose, pincer_pose
 from ..planning.result import Plan
 from ..scene import Scene
 
@@ -64,9 +71,47 @@ def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
     l, dg = scene.object_length, scene.digits
     t, r = dg.object_thickness, dg.finger_tip_radius
     u = object_axis(th)
-    return {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r) * l, "finger": finger_corner(th, d, ps, t, r) * l,
-            "a": contact_point(th, d, ps, t, r) * l, "b": u * l,
-            "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r) * l}
+    pts = {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r) * l, "finger": finger_corner(th, d, ps, t, r) * l,
+           "a": contact_point(th, d, ps, t, r) * l, "b": u * l,
+           "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r) * l}
+    pincer = scene_pincer(scene, q)
+    if pincer is not None:  # the pincer's own digits (the opening between the faces is the state's)
+        pts["thumb"], pts["finger"] = pincer.thumb_tip * l, pincer.finger_corner * l
+    return pts
+
+
+class PincerRangeError(UngraspError):
+    """A state the scene's pincer cannot make (its finger does not reach it, or its joint angle lies
+    outside its range): a plan made for other digits or another gripper, or a deviated start. index:
+    the state's index; state: (theta rad, d, psi rad); angle: the joint angle it would need (rad, NaN
+    out of reach)."""
+
+    exit_code = EXIT_NO_SOLUTION
+
+    def __init__(self, index: int, state: ArrayLike, angle: float, max_angle: float):
+        self.index, self.state, self.angle = index, tuple(float(x) for x in state), float(angle)
+        th, d, ps = self.state
+        need = "out of the finger's reach" if math.isnan(angle) else f"a joint angle of {math.degrees(angle):.3f} deg"
+        super().__init__(f"the pincer cannot make state {index} (theta {math.degrees(th):.3f} deg, d {d:.4f}, psi "
+                         f"{math.degrees(ps):.3f} deg): {need}, its joint turning 0 to "
+                         f"{math.degrees(max_angle):.3f} deg")
+
+
+def scene_pincer(scene: Scene, q: ArrayLike) -> PincerPose | None:
+    """The scene's pincer (robot.gripper) at planar states q (N, 3), over l; None for the parallel
+    jaws. Raises PincerRangeError for the first state the pincer cannot make (its finger out of
+    reach or its joint outside its range), which the planner's collision check refuses."""
+    spec = scene.robot.gripper
+    if spec is None:
+        return None
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    pose = pincer_pose(q[:, 0], q[:, 1], q[:, 2], scene.digits, *spec.scaled(scene.object_length))
+    with np.errstate(invalid="ignore"):
+        bad = ~((pose.angle >= -1e-9) & (pose.angle <= spec.max_angle + 1e-9))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise PincerRangeError(i, q[i], float(pose.angle[i]), spec.max_angle)
+    return pose
 
 
 def to_world(frame: NDArray, xz: NDArray) -> NDArray[np.float64]:
@@ -77,11 +122,15 @@ def to_world(frame: NDArray, xz: NDArray) -> NDArray[np.float64]:
 
 def palm_poses(scene: Scene, q: ArrayLike, frame: NDArray, thumb_length: float
                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """World poses (N, 4, 4) of the palm frame and the openings (N,) in metres for planar states q.
+    """World poses (N, 4, 4) of the palm frame and the openings (N,) in metres for planar states q
+    (a pincer's: the palm on its joint, and its joint angles in radians).
 
-    thumb_length: the gripper's thumb, metres (palm to tip).
+    thumb_length: the gripper's thumb, metres (palm to tip; a pincer's comes from its joint).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
+    pincer = scene_pincer(scene, q)
+    if pincer is not None:
+        return _pincer_palms(pincer, frame, scene.object_length)
     pts = plane_points(scene, q)
     rot = frame[:3, :3]
     z_axis = np.column_stack([pts["e"][:, 0], np.zeros(len(q)), pts["e"][:, 1]]) @ rot.T
@@ -92,6 +141,21 @@ def palm_poses(scene: Scene, q: ArrayLike, frame: NDArray, thumb_length: float
     poses = np.tile(np.eye(4), (len(q), 1, 1))
     poses[:, :3, 0], poses[:, :3, 1], poses[:, :3, 2], poses[:, :3, 3] = x_axis, y_axis, z_axis, origin
     return poses, openings
+
+
+def _pincer_palms(pose: PincerPose, frame: NDArray, length: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """World poses (N, 4, 4) of a pincer's palm frame (on its joint, robot.model) and its joint
+    angles (N,) rad, from its pose in the plane (over l) through the plane frame (4x4)."""
+    rot = frame[:3, :3]
+
+    def world(v: NDArray) -> NDArray:
+        return np.column_stack([v[:, 0], np.zeros(len(v)), v[:, 1]]) @ rot.T
+
+    z_axis, x_axis = world(pose.palm_z), world(pose.palm_x)
+    poses = np.tile(np.eye(4), (len(z_axis), 1, 1))
+    poses[:, :3, 0], poses[:, :3, 1], poses[:, :3, 2] = x_axis, np.cross(z_axis, x_axis), z_axis
+    poses[:, :3, 3] = to_world(frame, pose.joint * length)
+    return poses, pose.angle.copy()
 
 
 def contact_points_world(scene: Scene, q: ArrayLike, frame: NDArray) -> dict[str, NDArray[np.float64]]:

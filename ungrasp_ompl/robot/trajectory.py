@@ -12,13 +12,18 @@ ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist
               "wrist_3_joint")
 GRIPPER_JOINT = "gripper_opening"  # distance between the digit faces, metres
 JOINT_NAMES = ARM_JOINTS + (GRIPPER_JOINT,)
+#: A pincer's joint (mechanics.pincer): the angle the digits are turned apart from closed, radians.
+PINCER_JOINT = "gripper_angle"
+PINCER_JOINT_NAMES = ARM_JOINTS + (PINCER_JOINT,)
 
 
 @dataclass
 class JointTrajectory:
-    """Samples of the 6 arm joints (rad) and the gripper opening (m) against time (s).
+    """Samples of the 6 arm joints (rad) and the gripper opening (m; a pincer's joint angle, rad)
+    against time (s).
 
-    times (N,), positions, velocities, accelerations (N, 7), in JOINT_NAMES order.
+    times (N,), positions, velocities, accelerations (N, 7), in joint_names order: JOINT_NAMES, or
+    PINCER_JOINT_NAMES for a pincer.
     segments: (name, start index, end index) of the phases (approach, each primitive,
     termination, retreat), for people and for checks.
     """

@@ -19,7 +19,8 @@ from ..errors import InputError, UnknownFieldError
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
 from ..io import parse_yaml
-from .options import Landing, Object3D, RobotOptions, SimOptions, Termination
+from ..mechanics.pincer import PincerSpec
+from .options import GripperKind, Landing, Object3D, RobotOptions, SimOptions, Termination
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
@@ -27,6 +28,8 @@ MAX_LENGTH = 10.0
 MAX_FRICTION = 10.0
 #: Largest magnitude of any number in a scene: no field means anything beyond it.
 MAX_MAGNITUDE = 1e6
+#: Largest joint torque a pincer may give, N m: a hand-sized gripper's motor, beyond it a typo.
+MAX_TORQUE = 100.0
 
 
 def read_yaml(path: str | os.PathLike[str], what: str) -> Any:
@@ -184,7 +187,7 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "end_press", "touch_off", "landing", "landing_pairs", "object"})
+                                "end_press", "touch_off", "landing", "landing_pairs", "object", "gripper"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -222,6 +225,9 @@ class SceneReader:
             self.known(o, "robot.object", {"position", "yaw_deg"})
             obj_pos = self.pair(o, "robot.object.position", "position") if "position" in o else obj_pos
             obj_yaw = math.radians(self.angle(o, "robot.object.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
+        gripper = self.gripper(m.get("gripper"))
+        if gripper is not None:
+            self.pincer_limits(m, term, landing)
         start_press = self.length(m, "robot.start_press", "start_press", zero=True, default=d.start_press)
         end_press = self.length(m, "robot.end_press", "end_press", zero=True) if "end_press" in m else None
         if end_press is not None and end_press > start_press:
@@ -247,7 +253,47 @@ class SceneReader:
             landing_pairs=pairs,
             object_position=obj_pos,
             object_yaw=obj_yaw,
+            gripper=gripper,
         )
+
+    def gripper(self, value: Any) -> PincerSpec | None:
+        """robot.gripper: None for the parallel jaws (kind parallel, the default, no other field), or
+        the pincer's joint (kind pincer: joint_radius and joint_offset in m, joint_torque in N m,
+        max_angle_deg in degrees, default 90)."""
+        m = self.mapping(value, "robot.gripper")
+        kind = m.get("kind", GripperKind.PARALLEL.value)
+        if kind not in tuple(GripperKind):
+            self.fail("robot.gripper.kind", f"must be one of {', '.join(GripperKind)}, got {kind!r}")
+        if kind == GripperKind.PARALLEL:
+            self.known(m, "robot.gripper", {"kind"})
+            return None
+        self.known(m, "robot.gripper", {"kind", "joint_radius", "joint_offset", "joint_torque", "max_angle_deg"})
+        radius = self.length(m, "robot.gripper.joint_radius", "joint_radius")
+        offset = self.number(m, "robot.gripper.joint_offset", "joint_offset", minimum=-radius, maximum=radius,
+                             unit=" m (within the joint radius either way)")
+        if abs(offset) >= radius:
+            self.fail("robot.gripper.joint_offset", f"must lie strictly within the joint radius ({radius:g} m), "
+                      f"got {offset:g}")
+        torque = self.number(m, "robot.gripper.joint_torque", "joint_torque", positive=True, maximum=MAX_TORQUE,
+                             unit=" N m")
+        angle = self.number(m, "robot.gripper.max_angle_deg", "max_angle_deg", positive=True, maximum=180.0,
+                            default=90.0, unit=" deg")
+        return PincerSpec(joint_radius=radius, joint_offset=offset, joint_torque=torque,
+                          max_angle=math.radians(angle))
+
+    def pincer_limits(self, m: dict, termination: str, landing: str) -> None:
+        """What a pincer's robot section may not ask for: the release open_lift and the landing
+        modelled move the digits as parallel jaws part, and the touch-off expects the parallel
+        digits' lowest point; InputError naming the field."""
+        if termination == Termination.OPEN_LIFT:
+            self.fail("robot.termination", "open_lift needs the parallel gripper (kind parallel): a pincer lets go "
+                      "by open, open_symmetric or rotate")
+        if landing == Landing.MODELLED:
+            self.fail("robot.landing", "modelled needs the parallel gripper (kind parallel): the model of the fall "
+                      "moves the digits as parallel jaws part")
+        if self.flag(m, "robot.touch_off", "touch_off"):
+            self.fail("robot.touch_off", "needs the parallel gripper (kind parallel): the probe expects the parallel "
+                      "digits' lowest point")
 
     def sim(self, value: Any) -> SimOptions:
         m = self.mapping(value, "sim")

@@ -26,6 +26,7 @@ from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinemat
                         sliding_signs)
 from ..mechanics.antipodal import effective_friction
 from ..mechanics.force_closure import SLIDING_MODELS, Friction, SlidingModel
+from ..mechanics.pincer import check_pincer
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
 from .tolerance import Tolerance, ToleranceOptions, tolerance
@@ -316,6 +317,8 @@ class Scene:
                                          minimum=0.0, maximum=1e4, default=1.0),
         )
         robot = r.robot(top.get("robot", {}))
+        if robot.gripper is not None:  # a pincer's joint must carry these digits (mechanics.pincer)
+            check_pincer(robot.gripper, digits, length, source)
         if robot.start_press > clearance:
             raise InputError("robot.start_press", f"must not exceed planning.table_clearance ({clearance:g} m): "
                              "the pressed digits would run into the table", source)
@@ -435,7 +438,7 @@ class Scene:
             if self.object3d is not None:
                 section = (self.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
         return CollisionModel(self.object_length, self.object_thickness, self.digits, tuple(self.obstacles),
-                              section, tuple(self.solids), frame, self.robot.start_press)
+                              section, tuple(self.solids), frame, self.robot.start_press, self.robot.gripper)
 
     def classify(self, q: ArrayLike, checker: CollisionChecker | None = None) -> NDArray[np.int8]:
         """The StateClass of each state q (N, 3), all contacts sticking: the first check each

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from ..geometry.outline import Outline
 from ..mechanics.force_closure import SlidingModel
+from ..mechanics.pincer import PincerSpec
 
 
 class Termination(StrEnum):
@@ -31,6 +32,22 @@ class Termination(StrEnum):
     OPEN_LIFT = "open_lift"
     #: The hand turns about the thumb's tip by robot.termination_angle.
     ROTATE = "rotate"
+
+    def describe(self) -> str:
+        """How the gripper lets go, in words for a person (files keep the name)."""
+        return {Termination.OPEN: "opening its jaws with the thumb kept on B",
+                Termination.OPEN_SYMMETRIC: "opening its jaws about the palm",
+                Termination.OPEN_LIFT: "opening its jaws as the finger lifts off the object",
+                Termination.ROTATE: "turning about the thumb's tip"}[self]
+
+
+class GripperKind(StrEnum):
+    """How the gripper's digits move (robot.gripper.kind; a member is its name as a string)."""
+
+    #: Two jaws sliding apart on the palm, the digits parallel (RH-P12-RN class): the default.
+    PARALLEL = "parallel"
+    #: Two digits turning apart about one revolute joint (mechanics.pincer).
+    PINCER = "pincer"
 
 
 class Landing(StrEnum):
@@ -150,6 +167,14 @@ class RobotOptions:
     its target pose)."""
     object_yaw: float = 0.0
     """Direction of GB on the table (world yaw, rad) for scenes without an outline."""
+    gripper: PincerSpec | None = None
+    """The gripper: None for the parallel jaws (robot.gripper.kind parallel, the default), or the
+    pincer's joint (kind pincer: mechanics.pincer.PincerSpec, m, N m, rad)."""
+
+    @property
+    def gripper_kind(self) -> GripperKind:
+        """How the gripper's digits move: parallel or pincer."""
+        return GripperKind.PARALLEL if self.gripper is None else GripperKind.PINCER
 
     @property
     def final_press(self) -> float:

@@ -9,7 +9,10 @@ What is dynamic and what is kinematic:
 * the gripper's two jaws are dynamic: each slides along the palm's x axis, the two are
   coupled symmetrically (as the RH-P12-RN's linkage couples them) and driven by one position
   servo on the opening with a force limit, so the object is squeezed with at most the grip
-  force and the opening follows the object rather than the other way round;
+  force and the opening follows the object rather than the other way round; a pincer's two
+  jaws (GripperGeometry.hinge, mechanics.pincer) turn instead about one hinge on the palm's y axis
+  at the palm's origin, coupled symmetrically the same way, and one position servo on the
+  joint angle with a torque limit (the grip force at the joint radius) drives them;
 * the palm (the gripper's housing, carrying the jaws' slides) follows the pose forward
   kinematics gives for the exported joint samples: a free body welded stiffly to a mocap
   target that the trial moves there, interpolated between the control periods. A
@@ -38,6 +41,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+
+from ..mechanics.pincer import PincerLinks
 
 #: Contact softness: MuJoCo's reference time constant (s) and damping ratio. 0.2 ms is the
 #: contact's own time scale between stiff solids (a gram-heavy object on a PLA dome of Hertz
@@ -103,6 +108,7 @@ class GripperGeometry:
     palm_width: float  #: housing across the gap, palm x (m)
     palm_thickness: float  #: housing along palm y (m)
     palm_depth: float  #: housing along palm z, behind the palm (m)
+    hinge: PincerLinks | None = None  #: a pincer's links (m, rad): the jaws turn on one hinge; None: they slide
 
 
 @dataclass(frozen=True)
@@ -140,8 +146,8 @@ class SimModelSpec:
     placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()  #: free objects already down: name, object, 4x4 pose
     timestep: float = 0.0001  #: s
     table_height: float = 0.0  #: m, where the table's top really is (a calibration error moves it)
-    grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object)
-    servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit
+    grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object; a pincer's at its joint radius)
+    servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit (a pincer's: at its joint radius)
     contact_time: float = SOLREF[0]  #: s, the contacts' reference time constant (MuJoCo's solref)
     cone: str = "elliptic"  #: the contacts' friction cone: elliptic or pyramidal (MuJoCo's option)
 
@@ -214,6 +220,45 @@ class Keyframe:
     mocap_quat: NDArray[np.float64]  #: (nmocap, 4) w, x, y, z
 
 
+def _pincer_jaws(spec: SimModelSpec, thumb_bend: str, finger_bend: str, tip: str) -> tuple[str, str, str]:
+    """A pincer's jaws (GripperGeometry.hinge), MJCF: their bodies, their coupling and their
+    servo. Each jaw turns on a hinge about the palm's y axis at the palm's origin (the joint),
+    the thumb's by -phi/2 and the finger's by +phi/2 (phi the joint angle, rad), its digit turned
+    half the closed angle within it and its face's foot off the axis (mechanics.pincer). A jaw is a
+    rod of the parallel carriage's mass over the joint radius; the servo's stiffness and force
+    limit are the parallel's (N/m, N) moved to the joint radius (N m/rad, N m), so that the
+    fingertip feels the same servo; ctrl is the joint angle (rad)."""
+    g, f = spec.gripper, spec.friction
+    links = g.hinge
+    half = links.max_angle / 2
+    rod = JAW_MASS * links.radius ** 2 / 3  # kg m^2 about the joint
+    stiffness = spec.servo_stiffness * links.radius ** 2
+    bodies = []
+    for name, sign, across, (lo, hi), bend, extra, mu, rgba in (
+            ("thumb", -1.0, links.offset, (-half, 0.0), thumb_bend, "", f.thumb, ".8 .3 .2 1"),
+            ("finger", 1.0, links.tip_radius, (0.0, half), finger_bend, tip, f.finger, ".2 .3 .8 1")):
+        a = sign * links.closed_angle / 2
+        bodies.append(
+            f'<body name="{name}_jaw">\n'
+            f'        <joint name="{name}_hinge" type="hinge" axis="0 1 0" range="{lo:.9g} {hi:.9g}" damping="0"/>\n'
+            f'        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="{_floats([rod, rod, rod])}"/>\n'
+            f'        <body name="{name}" pos="{_floats([-across * math.cos(a), 0.0, across * math.sin(a)])}" '
+            f'quat="{_floats([math.cos(a / 2), 0.0, math.sin(a / 2), 0.0])}">\n'
+            f'          {bend}\n'
+            f'          <geom name="{name}" type="mesh" mesh="{name}" density="{PLA_DENSITY:g}" friction="{mu} 0 0" '
+            f'rgba="{rgba}"/>\n'
+            f'          {extra}\n'
+            f'        </body>\n'
+            f'      </body>')
+    coupling = '<joint joint1="thumb_hinge" joint2="finger_hinge" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
+    force = spec.grip_force * links.radius
+    actuator = (f'<position name="opening" joint="finger_hinge" gear="2" kp="{stiffness:.9g}"\n'
+                f'              kv="{2 * math.sqrt(stiffness * rod):.9g}" forcelimited="true"\n'
+                f'              forcerange="{-force:.9g} {force:.9g}" ctrllimited="true" '
+                f'ctrlrange="0 {links.max_angle:.9g}"/>')
+    return "\n      ".join(bodies), coupling, actuator
+
+
 def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     """The MJCF text of the trial's world (see the module docstring for what moves how), with
     key as a <keyframe> when given."""
@@ -250,6 +295,34 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
         f'<geom name="finger_tip" type="sphere" size="{g.finger_tip_radius:.9g}" '
         f'pos="{g.finger_tip_radius:.9g} 0 {g.finger_length - g.finger_tip_radius:.9g}" '
         f'density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
+    thumb_bend = (f'<joint name="thumb_bend" type="hinge" axis="0 1 0" stiffness="{thumb_k:.9g}" '
+                  f'damping="{thumb_c:.9g}"/>')
+    finger_bend = (f'<joint name="finger_bend" type="hinge" axis="0 1 0" stiffness="{finger_k:.9g}" '
+                   f'damping="{finger_c:.9g}"/>')
+    if g.hinge is not None:
+        jaws, coupling, actuator = _pincer_jaws(spec, thumb_bend, finger_bend, tip)
+    else:  # two carriages sliding on the palm, coupled, one force-limited servo on the opening
+        jaws = f"""<body name="thumb_jaw">
+        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
+        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <body name="thumb">
+          {thumb_bend}
+          <geom name="thumb" type="mesh" mesh="thumb" density="{PLA_DENSITY:g}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
+        </body>
+      </body>
+      <body name="finger_jaw">
+        <joint name="finger_slide" type="slide" axis="1 0 0" range="0 {half:.9g}" damping="0"/>
+        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <body name="finger">
+          {finger_bend}
+          <geom name="finger" type="mesh" mesh="finger" density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
+          {tip}
+        </body>
+      </body>"""
+        coupling = '<joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
+        actuator = f"""<position name="opening" joint="finger_slide" gear="2" kp="{spec.servo_stiffness:.9g}"
+              kv="{2 * math.sqrt(spec.servo_stiffness * JAW_MASS):.9g}" forcelimited="true"
+              forcerange="{-spec.grip_force:.9g} {spec.grip_force:.9g}" ctrllimited="true" ctrlrange="0 {g.max_opening:.9g}"/>"""
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{spec.timestep:.9g}" cone="{spec.cone}" impratio="{IMPRATIO:g}" integrator="implicitfast">
@@ -270,23 +343,7 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
       <freejoint name="palm"/>
       <geom name="palm" type="box" size="{g.palm_width / 2:.9g} {g.palm_thickness / 2:.9g} {g.palm_depth / 2:.9g}"
             pos="0 0 {-g.palm_depth / 2:.9g}" mass="{PALM_MASS:g}" rgba=".3 .3 .3 1"/>
-      <body name="thumb_jaw">
-        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
-        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
-        <body name="thumb">
-          <joint name="thumb_bend" type="hinge" axis="0 1 0" stiffness="{thumb_k:.9g}" damping="{thumb_c:.9g}"/>
-          <geom name="thumb" type="mesh" mesh="thumb" density="{PLA_DENSITY:g}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
-        </body>
-      </body>
-      <body name="finger_jaw">
-        <joint name="finger_slide" type="slide" axis="1 0 0" range="0 {half:.9g}" damping="0"/>
-        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
-        <body name="finger">
-          <joint name="finger_bend" type="hinge" axis="0 1 0" stiffness="{finger_k:.9g}" damping="{finger_c:.9g}"/>
-          <geom name="finger" type="mesh" mesh="finger" density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
-          {tip}
-        </body>
-      </body>
+      {jaws}
     </body>
     <body name="object">
       <freejoint name="object"/>
@@ -302,12 +359,10 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
   </contact>
   <equality>
     <weld body1="palm_target" body2="palm" solref="{_floats(PALM_SOLREF)}" solimp="{_floats(PALM_SOLIMP)}"/>
-    <joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>
+    {coupling}
   </equality>
   <actuator>
-    <position name="opening" joint="finger_slide" gear="2" kp="{spec.servo_stiffness:.9g}"
-              kv="{2 * math.sqrt(spec.servo_stiffness * JAW_MASS):.9g}" forcelimited="true"
-              forcerange="{-spec.grip_force:.9g} {spec.grip_force:.9g}" ctrllimited="true" ctrlrange="0 {g.max_opening:.9g}"/>
+    {actuator}
   </actuator>{_keyframe(key)}
 </mujoco>
 """

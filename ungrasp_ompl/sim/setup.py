@@ -60,16 +60,22 @@ def tilted(frame: NDArray, theta: float) -> NDArray[np.float64]:
 
 
 def gripper_geometry(scene: Scene, robot: RobotModel, equal_digits: bool = False) -> GripperGeometry:
-    """The simulated gripper: the scene's digits (m) on the robot model's housing."""
+    """The simulated gripper: the scene's digits (m) on the robot model's housing; a pincer's
+    (mechanics.pincer) run from their tips to its joint's level and turn on its hinge."""
     l, dg, g = scene.object_length, scene.digits, robot.gripper
     finger = dg.finger_length * l
-    return GripperGeometry(thumb_length=finger if equal_digits else dg.thumb_length * l, finger_length=finger,
+    thumb = finger if equal_digits else dg.thumb_length * l
+    if robot.pincer is not None:  # equal digits: the thumb's face reaches as far as the finger's
+        finger = robot.pincer.finger_length
+        thumb = finger if equal_digits else robot.pincer.thumb_reach
+    return GripperGeometry(thumb_length=thumb, finger_length=finger,
                            thumb_tip_thickness=dg.thumb_tip_thickness * l,
                            thumb_base_thickness=dg.thumb_base_thickness * l,
                            finger_tip_thickness=dg.finger_tip_thickness * l,
                            finger_base_thickness=dg.finger_base_thickness * l, width=dg.width * l,
                            finger_tip_radius=dg.finger_tip_radius * l, max_opening=g.max_opening,
-                           palm_width=g.palm_width, palm_thickness=g.palm_thickness, palm_depth=g.palm_depth)
+                           palm_width=g.palm_width, palm_thickness=g.palm_thickness, palm_depth=g.palm_depth,
+                           hinge=robot.pincer)
 
 
 def planned_travel(scene: Scene, plan: Plan) -> tuple[PlannedTravel, ...]:
@@ -106,15 +112,20 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
     obj = SimObject(object_outline(scene), thickness, opts.density)
+    # a pincer's servo is on its joint: its torque limit gives the pinch at the joint radius, and the
+    # squeeze (m at the fingertip) is commanded as the angle that turns the fingertip that far
+    links = robot.pincer
+    grip_force = opts.grip_force if links is None else links.pinch_force
+    squeeze = opts.squeeze if links is None else opts.squeeze / links.radius
     spec = SimModelSpec(obj=obj, gripper=gripper_geometry(scene, robot, variant.equal_digits),
                         friction=Friction(table=mu_g, finger=mu_a, thumb=mu_b, solids=mu_g),
                         solids=tuple((s.name, np.asarray(s.vertices)) for s in scene.solids),
-                        placed=placed, timestep=opts.timestep, grip_force=opts.grip_force,
-                        servo_stiffness=2 * opts.grip_force / opts.squeeze)
+                        placed=placed, timestep=opts.timestep, grip_force=grip_force,
+                        servo_stiffness=2 * grip_force / opts.squeeze)
     theta0, d0, _ = plan.states[0]
     return TrialSetup(spec=spec, drive=drive_from_trajectory(trajectory, robot, prefix),
                       start_pose=tilted(aimed_frame(scene, aim), theta0), target_pose=frame.copy(),
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
-                      squeeze=opts.squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
+                      squeeze=squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
                       max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over,
                       touch_off=scene.robot.touch_off, aim=Aim(*map(float, aim)))
