@@ -76,7 +76,7 @@ def pytest_collection_modifyitems(items):
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: within a file, as written
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")  # the tests directory, no package of its own: once per test process
 def scenes():
     from ungrasp_ompl import Scene
 
@@ -143,21 +143,25 @@ def pytest_configure(config):
         config._ungrasp_cache = os.environ[CACHE_VARIABLE] = tempfile.mkdtemp(prefix="ungrasp-landings-")
 
 
+#: pytest's exit status, once the run has finished (pytest_sessionfinish), for pytest_unconfigure.
+EXIT_STATUS: list[int] = []
+
+
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
-    """Leave without interpreter finalisation, where nanobind (OMPL's bindings) lists the
-    objects still alive: noise after pytest's summary. pytest has finished by now."""
-    status = getattr(config, "_ungrasp_exitstatus", None)
-    if status is not None:
+    """Remove the run's landing cache, then leave without interpreter finalisation, where nanobind
+    (OMPL's bindings) lists the objects still alive: noise after pytest's summary. pytest has
+    finished by now."""
+    if hasattr(config, "_ungrasp_cache"):
+        shutil.rmtree(config._ungrasp_cache, ignore_errors=True)
+    if EXIT_STATUS:
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(int(status))
+        os._exit(EXIT_STATUS[-1])
 
 
-def pytest_sessionfinish(session, exitstatus):
-    session.config._ungrasp_exitstatus = exitstatus
-    if hasattr(session.config, "_ungrasp_cache"):
-        shutil.rmtree(session.config._ungrasp_cache, ignore_errors=True)
+def pytest_sessionfinish(exitstatus):
+    EXIT_STATUS.append(int(exitstatus))
 
 
 def distinct_colours(rgb) -> int:

@@ -171,7 +171,7 @@ def test_broken_files_exit_2(tmp_path, command, content):
 
 # --- files read back: plan.json (simulate --plan, cage --plan), the exported trajectory (view) ---
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def exported(tmp_path_factory):
     """What plan --export DIR writes for guitar_pick: plan.json,
     trajectory.json, view_scene.json; the scene file beside DIR. (RRT*, seed 1, first finds the

@@ -1,4 +1,4 @@
-"""The verdict's lost grip (sim.trial.Grip, docs/model.md 11.20, 11.22) against a brute-force
+"""The verdict's lost grip (sim.trial.Grip, docs/model.md 11.4) against a brute-force
 reading of its rule over the whole tick sequence: A or B absent for max_gap, or no digit on the
 object for LOSS_WINDOW, or A or B absent for the shorter of the two when the termination begins;
 max_gap inf is the rule that let one contact part for any time."""

@@ -1,4 +1,4 @@
-"""The predicted landing in planning (docs/model.md 11.24): planning.max_landing_spread replans
+"""The predicted landing in planning (docs/model.md 11.17): planning.max_landing_spread replans
 without P_dpsi or fails with the spreads as evidence, robot.landing modelled aims the hand by the
 model's mean landing, and the scene file refuses what the model cannot do."""
 

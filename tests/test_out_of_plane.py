@@ -1,4 +1,4 @@
-"""The out-of-plane margin (scene/stability3d.py, docs/model.md 11.23): an independent linear
+"""The out-of-plane margin (scene/stability3d.py, docs/model.md 11.18): an independent linear
 programme agrees with it, it falls with friction and with the pyramid, and it reads the recorded
 pick trial that the world with 0.7 times the friction turns out of the plane."""
 
@@ -196,7 +196,7 @@ def _trial_friction(scene: Scene, world: float, draw) -> tuple[float, float, flo
 
 
 def test_the_recorded_pick_trial_turns_where_the_margin_is_negative(pick):
-    # docs/model.md 11.23: trial 0 of `paper` seed 1 in the world with friction x0.7 is squeezed out
+    # docs/model.md 11.18: trial 0 of `paper` seed 1 in the world with friction x0.7 is squeezed out
     # of the pinch during the start press and leaves the plane (tools/world_failures.py); the same
     # draw in the nominal world places. The press, with the trial's friction and its shift across GB:
     draw = trial_params(preset("paper"), 1, 1)[0]

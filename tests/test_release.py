@@ -1,4 +1,4 @@
-"""The release model (mechanics.release, docs/model.md 11.24): physical identities of the fall, the
+"""The release model (mechanics.release, docs/model.md 11.17): physical identities of the fall, the
 derivatives it pushes along, the hand's timing against the export's, the pyramid's reach against
 MuJoCo's contact frames, the prediction in plan.json, and (slow) the prediction against the
 simulator."""

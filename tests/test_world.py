@@ -1,4 +1,4 @@
-"""Worlds the plan does not know (sim.world, docs/model.md 11.21): each key changes the compiled
+"""Worlds the plan does not know (sim.world, docs/model.md 11.16): each key changes the compiled
 MuJoCo model by what it says and nothing else, a pyramidal cone's contact forces are read as the
 normal forces they are, bad keys and values are refused naming them, and a run records its world."""
 

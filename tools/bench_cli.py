@@ -2,7 +2,7 @@
 
 Each command runs REPEAT times in a fresh process, output to a temporary directory, as a new
 user runs it (the installed console script next to this interpreter, else ``python -m
-ungrasp_ompl``). The commands are the ones of the speed table in docs/results.md:
+ungrasp_ompl``). It prints what it measures and writes no results file:
 
     python tools/bench_cli.py [--repeat 5] [--only plan,import,...]
 

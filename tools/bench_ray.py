@@ -9,8 +9,8 @@ and a map on 2 workers against 1. Prints figures, asserts nothing.
    friction scale 0.6 ... by 0.1) on a local cluster of 1 CPU, then of 2 CPUs: wall time, time
    per cell, speed-up. A cell is the lattice verdict and a seeded RRT* run of --time seconds.
 
-The figures go into docs/results.md's "Campaigns on a cluster"; the machine's load while it runs
-(other processes) lowers the speed-up.
+It writes no results file (docs/cli.md, "Campaigns on a cluster", says how to run on one); the
+machine's load while it runs (other processes) lowers the speed-up.
 """
 
 from __future__ import annotations

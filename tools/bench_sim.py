@@ -9,7 +9,7 @@ median and the largest wall time, the median CPU time of this process (on a mach
 other work, the CPU time is what one free core takes), the simulated time and how many trials
 were placed. Trial 0 without errors is timed too, run to the end even if it fails: the cost of a
 trial that goes the whole way. --timestep S times the trials at MuJoCo's step S (s) in place of the
-scenes' own (sim.timestep), as the convergence study of docs/results.md (session 54) needs.
+scenes' own (sim.timestep), to see what a finer step costs.
 """
 
 from __future__ import annotations

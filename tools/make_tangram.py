@@ -36,7 +36,7 @@ HEADER = """\
 # the square {wall_mm:.1f} mm inside the frame's walls on every side; spread: true then moves the
 # pieces apart (each by at most {shift_mm:.1f} mm, headings kept) so that the narrowest gap between two
 # of them or a piece and a wall is the widest the frame allows: {gap_mm:.1f} mm grows to {spread_mm:.1f} mm
-# (docs/model.md 11.19).
+# (docs/model.md 11.15).
 # Frame coordinates: origin at the frame's inner corner, metres. Outlines are given about
 # each piece's centroid; target.position places that centroid in the frame.
 # Friction: wood on a laminate table about 0.35, wood on the 3D-printed digits about 0.45.
@@ -50,7 +50,7 @@ HEADER = """\
 # table touched off under the start pinch, each piece let go at theta up to 8 deg
 # with the thumb at 30-65 deg (psi), opened as open_lift does, and aimed by where its own
 # release lands it and how it turns it (robot.landing: simulated; a piece whose whole aim would
-# take it or the robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.15, 11.16).
+# take it or the robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.12, 11.15).
 """
 
 

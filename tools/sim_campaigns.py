@@ -1,7 +1,8 @@
 """The paper's experiments (sec. 6.2) as simulation campaigns, with the paper's figures beside ours.
 
     python tools/sim_campaigns.py [--trials N] [--jobs N] [--seed S] [--only base,edge,...]
-                                  [--timestep S] [--figure docs/figures/campaigns.png]
+                                  [--timestep S] [--previous-grip-rule] [--compounded-friction]
+                                  [--table docs/results/campaigns.md] [--figure docs/figures/campaigns.png]
 
 Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the seed):
 
@@ -19,7 +20,7 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   puts the start outside force closure in the model, rounded against flat tip; the row prints
   the deviation and the friction margin at the deviated start (negative);
 * worlds: the three objects' base plans, their hands aimed as in base, run in worlds neither the
-  plan nor the aim saw (sim.world, docs/model.md 11.21): every friction x0.7 and x1.3, pyramidal
+  plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
   cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2);
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
@@ -33,17 +34,23 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   scenes' own digits planned to the same free goal, to tell the digits' part from the goal's.
 
 `--previous-grip-rule` judges every trial by the lost-grip rule that let one contact of the pinch
-part for any time (docs/model.md 11.20) instead of the bound of 11.22, to report rows under both.
+part for any time (docs/model.md 11.4) instead of the bound of 11.4, to report rows under both.
 
 `--timestep S` runs every row with MuJoCo's step set to S seconds in place of the scenes' own
-(sim.timestep), the rest of each scene unchanged: the timestep convergence study of
-docs/results.md runs the campaign so at 0.05 and 0.025 ms.
+(sim.timestep), the rest of each scene unchanged: to see whether the rows hold at a finer step
+(0.05 or 0.025 ms) than the scenes' 0.1 ms.
+
+`--compounded-friction` draws the `paper` friction error on top of a world's friction factor, the
+rule before a world fixed its pairs' friction (docs/decisions/0100-a-world-fixes-its-friction.md),
+to report the worlds' rows under both.
 
 Every row has a Wilson 95 % interval on its success rate; success is placed within the scene's
 sim.max_error of the target by the strict verdict, and the paper's own criterion (no grip lost
 before the termination, then flat: placed, any error, with its mean error) is given beside it
 (docs/model.md 11.4), and the deepest any trial of the row sank into a digit or the table. Prints
-one markdown table, writes it to --table and draws ours beside the paper's into the figure.
+one markdown table, writes it to --table, the same rows as numbers beside it (the table's name with
+.json: tools/campaign_results.py, which the documentation's figures are read from) and draws ours
+beside the paper's into the figure.
 
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
@@ -83,11 +90,11 @@ OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 #: MuJoCo's step (s) for every row, or None for the scenes' own (--timestep).
 TIMESTEP: float | None = None
 #: The longest one contact may be absent before the termination (s): the verdict's own, or inf
-#: for the rule of docs/model.md 11.20 (--previous-grip-rule).
+#: for the rule of docs/model.md 11.4 (--previous-grip-rule).
 MAX_GAP: float = MAX_CONTACT_GAP
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
 COMPOUNDED_FRICTION: bool = False
-#: The worlds of the `worlds` rows: label, world (docs/model.md 11.21).
+#: The worlds of the `worlds` rows: label, world (docs/model.md 11.16).
 WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
           ("pyramidal cones", World(cone="pyramidal")), ("density x0.5", World(density=0.5)),
           ("density x2", World(density=2.0)), ("stiffness x0.25 (time constant x2)", World(stiffness=0.25)))
@@ -257,7 +264,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only", default="base,worlds,unaimed,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
     ap.add_argument("--previous-grip-rule", action="store_true",
-                    help="judge lost grips by the rule that let one contact part for any time (docs/model.md 11.20)")
+                    help="judge lost grips by the rule that let one contact part for any time (docs/model.md 11.4)")
     ap.add_argument("--compounded-friction", action="store_true",
                     help="draw the `paper` friction error on top of a world's friction factor "
                          "(docs/decisions/0100-a-world-fixes-its-friction.md)")
@@ -298,7 +305,7 @@ def main() -> None:
 
     if "base" in only:
         objects("base: the three objects", lambda name: (f"base: {name}, rounded tip", _scene(name, "rounded")))
-    if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.21)
+    if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
         for name in OBJECTS:
             scene = _scene(name, "rounded")
             result = _plan(scene, s)
@@ -376,7 +383,7 @@ def main() -> None:
         show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
                  "109/120", (109, 120), "secure", "-"))
     step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
-    rule = "the previous lost-grip rule (11.20)" if args.previous_grip_rule else "the lost-grip bound (11.22)"
+    rule = "the previous lost-grip rule (11.4)" if args.previous_grip_rule else "the lost-grip bound (11.4)"
     friction = ("a world's friction compounded with the drawn friction error" if COMPOUNDED_FRICTION
                 else "a world's friction fixes its pairs (decision 0100)")
     footer = (f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}, "
@@ -387,6 +394,11 @@ def main() -> None:
 
         write_text_atomic(args.table, "\n".join([header, *(r.line() for r in rows), "", footer, ""]))
         print(f"wrote {args.table}")
+        import shlex
+
+        from campaign_results import write_json
+
+        print(f"wrote {write_json(args.table, shlex.join(['python', 'tools/sim_campaigns.py', *sys.argv[1:]]))}")
     if rows:
         draw(rows, args.figure)
         print(f"wrote {args.figure}")

@@ -1,5 +1,5 @@
 """Does the out-of-plane margin predict which trials fail in worlds the plan did not know?
-(docs/model.md 11.23)
+(docs/model.md 11.18)
 
 For each object scene's RRT* plan (seed 1, 1 s), the margin along the plan (scene/stability3d.py:
 the start press and every leg, each state in its leg's contact mode) and the simulated outcome in

@@ -1,5 +1,5 @@
 """Where the release puts the object: a planar model of its fall from the plan's last state
-(docs/model.md 11.24).
+(docs/model.md 11.17).
 
 The plan ends with the object pinched at a small theta, its end G on the table and B on the
 thumb's face; the termination opens the gripper and the object falls flat. The plan assumes it
@@ -79,7 +79,7 @@ GRIPPER_SPEED, GRIPPER_ACCELERATION = 0.05, 0.2
 #: (m/s^2; about what the export's timing gives the UR5e's joints at the shipped poses).
 RETREAT_SPEED, RETREAT_ACCELERATION = 0.05, 1.0
 #: The friction factors and cones the spread of a prediction is taken over: every coefficient
-#: times 0.7 to 1.3 (dry friction known to +-30 %, docs/model.md 11.21), each with Coulomb's cone
+#: times 0.7 to 1.3 (dry friction known to +-30 %, docs/model.md 11.16), each with Coulomb's cone
 #: and MuJoCo's four-sided pyramid (the pyramid bounded both ways, PyramidReach).
 SPREAD_FACTORS = (0.7, 0.85, 1.0, 1.15, 1.3)
 #: Longest the integration runs after the termination and the retreat (s).
@@ -596,7 +596,7 @@ def release_setup(scene: "Scene", state: tuple[float, float, float], start: Rele
 
 def carried_start(scene: "Scene", plan: "Plan", setup: ReleaseSetup) -> ReleaseStart:
     """Where the object is when the termination begins if the pinch carries it through the plan's
-    P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.24):
+    P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.17):
     B keeps its place on the thumb over each P_dpsi (s_B does not shrink as the plan has it, and the
     finger does not slide either), so that G slides on the table with the hand; the other primitives
     go as planned (B slides in P_psi, nothing slides in P_theta). At the end the thumb is where
@@ -728,7 +728,7 @@ class ReleasePrediction:
                 "carried_m": self.carried, "over_tip": self.over_tip, "termination": self.termination,
                 "carried_through_p_dpsi": self.carried_through, "start_g_m": self.start.g,
                 "start_theta_rad": self.start.theta,
-                "model": "planar fall (docs/model.md 11.24)",
+                "model": "planar fall (docs/model.md 11.17)",
                 "worlds": [{"friction": w.friction, "cone": w.cone, "mu_G": w.mu_g, "mu_B": w.mu_b,
                             "along_m": w.along, "landed": w.landed} for w in self.worlds]}
 

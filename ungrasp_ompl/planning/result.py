@@ -424,7 +424,7 @@ class Plan:
             lines.append("  " + describe_tolerance(self.tolerance).replace("\n", "\n  "))
         if self.predicted_landing is not None:
             p = self.predicted_landing
-            lines.append(f"  where the object lands, by the model of its fall (docs/model.md 11.24): "
+            lines.append(f"  where the object lands, by the model of its fall (docs/model.md 11.17): "
                          f"on average {_along(p['along_m'])}; {_span(p['low_m'], p['high_m'])} "
                          f"with friction 0.7 to 1.3 times the scene's and either friction-cone model (a spread of "
                          f"{1000 * p['spread_m']:.2f} mm)")

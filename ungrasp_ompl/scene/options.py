@@ -56,15 +56,15 @@ class Landing(StrEnum):
     #: As the plan has it: the object turns flat about G where the last state leaves it.
     PLANNED = "planned"
     #: Where the release, simulated with no error drawn, lands it: the hand is moved back by the
-    #: landing's offset from the target and its turn (docs/model.md 11.12, 11.16).
+    #: landing's offset from the target and its turn (docs/model.md 11.12).
     SIMULATED = "simulated"
     #: Where the release lands it on average under the `paper` errors: the hand is moved back by
     #: the mean landing of robot.landing_pairs antithetic pairs of simulated releases
-    #: (docs/model.md 11.18).
+    #: (docs/model.md 11.12).
     EXPECTED = "expected"
     #: Where the model of the fall (mechanics.release) puts it on average over friction 0.7-1.3 times
     #: the scene's and both friction cones: the hand is moved back by that offset, no release
-    #: simulated (docs/model.md 11.24); an opening termination only.
+    #: simulated (docs/model.md 11.17); an opening termination only.
     MODELLED = "modelled"
 
 
@@ -91,7 +91,7 @@ class PlanningOptions:
     """The least tolerance of the `paper` errors (a scale of their box, dimensionless; docs/model.md 4.6) a plan must have; 0: no floor."""
     max_landing_spread: float | None = None
     """The most the predicted landing may move along GB over friction x0.7-1.3 and both cones (m;
-    mechanics.release, docs/model.md 11.24); a plan with P_dpsi beyond it is planned again without
+    mechanics.release, docs/model.md 11.17); a plan with P_dpsi beyond it is planned again without
     P_dpsi; None: no bound."""
 
 

@@ -1,5 +1,5 @@
 """The out-of-plane margin: how hard a push across the manipulation plane a state's contacts resist
-(docs/model.md 5.3 and 11.23).
+(docs/model.md 5.3 and 11.18).
 
 Section 5.3 says qualitatively what the contacts do off the plane: sticking contacts push along the
 plane's normal, two sliding contacts leave no z-moment, x-moments come from the supports. This

@@ -1,6 +1,6 @@
 """Where the object lands when a placement's release is simulated, and the aim that corrects the
 hand for it: with no error drawn (robot.landing: simulated; docs/model.md 11.12), or on average
-under the `paper` errors (robot.landing: expected; docs/model.md 11.18).
+under the `paper` errors (robot.landing: expected; docs/model.md 11.12).
 
 The plan ends with the object pinched at a small theta, its end G on the table; the termination
 lets go and the object falls flat. The plan takes the object to turn flat about G, but a falling
@@ -15,14 +15,14 @@ draws enters it.
 
 The errors do not move the landing evenly, though (friction, for one, is only ever lower than
 the scene's), and the mean landing under the `paper` errors can lie a millimetre and more from the
-no-error one (docs/model.md 11.18); nor is the world the one modelled: the landing moves with the
+no-error one (docs/model.md 11.12); nor is the world the one modelled: the landing moves with the
 friction, which a real cell knows to about +-30 %, and with the friction cone's model. The expected
 landing averages antithetic pairs of releases (a draw and its mirror through the box's middle,
 Perturbation.mirrored), whose errors cancel to first order in each pair's mean, so that a few
 pairs measure the mean more closely than as many plain draws; each pair also runs in a world of
 its own (landing_world): every friction scaled by a factor drawn over +-LANDING_FRICTION_RANGE
 (the pair's mirror by the factor reflected about 1), and the pairs' cones alternately elliptic and
-pyramidal, so that the aim is fitted to no one world (docs/model.md 11.18). Its draws come from a
+pyramidal, so that the aim is fitted to no one world (docs/model.md 11.12). Its draws come from a
 seed stream of their own (LANDING_ENTROPY, spawned per pair), apart from every trial's.
 
 A landing is a function of the unaimed placement alone, and the expected one costs nine simulated
@@ -122,7 +122,7 @@ LANDING_ENTROPY = 0x1A4D
 
 
 #: How far (a fraction either way) the expected landing's worlds scale every friction coefficient:
-#: the uncertainty of dry friction between the shipped objects' materials (docs/model.md 11.18).
+#: the uncertainty of dry friction between the shipped objects' materials (docs/model.md 11.12).
 LANDING_FRICTION_RANGE = 0.3
 
 

@@ -11,7 +11,7 @@ class Outcome(enum.Enum):
     """How a trial ended. Success: the grip kept until the termination begins (a digit on the
     object throughout, and the pinch, A and B, there when it begins), then after the retreat the
     object lies flat (tilt below FLAT_TILT_DEG) with no digit touching it (the paper's criterion),
-    within the scene's sim.max_error of its target (docs/model.md 11.4, 11.20)."""
+    within the scene's sim.max_error of its target (docs/model.md 11.4)."""
 
     SUCCESS = "success"
     GRIP_LOST = "grip lost"  #: before the termination no digit touched the object, or the termination began without A or B

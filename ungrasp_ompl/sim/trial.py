@@ -41,14 +41,14 @@ from ..robot.touch_off import TouchOffOptions
 #: A start tilted less than this (the sine of its tilt) cannot be slid down to the table along GB: it hangs.
 SLIDE_MIN_RISE = 0.1
 #: No digit touching the object this long (s), or A or B absent this long when the termination
-#: begins, is a lost grip (docs/model.md 11.20); it bridges ticks at which a sliding contact parts.
+#: begins, is a lost grip (docs/model.md 11.4); it bridges ticks at which a sliding contact parts.
 LOSS_WINDOW = 0.05
 #: How far (m) the object may move with a contact of its pinch parted before the grip counts as
 #: lost: the 1 mm shift in the grasp that the plans absorb (the `paper` errors' bound).
 GRIP_SLACK = 0.001
 #: The longest A or B may be absent before the termination (s): the time in which the object,
 #: held by nothing but gravity where that contact was, moves GRIP_SLACK, sqrt(2 GRIP_SLACK / g),
-#: 14.3 ms, seven control ticks of 2 ms (docs/model.md 11.22).
+#: 14.3 ms, seven control ticks of 2 ms (docs/model.md 11.4).
 MAX_CONTACT_GAP = (2.0 * GRIP_SLACK / GRAVITY) ** 0.5
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
@@ -377,10 +377,10 @@ class _Watch:
 @dataclass
 class Grip:
     """Whether the digits still hold the object, from whether A and B touch it at each control
-    tick before the termination (docs/model.md 11.20, 11.22). The grip is lost when A or B has
+    tick before the termination (docs/model.md 11.4). The grip is lost when A or B has
     been absent for max_gap (s), when no digit has touched the object for LOSS_WINDOW, or when the
     termination begins with A or B absent for the shorter of the two. Times are s from the first
-    primitive's start; max_gap inf is the rule of 11.20 alone (one contact may part for any time).
+    primitive's start; max_gap inf is the rule of 11.4 alone (one contact may part for any time).
     """
 
     max_gap: float = MAX_CONTACT_GAP  #: the longest A or B may be absent (s)

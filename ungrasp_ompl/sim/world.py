@@ -5,7 +5,7 @@ simulator's nominal contact model. A real cell is not that world: dry friction b
 materials is known to about +-30 %, another engine's friction cone is another model, a part's
 density and a gripper's force are known to a few tens of per cent. A World names one such
 difference (or several), fixed for a whole campaign: the trials run in it, while the plan and its
-aim are made without it (docs/model.md 11.21).
+aim are made without it (docs/model.md 11.16).
 
 Every factor is dimensionless; 1 (the default) leaves that part of the world as the scene has it.
 """

@@ -1,0 +1,434 @@
+"""The results files as data, and the figures the documentation quotes from them.
+
+    python tools/campaign_results.py --from-markdown docs/results/campaigns.md [--command CMD] [--produced DATE]
+    python tools/campaign_results.py --render README.md docs/results.md
+    python tools/campaign_results.py --check README.md docs/results.md
+
+`tools/sim_campaigns.py --table FILE.md` writes its markdown table and, beside it, FILE.json: the
+same rows as numbers (success count, trials, the Wilson 95 % interval, the count placed by the
+paper's criterion, the placement errors, the deepest sinking, the failures by cause), with the
+command that ran and the day. `--from-markdown` reads a table the tool wrote into that JSON without
+running anything; the day is that of the last commit of the table (git) unless --produced gives it.
+
+A page quotes a results file through marks that `--render` fills in and `--check` (and
+tests/test_doc_figures.py) compares:
+
+* `<!-- fig SOURCE:ROW:FIELD -->...<!-- /fig -->` one figure: SOURCE a file of docs/results/
+  without its extension, ROW a row's key (its label in lower case, every run of other characters
+  than letters, digits, `_`, `.` and `+` made one `-`), FIELD one of FIELDS; a summary.json of
+  `simulate` (one row) and the whole file's own fields (`produced`, `command`) take no ROW;
+* `<!-- table SOURCE:NAME -->` ... `<!-- /table -->` a table built from the file (TABLES;
+  `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`).
+
+So a page cannot state a figure its results file does not hold, and a new campaign changes the
+pages by `--render`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+from datetime import date
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "docs" / "results"
+OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+OBJECT_NAMES = {"guitar_pick": "guitar pick", "puzzle_piece": "puzzle piece", "fabric_chalk": "fabric chalk"}
+#: A world holds an object's result where at least this share of its trials succeed with a mean
+#: placement error below HOLDS_ERROR_MM: 38 of 40, and the paper's mean error.
+HOLDS_SHARE = 0.95
+HOLDS_ERROR_MM = 2.6
+#: The footer's friction clause where the table was written before worlds fixed their friction
+#: (docs/decisions/0100): a world's friction factor then compounded with the drawn friction error.
+COMPOUNDED = "a world's friction compounded with the drawn friction error"
+
+
+# --- the table sim_campaigns writes, read back --------------------------------------------------
+
+def row_key(label: str) -> str:
+    """A row's key: its label in lower case, every run of other characters than letters, digits,
+    `_`, `.` and `+` made one `-`."""
+    return re.sub(r"[^a-z0-9_.+]+", "-", label.lower()).strip("-")
+
+
+def split_label(label: str) -> tuple[str, str]:
+    """A label's campaign and subject: the text before and after its last `: ` outside brackets
+    ("unaimed (landing: planned): guitar_pick, rounded tip" -> "unaimed (landing: planned)",
+    "guitar_pick, rounded tip"); a label without one is its own campaign, with no subject."""
+    depth, cut = 0, -1
+    for k, ch in enumerate(label):
+        depth += ch == "("
+        depth -= ch == ")"
+        if depth == 0 and label.startswith(": ", k):
+            cut = k
+    return (label, "") if cut < 0 else (label[:cut], label[cut + 2:])
+
+
+def subject_object(subject: str) -> str | None:
+    """The shipped object a row's subject names first, or None."""
+    first = re.split(r"[ ,(]", subject, maxsplit=1)[0]
+    return first if first in OBJECTS else None
+
+
+def _number(text: str) -> float | None:
+    return None if text.strip() == "-" else float(text)
+
+
+def parse_row(line: str) -> dict:
+    """One row of the table (sim_campaigns.Row.line) as a record."""
+    cells = [c.strip() for c in line.strip().strip("|").split(" | ")]
+    if len(cells) != 8:
+        raise ValueError(f"a campaign row has 8 cells, this one {len(cells)}: {line}")
+    label, ours, placed, errors, paper, model, failures, sinking = cells
+    m = re.fullmatch(r"(\d+)/(\d+) \((\d+)-(\d+) %\)", ours)
+    p = re.fullmatch(r"(\d+)/(\d+) \((?:mean ([\d.]+) mm|-)\)", placed)
+    if m is None or p is None or p.group(2) != m.group(2):
+        raise ValueError(f"unreadable counts in: {line}")
+    mean, largest = (None, None) if errors == "-" else (float(x) for x in errors.split(" / "))
+    causes = []
+    if failures != "-":
+        for part in failures.split("; "):
+            c = re.fullmatch(r"(\d+) (.+)", part)
+            causes.append([int(c.group(1)), c.group(2)] if c else [None, part])
+    campaign, subject = split_label(label)
+    return {"key": row_key(label), "label": label, "campaign": campaign, "subject": subject,
+            "object": subject_object(subject), "successes": int(m.group(1)), "trials": int(m.group(2)),
+            "interval_percent": [int(m.group(3)), int(m.group(4))], "placed": int(p.group(1)),
+            "placed_error_mean_mm": None if p.group(3) is None else float(p.group(3)),
+            "error_mean_mm": mean, "error_max_mm": largest, "paper": paper, "model": model,
+            "failures": causes, "sinking_max_mm": _number(sinking)}
+
+
+def row_line(r: dict) -> str:
+    """The record's row as the tool writes it (the inverse of parse_row)."""
+    placed = "-" if r["placed_error_mean_mm"] is None else f"mean {r['placed_error_mean_mm']:.2f} mm"
+    errors = "-" if r["error_mean_mm"] is None else f"{r['error_mean_mm']:.2f} / {r['error_max_mm']:.2f}"
+    failures = "; ".join(text if n is None else f"{n} {text}" for n, text in r["failures"]) or "-"
+    sinking = "-" if r["sinking_max_mm"] is None else f"{r['sinking_max_mm']:.3f}"
+    lo, hi = r["interval_percent"]
+    return (f"| {r['label']} | {r['successes']}/{r['trials']} ({lo}-{hi} %) | {r['placed']}/{r['trials']} ({placed}) | "
+            f"{errors} | {r['paper']} | {r['model']} | {failures} | {sinking} |")
+
+
+def parse_footer(footer: str) -> dict:
+    """The table's last line: "2785 s in all; 40 trials per row, seed 1, 2 jobs, STEP, RULE[, FRICTION]"."""
+    m = re.fullmatch(r"(\d+) s in all; (\d+) trials per row, seed (\d+), (\d+) jobs, (.+)", footer.strip())
+    if m is None:
+        raise ValueError(f"unreadable footer: {footer}")
+    parts = m.group(5).split(", ", 2)
+    return {"seconds": int(m.group(1)), "trials_per_row": int(m.group(2)), "seed": int(m.group(3)),
+            "jobs": int(m.group(4)), "step": parts[0], "grip_rule": parts[1],
+            "world_friction": parts[2] if len(parts) > 2 else COMPOUNDED}
+
+
+def parse_table(text: str) -> dict:
+    """The markdown a campaign wrote (header, rows, a blank line, the footer) as records."""
+    lines = [line for line in text.splitlines() if line.strip()]
+    rows = [parse_row(line) for line in lines[2:] if line.startswith("| ")]
+    footer = [line for line in lines[2:] if not line.startswith("| ")]
+    if len(footer) != 1:
+        raise ValueError("a campaign table ends in one footer line")
+    return {**parse_footer(footer[0]), "rows": rows}
+
+
+def last_commit_day(path: Path) -> str:
+    """The day (YYYY-MM-DD) of the last commit that touched path."""
+    day = subprocess.run(["git", "log", "-1", "--format=%cs", "--", str(path)], cwd=ROOT, capture_output=True,
+                         text=True, check=True).stdout.strip()
+    if not day:
+        raise SystemExit(f"{path}: no commit holds it; give the day with --produced")
+    return day
+
+
+def table_json(table: Path, command: str, produced: str) -> dict:
+    """The results file of a campaign table: where it is, the command that wrote it, the day, its rows."""
+    rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
+    return {"table": str(rel), "command": command, "produced": produced, **parse_table(table.read_text())}
+
+
+def write_json(table: Path, command: str, produced: str | None = None) -> Path:
+    """Write TABLE.json beside the markdown table; produced defaults to today."""
+    from ungrasp_ompl.io import write_text_atomic
+
+    path = table.with_suffix(".json")
+    doc = table_json(table, command, produced or date.today().isoformat())
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+    return path
+
+
+# --- figures -----------------------------------------------------------------------------------
+
+def load(source: str) -> dict:
+    """docs/results/SOURCE.json; a summary.json of `simulate` gets the day of its last commit."""
+    path = RESULTS / f"{source}.json"
+    doc = json.loads(path.read_text())
+    if "rows" not in doc and "produced" not in doc:
+        doc = {**doc, "produced": last_commit_day(path)}
+    return doc
+
+
+def _rate(successes: int, trials: int) -> str:
+    from ungrasp_ompl.sim.campaign import wilson_interval
+
+    lo, hi = wilson_interval(successes, trials)
+    return f"{successes}/{trials} ({100 * lo:.0f}-{100 * hi:.0f} %)"
+
+
+def _mm(value: float | None, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f} mm"
+
+
+def _failures(causes) -> str:
+    return "; ".join(text if n is None else f"{n} {text}" for n, text in causes) or "-"
+
+
+def summary_row(doc: dict) -> dict:
+    """A summary.json of `simulate` as a campaign row's record."""
+    from ungrasp_ompl.sim.campaign import wilson_interval
+
+    err, placed = doc["position_error_mm"], doc["placed_position_error_mm"]
+    lo, hi = wilson_interval(doc["successes"], doc["trials"])
+    aim = doc.get("aim_m")
+    return {"successes": doc["successes"], "trials": doc["trials"], "interval_percent": [round(100 * lo), round(100 * hi)],
+            "placed": doc["placed_paper_criterion"], "placed_error_mean_mm": placed["mean"],
+            "error_mean_mm": err["mean"], "error_max_mm": err["max"], "sinking_max_mm": doc["max_penetration_mm"],
+            "failures": [[n, c] for c, n in doc["causes"].items()],
+            "aim_mm": None if aim is None else 1000 * sum(x * x for x in aim) ** 0.5}
+
+
+#: What a figure shows of a row.
+FIELDS = {
+    "strict": lambda r: f"{r['successes']}/{r['trials']}",
+    "interval": lambda r: "{}-{} %".format(*r["interval_percent"]),
+    "strict_interval": lambda r: "{}/{} ({}-{} %)".format(r["successes"], r["trials"], *r["interval_percent"]),
+    "placed": lambda r: f"{r['placed']}/{r['trials']}",
+    "error_mean": lambda r: _mm(r["error_mean_mm"]),
+    "error_max": lambda r: _mm(r["error_max_mm"]),
+    "placed_error_mean": lambda r: _mm(r["placed_error_mean_mm"]),
+    "sinking": lambda r: _mm(r["sinking_max_mm"], 3),
+    "failures": lambda r: _failures(r["failures"]),
+    "paper": lambda r: r["paper"],
+    "aim": lambda r: _mm(r["aim_mm"]),
+}
+#: What a figure shows of a whole file.
+FILE_FIELDS = {"produced": lambda d: d["produced"], "command": lambda d: f"`{d['command']}`",
+               "seconds": lambda d: f"{d['seconds']} s", "trials_per_row": lambda d: str(d["trials_per_row"])}
+
+
+def figure(spec: str, cache: dict | None = None) -> str:
+    """The text of the figure SOURCE:ROW:FIELD (or SOURCE:FIELD for a file's own field, or a
+    summary.json's)."""
+    cache = {} if cache is None else cache
+    parts = spec.split(":")
+    source = parts[0]
+    if source not in cache:
+        cache[source] = load(source)
+    doc = cache[source]
+    if len(parts) == 2 and parts[1] in FILE_FIELDS:
+        return FILE_FIELDS[parts[1]](doc)
+    if len(parts) == 2 and "rows" not in doc:
+        return FIELDS[parts[1]](summary_row(doc))
+    if len(parts) != 3:
+        raise KeyError(f"figure {spec!r}: SOURCE:ROW:FIELD")
+    rows = {r["key"]: r for r in doc["rows"]}
+    if parts[1] not in rows:
+        raise KeyError(f"figure {spec!r}: no row {parts[1]!r} in {source}")
+    return FIELDS[parts[2]](rows[parts[1]])
+
+
+# --- tables ------------------------------------------------------------------------------------
+
+def object_groups(doc: dict) -> dict[str, dict[str, dict]]:
+    """The campaigns with a row for each of the three objects, in the table's order: campaign ->
+    object -> row (the worlds apart)."""
+    groups: dict[str, dict[str, dict]] = {}
+    for r in doc["rows"]:
+        if r["object"] is not None and r["campaign"] != "world":
+            groups.setdefault(r["campaign"], {})[r["object"]] = r
+    return {c: g for c, g in groups.items() if set(g) == set(OBJECTS)}
+
+
+def totals(doc: dict) -> dict[str, dict]:
+    """The rows over the three objects the tool wrote: the campaign of the three rows before each -> row."""
+    out, rows = {}, doc["rows"]
+    for k, r in enumerate(rows):
+        if r["subject"] == "the three objects" and k >= 3:
+            out[rows[k - 1]["campaign"]] = r
+    return out
+
+
+def worlds(doc: dict) -> dict[str, dict[str, dict]]:
+    """World label -> object -> row; "as modelled" from the base rows first, where the file has them."""
+    base = object_groups(doc).get("base")
+    out = {} if base is None else {"as modelled": base}
+    for r in doc["rows"]:
+        if r["campaign"] == "world":
+            out.setdefault(r["subject"].split(", ", 1)[1], {})[r["object"]] = r
+    return out
+
+
+def holds(row: dict) -> bool:
+    """Whether a world holds an object's result (HOLDS_SHARE, HOLDS_ERROR_MM)."""
+    return (row["successes"] >= HOLDS_SHARE * row["trials"] and row["error_mean_mm"] is not None
+            and row["error_mean_mm"] < HOLDS_ERROR_MM)
+
+
+def _held(group: dict[str, dict]) -> str:
+    held = [OBJECT_NAMES[o] for o in OBJECTS if holds(group[o])]
+    return "all three" if len(held) == 3 else ", ".join(held) or "none"
+
+
+def _world_label(doc: dict, label: str) -> str:
+    """A world's label, with the friction it ran at where the drawn error compounded with its factor."""
+    m = re.fullmatch(r"friction x([\d.]+)", label)
+    if m is None or doc["world_friction"] != COMPOUNDED:
+        return label
+    from ungrasp_ompl.perturbation import PRESETS
+
+    f = float(m.group(1))
+    return f"{label}, the drawn error on top: x{f * (1 - PRESETS['paper'].friction):.2f}-{f:.2f}"
+
+
+def _sum(group: dict[str, dict]) -> tuple[int, int]:
+    return sum(group[o]["successes"] for o in OBJECTS), sum(group[o]["trials"] for o in OBJECTS)
+
+
+def table_objects(doc: dict) -> str:
+    """Each campaign with a row per object: strict successes per object, over the three with its
+    interval, and the paper's figure."""
+    lines = ["| campaign | guitar pick | puzzle piece | fabric chalk | the three objects (95 % interval) | the paper |",
+             "|---|---|---|---|---|---|"]
+    total = totals(doc)
+    for campaign, group in object_groups(doc).items():
+        paper = total[campaign]["paper"] if campaign in total else group[OBJECTS[0]]["paper"]
+        cells = " | ".join(FIELDS["strict"](group[o]) for o in OBJECTS)
+        lines.append(f"| {campaign} | {cells} | {_rate(*_sum(group))} | {paper} |")
+    return "\n".join(lines)
+
+
+def table_single(doc: dict) -> str:
+    """The rows that are neither an object's of a campaign over the three, nor a world's, nor a total."""
+    lines = ["| campaign | ours (95 % interval) | placed by the paper's criterion | the paper | the model on the plan "
+             "| failures |", "|---|---|---|---|---|---|"]
+    grouped = {r["key"] for g in object_groups(doc).values() for r in g.values()}
+    for r in doc["rows"]:
+        if r["key"] in grouped or r["campaign"] == "world" or r["subject"] == "the three objects":
+            continue
+        lines.append(f"| {r['label']} | {FIELDS['strict_interval'](r)} | {FIELDS['placed'](r)} | {r['paper']} | "
+                     f"{r['model']} | {FIELDS['failures'](r)} |")
+    return "\n".join(lines)
+
+
+def table_worlds(doc: dict) -> str:
+    """Per world and object: strict successes and the mean error of the successes; where it holds."""
+    names = " | ".join(OBJECT_NAMES[o] for o in OBJECTS)
+    lines = [f"| world the trials run in | {names} | holds for |", "|---|---|---|---|---|"]
+    for label, group in worlds(doc).items():
+        cells = " | ".join(FIELDS["strict"](group[o]) + ("" if group[o]["error_mean_mm"] is None
+                                                           else f", {_mm(group[o]['error_mean_mm'])}")
+                           for o in OBJECTS)
+        lines.append(f"| {_world_label(doc, label)} | {cells} | {_held(group)} |")
+    return "\n".join(lines)
+
+
+def table_readme_worlds(doc: dict) -> str:
+    """The README's worlds: per world and object the strict successes, where it holds."""
+    names = " | ".join(OBJECT_NAMES[o] for o in OBJECTS)
+    lines = [f"| world the trials run in | {names} | holds for |", "|---|---|---|---|---|"]
+    for label, group in worlds(doc).items():
+        cells = " | ".join(FIELDS["strict"](group[o]) for o in OBJECTS)
+        lines.append(f"| {_world_label(doc, label)} | {cells} | {_held(group)} |")
+    return "\n".join(lines)
+
+
+def table_readme(doc: dict) -> str:
+    """The README's comparison with the paper: the base rows, the flat tip, caging and the tangram."""
+    groups = {c: g for c, g in object_groups(doc).items()}
+    rows = {r["key"]: r for r in doc["rows"]}
+    caging = [r for r in doc["rows"] if r["campaign"] == "caging"]
+    lines = ["| experiment | ours, simulated: successes (95 % interval) | the paper, on the robot |", "|---|---|---|"]
+    lines.append(f"| the three objects, 40 trials each | {_rate(*_sum(groups['base']))} | {totals(doc)['base']['paper']} |")
+    lines.append(f"| the same, a flat finger tip (edge contact) | {_rate(*_sum(groups['edge']))} | "
+                 f"{groups['edge'][OBJECTS[0]]['paper']} |")
+    for r in caging:
+        tip = r["subject"].rsplit(", ", 1)[1]
+        lines.append(f"| the pick started outside force closure, {tip} | {FIELDS['strict_interval'](r)} | {r['paper']} |")
+    tangram = rows["tangram-rounded-tip-lattice-plans"]
+    lines.append(f"| the tangram, whole layouts | {FIELDS['strict_interval'](tangram)} | {tangram['paper']} |")
+    return "\n".join(lines)
+
+
+def table_grip_rule(doc: dict, previous: dict) -> str:
+    """The base rows judged by the lost-grip bound and by the previous rule, the same trials."""
+    now, before = object_groups(doc)["base"], object_groups(previous)["base"]
+    lines = ["| object | the lost-grip bound | the previous rule |", "|---|---|---|"]
+    for o in OBJECTS:
+        lines.append(f"| {OBJECT_NAMES[o]} | {FIELDS['strict'](now[o])} | {FIELDS['strict'](before[o])} |")
+    lines.append(f"| the three objects | {_rate(*_sum(now))} | {_rate(*_sum(before))} |")
+    return "\n".join(lines)
+
+
+#: NAME -> the table built from its results files (one, or for grip_rule two).
+TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worlds, "readme": table_readme,
+          "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule}
+
+
+def table(spec: str) -> str:
+    """The table SOURCE:NAME, or SOURCE+SOURCE:NAME for a table of two files."""
+    sources, name = spec.split(":")
+    if name not in TABLES:
+        raise KeyError(f"table {spec!r}: no table {name!r}")
+    return TABLES[name](*(load(source) for source in sources.split("+")))
+
+
+# --- the pages ---------------------------------------------------------------------------------
+
+FIG = re.compile(r"<!-- fig (\S+) -->(.*?)<!-- /fig -->")
+TABLE = re.compile(r"(<!-- table (\S+) -->\n)(.*?)(\n<!-- /table -->)", re.S)
+
+
+def render(text: str) -> str:
+    """The page with every marked figure and table as its results file has it."""
+    cache: dict = {}
+    text = FIG.sub(lambda m: f"<!-- fig {m.group(1)} -->{figure(m.group(1), cache)}<!-- /fig -->", text)
+    return TABLE.sub(lambda m: m.group(1) + table(m.group(2)) + m.group(4), text)
+
+
+def differences(text: str) -> list[str]:
+    """Each marked figure or table whose text is not its results file's: mark, found, expected."""
+    cache: dict = {}
+    out = [f"{m.group(1)}: {m.group(2)!r}, the file has {figure(m.group(1), cache)!r}"
+           for m in FIG.finditer(text) if m.group(2) != figure(m.group(1), cache)]
+    out += [f"table {m.group(2)}:\n{m.group(3)}\nthe file gives:\n{table(m.group(2))}"
+            for m in TABLE.finditer(text) if m.group(3) != table(m.group(2))]
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--from-markdown", type=Path, nargs="*", default=[],
+                    help="campaign tables (markdown, as sim_campaigns.py --table writes them) to write as JSON beside")
+    ap.add_argument("--command", default=None, help="the command that wrote the table (default: sim_campaigns.py "
+                                                    "--table with the table's path)")
+    ap.add_argument("--produced", default=None, help="the day the table was produced (default: its last commit's)")
+    ap.add_argument("--render", type=Path, nargs="*", default=[], help="pages whose marks to fill in")
+    ap.add_argument("--check", type=Path, nargs="*", default=[], help="pages whose marks to compare")
+    args = ap.parse_args()
+    for table in args.from_markdown:
+        command = args.command or f"python tools/sim_campaigns.py --table {table}"
+        print(f"wrote {write_json(table, command, args.produced or last_commit_day(table))}")
+    for page in args.render:
+        page.write_text(render(page.read_text()))
+        print(f"rendered {page}")
+    wrong = [f"{page}: {d}" for page in args.check for d in differences(page.read_text())]
+    print("\n".join(wrong) or ("every mark agrees" if args.check else ""), end="\n" if wrong or args.check else "")
+    return 1 if wrong else 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))
+    sys.exit(main())
