@@ -6,10 +6,11 @@ the start press and every leg, each state in its leg's contact mode) and the sim
 worlds the plan did not see (sim/world.py). Two predictions are printed:
 
 * per world, from the world alone: the margin at the world's friction times the `paper` draw's
-  lowest factor (0.8) at every contact, with the world's cone (pyramidal or elliptic), the grasp
+  lowest factor (0.8) at every contact whose friction the world leaves alone (a world that sets a
+  pair's friction fixes it: docs/decisions/0100-a-world-fixes-its-friction.md), with the world's cone (pyramidal or elliptic), the grasp
   1 mm off GB: the plan is predicted to lose trials where it is negative somewhere;
 * per trial, from the world and the trial's draw: the margin at the world's friction times that
-  trial's drawn factors at G, A and B, the grasp off GB by the trial's own shift across it.
+  trial's drawn factors at G, A and B (where the world leaves them), the grasp off GB by the trial's own shift across it.
 
 A trial counts as held unless it fails before the termination (grip lost, turned out of the plane,
 B past the thumb's tip, a digit on the table); a placement off target is held. Also printed: the
@@ -126,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
             world = world_of(item)
             cone = str(world.cone)
             table, digits = world.friction_factors
-            worst = (table * draw_low, digits * draw_low, digits * draw_low)
+            fixed_table, fixed_digits = world.fixed_friction  # the world's factor is the pair's error
+            low_g, low_d = (1.0 if fixed_table else draw_low), (1.0 if fixed_digits else draw_low)
+            worst = (table * low_g, digits * low_d, digits * low_d)
             mu = _plane_mu(scene, worst)
             res = plan_out_of_plane(scene, plan, mu, cone)
             first = res.first_below()
@@ -135,7 +138,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{legs_line(res)}")
             counts = totals.setdefault(f"{name} {world.describe()}", [0, 0, 0, 0, 0])
             for k, p in enumerate(params):
-                factors = tuple(f * g for f, g in zip((table, digits, digits), p.friction_scale))
+                drawn = (1.0 if fixed_table else p.friction_scale[0],
+                         *((1.0, 1.0) if fixed_digits else p.friction_scale[1:]))
+                factors = tuple(f * g for f, g in zip((table, digits, digits), drawn))
                 own = out_of_plane_margin(scene, states.states, states.a_sign, states.b_sign, _plane_mu(scene, factors),
                                           cone, OutOfPlaneLoads(offset=abs(p.shift_across_mm) / 1000), states.slide)
                 below = np.flatnonzero(own.push < 0.0)
