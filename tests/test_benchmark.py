@@ -81,7 +81,7 @@ def test_margin_objective_bench_keeps_no_planner_above_the_lattice_bottleneck(tm
     """bench --objective margin: the lattice yardstick finds the widest path, and no planner's run,
     every one re-validated on the same lattice, keeps a larger smallest margin than it."""
     guitar = SCENES / "guitar_pick.yaml"
-    options = BenchmarkOptions(planners=("RRTstar", LATTICE), runs=2, time=0.3, jobs=2, iterations=1500,
+    options = BenchmarkOptions(planners=("RRTstar", LATTICE), runs=2, time=0.3, jobs=2, iterations=6000,
                                objective="margin", out=tmp_path / "b")
     result = run_benchmark([guitar], options)
     rows = {r.planner: r for r in result.summary}
@@ -105,7 +105,7 @@ def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
     from ungrasp_ompl.planning.setup import lattice_plan
 
     guitar = SCENES / "guitar_pick.yaml"
-    options = BenchmarkOptions(planners=("RRTstar",), runs=1, time=0.3, jobs=2, iterations=1500,
+    options = BenchmarkOptions(planners=("RRTstar",), runs=1, time=0.3, jobs=2, iterations=6000,
                                objective="tolerance", out=tmp_path / "b")
     result = run_benchmark([guitar], options)
     scene = Scene.from_file(guitar)

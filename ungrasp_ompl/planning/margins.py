@@ -14,9 +14,13 @@ mode of the leg that leaves it, as in a plan's margin (planning.path_margin.path
   releasable goal state can keep all the way (no secure path passes more);
 * a step's penalty, its weighted L1 length (reference units, docs/model.md section 6) times a
   function of its margin m (deg) that falls as m grows: for ``balanced`` 1 / max(m, 1e-6), for
-  ``margin`` exp(-(m - m*) / TIE_SCALE_DEG) with m* the bottleneck (deg), BELOW_BOTTLENECK times
-  more below it, a steep stand-in for the lexicographic max-min that breaks the ties of the
-  smallest margin; a leg's or a motion's penalty is the sum over its steps.
+  ``margin`` exp(-max(m - m*, 0) / TIE_SCALE_DEG) with m* the bottleneck (deg), a steep tie-break
+  between paths with the same smallest margin (a step at or below the bottleneck weighs 1); a leg's
+  or a motion's penalty is the sum over its steps;
+* a margin's level below the bottleneck (level): 0 at or above m*, else its rank among the distinct
+  margins below m*, 1 for the widest: the smallest margin as an integer that orders margins
+  exactly, which the planners' maximin objective (planning.objective.MaximinObjective) combines
+  by its maximum along a path.
 
 For the ``tolerance`` objective every "margin" above is the state's tolerance instead
 (scene.tolerance.state_tolerances: the largest scale of the `paper` error box, up to
@@ -48,11 +52,6 @@ MARGIN_FLOOR_DEG = 1e-6
 #: keeps margins 20 deg above the bottleneck (a cone's whole half-angle) weighing more than
 #: TIE_TOLERANCE (exp(-20) = 2e-9), so that the tie-break still tells them apart.
 TIE_SCALE_DEG = 1.0
-
-#: The margin objective's penalty factor for a step narrower than the bottleneck: more than any
-#: path's tie-break can add up to (at most its weighted L1 length, a few hundred), so that a planner
-#: ranks every path that keeps the bottleneck above every path that does not.
-BELOW_BOTTLENECK = 1e6
 
 #: Tie-break values closer than this (relative) count as equal; the cost decides between them.
 TIE_TOLERANCE = 1e-9
@@ -109,7 +108,8 @@ class LatticeMargins:
         self._edge_margin: NDArray[np.float64] | None = None
         self._relevant: NDArray[np.bool_] | None = None
         self._bottleneck: float | None | bool = False  # False: not searched yet
-        self._motions: dict[tuple, float] = {}
+        self._below: NDArray[np.float64] | None = None  # the distinct margins below the bottleneck
+        self._motions: dict[tuple, tuple[float, float]] = {}
         self._unit_lengths = np.array([reference_cost(np.eye(3)[k] * atlas.res, atlas.scene.options.d_weight)
                                        for k in range(3)])  # of one lattice step along each axis
         self.computed_states = 0
@@ -143,6 +143,8 @@ class LatticeMargins:
         that none is computed while a planner runs)."""
         self.edge_margin()
         _ = self.bottleneck
+        if self.objective.maximin:
+            self._levels()
 
     # -- per state -------------------------------------------------------------------------------
     def mode(self, sa: int, sb: int) -> NDArray[np.float64]:
@@ -252,19 +254,51 @@ class LatticeMargins:
 
     def penalty(self, margin: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """The objective's penalty per unit of weighted L1 length of a step with this margin
-        (rad; a tolerance for ``tolerance``): 1 / max(m, 1e-6) (balanced) or exp(-(m - m*) /
+        (rad; a tolerance for ``tolerance``): 1 / max(m, 1e-6) (balanced) or exp(-max(m - m*, 0) /
         TIE_SCALE_DEG) (margin, tolerance), m and the bottleneck m* in degrees (percent of the box);
-        inf for an insecure step (-inf margin)."""
+        inf for an insecure step (-inf margin). The maximin objectives rank the smallest margin
+        first (level), so their penalty only breaks ties and weighs a step at or below m* as one at
+        it: bounded by the path's weighted L1 length."""
         deg = np.asarray(margin, dtype=float) * self.unit
-        with np.errstate(over="ignore"):
+        with np.errstate(over="ignore", invalid="ignore"):
             if self.objective == Objective.BALANCED:
                 out = 1.0 / np.maximum(deg, MARGIN_FLOOR_DEG)
-            else:  # below the bottleneck, BELOW_BOTTLENECK times more: worse than any path above it
+            else:
                 ref = self.bottleneck
                 ref = ref * self.unit if ref is not None and math.isfinite(ref) else 0.0
-                out = np.exp(-(deg - ref) / TIE_SCALE_DEG)
-                out = np.where(deg < ref, BELOW_BOTTLENECK * out, out)
+                out = np.exp(-np.maximum(deg - ref, 0.0) / TIE_SCALE_DEG)
         return np.where(deg == -np.inf, np.inf, out)
+
+    def _levels(self) -> NDArray[np.float64]:
+        """The distinct finite margins (rad) below the bottleneck among those computed (every
+        mode a secure lattice edge makes, once prepared), ascending."""
+        if self._below is None:
+            ref = self.bottleneck
+            ref = ref if ref is not None else math.inf
+            self.edge_margin()  # computes every mode a secure lattice edge makes
+            values = [m[np.isfinite(m) & (m < ref)] for m in self._mode.values()]
+            self._below = np.unique(np.concatenate(values)) if values else np.empty(0)
+        return self._below
+
+    def level(self, margin: float) -> int:
+        """The margin's (rad; a tolerance for ``tolerance``) level below the bottleneck m*: 0 at or
+        above m*, else 1 + the number of distinct margins of the lattice (its edges' modes) that lie
+        above it and below m*, so 1 for the widest below m*. Between margins of the lattice the
+        levels order margins exactly (a larger margin, a smaller level); -inf (insecure) has no level."""
+        ref = self.bottleneck
+        if margin >= (ref if ref is not None else math.inf):
+            return 0
+        below = self._levels()
+        return 1 + int(len(below) - np.searchsorted(below, margin, side="right"))
+
+    def level_margin(self, level: int) -> float:
+        """The margin (rad) that a level stands for: the bottleneck for 0 (a path keeps at least it;
+        no path to the goal region keeps more), else the level-th widest margin below it."""
+        ref = self.bottleneck
+        if level == 0:
+            return ref if ref is not None else math.inf
+        below = self._levels()
+        return float(below[len(below) - level]) if 0 < level <= len(below) else -math.inf
 
     def _step_penalties(self, kind: str, direction: int) -> NDArray[np.float64]:
         """For an axis leg (T, P, D) run in a direction (+1 or -1 along its axis): the penalty of
@@ -356,13 +390,26 @@ class LatticeMargins:
     def motion(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> float:
         """The penalty of the motion from lattice index a to b: that of its best secure staircase
         (score); inf when none realises it (or it runs against the allowed directions)."""
+        return self.motion_value(a, b)[1]
+
+    def motion_value(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> tuple[float, float]:
+        """(smallest margin rad, penalty) of the motion from lattice index a to b: those of its best
+        secure staircase (score: for the maximin objectives the widest, then the least penalised),
+        every lattice state it passes counted in its leg's mode, a (the start, for the first
+        motion of a path) included; (-inf, inf) when none realises it (or it runs against the
+        allowed directions)."""
         key = (a, b)
         if key in self._motions:
             return self._motions[key]
         if len(self._motions) > MOTION_CACHE:
             self._motions.clear()
         found = self.atlas.realise(a, b)
-        out = self._ranked_first(found)[0][1][-1] if found else math.inf  # the first best's penalty
+        if found:
+            legs, score = self._ranked_first(found)[0]  # the first best
+            margin = -score[0] if self.objective.maximin else min(self.leg_margin(leg) for leg in legs)
+            out = (float(margin), float(score[-1]))
+        else:
+            out = (-math.inf, math.inf)
         self._motions[key] = out
         return out
 

@@ -1,6 +1,7 @@
-"""The planners' objectives as OMPL optimisation objectives: the reference planner's cost, and the
-robust ones, margin and balanced, as weighted sums of it and a margin penalty (docs/model.md,
-section 6)."""
+"""The planners' objectives as OMPL optimisation objectives (docs/model.md, sections 6 and 6.1):
+the reference planner's cost; ``balanced``, the weighted sum of it and a margin penalty; and the
+maximin objectives ``margin`` and ``tolerance``, a bottleneck (the path's smallest margin, combined
+by its minimum along the path) ranked before an additive tie-break, encoded in one OMPL cost."""
 
 from __future__ import annotations
 
@@ -94,36 +95,32 @@ class MarginPenaltyObjective(ob.OptimizationObjective):
         return self.identityCost()
 
 
-#: The margin objective's weights in OMPL's sum: of a primitive leg, and of the L1 length (reference
-#: units), against the tie-break penalty (at most 1 per unit of length at the bottleneck).
+#: The maximin objectives' tie-break weights: of a primitive leg, and of the L1 length (reference
+#: units), against the tie-break penalty (at most 1 per unit of length).
 MARGIN_LEG_WEIGHT = 100.0
 MARGIN_LENGTH_WEIGHT = 1e-6
 
+#: MaximinObjective's encoding: a cost is level * LEVEL_SCALE + tie-break, the tie-break below
+#: TIE_BREAK_CAP (a power of two, so that the split is exact).
+LEVEL_SCALE = 2.0 ** 24
+TIE_BREAK_CAP = LEVEL_SCALE - 1.0
+
 
 class RobustObjective(ob.MultiOptimizationObjective):
-    """A robust objective as OMPL's weighted sum of PrimitiveCostObjective and
-    MarginPenaltyObjective (docs/model.md, section 6.1), asymmetric like its parts
-    (MultiOptimizationObjective would report itself symmetric, and RRT* would then reuse motions
-    backwards):
-
-    - ``balanced``: the cost plus planning.margin_weight times the penalty 1 / margin (deg);
-    - ``margin``: the tie-break penalty exp(-(margin - bottleneck) / TIE_SCALE_DEG), BELOW_BOTTLENECK
-      times more below the lattice's bottleneck, plus MARGIN_LEG_WEIGHT per primitive leg and
-      MARGIN_LENGTH_WEIGHT times the L1 length: the lattice's order (the smallest margin, the
-      primitive changes, the tie-break, the cost) as one additive cost.
-    """
+    """The ``balanced`` objective as OMPL's weighted sum of PrimitiveCostObjective and
+    MarginPenaltyObjective (docs/model.md, section 6.1): the cost plus planning.margin_weight times
+    the penalty 1 / margin (deg); asymmetric like its parts (MultiOptimizationObjective would report
+    itself symmetric, and RRT* would then reuse motions backwards). The maximin objectives are not
+    sums: MaximinObjective."""
 
     def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
         super().__init__(si)
-        if margins.objective == Objective.BALANCED:
-            self.cost_part = PrimitiveCostObjective(si, atlas)
-            penalty_weight = atlas.scene.options.margin_weight
-        else:
-            self.cost_part = PrimitiveCostObjective(si, atlas, MARGIN_LENGTH_WEIGHT, MARGIN_LEG_WEIGHT)
-            penalty_weight = 1.0
+        if margins.objective != Objective.BALANCED:
+            raise ValueError(f"RobustObjective is the balanced objective; {margins.objective} is MaximinObjective")
+        self.cost_part = PrimitiveCostObjective(si, atlas)
         self.penalty_part = MarginPenaltyObjective(si, atlas, margins)
         self.addObjective(self.cost_part, 1.0)
-        self.addObjective(self.penalty_part, penalty_weight)
+        self.addObjective(self.penalty_part, atlas.scene.options.margin_weight)
         self.lock()
 
     def isSymmetric(self) -> bool:
@@ -131,6 +128,95 @@ class RobustObjective(ob.MultiOptimizationObjective):
 
     def motionCostHeuristic(self, s1, s2) -> ob.Cost:
         return self.cost_part.motionCostHeuristic(s1, s2)
+
+
+class MaximinObjective(ob.OptimizationObjective):
+    """The ``margin`` (or ``tolerance``) objective for OMPL's planners: lexicographic, the path's
+    smallest margin first (larger is better), then the tie-break (docs/model.md, section 6.1).
+
+    A cost is the pair (level, tie-break) in one OMPL cost, level * LEVEL_SCALE + tie-break:
+
+    - level: LatticeMargins.level of the smallest margin along the path, 0 where it keeps the
+      lattice's bottleneck m*, else the rank of that margin below m* (the widest 1), so that a
+      larger smallest margin is a smaller level, exactly. It combines along a path by its maximum
+      (a bottleneck, not a sum);
+    - tie-break: additive, MARGIN_LEG_WEIGHT per primitive leg, the margin penalty
+      exp(-max(m - m*, 0) / TIE_SCALE_DEG) per unit of length, MARGIN_LENGTH_WEIGHT times the L1
+      length: the lattice's order after the margin (changes, tie-break, cost) as one sum, capped at
+      TIE_BREAK_CAP (a path's is at most a few thousand).
+
+    A motion's cost is its best secure staircase's (LatticeMargins.motion_value: the widest, then
+    the least penalised), every lattice state it passes counted in its leg's mode, its first state
+    (the start, for a path's first motion) included; infinite for a motion against the allowed
+    directions or that no secure staircase realises. The encoding is monotone in the lexicographic
+    order, so OMPL's own comparison of costs (isCostBetterThan: the smaller value), its identity
+    (0: no motion, level 0) and its infinite cost are the objective's, and only combineCosts is the
+    objective's own: the larger level, the tie-breaks added. Tie-breaks lose precision on deep
+    levels (on level n about n * 4e-9), never the level. Asymmetric, like the cost: RRT* never
+    reuses a motion backwards. OMPL's default cost threshold (0) is never met, so a planner runs its
+    whole budget.
+    """
+
+    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
+        super().__init__(si)
+        if not margins.objective.maximin:
+            raise ValueError(f"MaximinObjective serves the maximin objectives, not {margins.objective}")
+        self.atlas = atlas
+        self.margins = margins
+        self.cost_part = PrimitiveCostObjective(si, atlas, MARGIN_LENGTH_WEIGHT, MARGIN_LEG_WEIGHT)
+
+    def isSymmetric(self) -> bool:
+        return False
+
+    def stateCost(self, state) -> ob.Cost:
+        return self.identityCost()
+
+    def motionCost(self, s1, s2) -> ob.Cost:
+        index = self.atlas.index
+        a = index((s1[0], s1[1], s1[2]))
+        b = index((s2[0], s2[1], s2[2]))
+        if a is None or b is None:
+            return self.infiniteCost()
+        margin, penalty = self.margins.motion_value(a, b)
+        if not math.isfinite(penalty):
+            return self.infiniteCost()
+        cost = self.cost_part.motionCost(s1, s2).value()
+        if not math.isfinite(cost):
+            return self.infiniteCost()
+        return ob.Cost(encode(self.margins.level(margin), cost + penalty))
+
+    def combineCosts(self, c1, c2) -> ob.Cost:
+        v1, v2 = c1.value(), c2.value()
+        if not (math.isfinite(v1) and math.isfinite(v2)):
+            return self.infiniteCost()
+        l1, t1 = decode(v1)
+        l2, t2 = decode(v2)
+        return ob.Cost(encode(max(l1, l2), t1 + t2))
+
+    def motionCostHeuristic(self, s1, s2) -> ob.Cost:
+        return self.cost_part.motionCostHeuristic(s1, s2)  # level 0, the least tie-break: admissible
+
+    def smallest_margin(self, cost: ob.Cost) -> float:
+        """The smallest margin (rad) that a finite cost's level stands for (LatticeMargins.level_margin:
+        the bottleneck for level 0)."""
+        return self.margins.level_margin(decode(cost.value())[0])
+
+
+def encode(level: int, tie_break: float) -> float:
+    """MaximinObjective's cost of a level and a tie-break."""
+    return level * LEVEL_SCALE + min(max(tie_break, 0.0), TIE_BREAK_CAP)
+
+
+def decode(value: float) -> tuple[int, float]:
+    """The (level, tie-break) of a finite MaximinObjective cost."""
+    level = math.floor(value / LEVEL_SCALE)
+    return level, value - level * LEVEL_SCALE
+
+
+def make_objective(si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins) -> ob.OptimizationObjective:
+    """The OMPL objective of a robust objective's margins: MaximinObjective for margin and
+    tolerance, RobustObjective for balanced."""
+    return (MaximinObjective if margins.objective.maximin else RobustObjective)(si, atlas, margins)
 
 
 def reduce_vertices(si: ob.SpaceInformation, objective: ob.OptimizationObjective,
