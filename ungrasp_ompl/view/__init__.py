@@ -56,14 +56,15 @@ def load_scene(directory: PathLike):
     if not traj_path.is_file():
         raise InputError("DIR", f"{d} holds no {TRAJECTORY_FILE} (write one with plan --export DIR, tile --out DIR "
                          "or simulate --out DIR)")
-    traj = _viewable(read_json(traj_path), str(traj_path))
+    traj = _named(read_json(traj_path), str(traj_path))
     sources = [traj_path]
     record_path = d / RECORD_FILE
     if record_path.is_file():
         record = read_view_record(record_path)
         sources.append(record_path)
     else:
-        record = default_record()
+        record = default_record(pincer=_is_pincer(traj))
+    traj = _viewable(traj, str(traj_path), record)
     trial = None
     if (d / POSES_FILE).is_file() and record.kind == "simulation":
         trial = read_trial_poses(d / POSES_FILE)
@@ -74,25 +75,52 @@ def load_scene(directory: PathLike):
     return scene, sources
 
 
-def _viewable(traj, source: str):
+def _is_pincer(traj) -> bool:
+    """Whether traj's gripper is a pincer: its last joint is the pincer's joint angle (rad)."""
+    from ..robot.trajectory import PINCER_JOINT_NAMES
+
+    return tuple(traj.joint_names) == PINCER_JOINT_NAMES
+
+
+def _named(traj, source: str):
+    """traj once its joints are the UR5e's six and a gripper's, in that order: the parallel jaws'
+    opening (m) or a pincer's joint angle (rad); InputError naming joint_names otherwise."""
+    from ..robot.trajectory import JOINT_NAMES, PINCER_JOINT_NAMES
+
+    if tuple(traj.joint_names) not in (JOINT_NAMES, PINCER_JOINT_NAMES):
+        raise InputError("joint_names", f"must be {', '.join(JOINT_NAMES)} (the UR5e and its gripper), or the same "
+                         f"ending in {PINCER_JOINT_NAMES[-1]} (a pincer), got {', '.join(traj.joint_names)}", source)
+    return traj
+
+
+def _viewable(traj, source: str, record=None):
     """traj (robot.trajectory.JointTrajectory) once it holds what the view animates: the UR5e's six
-    joints and the gripper opening, in that order, at angles the arm can take and openings the
-    gripper can, for at most MAX_DURATION_S; InputError naming the field otherwise."""
+    joints and the gripper opening (m; a pincer's joint angle, rad, when record's gripper is a
+    pincer), in that order, at angles the arm can take and openings the gripper can, for at most
+    MAX_DURATION_S; InputError naming the field otherwise."""
     import math
 
     import numpy as np
 
-    from ..robot.trajectory import JOINT_NAMES
+    from ..robot.trajectory import JOINT_NAMES, PINCER_JOINT_NAMES
 
-    if tuple(traj.joint_names) != JOINT_NAMES:
-        raise InputError("joint_names", f"must be {', '.join(JOINT_NAMES)} (the UR5e and its gripper), got "
-                         f"{', '.join(traj.joint_names)}", source)
+    _named(traj, source)
+    pincer = None if record is None else record.pincer
+    wanted = JOINT_NAMES if pincer is None else PINCER_JOINT_NAMES
+    if tuple(traj.joint_names) != wanted:
+        raise InputError("joint_names", f"must end in {wanted[-1]}: {RECORD_FILE} describes "
+                         f"{'a pincer' if pincer is not None else 'parallel jaws'}, got {traj.joint_names[-1]}",
+                         source)
     arm, opening = traj.positions[:, :-1], traj.positions[:, -1]
     if np.abs(arm).max() > 2 * math.pi + 1e-9:
         raise InputError("points.positions", f"the arm's joint angles must lie within [-2 pi, 2 pi] rad, got "
                          f"{float(arm.flat[np.abs(arm).argmax()]):.4g}", source)
-    if not 0.0 <= opening.min() <= opening.max() <= 1.0:
+    if pincer is None and not 0.0 <= opening.min() <= opening.max() <= 1.0:
         raise InputError("points.positions", f"the gripper opening (the last joint) must lie within [0, 1] m, got "
+                         f"{float(opening.min() if opening.min() < 0 else opening.max()):.4g}", source)
+    if pincer is not None and not -1e-9 <= opening.min() <= opening.max() <= pincer.max_angle + 1e-9:
+        raise InputError("points.positions", f"the pincer's joint angle (the last joint) must lie within [0, "
+                         f"{pincer.max_angle:.4g}] rad, got "
                          f"{float(opening.min() if opening.min() < 0 else opening.max()):.4g}", source)
     duration = float(traj.times[-1] - traj.times[0])
     if duration > MAX_DURATION_S:

@@ -1,9 +1,10 @@
 """What the 3D view needs besides the joint trajectory: ``view_scene.json``.
 
 ``plan --export DIR``, ``tile --out DIR`` and ``simulate --out DIR`` write it beside the trajectory.
-It holds the arm's base pose and the gripper (to rebuild the robot model), the fixed bodies on the
-table (a layout's frame walls; obstacles), and for each object put down its outline's prism and its
-planned pose over the trajectory's time:
+It holds the arm's base pose and the gripper (to rebuild the robot model; a pincer's links too,
+``robot.pincer``: mechanics.pincer.PincerLinks in m and rad, absent for the parallel jaws), the
+fixed bodies on the table (a layout's frame walls; obstacles), and for each object put down its
+outline's prism and its planned pose over the trajectory's time:
 
 * hidden until ``appear_s`` (the start of its approach: it is handed over at the home pose);
 * carried rigidly in the pinch until ``carry_end_s``: body pose = palm pose (forward kinematics of
@@ -31,6 +32,7 @@ from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..io import read_versioned_json, write_text_atomic
+from ..mechanics.pincer import PincerLinks
 from ..robot.model import GripperSpec, tcp_pose
 from ..robot.trajectory import JointTrajectory
 
@@ -46,6 +48,8 @@ DIGIT_KEYS = ("thumb_tip_thickness", "thumb_base_thickness", "finger_tip_thickne
               "finger_tip_radius")
 #: Phases of a placement that are not primitives (robot.pipeline's segment names).
 NON_PRIMITIVES = ("return", "approach", "press", "termination", "retreat")
+#: A pincer's links in the record (robot.pincer): mechanics.pincer.PincerLinks' fields, m and rad.
+PINCER_KEYS = ("radius", "offset", "thumb_reach", "tip_radius", "closed_angle", "max_angle", "joint_torque")
 
 PathLike = str | os.PathLike[str]
 
@@ -101,16 +105,21 @@ class ViewRecord:
     #: the digits' profile (m): thumb_tip_thickness, thumb_base_thickness, finger_tip_thickness,
     #: finger_base_thickness, finger_tip_radius; None draws the robot model's digit boxes
     digits: dict[str, float] | None = None
+    #: a pincer's links (m, rad): its digits turn on one joint; None: the parallel jaws
+    pincer: PincerLinks | None = None
 
     def to_dict(self) -> dict:
         def r(a: Any) -> Any:
             return np.round(np.asarray(a, dtype=float), 9).tolist()
 
+        robot = {"base": r(self.base), "gripper": {k: float(v) for k, v in self.gripper.__dict__.items()},
+                 "digits": self.digits}
+        if self.pincer is not None:
+            robot["pincer"] = {k: float(getattr(self.pincer, k)) for k in PINCER_KEYS}
         return {
             "format": FORMAT, "schema_version": SCHEMA_VERSION, "kind": self.kind, "title": self.title,
             "units": {"length": "m", "angle": "rad", "time": "s (trajectory time)"},
-            "robot": {"base": r(self.base), "gripper": {k: float(v) for k, v in self.gripper.__dict__.items()},
-                      "digits": self.digits},
+            "robot": robot,
             "solids": [{"name": s.name, "kind": s.kind, "vertices": r(s.vertices)} for s in self.solids],
             "pieces": [{"name": p.name, "prefix": p.prefix, "outline": r(p.outline), "thickness": float(p.thickness),
                         "target": r(p.target), "appear_s": float(p.appear_s), "carry_end_s": float(p.carry_end_s),
@@ -146,7 +155,7 @@ def build_record(jobs: list, execution: Any, labels: list[str] | None = None, ki
     title = f"{len(jobs)} pieces" if labels else first.name
     l, dg = first.object_length, first.digits
     digits = {k: float(getattr(dg, k) * l) for k in DIGIT_KEYS}
-    return ViewRecord(kind, robot.base.copy(), robot.gripper, solids, pieces, title, digits)
+    return ViewRecord(kind, robot.base.copy(), robot.gripper, solids, pieces, title, digits, robot.pincer)
 
 
 def write_view_record(directory: PathLike, jobs: list, execution: Any, labels: list[str] | None = None,
@@ -268,7 +277,34 @@ def read_view_record(path: PathLike) -> ViewRecord:
                                                or not 0.0 <= digits[k] < 1.0 for k in DIGIT_KEYS):
             raise InputError("robot.digits", f"needs {', '.join(DIGIT_KEYS)} in metres", source)
         digits = {k: float(digits[k]) for k in DIGIT_KEYS}
-    return ViewRecord(kind, base, spec, solids, pieces, str(doc.get("title", "")), digits)
+    pincer = robot.get("pincer")
+    if pincer is not None:
+        pincer = _pincer(pincer, source)
+    return ViewRecord(kind, base, spec, solids, pieces, str(doc.get("title", "")), digits, pincer)
+
+
+def _pincer(value: Any, source: str) -> PincerLinks:
+    """robot.pincer as PincerLinks (m, rad), InputError naming the field unless it is a pincer the
+    robot model can build: positive lengths up to 10 m (the offset within the radius either way),
+    a closed angle within +-pi/2 and a joint range in (0, 2 pi]."""
+    if not isinstance(value, dict):
+        raise InputError("robot.pincer", f"needs {', '.join(PINCER_KEYS)} (m, rad)", source)
+    links = {}
+    for k in PINCER_KEYS:
+        v = value.get(k)
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not np.isfinite(v) or abs(v) > 10.0:
+            raise InputError(f"robot.pincer.{k}", f"must be a finite number (m or rad), got {v!r}", source)
+        links[k] = float(v)
+    for k, ok, what in (("radius", links["radius"] > 0, "positive"),
+                        ("offset", abs(links["offset"]) < links["radius"], "within the radius either way"),
+                        ("thumb_reach", links["thumb_reach"] > 0, "positive"),
+                        ("tip_radius", 0 <= links["tip_radius"] < links["radius"], "in [0, radius)"),
+                        ("closed_angle", abs(links["closed_angle"]) < np.pi / 2, "within +-pi/2"),
+                        ("max_angle", 0 < links["max_angle"] <= 2 * np.pi, "in (0, 2 pi]"),
+                        ("joint_torque", links["joint_torque"] > 0, "positive")):
+        if not ok:
+            raise InputError(f"robot.pincer.{k}", f"must be {what}, got {links[k]:g}", source)
+    return PincerLinks(**links)
 
 
 def _get(doc: Any, key: str, kind: type | tuple[type, ...], source: str, where: str = "") -> Any:
@@ -314,15 +350,27 @@ def robot_model(record: ViewRecord) -> Any:
     """The robot model (robot.model.RobotModel) the record's trajectory was made for."""
     from ..robot.model import load_ur5e
 
-    return load_ur5e(record.gripper, record.base)
+    return load_ur5e(record.gripper, record.base, pincer=record.pincer)
 
 
-def default_record() -> ViewRecord:
+#: The pincer a record-less pincer trajectory is drawn with: pincer_puzzle_piece's (76 mm joint
+#: radius, 23 mm offset, a 1 mm dome, a 60.4 mm thumb), m and rad.
+DEFAULT_PINCER = PincerLinks(radius=0.076, offset=0.023, thumb_reach=0.0604, tip_radius=0.001,
+                             closed_angle=float(np.arcsin((0.001 - 0.023) / 0.076)), max_angle=float(np.pi / 2),
+                             joint_torque=0.38)
+
+
+def default_record(pincer: bool = False) -> ViewRecord:
     """A record for a trajectory written without one (an older export): the robot at the origin with
-    a generic gripper (60 mm thumb, 75 mm finger), nothing on the table."""
+    a generic gripper (60 mm thumb, 75 mm finger; pincer: DEFAULT_PINCER's digits), nothing on the table."""
+    if pincer:
+        links = DEFAULT_PINCER
+        spec = GripperSpec(finger_length=links.finger_length, thumb_length=links.thumb_reach, finger_width=0.02,
+                           digit_thickness=0.002)
+        return ViewRecord("plan", np.eye(4), spec, [], [], "trajectory", pincer=links)
     spec = GripperSpec(finger_length=0.075, thumb_length=0.06, finger_width=0.02, digit_thickness=0.002)
     return ViewRecord("plan", np.eye(4), spec, [], [], "trajectory")
 
 
-__all__ = ["RECORD_FILE", "PieceRecord", "SolidRecord", "ViewRecord", "build_record", "default_record",
-           "read_view_record", "robot_model", "write_view_record"]
+__all__ = ["DEFAULT_PINCER", "RECORD_FILE", "PieceRecord", "SolidRecord", "ViewRecord", "build_record",
+           "default_record", "read_view_record", "robot_model", "write_view_record"]

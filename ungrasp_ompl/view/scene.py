@@ -43,6 +43,9 @@ HOUSINGS = {"shoulder_lift_joint": (0.065, 0.14), "elbow_joint": (0.058, 0.12),
             "wrist_1_joint": (0.047, 0.10), "wrist_2_joint": (0.047, 0.10)}
 #: The base's mounting flange: radius, height (m), standing on the table.
 BASE_FLANGE = (0.075, 0.03)
+#: A pincer's joint pin, drawn on the joint's axis (the palm's y): its radius and how far it stands
+#: out of the housing's sides (m).
+PINCER_PIN = (0.005, 0.008)
 #: Table thickness below z = 0 and margin around what stands on it (m).
 TABLE_THICKNESS, TABLE_MARGIN = 0.03, 0.25
 #: The target footprint is drawn this thin (m), just above the table.
@@ -176,11 +179,15 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
                   ) -> tuple[list[Body], dict[str, NDArray]]:
     """The arm and gripper bodies and their poses (F, 4, 4) at configurations q (F, 7); '_palm'
     holds the palm frame's poses. digits: the digits' tapered profile (m, record.DIGIT_KEYS), drawn
-    on the jaws instead of the robot model's digit boxes."""
-    from ..robot.model import THUMB_SLIDE, configuration
+    on the jaws instead of the robot model's digit boxes. A pincer's (robot.pincer) digits are drawn
+    in their hinged frames (robot.model.PINCER_THUMB_FRAME, PINCER_FINGER_FRAME: each turned about
+    the joint by half the joint angle and half the closed angle), from the joint's level to their
+    tips, and its joint's pin (PINCER_PIN) on the palm's y axis."""
+    from ..robot.model import PINCER_FINGER_FRAME, PINCER_THUMB_FRAME, THUMB_SLIDE, configuration
     from ..robot.trajectory import GRIPPER_JOINT
 
     model, data, geom = robot.model, robot.data, robot.collision_model
+    links = robot.pincer
     gdata = pin.GeometryData(geom)
     bodies: list[Body] = []
     for g in geom.geometryObjects:
@@ -193,7 +200,19 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
         rgba = {"gripper_palm": PALM_RGBA, "gripper_thumb": THUMB_RGBA, "gripper_finger": FINGER_RGBA}.get(name, LINK_RGBA)
         bodies.append(Body(f"robot/{name}", mesh, rgba, "robot"))
     jaws = {}  # digit body index -> its jaw joint, when drawn tapered in the jaw's frame
-    if digits is not None:
+    hinged = {}  # a pincer's digit body index -> its digit frame, when drawn tapered in that frame
+    if digits is not None and links is not None:
+        w = robot.gripper.finger_width
+        for i, b in enumerate(bodies):
+            if b.path == "robot/gripper_thumb":
+                b.mesh = geo.digit(links.thumb_reach, digits["thumb_tip_thickness"], digits["thumb_base_thickness"],
+                                   w, -1.0)
+                hinged[i] = model.getFrameId(PINCER_THUMB_FRAME)
+            elif b.path == "robot/gripper_finger":
+                b.mesh = geo.digit(links.finger_length, digits["finger_tip_thickness"],
+                                   digits["finger_base_thickness"], w, 1.0, links.tip_radius)
+                hinged[i] = model.getFrameId(PINCER_FINGER_FRAME)
+    elif digits is not None:
         g = robot.gripper
         for i, b in enumerate(bodies):
             if b.path == "robot/gripper_thumb":
@@ -210,6 +229,12 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
     r, h = BASE_FLANGE
     flange = geo.cylinder(r, h).moved(_translation(0.0, 0.0, h / 2))
     bodies.append(Body("robot/base_flange", flange, HOUSING_RGBA, "robot"))
+    if links is not None:  # the joint's pin: a cylinder along the palm's y, on the joint's axis
+        radius, out = PINCER_PIN
+        across = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+        length = max(robot.gripper.palm_thickness, robot.gripper.finger_width) + 2 * out
+        pin_mesh = geo.cylinder(radius, length).moved(across)
+        bodies.append(Body("robot/gripper_pin", pin_mesh, HOUSING_RGBA, "robot"))
 
     n = len(q)
     tracks = {b.path: np.empty((n, 4, 4)) for b in bodies}
@@ -219,11 +244,16 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
         pin.forwardKinematics(model, data, configuration(robot, q[f]))
         pin.updateGeometryPlacements(model, data, geom, gdata)
         for i in range(len(geom.geometryObjects)):
-            tracks[names[i]][f] = data.oMi[jaws[i]].homogeneous if i in jaws else gdata.oMg[i].homogeneous
+            if i in hinged:
+                tracks[names[i]][f] = pin.updateFramePlacement(model, data, hinged[i]).homogeneous
+            else:
+                tracks[names[i]][f] = data.oMi[jaws[i]].homogeneous if i in jaws else gdata.oMg[i].homogeneous
         for name, jid in joints.items():
             tracks[f"robot/{name}_housing"][f] = data.oMi[jid].homogeneous
         tracks["robot/base_flange"][f] = robot.base
         tracks["_palm"][f] = pin.updateFramePlacement(model, data, robot.tcp_frame).homogeneous
+        if links is not None:
+            tracks["robot/gripper_pin"][f] = tracks["_palm"][f]
     return bodies, tracks
 
 
