@@ -29,7 +29,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from conftest import ROOT, leaf, paths, run_cli, small_landing, small_landing_file
-from ungrasp_ompl.errors import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
+from ungrasp_ompl.cli.exits import EXIT_BAD_INPUT, EXIT_NO_SOLUTION, EXIT_OK
 
 SHIPPED = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "scenes").glob("*.yaml"))]
 SCENES = [small_landing(doc) for doc in SHIPPED if "frame" not in doc]

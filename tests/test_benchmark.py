@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 
 from conftest import assert_picture
-from ungrasp_ompl.benchmark import (LATTICE, BenchmarkOptions, RunStatus, SweepOptions, parse_alpha_range,
-                                    run_benchmark, run_sweep)
-from ungrasp_ompl.benchmark.tasks import Task, run_task, run_tasks
+from ungrasp_ompl.benchmark import BenchmarkOptions, SweepOptions, run_benchmark, run_sweep
+from ungrasp_ompl.benchmark.ranges import parse_alpha_range
+from ungrasp_ompl.benchmark.tasks import LATTICE, RunStatus, Task, run_task, run_tasks
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.runner import LocalRunner
+from ungrasp_ompl.parallel.runner import LocalRunner
+from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.scene import Scene
 
 SCENES = Path(__file__).parents[1] / "scenes"
@@ -110,7 +111,7 @@ def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
     result = run_benchmark([guitar], options)
     scene = Scene.from_file(guitar)
     (row,) = result.summary
-    assert row.lattice_tolerance == scene.tolerance(lattice_plan(scene, objective="tolerance")).scale
+    assert row.lattice_tolerance == tolerance(scene, lattice_plan(scene, objective="tolerance")).scale
     solved = [r for r in result.runs if r.solved and r.planner == "RRTstar"]
     assert solved and all(r.tolerance is not None and r.tolerance >= 0 for r in solved)
     assert row.tolerance_median == median([r.tolerance for r in solved])

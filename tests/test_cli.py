@@ -355,7 +355,7 @@ def test_the_objective_flag_offers_every_objective():
 
 
 def test_simulate_help_names_every_perturbation_preset():
-    from ungrasp_ompl.perturbation import PRESETS
+    from ungrasp_ompl.scene.perturbation import PRESETS
 
     simulate = command_parsers()["simulate"]
     text = " ".join(simulate.format_help().split())

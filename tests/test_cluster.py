@@ -19,8 +19,8 @@ from conftest import SCENES, run_cli, run_process
 from ungrasp_ompl.benchmark import BenchmarkOptions, run_benchmark
 from ungrasp_ompl.benchmark.map import MapOptions, run_map
 from ungrasp_ompl.benchmark.tasks import RUN_COLUMNS
-from ungrasp_ompl.runner import RayRunner, TaskStatus
-from ungrasp_ompl.stream import RowStream
+from ungrasp_ompl.parallel.runner import RayRunner, TaskStatus
+from ungrasp_ompl.parallel.stream import RowStream
 
 ray = pytest.importorskip("ray")
 

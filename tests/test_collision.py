@@ -14,8 +14,8 @@ import pytest
 import shapely
 
 from ungrasp_ompl.geometry import CollisionChecker
+from ungrasp_ompl.geometry.collision import Box
 from ungrasp_ompl.mechanics import digit_polygons
-from ungrasp_ompl.scene import Box
 
 
 def oracle(scene, q):
@@ -124,7 +124,7 @@ def test_solids_agree_with_a_world_frame_oracle():
     digits and housing placed in the world: same verdict on states near a layout's walls."""
     from pathlib import Path
 
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
 
     layout = Layout.from_file(Path(__file__).resolve().parents[1] / "scenes" / "tangram.yaml")
     names = [p.name for p in layout.pieces]
@@ -150,7 +150,7 @@ def test_a_start_press_meets_the_solids_where_the_hand_runs():
 
     import yaml
 
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
 
     doc = yaml.safe_load((Path(__file__).resolve().parents[1] / "scenes" / "tangram.yaml").read_text())
     p, c = 0.002, 0.003
@@ -256,10 +256,10 @@ def test_exact_planar_narrow_phase_agrees_with_fcl():
     """Against the frame's walls and placed pieces (upright prisms) the digits and housing are
     checked in numpy; FCL is the oracle (exact_planar=False): the same answers on states spread
     over the planning box of several pieces of the tangram, collisions and letting go alike."""
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
     from ungrasp_ompl.planning.atlas import planning_box
     from ungrasp_ompl.shipped import resolve
-    from ungrasp_ompl.tiling import approaches
+    from ungrasp_ompl.layout.tiler import approaches
 
     layout = Layout.from_file(resolve("tangram", "layout"))
     n = len(layout.pieces)

@@ -8,9 +8,9 @@ import pytest
 
 from conftest import assert_picture, run_cli
 from figure_marks import unexplained_marks
-from ungrasp_ompl.benchmark.design import DesignOptions, run_design
-from ungrasp_ompl.benchmark.plots import design_figure
-from ungrasp_ompl.errors import EXIT_BAD_INPUT
+from ungrasp_ompl.benchmark.design import DesignOptions, design_figure, run_design
+from ungrasp_ompl.cli.exits import EXIT_BAD_INPUT
+from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.planning.setup import lattice_plan
 from ungrasp_ompl.scene import Scene
 from test_cli import assert_one_line_error
@@ -43,14 +43,15 @@ def test_the_chosen_design_is_the_most_tolerant_of_the_grid(designed):
 
 
 def test_a_designs_tolerance_is_its_scenes_own(designed):
-    """Each row is the design's scene planned exactly and its tolerance as Scene.tolerance gives it."""
+    """Each row is the design's scene planned exactly and its tolerance as
+    planning.plan_tolerance.tolerance gives it."""
     result, files = designed
     row = next(r for r in _rows(files["csv"]) if r["outcome"] == "solved")
     scene = Scene.from_file("guitar_pick").with_free_goal().with_digits(
         alpha=float(row["alpha"]), finger_tip_radius=float(row["tip_radius_mm"]) / 1000)
     plan = lattice_plan(scene, 1)
     assert plan.cost == pytest.approx(float(row["cost"]), abs=1e-9)
-    assert scene.tolerance(plan).scale == pytest.approx(float(row["tolerance"]), rel=1e-9)
+    assert tolerance(scene, plan).scale == pytest.approx(float(row["tolerance"]), rel=1e-9)
 
 
 def test_the_recommended_scene_file_has_the_chosen_digits_and_plans(designed):
@@ -61,7 +62,7 @@ def test_the_recommended_scene_file_has_the_chosen_digits_and_plans(designed):
     assert scene.digits.finger_tip_radius * scene.object_length == pytest.approx(best.tip_radius)
     plan = lattice_plan(scene, 1)  # the goal it was designed to comes with it
     assert plan.solved and plan.cost == pytest.approx(best.cost, abs=1e-9)
-    assert scene.tolerance(plan).scale == pytest.approx(best.tolerance, rel=1e-9)
+    assert tolerance(scene, plan).scale == pytest.approx(best.tolerance, rel=1e-9)
 
 
 @pytest.mark.slow

@@ -14,7 +14,8 @@ import yaml
 from conftest import run_cli
 from oracle import friction_margin_bisection, lp_force_closure
 from ungrasp_ompl import Scene
-from ungrasp_ompl.errors import EXIT_BAD_INPUT, InputError
+from ungrasp_ompl.cli.exits import EXIT_BAD_INPUT
+from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics import Friction, contact_wrenches, force_closure, force_closure_margin
 from ungrasp_ompl.mechanics.margin import friction_margin
 from ungrasp_ompl.mechanics.path import plan_samples

@@ -13,7 +13,7 @@ from conftest import SCENES
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics.contact import Primitive
-from ungrasp_ompl.mechanics.release import predict_landing
+from ungrasp_ompl.planning.predicted_landing import predict_landing
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import PlanOutcome
 from ungrasp_ompl.robot.pipeline import Aim, modelled_aim

@@ -12,7 +12,7 @@ import pytest
 
 from ungrasp_ompl import Scene
 from ungrasp_ompl.geometry.collision import CollisionChecker
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
 from ungrasp_ompl.mechanics import Friction, force_closure, force_closure_margin, kinematic_validity
 from ungrasp_ompl.mechanics.force_closure import FC_TOLERANCE
 from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box

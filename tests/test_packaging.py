@@ -17,7 +17,7 @@ import yaml
 import ungrasp_ompl
 from conftest import ROOT, SCENES, run_process
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
 from ungrasp_ompl.robot.model import GripperSpec, load_ur5e
 from ungrasp_ompl.robots import ur5e_urdf
 from ungrasp_ompl.scene import Scene

@@ -14,7 +14,8 @@ from figure_marks import all_texts, axis_names, drawn_extents, legend_texts, ove
 
 from conftest import SCENES
 from ungrasp_ompl import Scene, plan
-from ungrasp_ompl.plotting import REGION_CLASSES, TRIAL_PARAM_LABELS, plan_figure, regions_figure, trials_figure
+from ungrasp_ompl.plots.cspace import REGION_CLASSES, plan_figure, regions_figure
+from ungrasp_ompl.plots.trials import TRIAL_PARAM_LABELS, trials_figure
 
 #: An axis name in words (no snake_case) ending in its unit in parentheses.
 _NAMED = re.compile(r"^(?!.*[a-z]_[a-z])[A-Za-z].* \(([^()]*\b(deg|mm|m|s|mJ|N)\b[^()]*|fraction of l\b[^()]*|"
@@ -138,7 +139,7 @@ def _report(successes: list[bool]):
     final poses as given (placed: on the target; failed: 5 mm off)."""
     from ungrasp_ompl.sim.campaign import SimulationReport
     from ungrasp_ompl.sim.outcome import Outcome, TrialResult
-    from ungrasp_ompl.perturbation import preset, trial_params
+    from ungrasp_ompl.scene.perturbation import preset, trial_params
     from ungrasp_ompl.sim.setup import Variant
 
     trials = []
@@ -171,27 +172,27 @@ def test_trials_legend_names_every_mark_and_each_error_in_words():
 def test_trials_picture_is_a_grid_of_readable_panels():
     """The paper's errors draw 16 of them: their panels go in a grid of ceil(sqrt(16 + 4)) columns
     (the outlines take 2 x 2 cells), each readable, in a picture at most 1600 px wide."""
-    from ungrasp_ompl import plotting
+    from ungrasp_ompl.plots.common import DPI
 
     report = _report([k % 3 != 0 for k in range(16)])
     keys = [k for k in report.trials[0].params if len({t.params[k] for t in report.trials}) > 1]
     assert len(keys) == 16
     fig = trials_figure(report, np.array([[0.0, 0.0], [0.03, 0.0], [0.03, 0.01], [0.0, 0.01]]), np.eye(4))
     try:
-        assert fig.get_size_inches()[0] * plotting.DPI <= 1600
+        assert fig.get_size_inches()[0] * DPI <= 1600
         panels = fig.axes[1:]
         assert len(panels) == len(keys)
         ((rows, cols),) = {ax.get_subplotspec().get_gridspec().get_geometry() for ax in panels}
         assert cols == math.ceil(math.sqrt(len(keys) + 4)) and rows * cols >= len(keys) + 4
         assert len({ax.get_subplotspec().rowspan.start for ax in panels}) == rows
         for box in drawn_extents(fig, panels):  # display pixels at the figure's dpi, scaled to the picture's
-            assert box.width * plotting.DPI / fig.dpi >= 200 and box.height * plotting.DPI / fig.dpi >= 140
+            assert box.width * DPI / fig.dpi >= 200 and box.height * DPI / fig.dpi >= 140
     finally:
         plt.close(fig)
 
 
 def test_every_trial_error_has_a_label_with_its_unit():
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
 
     keys = set(TrialParams().to_dict())
     assert keys == set(TRIAL_PARAM_LABELS)
@@ -213,7 +214,7 @@ def _map_result():
     planner outcome, a plan the robot cannot execute, each failed task."""
     from ungrasp_ompl.benchmark.map import MapCell, MapOptions, MapResult
     from ungrasp_ompl.planning.result import PlanOutcome as P
-    from ungrasp_ompl.runner import TaskStatus as T
+    from ungrasp_ompl.parallel.runner import TaskStatus as T
 
     solved = dict(lattice_outcome=P.SOLVED, lattice_optimum=80.0)
     kinds = [dict(solved, planner_outcome=P.SOLVED, planner_cost=82.0, sim_successes=3),
@@ -231,7 +232,7 @@ def _map_result():
 
 
 def test_map_marks_each_failed_cell_with_its_reason():
-    from ungrasp_ompl.benchmark.plots import map_figure, map_reason, map_reasons
+    from ungrasp_ompl.benchmark.map import map_figure, map_reason, map_reasons
 
     result = _map_result()
     reasons = map_reasons()
@@ -286,8 +287,9 @@ def test_stability_names_each_roll_direction():
 
 @pytest.mark.slow
 def test_cage_picture_names_every_mark():
-    from ungrasp_ompl.robustness import cage_profile, plan_friction_margins
-    from ungrasp_ompl.robustness_plot import cage_figure
+    from ungrasp_ompl.planning.cage_profile import cage_profile
+    from ungrasp_ompl.planning.path_margin import plan_friction_margins
+    from ungrasp_ompl.plots.cage_profile import cage_figure
 
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     result = plan(scene, planner="lattice", seed=1)
@@ -313,10 +315,11 @@ def _run(planner: str, k: int, cost: float | None):
 
 def _captured(monkeypatch) -> list:
     """The figures the benchmark's plot functions save, kept open instead of written."""
-    from ungrasp_ompl.benchmark import plots
+    from ungrasp_ompl.benchmark import bench, design, map, sweep
 
     figures: list = []
-    monkeypatch.setattr(plots, "save_png", lambda fig, path: figures.append(fig))
+    for module in (bench, design, map, sweep):
+        monkeypatch.setattr(module, "save_png", lambda fig, path: figures.append(fig))
     return figures
 
 
@@ -324,7 +327,7 @@ def test_bench_pictures_name_every_mark(monkeypatch):
     from datetime import datetime
 
     from ungrasp_ompl.benchmark.ompl_log import Experiment
-    from ungrasp_ompl.benchmark.plots import plot_final_cost, plot_success_vs_time
+    from ungrasp_ompl.benchmark.bench import plot_final_cost, plot_success_vs_time
     from ungrasp_ompl.benchmark.tasks import RunStatus
 
     scene = Scene.from_file(SCENES / "reference_asymmetric.yaml")
@@ -371,7 +374,8 @@ def _sweep_result():
 @pytest.mark.parametrize("picture", ["success", "final_cost", "sweep"])
 def test_bench_legends_leave_the_data_clear(monkeypatch, picture):
     """No legend lies over a panel's data area (seven planners' steps reach every corner)."""
-    from ungrasp_ompl.benchmark.plots import plot_final_cost, plot_success_vs_time, plot_sweep
+    from ungrasp_ompl.benchmark.bench import plot_final_cost, plot_success_vs_time
+    from ungrasp_ompl.benchmark.sweep import plot_sweep
 
     figures = _captured(monkeypatch)
     if picture == "success":
@@ -394,7 +398,7 @@ def test_bench_legends_leave_the_data_clear(monkeypatch, picture):
 
 
 def test_sweep_axis_names_do_not_overlap(monkeypatch):
-    from ungrasp_ompl.benchmark.plots import plot_sweep
+    from ungrasp_ompl.benchmark.sweep import plot_sweep
 
     figures = _captured(monkeypatch)
     plot_sweep(_sweep_result(), 0.5, None)
@@ -451,7 +455,7 @@ def test_bench_writes_pictures_of_what_it_recorded_and_a_table_that_fits(monkeyp
 
 def test_sweep_picture_names_every_mark(monkeypatch):
     from ungrasp_ompl.benchmark.options import SweepOptions
-    from ungrasp_ompl.benchmark.plots import plot_sweep
+    from ungrasp_ompl.benchmark.sweep import plot_sweep
     from ungrasp_ompl.benchmark.sweep import SweepPoint, SweepResult
 
     points = [SweepPoint(a, [_run("RRTstar", k, c) for k, c in enumerate(costs)], _run("lattice", 0, optimum))
@@ -473,7 +477,7 @@ def _square_layout(clearance: float):
     """One tangram square alone in a square frame that leaves clearance (m) on every side."""
     import yaml
 
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     square = next(p for p in doc["pieces"] if p["name"] == "square")
@@ -486,8 +490,8 @@ def _square_layout(clearance: float):
 
 @pytest.mark.parametrize("clearance, placed", [(0.015, True), (0.0005, False)])
 def test_layout_picture_names_every_mark(clearance, placed):
-    from ungrasp_ompl.plotting import layout_figure
-    from ungrasp_ompl.tiling import TilingOptions, tile
+    from ungrasp_ompl.plots.layout import layout_figure
+    from ungrasp_ompl.layout.tiler import TilingOptions, tile
 
     layout = _square_layout(clearance)
     tiling = tile(layout, TilingOptions(planner="lattice", seed=1))

@@ -205,7 +205,7 @@ def test_the_simulated_pincer_places_the_piece():
     from ungrasp_ompl.planning.setup import plan
     from ungrasp_ompl.robot.pipeline import plane_frame
     from ungrasp_ompl.robot.placement import scene_pincer, to_world
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.sim.model import build_mjcf, model_ids
     from ungrasp_ompl.sim.plan_trials import placement
     from ungrasp_ompl.sim.trial import run_trial

@@ -15,7 +15,7 @@ import pytest
 
 from conftest import SCENES
 from ungrasp_ompl import Scene
-from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
+from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.robot.pipeline import execute
 from ungrasp_ompl.robot.touch_off import FORCE_NOISE, FORCE_PRECISION, TouchOffOptions

@@ -23,12 +23,10 @@ from ungrasp_ompl.mechanics.release import (
     ReleaseModelError,
     ReleaseSetup,
     ReleaseStart,
-    carried_start,
     contacts_at,
     fall,
-    predict_landing,
-    release_setup,
 )
+from ungrasp_ompl.planning.predicted_landing import carried_start, predict_landing, release_setup
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -313,7 +311,7 @@ def test_the_prediction_is_the_simulated_landing(world):
     the simulator: the landing along GB lies within 0.5 mm of the model's (carried through the
     plan's P_dpsi, in that world's friction), and across GB within 0.2 mm of the plane."""
     from ungrasp_ompl import Scene
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.planning import plan as make_plan
     from ungrasp_ompl.scene.options import Landing
     from ungrasp_ompl.sim.landing import landing_offset

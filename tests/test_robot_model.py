@@ -10,7 +10,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from ungrasp_ompl.errors import EXIT_NO_SOLUTION, InputError, UngraspError
+from ungrasp_ompl.cli.exits import EXIT_NO_SOLUTION, exit_code
+from ungrasp_ompl.errors import InputError, UngraspError
 from ungrasp_ompl.robot.ik import MAX_PATH_STEP, ReachabilityError, Unreachable, ik_seed_for, solve_ik, solve_path
 from ungrasp_ompl.robot.model import (GripperSpec, fk_dh, finger_tip, frame_pose, load_ur5e,
                                       max_flange_distance_from_shoulder, shoulder_position, tcp_pose, thumb_tip)
@@ -174,7 +175,7 @@ def test_out_of_reach_names_the_sample(robot):
     with pytest.raises(ReachabilityError) as info:
         solve_path(robot, targets, ik_seed_for(robot, home))
     error = info.value
-    assert isinstance(error, UngraspError) and error.exit_code == EXIT_NO_SOLUTION == 3
+    assert isinstance(error, UngraspError) and exit_code(error) == EXIT_NO_SOLUTION == 3
     assert error.index == 3 and np.array_equal(error.target, far)
     assert error.kind is Unreachable.OUT_OF_REACH
     assert error.evidence["distance_m"] > error.evidence["limit_m"] == max_flange_distance_from_shoulder()
@@ -236,12 +237,12 @@ def test_robot_collision_broad_phase_drops_no_pair(robot):
     the joint limits, near the tangram's frame and pieces, and some do collide."""
     import fcl
 
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
     from ungrasp_ompl.robot.collision import RobotCollisionChecker
     from ungrasp_ompl.robot.model import configuration
     from ungrasp_ompl.robot.pipeline import plane_frame
     from ungrasp_ompl.shipped import resolve
-    from ungrasp_ompl.tiling import approaches
+    from ungrasp_ompl.layout.tiler import approaches
 
     layout = Layout.from_file(resolve("tangram", "layout"))
     a = approaches(layout, 0, [1, 2, 3, 4], 1)[0]

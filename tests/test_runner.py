@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from ungrasp_ompl.runner import (InlineRunner, LocalRunner, TaskLost, TaskOutcome, TaskStatus, UnsentError,
+from ungrasp_ompl.parallel.runner import (InlineRunner, LocalRunner, TaskLost, TaskOutcome, TaskStatus, UnsentError,
                                  run_in_child)
 
 

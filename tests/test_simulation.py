@@ -35,7 +35,7 @@ from ungrasp_ompl.sim.landing import landing_offset
 from ungrasp_ompl.sim.plan_trials import placement
 from ungrasp_ompl.sim.outcome import Outcome, TrialResult
 from ungrasp_ompl.sim.tiling import TilingAttempt
-from ungrasp_ompl.perturbation import PRESETS, TrialParams, trial_params
+from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.model import model_ids
 from ungrasp_ompl.sim.world import World

@@ -8,7 +8,7 @@ import pytest
 
 from conftest import SCENES
 from ungrasp_ompl import Scene
-from ungrasp_ompl.perturbation import PRESETS
+from ungrasp_ompl.scene.perturbation import PRESETS
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.sim.campaign import simulate
 from ungrasp_ompl.sim.plan_trials import placement

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from conftest import SCENES
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.geometry.spread import separation, smallest_gap, spread
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
 
 
 def _square(x: float, y: float, side: float) -> np.ndarray:

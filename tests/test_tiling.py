@@ -18,14 +18,16 @@ import yaml
 from conftest import SCENES, run_cli
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.geometry.plane import flush
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
+from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.planning.result import Plan, PlanOutcome, PrimitiveStep, Solution
 from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_spec
 from ungrasp_ompl.robot.placement import densify
 from ungrasp_ompl.scene import Scene
-from ungrasp_ompl.tiling import DigitsDoNotFit, GoalStates, TilingOptions, approach_scene, approaches, screen, tile
+from ungrasp_ompl.layout.tiler import (DigitsDoNotFit, GoalStates, TilingOptions, approach_scene, approaches, screen,
+                                      tile)
 
 TANGRAM = SCENES / "tangram.yaml"
 #: The tangram's pieces.
@@ -235,7 +237,7 @@ def test_a_tiling_that_fails_gives_its_reasons_as_values(tmp_path):
     """The same square, through the library: every reason is a Rejection with the value behind it,
     and the screen's evidence says which check failed with which solid."""
     from ungrasp_ompl.planning.setup import EndsProblem
-    from ungrasp_ompl.tiling import Rejection
+    from ungrasp_ompl.layout.tiler import Rejection
 
     result = tile(Layout.from_file(_square_in_frame(tmp_path, 0.0005)), TilingOptions(planner="lattice"))
     assert not result.solved and result.failed_piece == "square" and result.down_before == []
@@ -260,7 +262,7 @@ def test_a_piece_unprovable_after_two_others_goes_before_them(monkeypatch):
     search backs out of every order that puts both before it, meets the same set of pieces again
     in another order, and finds one that puts large_triangle_2 down earlier. Each (pieces down,
     piece) is proved once. (A set met again used to end the command with a TypeError.)"""
-    import ungrasp_ompl.tiling as tiling
+    import ungrasp_ompl.layout.tiler as tiling
 
     real, proved = tiling.prove, []
 
@@ -286,7 +288,7 @@ def test_each_piece_takes_the_approach_whose_plan_tolerates_most(tmp_path):
     tolerance among its approaches that pass the screen and the proof, recomputed here approach by
     approach through the public steps; ranked first, the search's choice, which tolerates no more."""
     from ungrasp_ompl.planning import plan
-    from ungrasp_ompl.tiling import Rank, prove
+    from ungrasp_ompl.layout.tiler import Rank, prove
 
     layout = Layout.from_file(_square_in_frame(tmp_path, 0.015))
     best = -math.inf
@@ -294,12 +296,12 @@ def test_each_piece_takes_the_approach_whose_plan_tolerates_most(tmp_path):
         scene = approach_scene(layout, 0, a, [])
         if isinstance(scene, DigitsDoNotFit) or screen(scene) is not None or prove(scene)[0] is not None:
             continue
-        best = max(best, scene.tolerance(plan(scene, planner="lattice")).scale)
+        best = max(best, tolerance(scene, plan(scene, planner="lattice")).scale)
     ranked = tile(layout, TilingOptions(planner="lattice", rank="tolerance"))
     first = tile(layout, TilingOptions(planner="lattice"))  # the default: the search's choice
     (chosen,), (searched,) = ranked.placements, first.placements
     assert chosen.tolerance == pytest.approx(best, rel=1e-12) and chosen.ranked > 1
-    assert chosen.tolerance == chosen.scene.tolerance(chosen.plan).scale
+    assert chosen.tolerance == tolerance(chosen.scene, chosen.plan).scale
     assert searched.tolerance <= chosen.tolerance and searched.ranked == 1
     assert ranked.to_dict()["placements"][0]["tolerance"] == chosen.tolerance
     with pytest.raises(InputError) as err:
@@ -465,7 +467,7 @@ def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
     finds, with the same checks: the same tiling again computes nothing new, and with the second
     piece's approach avoided (the two large triangles then go down the other way round) it adds
     only what the new approaches need. A memo serves one layout."""
-    from ungrasp_ompl.tiling import TilingMemo
+    from ungrasp_ompl.layout.tiler import TilingMemo
 
     two = {**AS_CUT, "pieces": AS_CUT["pieces"][:2]}
     layout = Layout.from_dict(two)
@@ -589,7 +591,7 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
     trajectory's check); its aim is a share of the whole, its start moved by it is clear, and it
     lands where its unaimed release, moved by the share taken, puts it (within 0.3 mm: the square,
     aimed short, lands 0.26 mm from its unaimed release moved by its share)."""
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.robot.pipeline import CollisionError, execute_sequence
     from ungrasp_ompl.robot.pipeline import Aim
     from ungrasp_ompl.sim.landing import landing_correction, landing_offset, robot_landing
@@ -730,7 +732,7 @@ def test_a_piece_held_into_a_piece_down_starts_above_it(aimed):
     they start where the grasp puts them, as before."""
     import mujoco
 
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.sim.trial import trial_mjcf
 
     _, _, result, _ = aimed

@@ -18,9 +18,9 @@ from ungrasp_ompl.mechanics.kinematics import contact_d, digit_axis, digit_polyg
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.mechanics.path import plan_samples
 from ungrasp_ompl.planning.deviate import steeper_start
-from ungrasp_ompl.perturbation import PRESETS
-from ungrasp_ompl.scene.tolerance import (LADDER_STEP, ToleranceOptions, ToleranceReason, ladder, state_tolerances,
-                                         tolerance)
+from ungrasp_ompl.scene.perturbation import PRESETS
+from ungrasp_ompl.planning.plan_tolerance import tolerance
+from ungrasp_ompl.scene.tolerance import LADDER_STEP, ToleranceOptions, ToleranceReason, ladder, state_tolerances
 
 
 @pytest.fixture(scope="module")
@@ -250,13 +250,13 @@ def test_the_shift_s_ends_bound_every_check_but_force_closure(pick, monkeypatch)
     rng = np.random.default_rng(5)
     q = smp.states + rng.normal(0.0, [0.05, 0.05, 0.05], smp.states.shape)  # around the path, some insecure
     ends = state_tolerances(scene, q, 0, 0, closure=False)
-    whole, asked = module._Box.face_axes, []
+    whole, asked = module.ErrorBox.face_axes, []
 
     def whole_grid(self, s, on, shift_ends=False):
         asked.append(shift_ends)
         return whole(self, s, on, False)
 
-    monkeypatch.setattr(module._Box, "face_axes", whole_grid)
+    monkeypatch.setattr(module.ErrorBox, "face_axes", whole_grid)
     assert np.array_equal(ends, state_tolerances(scene, q, 0, 0, closure=False))
     assert any(asked)  # the shift's ends alone were asked for, and the whole grid given instead
     assert np.isfinite(ends).any() and (ends > 0).any()
@@ -323,7 +323,7 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     cheap = plan(scene, planner="lattice")
     robust = plan(scene, planner="lattice", objective="tolerance")
     assert robust.solved and robust.objective is Objective.TOLERANCE and robust.margin_bottleneck_deg is None
-    low, high = scene.tolerance(cheap).scale, scene.tolerance(robust).scale
+    low, high = tolerance(scene, cheap).scale, tolerance(scene, robust).scale
     assert high >= low / LADDER_STEP
     assert high > LADDER_STEP ** 2 * low  # two ladder steps apart: a floor between them tells them apart
     floored = replace(scene, options=replace(scene.options, min_tolerance=math.sqrt(low * high)))

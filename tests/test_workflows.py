@@ -12,9 +12,10 @@ import pytest
 from conftest import run_cli, small_landing_file
 
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.margins import Objective
+from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.scene import Scene
 from ungrasp_ompl.workflows.plan import PlanOptions, plan_scene
 from ungrasp_ompl.workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
@@ -26,7 +27,7 @@ def test_the_plan_workflow_is_the_planner_s_plan_with_its_tolerance_and_export(t
     run = plan_scene(scene, PlanOptions(planner="lattice"))
     direct = plan(scene, planner="lattice")
     assert run.solved and run.plan.states == direct.states and run.plan.cost == direct.cost
-    assert run.plan.tolerance == scene.tolerance(direct).to_dict()
+    assert run.plan.tolerance == tolerance(scene, direct).to_dict()
     written = json.loads(run.write(tmp_path / "out")["plan"].read_text())
     assert written["states"] == direct.states and "cage" not in written
     files = run.export(tmp_path / "export")

@@ -16,9 +16,10 @@ import pytest
 from conftest import run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.perturbation import TrialParams
+from ungrasp_ompl.scene.perturbation import TrialParams
 from ungrasp_ompl.sim.landing import LANDING_FRICTION_RANGE, landing_draw
-from ungrasp_ompl.sim.model import SOLREF, SimObject, build_mjcf, model_ids
+from ungrasp_ompl.sim.model import build_mjcf, model_ids
+from ungrasp_ompl.sim.spec import SOLREF, SimObject
 from ungrasp_ompl.sim.trial import _Watch, trial_spec
 from ungrasp_ompl.sim.world import Cone, World
 
@@ -154,7 +155,7 @@ def test_the_aims_worlds_span_the_friction_range_and_both_cones():
     """The expected landing's pairs (sim.landing.landing_draw): each pair's two worlds scale the
     friction by f and 2 - f within 1 +- LANDING_FRICTION_RANGE, share a cone, and the cones
     alternate from pair to pair; the errors are the `paper` draw and its mirror."""
-    from ungrasp_ompl.perturbation import PRESETS
+    from ungrasp_ompl.scene.perturbation import PRESETS
 
     factors = []
     for k in range(16):

@@ -25,7 +25,7 @@ from pathlib import Path
 import ray
 
 from ungrasp_ompl.benchmark.map import MapOptions, run_map
-from ungrasp_ompl.runner import RayRunner
+from ungrasp_ompl.parallel.runner import RayRunner
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "reference_asymmetric.yaml"
 

@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl import Scene  # noqa: E402
-from ungrasp_ompl.perturbation import TrialParams, preset, trial_params  # noqa: E402
+from ungrasp_ompl.scene.perturbation import TrialParams, preset, trial_params  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
 from ungrasp_ompl.sim.setup import trial_setup  # noqa: E402

@@ -287,7 +287,7 @@ def _world_label(doc: dict, label: str) -> str:
     m = re.fullmatch(r"friction x([\d.]+)", label)
     if m is None or doc["world_friction"] != COMPOUNDED:
         return label
-    from ungrasp_ompl.perturbation import PRESETS
+    from ungrasp_ompl.scene.perturbation import PRESETS
 
     f = float(m.group(1))
     return f"{label}, the drawn error on top: x{f * (1 - PRESETS['paper'].friction):.2f}-{f:.2f}"

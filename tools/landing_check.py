@@ -36,12 +36,10 @@ sys.path.insert(0, str(ROOT))
 from ungrasp_ompl.mechanics.release import (  # noqa: E402
     PyramidReach,
     ReleaseStart,
-    carried_start,
     fall,
-    predict_landing,
-    release_setup,
 )
-from ungrasp_ompl.perturbation import PRESETS, TrialParams  # noqa: E402
+from ungrasp_ompl.planning.predicted_landing import carried_start, predict_landing, release_setup  # noqa: E402
+from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams  # noqa: E402
 from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
 from ungrasp_ompl.scene import Scene  # noqa: E402
 from ungrasp_ompl.scene.options import Landing  # noqa: E402

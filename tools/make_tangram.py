@@ -16,7 +16,7 @@ import argparse
 import numpy as np
 import yaml
 
-from ungrasp_ompl.layout import Layout
+from ungrasp_ompl.layout.model import Layout
 
 #: The dissection of the unit square, counter-clockwise outlines.
 UNIT_PIECES = {

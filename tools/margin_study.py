@@ -27,7 +27,7 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate  # noqa: E402
-from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
+from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.setup import trial_setup  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")

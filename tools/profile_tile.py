@@ -23,17 +23,17 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: phase -> (file suffix, function name) whose cumulative time is the phase's
 PHASES = {
-    "tile (search and planning)": ("tiling.py", "tile"),
-    "  screens": ("tiling.py", "screen"),
-    "  proofs (lattice builds and searches)": ("tiling.py", "prove"),
-    "  approaches (ranking)": ("tiling.py", "approaches"),
-    "  scenes of pieces": ("layout.py", "scene"),
+    "tile (search and planning)": ("layout/tiler.py", "tile"),
+    "  screens": ("layout/tiler.py", "screen"),
+    "  proofs (lattice builds and searches)": ("layout/tiler.py", "prove"),
+    "  approaches (ranking)": ("layout/tiler.py", "approaches"),
+    "  scenes of pieces": ("layout/model.py", "scene"),
     "  planning per piece": ("setup.py", "plan"),
     "execution (IK, timing)": ("pipeline.py", "execute_sequence"),
     "export (trajectory files)": ("export.py", "export_all"),
     "3D view record": ("record.py", "write_view_record"),
-    "layout picture": ("plotting.py", "draw_layout"),
-    "C-space pictures": ("plotting.py", "draw_plan"),
+    "layout picture": ("plots/layout.py", "draw_layout"),
+    "C-space pictures": ("plots/cspace.py", "draw_plan"),
 }
 
 

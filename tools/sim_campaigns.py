@@ -77,7 +77,7 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
-from ungrasp_ompl.perturbation import PRESETS  # noqa: E402
+from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
 from ungrasp_ompl.scene.options import Landing  # noqa: E402
 from ungrasp_ompl.sim.landing import CACHE_VARIABLE  # noqa: E402
@@ -198,9 +198,9 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first") 
     simulated attempt by attempt."""
     import yaml
 
-    from ungrasp_ompl.layout import Layout
+    from ungrasp_ompl.layout.model import Layout
     from ungrasp_ompl.sim.tiling import simulate_tiling, tile_aimed
-    from ungrasp_ompl.tiling import TilingOptions
+    from ungrasp_ompl.layout.tiler import TilingOptions
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     doc["digits"]["finger_tip"] = tip

@@ -42,7 +42,7 @@ from ungrasp_ompl.mechanics.margin import kinematic_margins  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.mechanics.path import plan_samples  # noqa: E402
 from ungrasp_ompl.planning.result import Plan  # noqa: E402
-from ungrasp_ompl.scene.tolerance import tolerance  # noqa: E402
+from ungrasp_ompl.planning.plan_tolerance import tolerance  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 OBJECTIVES = ("cost", "margin", "balanced", "tolerance")
@@ -77,7 +77,7 @@ def load_scene(name: str, setup: str) -> Scene:
 
 def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
     """The trials of one plan under the paper perturbation, seed 1."""
-    from ungrasp_ompl.perturbation import PRESETS
+    from ungrasp_ompl.scene.perturbation import PRESETS
     from ungrasp_ompl.sim.campaign import simulate
     from ungrasp_ompl.sim.plan_trials import placement
 

@@ -58,7 +58,7 @@ from dataclasses import replace
 import numpy as np
 
 from ungrasp_ompl import planning
-from ungrasp_ompl.perturbation import PRESETS, preset, trial_params
+from ungrasp_ompl.scene.perturbation import PRESETS, preset, trial_params
 from ungrasp_ompl.scene import Scene
 from ungrasp_ompl.scene.stability3d import OutOfPlaneLoads, plan_out_of_plane, plan_states, out_of_plane_margin
 from ungrasp_ompl.sim.outcome import Outcome
@@ -183,7 +183,7 @@ def cage_study(objects: list[str], trials: int, seed: int) -> int:
     and the trials held in each world; then Spearman's rank correlations with the trials held."""
     from scipy.stats import spearmanr
 
-    from ungrasp_ompl.robustness import cage_profile
+    from ungrasp_ompl.planning.cage_profile import cage_profile
     from ungrasp_ompl.scene.options import Landing
 
     draw_low = 1.0 - PRESETS["paper"].friction
@@ -278,7 +278,7 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
     and the trial's outcome in each world; no_error: the trial without any error; impratio: run a
     copy of the trial's model with that impratio instead of the simulator's (not a world of
     sim/world.py: a probe of how stiffly friction holds)."""
-    from ungrasp_ompl.perturbation import TrialParams
+    from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.sim import trial as sim_trial
 
     if impratio is not None:

@@ -1,20 +1,14 @@
-"""Errors a user can act on, and the CLI exit codes they map to."""
+"""Errors a user can act on. Three kinds, each the command line's exit code (cli.exits): bad input
+(InputError, and any other UngraspError), no solution for a sound input (NoSolutionError), and a
+failure of something the command relies on (ToolError)."""
 
 from __future__ import annotations
-
-#: Exit codes of the ``ungrasp-ompl`` command.
-EXIT_OK = 0
-EXIT_FAILURE = 1  # something the command relies on (not the input) is missing or failed
-EXIT_BAD_INPUT = 2
-EXIT_NO_SOLUTION = 3
 
 
 class UngraspError(Exception):
     """Base of the errors the CLI reports as one line without a traceback. Its subclasses keep
     their evidence as attributes; an error pickles with them (a worker process's error arrives
     whole), whatever its constructor takes."""
-
-    exit_code = EXIT_BAD_INPUT
 
     def __reduce__(self):
         return _rebuild, (type(self), self.args, self.__dict__)
@@ -46,8 +40,12 @@ class UnknownFieldError(InputError):
         self.expected = expected
 
 
-class ToolError(UngraspError):
-    """A tool the command relies on is missing or failed (an installation problem, not the input).
-    The CLI reports it as one line and exits 1."""
+class NoSolutionError(UngraspError):
+    """The input is sound, but what it asks has no solution: the robot cannot make, reach, time or
+    clear the plan. The CLI reports it as one line and exits 3."""
 
-    exit_code = EXIT_FAILURE
+
+class ToolError(UngraspError):
+    """Something the command relies on, not the input, is missing or failed: a tool (an
+    installation problem), or a step such as the touch-off's probe. The CLI reports it as one line
+    and exits 1."""

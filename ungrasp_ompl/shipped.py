@@ -11,6 +11,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import os
+import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -85,8 +86,6 @@ def shipped_scenes() -> list[ShippedScene]:
 def shipped_names(text: str) -> str:
     """text with every path of a shipped scene or layout file replaced by its name (guitar_pick for
     .../site-packages/ungrasp_ompl/shipped_scenes/guitar_pick.yaml): how a message names them."""
-    import re
-
     folder = os.path.join(str(resources.files(SCENES_PACKAGE)), "")
     return re.sub(re.escape(folder) + r"([\w.-]+?)\.ya?ml\b", r"\1", text)
 

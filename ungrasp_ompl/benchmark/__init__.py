@@ -1,9 +1,10 @@
 """Campaigns of planning tasks: benchmarks of the planners on scenes (OMPL's benchmark log and
 database), a sweep over alpha, and a feasibility map over alpha and friction.
 
-Every run is a task of worker processes (:mod:`ungrasp_ompl.runner`), on this machine or on a
-Ray cluster, with OMPL's random numbers seeded afresh for it (planning.setup.seed_ompl). Results
-stream to a CSV file as they arrive (:mod:`ungrasp_ompl.stream`), so a campaign resumes. The planner ``lattice`` is the exact
+Every run is a task of worker processes (:mod:`ungrasp_ompl.parallel.runner`), on this machine or
+on a Ray cluster, with OMPL's random numbers seeded afresh for it (planning.setup.seed_ompl).
+Results stream to a CSV file as they arrive (:mod:`ungrasp_ompl.parallel.stream`), so a campaign
+resumes. The planner ``lattice`` is the exact
 Dijkstra search over the primitive lattice at the scene's own resolution, the lattice the OMPL
 planners plan on: its cost is the optimum those planners can reach, so a planner's cost over it
 is a true optimality gap.
@@ -20,10 +21,10 @@ One concern per module:
 * :mod:`.table` -- columns for text tables and CSV;
 * :mod:`.ompl_log` -- OMPL's benchmark log format;
 * :mod:`.database` -- the SQLite database made from the logs by OMPL's script;
-* :mod:`.plots` -- the pictures;
-* :mod:`.bench` -- :func:`run_benchmark`;
-* :mod:`.sweep` -- :func:`run_sweep`;
-* :mod:`.map` -- :func:`run_map`, the feasibility map.
+* :mod:`.bench` -- :func:`run_benchmark` and its pictures;
+* :mod:`.sweep` -- :func:`run_sweep` and its picture;
+* :mod:`.map` -- :func:`run_map`, the feasibility map, and its picture;
+* :mod:`.design` -- :func:`run_design`, the search over digit designs, and its picture.
 
 Nothing here prints: the CLI does.
 """
@@ -31,15 +32,10 @@ Nothing here prints: the CLI does.
 from __future__ import annotations
 
 from .bench import BenchmarkResult, run_benchmark
+from .design import DesignOptions, DesignResult, run_design
 from .map import MapOptions, MapResult, run_map
-from .options import BenchmarkOptions, SweepOptions, validate_planners
-from .ranges import parse_alpha_range, parse_range
-from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
-from .sweep import SweepPoint, SweepResult, run_sweep
-from .tasks import LATTICE, STATUSES, RunResult, RunStatus
+from .options import BenchmarkOptions, SweepOptions
+from .sweep import SweepResult, run_sweep
 
-__all__ = ["LATTICE", "STATUSES", "SUMMARY_COLUMNS", "BenchmarkOptions", "BenchmarkResult", "MapOptions", "MapResult",
-           "RunResult",
-           "RunStatus", "SummaryRow", "SweepOptions", "SweepPoint", "SweepResult", "limitation_notes",
-           "parse_alpha_range", "parse_range", "run_benchmark", "run_map", "run_sweep", "summarise",
-           "validate_planners"]
+__all__ = ["BenchmarkOptions", "BenchmarkResult", "DesignOptions", "DesignResult", "MapOptions", "MapResult",
+           "SweepOptions", "SweepResult", "run_benchmark", "run_design", "run_map", "run_sweep"]

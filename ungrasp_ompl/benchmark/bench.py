@@ -17,16 +17,18 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from ..io import write_text_atomic
+from ..parallel.runner import open_runner
+from ..parallel.stream import RowStream
 from ..planning.setup import LATTICE
-from ..runner import open_runner
+from ..plots.common import legend_below, panels, save_png
 from ..scene import Scene
-from ..stream import RowStream
 from .database import logs_to_database
 from .ompl_log import Experiment, cost_units
 from .options import BenchmarkOptions
-from .plots import plot_final_cost, plot_success_vs_time
 from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
 from .table import format_table, write_csv
 from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
@@ -137,4 +139,60 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
     return BenchmarkResult([r for r in results if r.run >= 0], optima, summary, units, out, files)
 
 
-__all__ = ["BenchmarkResult", "run_benchmark", "scene_key"]
+def plot_success_vs_time(experiments: Sequence[Experiment], path: Path) -> None:
+    """Write success_figure's picture to path (PNG)."""
+    save_png(success_figure(experiments), path)
+
+
+def success_figure(experiments: Sequence[Experiment]):
+    """Per scene and planner: the fraction of runs whose first solution came by time t (s); one
+    legend below the panels. Returns the matplotlib Figure."""
+    fig, axes = panels(len(experiments))
+    for ax, exp in zip(axes, experiments):
+        times = [r.time_to_first_solution_s for runs in exp.runs.values() for r in runs if r.solved]
+        t_max = max([exp.time_limit] + times) * 1.02
+        t = np.linspace(0.0, t_max, 400)
+        for planner in exp.planners:
+            runs = exp.runs[planner]
+            first = np.array([r.time_to_first_solution_s for r in runs if r.solved])
+            frac = (first[None, :] <= t[:, None]).sum(axis=1) / len(runs)
+            style = dict(color="black", linestyle="--", label="lattice (exact; builds the lattice too)") \
+                if planner == LATTICE else dict(label=planner)
+            ax.step(t, frac, where="post", **style)
+        ax.axvline(exp.time_limit, color="grey", linestyle=":", label=f"time limit {exp.time_limit:g} s")
+        ax.set(xlim=(0, t_max), ylim=(-0.02, 1.02), xlabel="time t (s)", ylabel="runs solved by time t (share of runs)",
+               title=f"{exp.key}: first solution by time t")
+    legend_below(fig, axes, ncol=4)
+    return fig
+
+
+def plot_final_cost(experiments: Sequence[Experiment], path: Path) -> None:
+    """Write final_cost_figure's picture to path (PNG)."""
+    save_png(final_cost_figure(experiments), path)
+
+
+def final_cost_figure(experiments: Sequence[Experiment]):
+    """Per scene: each planner's final costs (reference units) over its solved runs, a box and the
+    runs themselves, with the lattice optimum as a line; one legend below the panels. Returns the
+    matplotlib Figure."""
+    fig, axes = panels(len(experiments))
+    rng = np.random.default_rng(0)
+    for ax, exp in zip(axes, experiments):
+        labels = []
+        for k, planner in enumerate(exp.planners):
+            runs = exp.runs[planner]
+            costs = np.array([r.cost for r in runs if r.solved])
+            labels.append(f"{planner}\n{len(costs)}/{len(runs)} solved")
+            if len(costs):
+                box = ax.boxplot([costs], positions=[k], widths=0.5, showfliers=False)
+                for line in (line for lines in box.values() for line in lines):
+                    line.set_label("a planner's final costs: median, quartiles, range")
+                ax.scatter(k + rng.uniform(-0.12, 0.12, len(costs)), costs, s=14, alpha=0.7, zorder=3,
+                           color="tab:blue", label="one run's final cost")
+        if exp.optimum is not None:
+            ax.axhline(exp.optimum, color="black", linestyle="--", label=f"lattice optimum {exp.optimum:.2f}")
+        ax.set_xticks(range(len(labels)), labels, fontsize=8)
+        ax.set(xlim=(-0.6, len(labels) - 0.4), ylabel=f"final cost ({cost_units(exp.scene)})",
+               title=f"{exp.key}: final cost after {exp.time_limit:g} s")
+    legend_below(fig, axes, ncol=1)
+    return fig

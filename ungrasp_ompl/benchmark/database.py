@@ -36,6 +36,3 @@ def logs_to_database(logs: Sequence[Path], db: Path) -> None:
                             + " | ".join(tail))
 
     write_atomic(db, convert)
-
-
-__all__ = ["logs_to_database", "statistics_script"]

@@ -7,7 +7,7 @@ dome thickens the tip to its diameter; Scene.with_digits). Per design, as one ta
 
 * the exact lattice plan (deterministic, so a design's row does not depend on where it ran) and
   its cost; or why no plan exists (the digits, the start, the goal, or no secure path);
-* the plan's tolerance (Scene.tolerance: the largest scale of the ``paper`` error box under
+* the plan's tolerance (planning.plan_tolerance: the largest scale of the ``paper`` error box under
   which every state of the plan stays secure) and the grasp shift it tolerates (mm);
 * with ``simulate`` trials, the simulated successes of the plan (sim.plan_trials) and their
   Wilson 95 % interval.
@@ -30,13 +30,24 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from ..errors import InputError
 from ..io import write_text_atomic
+from ..parallel.runner import TaskStatus, open_runner, resolve_jobs
+from ..planning.plan_tolerance import tolerance
 from ..planning.result import PlanOutcome
-from ..runner import TaskStatus, open_runner, resolve_jobs
-from ..scene import Scene, read_yaml
+from ..planning.setup import lattice_plan
+from ..plots.common import cell_edges, pyplot, save_png
+from ..scene import Scene
+from ..scene.loader import read_yaml
+from ..scene.perturbation import preset
+from ..scene.tolerance import ToleranceReason
+from ..shipped import resolve
+from ..sim.campaign import wilson_interval
+from ..sim.plan_trials import plan_trials
+from .map import NOT_EXECUTABLE
 from .options import check_jobs, check_out
 
 #: A task's grace (s) per simulated trial before it counts as hung, besides the plan's.
@@ -76,8 +87,6 @@ class DesignOptions:
     def validated(self, scene: Scene) -> "DesignOptions":
         """These options checked, the grid filled in about the scene's digits where empty;
         InputError naming the option otherwise."""
-        from ..perturbation import preset
-
         if self.finger_tip not in ("rounded", "flat"):
             raise InputError("finger_tip", f"must be rounded or flat, got {self.finger_tip!r}")
         if self.goal not in ("free", "scene"):
@@ -172,7 +181,6 @@ class Design:
         """Wilson's 95 % interval of the success rate (None: not simulated)."""
         if self.successes is None or not self.trials:
             return None
-        from ..sim.campaign import wilson_interval
 
         return wilson_interval(self.successes, self.trials)
 
@@ -188,20 +196,17 @@ class Design:
 
 def design_cell(task: DesignTask) -> Design:
     """Plan one design exactly, measure its plan's tolerance and, with trials, simulate it."""
-    from ..planning.setup import lattice_plan
-
     if task.scene is None:
         return Design(task.alpha, task.tip_radius, digits_valid=False, error=task.invalid)
     scene = task.scene
     plan = lattice_plan(scene, task.seed)
     if not plan.solved:
         return Design(task.alpha, task.tip_radius, outcome=plan.outcome)
-    tol = scene.tolerance(plan)
+    tol = tolerance(scene, plan)
     found = Design(task.alpha, task.tip_radius, outcome=plan.outcome, cost=plan.cost, tolerance=tol.scale,
                    tolerated_shift_mm=tol.physical["shift_mm"], binding=tol.reason.value)
     if not task.trials:
         return found
-    from ..sim.plan_trials import plan_trials
 
     run = plan_trials(scene, plan, task.trials, task.perturb, task.seed)
     if not run.executable:
@@ -266,8 +271,6 @@ class DesignResult:
             if d.outcome is not PlanOutcome.SOLVED:
                 text += d.error or (d.outcome.describe() if d.outcome else f"its task {d.task_status.value}")
             else:
-                from ..scene.tolerance import ToleranceReason
-
                 beyond = (ToleranceReason(d.binding).describe() if d.binding in {r.value for r in ToleranceReason}
                           else d.binding)
                 text += (f"its plan costs {d.cost:.2f} and survives errors up to {d.tolerance:.3f} times the paper's "
@@ -324,8 +327,6 @@ class DesignResult:
     def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
         """Write design.csv, design.png and (with a chosen design) design_scene.yaml atomically
         into directory; returns them by role."""
-        from .plots import plot_design
-
         out = Path(directory)
         out.mkdir(parents=True, exist_ok=True)
         text = io.StringIO()
@@ -358,8 +359,6 @@ def run_design(scene_path: str | os.PathLike[str], options: DesignOptions = Desi
     """Plan every design of the grid (see the module) on a runner and choose one. Raises
     InputError naming the option or the scene before anything runs; writes nothing (see
     DesignResult.write)."""
-    from ..shipped import resolve
-
     path = resolve(scene_path, "scene")
     scene_file = Scene.from_file(path)
     document = read_yaml(path, "scene")
@@ -396,5 +395,54 @@ def run_design(scene_path: str | os.PathLike[str], options: DesignOptions = Desi
                         base.goal)
 
 
-__all__ = ["DESIGN_COLUMNS", "Design", "DesignOptions", "DesignProgress", "DesignResult", "DesignTask",
-           "design_cell", "run_design"]
+def plot_design(result: DesignResult, path: Path) -> None:
+    """Write design_figure's picture to path (PNG)."""
+    save_png(design_figure(result), path)
+
+
+def design_figure(result: DesignResult):
+    """A heat map over the designs (alpha across, the tip's radius up): the plan's tolerance, or
+    with trials the simulated success rate; on each design without a plan a marker says why; a
+    star marks the chosen design and a circle the scene's own digits. Returns the Figure."""
+    plt = pyplot()
+    o = result.options
+    alphas, radii = list(o.alphas), [r * 1000 for r in o.tip_radii]
+    cells = np.array(result.designs, dtype=object).reshape(len(radii), len(alphas))
+    simulated = bool(o.simulate)
+    if simulated:
+        value = np.array([[np.nan if d.successes is None else d.successes / d.trials for d in row] for row in cells])
+        label, title = "simulated success rate (share of trials)", f"{result.scene}: success over {o.simulate} trials ({o.perturb})"
+    else:
+        value = np.array([[np.nan if d.tolerance is None else d.tolerance for d in row] for row in cells])
+        label, title = "tolerance (scale of the paper error box)", f"{result.scene}: tolerance of each design's plan"
+    fig, ax = plt.subplots(figsize=(7.5, 5.0), constrained_layout=True)
+
+    mesh = ax.pcolormesh(cell_edges(alphas), cell_edges(radii), np.ma.masked_invalid(value), cmap="viridis", shading="flat")
+    fig.colorbar(mesh, ax=ax, label=label)
+    reasons = {"invalid digits": ("digits cannot be built", "x"),
+               PlanOutcome.START_NOT_HELD: ("start not held", "v"), PlanOutcome.GOAL_EMPTY: ("goal region empty", "s"),
+               PlanOutcome.NO_SECURE_PATH: ("no secure path", "d"), NOT_EXECUTABLE: ("robot cannot execute it", "^"),
+               "failed": ("task failed", "X")}
+    placed: dict = {}
+    for i, row in enumerate(cells):
+        for j, d in enumerate(row):
+            if d.outcome is PlanOutcome.SOLVED and not (simulated and d.successes is None):
+                continue
+            key = ("invalid digits" if not d.digits_valid else NOT_EXECUTABLE if d.executable is False
+                   else d.outcome if d.outcome else "failed")
+            placed.setdefault(key, []).append((alphas[j], radii[i]))
+    for key, points in placed.items():
+        text, marker = reasons[key]
+        xs, ys = zip(*points)
+        ax.scatter(xs, ys, marker=marker, color="white", edgecolors="black", s=60, label=text)
+    own_a, own_r = result.own[0], result.own[1] * 1000
+    ax.scatter([own_a], [own_r], marker="o", facecolors="none", edgecolors="red", s=220, linewidths=2,
+               label="the scene's own digits")
+    if result.best is not None:
+        ax.scatter([result.best.alpha], [result.best.tip_radius * 1000], marker="*", color="orange",
+                   edgecolors="black", s=320, label="chosen design")
+    ax.set(xlabel="alpha: finger minus thumb length, over the object length",
+           ylabel="finger tip's dome radius (mm)" if o.finger_tip == "rounded" else "flat finger tip (no radius)",
+           title=title)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3)
+    return fig

@@ -13,7 +13,7 @@ scene and the seed, so its row does not depend on where it ran. Per cell:
 * with ``simulate`` trials, the simulated success rate of the planner's plan (MuJoCo, seeded
   perturbations), where the plan exists and the robot can execute it.
 
-Rows stream to ``map.csv`` as cells finish (:class:`~ungrasp_ompl.stream.RowStream`), so an
+Rows stream to ``map.csv`` as cells finish (:class:`~ungrasp_ompl.parallel.stream.RowStream`), so an
 interrupted map resumes where it stopped; at the end ``map.csv`` is rewritten in grid order
 and ``map.png`` drawn. alpha is over the object length; the friction scale multiplies the
 scene's friction coefficients at G, A and B; costs are in reference units.
@@ -28,12 +28,19 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
+from ..parallel.runner import TaskStatus, open_runner, resolve_jobs
+from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
-from ..planning.setup import HANG_GRACE_S, LATTICE
-from ..runner import TaskStatus, open_runner, resolve_jobs
-from ..scene import Scene, read_yaml
-from ..stream import RowStream
+from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan
+from ..plots.common import cell_edges, pyplot, save_png
+from ..scene import Scene
+from ..scene.loader import read_yaml
+from ..scene.perturbation import preset
+from ..sim.plan_trials import plan_trials
+from .ompl_log import cost_units
 from .options import check_jobs, check_out, check_time, validate_planners
 
 #: Seconds a cell may take per simulated trial before it counts as hung.
@@ -95,8 +102,6 @@ class MapOptions:
             raise InputError("alphas", f"and --friction-scale give more than {MAX_CELLS} cells")
         check_out(self.out)
         if self.simulate:
-            from ..perturbation import preset
-
             preset(self.perturb)  # InputError("perturb") for an unknown preset
         return replace(self, planner=planner, jobs=jobs, alphas=tuple(map(float, self.alphas)),
                        friction_scales=tuple(map(float, self.friction_scales)))
@@ -239,8 +244,6 @@ def cell_from_row(row: dict[str, str]) -> MapCell:
 
 def run_cell(task: MapTask) -> MapCell:
     """Compute one cell (UngraspSetup seeds OMPL's random numbers with the task's seed)."""
-    from ..planning.setup import PlannerOptions, UngraspSetup, lattice_plan
-
     scene = task.scene
     done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
     if task.planner == LATTICE:
@@ -267,8 +270,6 @@ def run_cell(task: MapTask) -> MapCell:
 
 def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
     """The cell with the simulated trials of its plan counted (or why the robot cannot execute it)."""
-    from ..sim.plan_trials import plan_trials
-
     run = plan_trials(task.scene, plan, task.trials, task.perturb, task.seed)
     if not run.executable:
         return replace(cell, executable=False, error=f"not executable: {run.unexecutable}")
@@ -345,8 +346,6 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     """Compute every cell of the grid (see the module), streaming rows to out/map.csv; then
     rewrite map.csv in grid order and draw map.png. Raises InputError naming the option or the
     scene before anything runs or is written."""
-    from .ompl_log import cost_units
-    from .plots import plot_map
 
     options = options.validated()
     source = str(scene_path)
@@ -405,5 +404,110 @@ def _why(outcome) -> str:
     return f"{type(outcome.error).__name__}: {str(outcome.error).splitlines()[0] if str(outcome.error) else ''}"
 
 
-__all__ = ["MAP_COLUMNS", "MapCell", "MapOptions", "MapProgress", "MapResult", "MapTask", "cell_key", "run_cell",
-           "run_map", "scene_variant"]
+def plot_map(result: MapResult, path: Path) -> None:
+    """Write map_figure's picture to path (PNG)."""
+    save_png(map_figure(result), path)
+
+
+#: map_reasons' key for a cell whose plan the robot cannot execute (so it was not simulated).
+NOT_EXECUTABLE = "not executable"
+
+
+def map_reasons() -> dict:
+    """Why a cell of the map shows no value, each with its label and marker: the cell's task
+    (TaskStatus), the exact lattice's verdict or the planner's outcome (PlanOutcome), or the
+    robot (the plan is not executable)."""
+    return {TaskStatus.FAILED: ("task raised an error", "X"), TaskStatus.HUNG: ("task hung (killed)", "H"),
+            TaskStatus.DIED: ("task's process died", "P"),
+            PlanOutcome.START_NOT_HELD: ("start not held", "v"), PlanOutcome.GOAL_EMPTY: ("goal region empty", "s"),
+            PlanOutcome.NO_SECURE_PATH: ("no secure path on the lattice", "d"),
+            PlanOutcome.NOT_FOUND: ("planner found none in its budget", "o"),
+            PlanOutcome.INVALID_PATH: ("planner's path failed re-validation", ">"),
+            PlanOutcome.HUNG: ("planner hung (killed)", "<"),
+            NOT_EXECUTABLE: ("robot cannot execute the plan", "^")}
+
+
+def map_reason(cell, panel: int):
+    """Why the cell has no value in a panel of the map (0: the lattice's optimum, 1: the planner's
+    cost, 2: the simulated success rate), as a key of the map's reasons; None: it has one."""
+    if cell.task_status is not TaskStatus.DONE:
+        return cell.task_status
+    if cell.lattice_outcome is not PlanOutcome.SOLVED:
+        return cell.lattice_outcome
+    if panel >= 1 and cell.planner_outcome is not PlanOutcome.SOLVED:
+        return cell.planner_outcome
+    if panel == 2 and cell.executable is False:
+        return NOT_EXECUTABLE
+    return None
+
+
+def map_figure(result: MapResult):
+    """Heat maps over (alpha, friction scale): the lattice optimum where a secure path exists, the
+    planner's cost where it found one, and with simulation the simulated success rate. Grey: no
+    secure path; red: a path exists but the planner found none; black: the cell's task failed;
+    on each cell without a value a marker says why (map_reason). A star marks the scene's own
+    (alpha, friction scale 1). Returns the matplotlib Figure."""
+    from matplotlib.collections import QuadMesh  # matplotlib: loaded when a picture is drawn
+    from matplotlib.colors import ListedColormap  # matplotlib, as above
+
+    plt = pyplot()
+    o = result.options
+    alphas, scales = list(o.alphas), list(o.friction_scales)
+    shape = (len(scales), len(alphas))
+    cells = np.array(result.cells, dtype=object).reshape(shape)
+
+    def grid(value) -> np.ndarray:
+        return np.array([[np.nan if value(c) is None else value(c) for c in row] for row in cells], dtype=float)
+
+    failed = grid(lambda c: 1.0 if c.task_status is not TaskStatus.DONE else None)
+    blocked = grid(lambda c: 1.0 if c.secure_path is False else None)
+    missed = grid(lambda c: 1.0 if c.secure_path and c.planner_outcome is not PlanOutcome.SOLVED else None)
+    optimum = grid(lambda c: c.lattice_optimum)
+    cost = grid(lambda c: c.planner_cost if c.planner_outcome is PlanOutcome.SOLVED else None)
+    panels = [("exact lattice: optimum where a secure path exists", optimum, "viridis", f"cost ({result.units})"),
+              (f"{o.planner} ({o.time:g} s, seed {o.seed}): cost where solved", cost, "viridis",
+               f"cost ({result.units})")]
+    if o.simulate:
+        rate = grid(lambda c: None if c.sim_successes is None else c.sim_successes / o.simulate)
+        panels.append((f"simulated success rate ({o.simulate} trials, {o.perturb})", rate, "RdYlGn",
+                       "success rate (share of trials placed)"))
+    x, y = cell_edges(alphas), cell_edges(scales)
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.6 * len(panels), 5.0), squeeze=False,
+                             constrained_layout=True)
+    finite = np.concatenate([optimum[np.isfinite(optimum)], cost[np.isfinite(cost)]])
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    fills = [(blocked, "0.8", "grey: the lattice rules out a secure path"), (missed, "#d62728", "red: a path exists, the planner found none"),
+             (failed, "black", "black: the cell's task failed")]
+    reasons = map_reasons()
+    for k, (ax, (title, values, cmap, label)) in enumerate(zip(axes[0], panels)):
+        for mask, colour, name in fills:
+            if (k == 1 or mask is not missed) and np.isfinite(mask).any():
+                ax.pcolormesh(x, y, mask, cmap=ListedColormap([colour]), vmin=0, vmax=1, label=name)
+        bounds = dict(vmin=0.0, vmax=1.0) if cmap == "RdYlGn" else dict(vmin=vmin, vmax=vmax)
+        mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), cmap=cmap, **bounds)
+        fig.colorbar(mesh, ax=ax, label=label)
+        why = {}
+        for cell in result.cells:
+            reason = map_reason(cell, k)
+            if reason is not None:
+                why.setdefault(reason, []).append((cell.alpha, cell.friction_scale))
+        for reason, at in why.items():
+            name, marker = reasons[reason]
+            ax.scatter(*np.array(at).T, marker=marker, s=46, facecolor="white", edgecolor="black",
+                       linewidth=0.9, zorder=4, label=name)
+        ref_alpha, ref_scale = result.reference
+        ax.plot([ref_alpha], [ref_scale], marker="*", markersize=22, markerfacecolor="none", markeredgecolor="black",
+                linestyle="none", label=f"the scene (alpha {ref_alpha:g}, friction x1)")
+        ax.set(xlim=(x[0], x[-1]), ylim=(y[0], y[-1]), xlabel="alpha: finger - thumb length (fraction of l)",
+               ylabel="friction scale (x the scene's coefficients)", title=title)
+        ax.title.set_fontsize(9)
+    marks: dict = {}
+    for artist in [a for ax in axes[0] for a in ax.collections] + [a for ax in axes[0] for a in ax.lines]:
+        if not isinstance(artist, QuadMesh) and not artist.get_label().startswith("_"):  # meshes: proxies below
+            marks.setdefault(artist.get_label(), artist)
+    drawn = {a.get_label() for ax in axes[0] for a in ax.collections if isinstance(a, QuadMesh)}
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colour, label=name) for _, colour, name in fills if name in drawn]
+    handles += marks.values()
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8)
+    fig.suptitle(f"{result.scene}: feasibility over digit asymmetry and friction")
+    return fig

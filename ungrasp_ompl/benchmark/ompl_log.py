@@ -17,6 +17,7 @@ from datetime import datetime
 from pathlib import Path
 
 import numpy as np
+import ompl
 
 from ..planning.setup import LATTICE, PlannerOptions
 from ..scene import Scene
@@ -64,8 +65,6 @@ RUN_PROPERTIES: tuple[tuple[str, Callable[[RunResult], object]], ...] = (
 
 
 def _ompl_version() -> str:
-    import ompl
-
     return str(getattr(ompl, "__version__", None) or _OMPL_VERSION_FALLBACK)
 
 
@@ -173,6 +172,3 @@ class Experiment:
             lines += ["".join(f"{_log_value(value(r))}; " for _, value in RUN_PROPERTIES) for r in runs]
             lines.append(".")
         return "\n".join(lines) + "\n"
-
-
-__all__ = ["RUN_PROPERTIES", "Experiment", "cost_units"]

@@ -14,9 +14,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
+from ..parallel.runner import resolve_jobs
 from ..planning.margins import Objective
 from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
-from ..runner import resolve_jobs
 
 
 @dataclass(frozen=True)
@@ -146,6 +146,3 @@ def check_out(out_dir: str | os.PathLike[str]) -> Path:
     if out.exists() and not out.is_dir():
         raise InputError("out", f"{out} exists and is not a directory")
     return out
-
-
-__all__ = ["BenchmarkOptions", "SweepOptions", "check_out", "check_runs", "validate_planners"]

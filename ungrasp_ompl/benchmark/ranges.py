@@ -38,6 +38,3 @@ def parse_range(text: str, option: str) -> list[float]:
 def parse_alpha_range(text: str) -> list[float]:
     """Alphas (over the object length) from ``START:STOP:STEP`` or a number; InputError("alpha")."""
     return parse_range(text, "alphas")
-
-
-__all__ = ["parse_alpha_range", "parse_range"]

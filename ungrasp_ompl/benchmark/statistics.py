@@ -133,5 +133,3 @@ SUMMARY_COLUMNS = (
     Column("lattice tolerance", "lattice_tolerance", lambda r: r.lattice_tolerance, ".3f"),
     Column("known limitation", "known_limitation", lambda r: r.limitation),
 )
-
-__all__ = ["SUMMARY_COLUMNS", "SummaryRow", "gap_percent", "limitation_notes", "median", "p90", "summarise"]

@@ -8,17 +8,18 @@ reference units; alpha over the object length.
 from __future__ import annotations
 
 import os
+import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError
+from ..parallel.runner import open_runner
+from ..parallel.stream import RowStream
 from ..planning.setup import LATTICE
-from ..runner import open_runner
+from ..plots.common import legend_below, pyplot, save_png
 from ..scene import Scene
-from ..stream import RowStream
 from .ompl_log import cost_units
 from .options import SweepOptions
-from .plots import plot_sweep
 from .statistics import median
 from .table import Column, format_table, write_csv
 from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
@@ -133,4 +134,29 @@ def _with_alpha(scene: Scene, alpha: float) -> Scene:
         raise InputError("alphas", f"{alpha:g}: {exc.reason}") from None
 
 
-__all__ = ["SWEEP_COLUMNS", "SweepPoint", "SweepResult", "run_sweep"]
+def plot_sweep(result: SweepResult, time_limit: float, path: Path) -> None:
+    """Write sweep_figure's picture to path (PNG)."""
+    save_png(sweep_figure(result, time_limit), path)
+
+
+def sweep_figure(result: SweepResult, time_limit: float):
+    """Success rate and cost (reference units) against alpha, the y-axes' names wrapped to their
+    panels' height and one legend below. Returns the matplotlib Figure."""
+    plt = pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 7.0), sharex=True, layout="constrained")
+    alphas = [p.alpha for p in result.points]
+    nan = float("nan")
+    top.plot(alphas, [p.success_rate for p in result.points], "o-", label=f"{result.planner} success rate")
+    top.set(ylim=(-0.05, 1.05), title=f"{result.scene}: sweep over alpha")
+    top.set_ylabel(textwrap.fill(f"success rate (share of runs of {time_limit:g} s)", 28))
+    bottom.plot(alphas, [nan if p.median_cost is None else p.median_cost for p in result.points], "o-",
+                label=f"{result.planner} median cost")
+    bottom.plot(alphas, [nan if p.lattice_optimum is None else p.lattice_optimum for p in result.points], "k--x",
+                label="lattice optimum")
+    blocked = [p.alpha for p in result.points if not p.lattice_reachable]
+    for a in blocked:
+        bottom.axvline(a, color="0.8", linewidth=3, zorder=0, label="no secure path")
+    bottom.set_xlabel("alpha: finger - thumb length (fraction of l)")
+    bottom.set_ylabel(textwrap.fill(f"cost ({result.units})", 28))
+    legend_below(fig, [top, bottom], ncol=2)
+    return fig

@@ -97,6 +97,3 @@ def write_csv(path: Path, columns: Sequence[Column], rows: Sequence[object]) -> 
     writer.writerow([c.csv_name for c in columns])
     writer.writerows(csv_values(columns, r) for r in rows)
     write_text_atomic(path, buf.getvalue())
-
-
-__all__ = ["TABLE_WIDTH", "Column", "csv_values", "format_table", "write_csv"]

@@ -1,4 +1,4 @@
-"""Benchmark runs: one planner on one scene, each a task of a :class:`~ungrasp_ompl.runner.Runner`.
+"""Benchmark runs: one planner on one scene, each a task of a :class:`~ungrasp_ompl.parallel.runner.Runner`.
 
 A run seeds OMPL's random numbers afresh with ``seed + run`` (planning.setup.seed_ompl, so a
 worker runs task after task and each gives what it would in a fresh process), builds the scene's
@@ -18,12 +18,13 @@ from contextlib import closing
 from dataclasses import dataclass
 
 from ..errors import ToolError, UngraspError
+from ..parallel.runner import Runner, TaskStatus
+from ..parallel.stream import RowStream
 from ..planning.margins import Objective
+from ..planning.plan_tolerance import tolerance
 from ..planning.result import Plan, PlanOutcome
-from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions
-from ..runner import Runner, TaskStatus
+from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan, seed_ompl
 from ..scene import Scene
-from ..stream import RowStream
 
 
 class RunStatus(enum.Enum):
@@ -128,8 +129,6 @@ def run_status(plan: Plan) -> RunStatus:
 def _ompl_run(task: Task) -> dict:
     """Solve with an OMPL planner, OMPL seeded with the task's seed: on wall time, or for the
     task's iterations (its goal samples seeded too, so the run is reproducible)."""
-    from ..planning.setup import UngraspSetup, seed_ompl
-
     seeded = task.iterations is not None
     if not seeded:  # on wall time the run is not reproducible, but OMPL still draws from the task's seed
         seed_ompl(task.seed)
@@ -144,15 +143,13 @@ def _ompl_run(task: Task) -> dict:
 
 def _tolerance(scene: Scene, plan: Plan, objective: Objective) -> float | None:
     """The plan's tolerance under the tolerance objective (what it optimised), else None."""
-    return scene.tolerance(plan).scale if objective == Objective.TOLERANCE and plan.solved else None
+    return tolerance(scene, plan).scale if objective == Objective.TOLERANCE and plan.solved else None
 
 
 def _lattice_run(scene: Scene, objective: Objective = Objective.COST) -> dict:
     """The exact optimum on the scene's lattice for an objective; its time is building the lattice
     plus the search. Its cost is the optimum even when the optimum's legs fail re-validation
     (status invalid)."""
-    from ..planning.setup import lattice_plan
-
     plan = lattice_plan(scene, objective=objective)
     elapsed = plan.setup_time_s + plan.planning_time_s
     return dict(status=run_status(plan), cost=plan.lattice_optimum, mode_switches=plan.mode_switches,
@@ -256,8 +253,3 @@ def hung_result(task: Task, wall: float) -> RunResult:
 def lattice_yardstick(results: Sequence[RunResult], group: str) -> RunResult:
     """The first lattice run of a group (all are the same search)."""
     return next(r for r in results if r.group == group and r.planner == LATTICE)
-
-
-__all__ = ["LATTICE", "RUN_COLUMNS", "RUN_KEY_COLUMNS", "STATUSES", "Progress", "RunResult", "RunStatus", "Task",
-           "hung_result", "lattice_yardstick", "result_from_row", "run_row", "run_status", "run_task", "run_tasks",
-           "task_key"]

@@ -1,6 +1,6 @@
 """The ``ungrasp-ompl`` command.
 
-Exit codes: 0 solved (or done); 2 bad input (one line naming the field and
+Exit codes (``cli.exits``): 0 solved (or done); 2 bad input (one line naming the field and
 the reason); 3 no solution (with the reason found), including a plan the
 robot cannot execute (out of reach, or beyond its limits); 1 a tool the
 command relies on is missing or failed (one line).
@@ -12,11 +12,14 @@ import argparse
 import os
 import sys
 
-from ..errors import EXIT_OK, InputError, UngraspError
+from ..errors import InputError, UngraspError
 from ..shipped import shipped_names
 from . import commands
+from .exits import EXIT_OK, exit_code
 from .parser import build_parser
 from .progress import Progress
+
+__all__ = ["main", "run"]
 
 
 #: Options fields whose flag is not --field-name (the library names its options' fields).
@@ -55,7 +58,7 @@ def run(argv: list[str] | None = None) -> int:
         if isinstance(exc, InputError) and args is not None:
             exc = _as_flag(exc, parser, args)
         print(f"ungrasp-ompl: error: {shipped_names(str(exc))}", file=sys.stderr)
-        return exc.exit_code
+        return exit_code(exc)
     except KeyboardInterrupt:
         for bar in list(Progress.open):
             bar.close(ok=False)
@@ -76,3 +79,4 @@ def main(argv: list[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+

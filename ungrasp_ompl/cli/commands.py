@@ -6,12 +6,21 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
+import secrets
 from pathlib import Path
 
-from ..errors import EXIT_NO_SOLUTION, EXIT_OK, InputError
+from ..errors import InputError
+from ..parallel.runner import default_jobs
 from ..shipped import resolve, shipped_scenes
+from ..sim.world import World
+from .exits import EXIT_FAILURE, EXIT_NO_SOLUTION, EXIT_OK
 from .progress import Progress, Steps, Ticker, map_status, tile_progress, trial_progress
+
+# Each command imports its scene, workflow and pictures in its function: together they load OMPL, Pinocchio,
+# FCL, SciPy, MuJoCo, matplotlib and meshcat (seconds), of which a command loads what it needs and
+# `ungrasp-ompl --help` or `scenes` nothing.
 
 
 def plan_command(args: argparse.Namespace) -> int:
@@ -108,8 +117,6 @@ def _and(items: list) -> str:
 
 def _all_cores() -> int:
     """What every --jobs defaults to: all cores (runner.default_jobs)."""
-    from ..runner import default_jobs
-
     return default_jobs()
 
 
@@ -118,8 +125,6 @@ def _seed(given: int | None) -> int:
     can be repeated."""
     if given is not None:
         return given
-    import secrets
-
     seed = 1 + secrets.randbelow(9999)
     print(f"seed {seed} (pass --seed {seed} to repeat)")
     return seed
@@ -134,10 +139,8 @@ def stability_command(args: argparse.Namespace) -> int:
 
 
 def cage_command(args: argparse.Namespace) -> int:
-    import math
-
-    from ..workflows.cage import CageOptions, cage_report
     from ..scene import Scene
+    from ..workflows.cage import CageOptions, cage_report
 
     scene = Scene.from_file(resolve(args.scene, "scene"))
     out = Path(args.out) if args.out else None
@@ -179,7 +182,8 @@ def bench_command(args: argparse.Namespace) -> int:
 
 
 def sweep_command(args: argparse.Namespace) -> int:
-    from ..benchmark import SweepOptions, parse_alpha_range, run_sweep
+    from ..benchmark import SweepOptions, run_sweep
+    from ..benchmark.ranges import parse_alpha_range
 
     options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
                            time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
@@ -193,7 +197,6 @@ def sweep_command(args: argparse.Namespace) -> int:
 def map_command(args: argparse.Namespace) -> int:
     from ..benchmark.map import MapOptions, run_map
     from ..benchmark.ranges import parse_range
-    from ..errors import EXIT_FAILURE
 
     options = MapOptions(alphas=tuple(parse_range(args.alpha, "--alpha")),
                          friction_scales=tuple(parse_range(args.friction_scale, "--friction-scale")),
@@ -230,8 +233,8 @@ def _cluster(args: argparse.Namespace) -> str | None:
 
 
 def tile_command(args: argparse.Namespace) -> int:
-    from ..layout import Layout
-    from ..tiling import TilingOptions
+    from ..layout.model import Layout
+    from ..layout.tiler import TilingOptions
     from ..workflows.tile import check_tiling_options, tile_layout
 
     layout = Layout.from_file(resolve(args.layout, "layout"))
@@ -256,11 +259,9 @@ def tile_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
-    import math
-
-    from ..layout import Layout
-    from ..scene import Scene, read_yaml
-    from ..sim.world import World
+    from ..layout.model import Layout
+    from ..scene import Scene
+    from ..scene.loader import read_yaml
     from ..workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
 
     if args.out is not None:
@@ -279,7 +280,7 @@ def simulate_command(args: argparse.Namespace) -> int:
                               cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
                               objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset,
                               world=World.parse(args.world or ()), thickness=args.thickness, equal_digits=args.equal_digits,
-                              force=args.force)
+                              force=args.force, engine=args.engine)
     doc = read_yaml(path, "scene")
     if isinstance(doc, dict) and "frame" in doc and "pieces" in doc:
         layout = Layout.from_file(path)
@@ -306,10 +307,14 @@ def simulate_command(args: argparse.Namespace) -> int:
         return EXIT_NO_SOLUTION
     cleared = _Cleared()
     files = run.write(cleared(out))
-    print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory, "
-          f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
-          f"'start': python -m mujoco.viewer --mjcf={files['model']})")
-    print(f"view it: ungrasp-ompl view {out}  (trial 0 beside the plan)")
+    if "model" in files:
+        print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory, "
+              f"view_scene.json, trial_poses.json (trial 0's object poses) and model.xml (trial 0's world, keyframe "
+              f"'start': python -m mujoco.viewer --mjcf={files['model']})")
+    else:  # trials in Drake: MuJoCo's replay of trial 0 and its world are not theirs
+        print(f"wrote {files['trials']}, {files['summary']}, {files['picture']}, plan.json, the trajectory and "
+              "view_scene.json")
+    print(f"view it: ungrasp-ompl view {out}  ({'trial 0 beside ' if 'poses' in files else ''}the plan)")
     cleared.note()
     return EXIT_OK
 
@@ -337,7 +342,7 @@ def view_command(args: argparse.Namespace) -> int:
 
 
 def regions_command(args: argparse.Namespace) -> int:
-    from ..plotting import draw_regions
+    from ..plots.cspace import draw_regions
     from ..scene import Scene
     from ..workflows.plan_files import read_plan_for
 

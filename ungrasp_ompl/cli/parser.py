@@ -4,9 +4,11 @@ as one-line InputErrors naming the argument."""
 from __future__ import annotations
 
 import argparse
+import re
 
 from .. import __version__
 from ..errors import InputError
+from ..planning.names import PLANNERS
 
 
 class _Parser(argparse.ArgumentParser):
@@ -17,8 +19,6 @@ class _Parser(argparse.ArgumentParser):
 def _argument_error(message: str) -> InputError:
     """argparse's complaint as an InputError naming the argument, e.g. "argument --time: invalid float
     value: 'x'" as "--time: must be a number, got 'x'"."""
-    import re
-
     if m := re.fullmatch(r"argument (\S+): (.*)", message, re.S):
         name, reason = m[1].split("/")[-1], m[2]
         if kind := re.fullmatch(r"invalid (int|float) value: (.*)", reason):
@@ -62,8 +62,6 @@ BENCH_PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "FMT", "AORRTC", "RRT
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..planning import PLANNERS
-
     p = _Parser(prog="ungrasp-ompl", description="Plan dexterous ungrasping with OMPL.")
     p.add_argument("--version", action="version", version=f"ungrasp-ompl {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -222,8 +220,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "layout.png, a C-space picture per piece and the exported trajectory (the files an earlier "
                     "plan, tiling or simulation left there are removed first; other files stay)")
 
-    sm = sub.add_parser("simulate", help="execute a plan in MuJoCo: success rate and placement errors over "
-                        "perturbed trials")
+    sm = sub.add_parser("simulate", help="execute a plan in MuJoCo (or Drake): success rate and placement errors "
+                        "over perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
                     "turn), or the name of a shipped one")
     sm.add_argument("--plan", default=None, help="plan.json (or a directory holding one) to execute instead of "
@@ -256,6 +254,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="simulate an object of this thickness (m) with the motion planned for the scene's")
     sm.add_argument("--equal-digits", action="store_true",
                     help="simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)")
+    sm.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
+                    help="the physics engine the trials run in (default mujoco); drake needs the optional extra: "
+                         "pip install 'ungrasp-ompl[drake]' (docs/model.md 11.19)")
 
     vw = sub.add_parser("view", help="an animated 3D view (one offline HTML page) of what plan --export, tile or "
                         "simulate wrote")

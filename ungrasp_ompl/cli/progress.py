@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import shutil
 import sys
 import threading
 import time
+
+from tqdm import tqdm
 
 
 class Progress:
@@ -31,10 +34,6 @@ class Progress:
             self.stage, self.tenth, self.started = stage, 0, time.monotonic()
         if sys.stderr.isatty():
             if self.bar is None:
-                import shutil
-
-                from tqdm import tqdm
-
                 cols, rows = shutil.get_terminal_size()  # 80 x 24 where a terminal says 0 x 0 (tqdm would hide)
                 self.bar = tqdm(total=total, desc=self.stage or None, unit=f" {self.unit}", file=sys.stderr,
                                 ncols=cols, nrows=rows)

@@ -36,7 +36,8 @@ from ..mechanics.kinematics import (DigitGeometry, digit_offsets, finger_corner,
                                    release_travel, thumb_tip)
 from ..mechanics import pincer as pincer_kinematics
 from ..mechanics.pincer import PincerSpec
-from .solids import Solid, prism_shape
+from ..mechanics.section import Section
+from .solids import Solid, convex_shape, prism_shape
 
 _DEPTH = 10.0  # extent of the planar obstacles normal to the plane, m
 _TABLE_GAP = 1e-9  # the table's top sits this far below z = 0, m, so resting contact is not a collision
@@ -131,6 +132,23 @@ def _turned(points: NDArray, pivot: NDArray, angle: NDArray) -> NDArray:
     return pivot + np.stack([c * rel[..., 0] - s * rel[..., 1], s * rel[..., 0] + c * rel[..., 1]], axis=-1)
 
 
+def object_solid(section: Section, length: float, width: float, turned: bool, samples: int = 48) -> NDArray[np.float64]:
+    """The vertices (N, 3) of a curved section's solid in the object's frame (x along GB from G, y
+    the plane's normal, z up from GB), m: the section (over l, scaled by length) turned about the
+    vertical through its centre (turned: a round object, its outline a circle of diameter GB), or
+    carried across the plane from -width/2 to width/2 (a planar scene: a slab of the digits' width).
+    Its convex hull is the object (the section is convex)."""
+    poly = section.polygon(samples) * length
+    if not turned:
+        return np.vstack([np.column_stack([poly[:, 0], np.full(len(poly), y), poly[:, 1]]) for y in (-width / 2, width / 2)])
+    centre = length / 2
+    out = []
+    for a in np.linspace(0.0, np.pi, samples, endpoint=False):  # each half-plane's profile, both ways
+        c, s_ = np.cos(a), np.sin(a)
+        out.append(np.column_stack([centre + (poly[:, 0] - centre) * c, (poly[:, 0] - centre) * s_, poly[:, 1]]))
+    return np.vstack(out)
+
+
 @dataclass(frozen=True)
 class Box:
     """An obstacle: an axis-aligned box in the plane, extruded normal to it (metres)."""
@@ -198,7 +216,15 @@ class CollisionChecker:
         self._object_extent = None  # (x_min, x_max) of the outline's prism along GB, m
         # extent of each body normal to the plane (y, m)
         self._y_range = {name: (-width / 2, width / 2) for name in ("thumb", "finger", "object")}
-        if model.section is not None:
+        curved = dg.section is not None and not dg.section.is_slab
+        #: The curved section's extent in the object's frame ((x, z) low, high), m: its broad phase box.
+        self._section_box = None
+        if curved:  # the true solid: the section turned about its centre (an outline) or across the digits' width
+            solid = object_solid(dg.section, l, width, model.section is not None)
+            self._bodies["object"] = fcl.CollisionObject(convex_shape(solid))
+            self._section_box = np.array([[solid[:, 0].min(), solid[:, 2].min()], [solid[:, 0].max(), solid[:, 2].max()]])
+            self._y_range["object"] = (float(solid[:, 1].min()), float(solid[:, 1].max()))
+        elif model.section is not None:
             pts = model.section
             self._bodies["object"] = fcl.CollisionObject(prism_shape(pts, 0.0, t))
             self._object_extent = (float(pts[:, 0].min()), float(pts[:, 0].max()))
@@ -262,8 +288,10 @@ class CollisionChecker:
         beta = theta + psi
         thumb, finger = digit_offsets(theta, psi, dg)
         frames = {
-            "thumb": (beta, thumb_tip(theta, d, psi, dg.alpha, dg.object_thickness, dg.finger_tip_radius), thumb),
-            "finger": (beta, finger_corner(theta, d, psi, dg.object_thickness, dg.finger_tip_radius), finger),
+            "thumb": (beta, thumb_tip(theta, d, psi, dg.alpha, dg.object_thickness, dg.finger_tip_radius, dg.section),
+                      thumb),
+            "finger": (beta, finger_corner(theta, d, psi, dg.object_thickness, dg.finger_tip_radius, dg.section),
+                       finger),
         }
         if "palm" in self._bodies:
             frames["palm"] = (beta, housing_centre(theta, d, psi, dg, frames["thumb"][1]), housing_offsets(theta, psi, dg))
@@ -313,7 +341,10 @@ class CollisionChecker:
         u = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
         t = max(self.model.thickness, 1e-6) / l
         nrm = np.stack([-u[:, 1], u[:, 0]], axis=-1)
-        if self._object_extent is None:  # the slab along GB, centred on it
+        if self._section_box is not None:  # a curved section's solid: the box about it in its frame
+            (x0, z0), (x1, z1) = self._section_box / l
+            obj = np.stack([x0 * u + z0 * nrm, x1 * u + z0 * nrm, x1 * u + z1 * nrm, x0 * u + z1 * nrm], axis=1)
+        elif self._object_extent is None:  # the slab along GB, centred on it
             obj = np.stack([-nrm * t / 2, u - nrm * t / 2, u + nrm * t / 2, nrm * t / 2], axis=1)
         else:  # the outline's prism on the table, tilted about G: its section in the plane
             x0, x1 = (x / l for x in self._object_extent)

@@ -3,9 +3,12 @@
 All lengths here are over the object length l; angles are radians. The plane is
 the manipulation plane with G at the origin, x along the table toward B's side
 and z up; a state is (theta, d, psi).
+
+The functions imported here are the shorthand the floors above use (``from ..mechanics import
+force_closure``); the public names are ``__all__``'s.
 """
 
-from .contact import (
+from .contact import (  # noqa: F401 (the shorthand, as the docstring says)
     PRIMITIVES,
     ContactMode,
     Primitive,
@@ -38,31 +41,4 @@ from .kinematics import (
     thumb_tip,
 )
 
-__all__ = [
-    "PRIMITIVES",
-    "REFERENCE_FRICTION",
-    "SLIDING_MODELS",
-    "ContactMode",
-    "DigitGeometry",
-    "Friction",
-    "Primitive",
-    "SlidingModel",
-    "across_support",
-    "aperture",
-    "cone_edges",
-    "contact_mode",
-    "contact_wrenches",
-    "digit_polygons",
-    "finger_tip",
-    "force_closure",
-    "force_closure_margin",
-    "friction_directions",
-    "kinematic_checks",
-    "kinematic_validity",
-    "primitive_of",
-    "primitive_sliding_signs",
-    "s_b",
-    "sliding_signs",
-    "thumb_clearance",
-    "thumb_tip",
-]
+__all__ = ["Primitive", "SlidingModel"]

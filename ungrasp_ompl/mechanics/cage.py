@@ -626,8 +626,3 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
 def weight_of(mass: float) -> float:
     """The weight (N) of a mass (kg)."""
     return mass * GRAVITY
-
-
-__all__ = ["Cage", "CageGrid", "CageOutcome", "CageProblem", "GRAVITY", "PoseGrid", "escape_energy", "escape_level",
-           "free_space", "grid_border", "pinch_problem", "pose_grid", "potential",
-           "weight_of"]

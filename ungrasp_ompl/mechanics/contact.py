@@ -12,6 +12,11 @@ the digit:
   the thumb face, so v_object - v_thumb = -ds_B * e (e from palm to tips), and
   friction on the object points along +sign(ds_B) * e (toward the palm while
   s_B decreases).
+
+On a curved section (mechanics.section) d is the slide coordinate, so A still slides iff dd != 0,
+the object slipping past the finger along the top's tangent toward B; B's sign is taken from the
+segment's ds_B all the same, which tests/test_section.py checks against finite differences of the
+section's s_B (ds_B/dpsi < 0, ds_B/dd > 0 wherever the gripper is open and psi < 90 deg).
 """
 
 from __future__ import annotations

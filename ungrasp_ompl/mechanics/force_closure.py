@@ -31,6 +31,8 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .section import Section, finger_contact
+
 
 class SlidingModel(StrEnum):
     """Which friction a sliding contact may exert (docs/model.md, section 4.3). A member is its
@@ -48,6 +50,27 @@ class SlidingModel(StrEnum):
 
 
 SLIDING_MODELS = tuple(m.value for m in SlidingModel)
+
+@dataclass(frozen=True)
+class SectionContact:
+    """Where the finger touches a curved section, for the force analysis: the section (over l)
+    and the finger tip's radius r (over l; 0 a sharp corner or a flat tip). A then lies on the
+    section's top where the finger rolls on it (mechanics.section.finger_contact) and pushes
+    along the top's inward normal there, its friction along the top's tangent."""
+
+    section: Section
+    tip_radius: float = 0.0
+
+    def geometry(self, theta: ArrayLike, d: ArrayLike, psi: ArrayLike) -> tuple[NDArray, ...]:
+        """A's point (p_x, p_z), its normal acting on the object (n_x, n_z) and its tangent toward
+        B's end (t_x, t_z) in the plane, each at the broadcast shape of theta, d and psi."""
+        theta = np.asarray(theta, dtype=float)
+        c = finger_contact(self.section, d, psi, self.tip_radius)
+        ct, st = np.cos(theta), np.sin(theta)
+        (px, pz), (nx, nz) = np.moveaxis(c.top.point, -1, 0), np.moveaxis(c.top.normal, -1, 0)
+        wx, wz = ct * nx - st * nz, st * nx + ct * nz  # the outward normal in the plane
+        return ct * px - st * pz, st * px + ct * pz, -wx, -wz, wz, -wx
+
 
 #: The reference planner's friction (angles 11, 17, 17 deg at G, A, B), the default mu.
 REFERENCE_MU = (float(np.tan(np.radians(11))), float(np.tan(np.radians(17))), float(np.tan(np.radians(17))))
@@ -72,6 +95,8 @@ class Friction:
     """Coefficients at G, A, B at the range's low end (the plane's, from the contacts' times 1 - u); None: mu times 1 - u."""
     high: tuple[float, float, float] | None = None
     """Coefficients at G, A, B at the range's high end (the plane's, from the contacts' times 1 + u); None: mu times 1 + u."""
+    contact_a: SectionContact | None = None
+    """Where the finger touches a curved section (its point and normal there); None: on the segment, (1 - d) u from G, its normal square to GB."""
 
     def __post_init__(self) -> None:
         if self.model not in SLIDING_MODELS:
@@ -95,8 +120,8 @@ class Friction:
         return 1.0 - self.uncertainty, 1.0 + self.uncertainty
 
     def with_mu(self, mu: tuple[float, float, float]) -> "Friction":
-        """The same sliding model with other coefficients at G, A, B, known exactly."""
-        return Friction(mu, self.model)
+        """The same sliding model (and contact geometry at A) with other coefficients at G, A, B, known exactly."""
+        return Friction(mu, self.model, contact_a=self.contact_a)
 
     def ends(self, a_slides: bool, b_slides: bool) -> tuple["Friction", ...]:
         """The exactly known frictions at which force closure decides the range for a contact mode
@@ -105,10 +130,10 @@ class Friction:
         ones at the low end. (A relaxed sliding contact offers the arc from its normal to its edge,
         which only grows with mu, so the low end's wrench cone lies inside the high end's and the
         low end decides alone; a strict one offers the edge alone, which turns with mu.)"""
-        out = (Friction(self.low, self.model),)
+        out = (Friction(self.low, self.model, contact_a=self.contact_a),)
         if self.model is SlidingModel.STRICT and (a_slides or b_slides):
             out += (Friction((self.low[0], self.high[1] if a_slides else self.low[1],
-                              self.high[2] if b_slides else self.low[2]), self.model),)
+                              self.high[2] if b_slides else self.low[2]), self.model, contact_a=self.contact_a),)
         return out
 
 
@@ -152,10 +177,14 @@ def _slots(theta, d, psi, a_sign, b_sign, friction: Friction):
     for sign in (1.0, -1.0):
         slots.append((np.float64(0.0), np.float64(sign * s), np.float64(c)))
         masks.append(np.True_)
-    # A at (1 - d) u: normal (sin t, -cos t), tangent u; friction along -sign(dd) u.
+    # A at (1 - d) u: normal (sin t, -cos t), tangent u; friction along -sign(dd) u. On a curved
+    # section (friction.contact_a), where the finger touches its top: the top's inward normal and
+    # its tangent toward B's end; friction along -sign(dd) times that tangent.
     # B at u: normal n_B = (-sin b, cos b), tangent e = -(cos b, sin b); friction along sign(ds_B) e.
+    a_geometry = ((1.0 - d) * ct, (1.0 - d) * st, st, -ct, ct, st) if friction.contact_a is None else \
+        friction.contact_a.geometry(theta, d, psi)
     contacts = (
-        ((1.0 - d) * ct, (1.0 - d) * st, st, -ct, ct, st, -a_sign, a_sign, mu[1]),
+        (*a_geometry, -a_sign, a_sign, mu[1]),
         (ct, st, -sb, cb, -cb, -sb, b_sign, b_sign, mu[2]),
     )
     for px, pz, nx, nz, tx, tz, fric, sliding_sign, m in contacts:

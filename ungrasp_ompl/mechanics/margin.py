@@ -351,7 +351,7 @@ def kinematic_margins(
     """
     theta, d, psi = (np.ravel(np.atleast_1d(np.asarray(x, dtype=float))) for x in (theta, d, psi))
     theta, d, psi = np.broadcast_arrays(theta, d, psi)
-    sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius)
+    sb = s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius, digits.section)
     bodies = digit_bodies(theta, d, psi, digits)
     lowest = np.min([b[:, :, 1].min(axis=1) for b in bodies], axis=0)
     lowest = np.minimum(lowest, thumb_clearance(theta, d, psi, digits))
@@ -390,7 +390,3 @@ class Margins:
     def smallest_kinematic(self) -> NDArray[np.float64]:
         """The smallest kinematic margin of each state (m)."""
         return np.min(np.stack(list(self.kinematic.values())), axis=0)
-
-
-__all__ = ["MAX_CONE_HALF_ANGLE", "Margins", "friction_margin", "kinematic_margins",
-           "shrinking_wrenches"]

@@ -73,6 +73,3 @@ def plan_samples(plan: PrimitivePath, resolution: ArrayLike = PROFILE_RESOLUTION
     sa_all.append(sa_all[-1][-1:])
     sb_all.append(sb_all[-1][-1:])
     return PlanSamples(np.vstack(states), np.concatenate(prims), np.concatenate(sa_all), np.concatenate(sb_all))
-
-
-__all__ = ["PROFILE_RESOLUTION", "PathPrimitive", "PlanSamples", "PrimitivePath", "plan_samples"]

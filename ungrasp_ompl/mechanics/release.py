@@ -46,8 +46,12 @@ opening sooner); the finger after the pinch; the outline's extent beyond G or B 
 are the object's ends along GB on the shipped objects, to micrometres). Where the fall starts is
 an input (ReleaseStart): the plan's last state, or, since a force-limited pinch carries the object
 through a P_dpsi rather than sliding over it (the simulator's does: docs/model.md 11.13), where
-that carry leaves it (carried_start: B keeps its place on the thumb, G slides on the table), which
-predict_landing takes by default. The `rotate` termination is not modelled (ReleaseModelError).
+that carry leaves it (planning.predicted_landing.carried_start: B keeps its place on the thumb, G
+slides on the table), which planning.predicted_landing.predict_landing takes by default. The
+`rotate` termination is not modelled (ReleaseModelError).
+
+This module takes the fall's set-up (ReleaseSetup) as numbers; planning.predicted_landing makes it
+from a scene and its plan.
 """
 
 from __future__ import annotations
@@ -56,17 +60,13 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import UngraspError
-from .kinematics import GRAVITY, digit_axis, pressed_state, release_travel, s_b, thumb_tip
-
-if TYPE_CHECKING:
-    from ..planning.result import Plan
-    from ..scene import Scene
+from .kinematics import GRAVITY
 
 #: The integrator's step (s): landings move by less than 0.03 mm from 1 ms to 0.1 ms on the shipped plans.
 STEP = 5e-4
@@ -536,92 +536,6 @@ def fall(setup: ReleaseSetup, mu_g: float, mu_b: float, step: float = STEP, trac
     return Fall(X - lc * c + hc * s, gx - start.g, False, None, 0.0, over_tip, left, worst, states)
 
 
-def _plane_frame(scene: "Scene") -> NDArray[np.float64]:
-    """The manipulation plane's frame in the world (4 x 4) with the object at its target (the
-    export's plane_frame): the outline's plane, or G at robot.object_position with x at
-    robot.object_yaw."""
-    if scene.plane is not None:
-        return np.asarray(scene.plane.frame, dtype=float)
-    c, s = math.cos(scene.robot.object_yaw), math.sin(scene.robot.object_yaw)
-    frame = np.eye(4)
-    frame[:3, 0], frame[:3, 1] = [c, s, 0.0], [-s, c, 0.0]
-    frame[:2, 3] = scene.robot.object_position
-    return frame
-
-
-def release_body(scene: "Scene") -> ReleaseBody:
-    """The object of scene as the fall sees it: its outline's area in the plane's body frame (the
-    frame at the target: x along GB from G), or a strip from G to B without an outline."""
-    l, t = scene.object_length, scene.object_thickness
-    if scene.object3d is None or scene.plane is None:
-        return ReleaseBody.strip(l, t)
-    frame = np.asarray(scene.plane.frame, dtype=float)
-    outline = (scene.object3d.placed_outline() - frame[:2, 3]) @ frame[:2, :2]
-    return ReleaseBody.of_outline(outline, l, t)
-
-
-def release_setup(scene: "Scene", state: tuple[float, float, float], start: ReleaseStart | None = None
-                  ) -> ReleaseSetup:
-    """The fall's set-up for scene, ending its plan at state (theta rad, d over l, psi rad): the
-    state pressed by robot's final press (pressed_state; as it is where no pressed state is found),
-    the thumb there (thumb_tip), the termination's travel (release_travel) and timing, the object's
-    body; start: the object's pose when the termination begins, where it is known to differ from
-    the pressed state (the thumb's face stays where the plan puts it). ReleaseModelError for a
-    rotate termination."""
-    robot, digits, l = scene.robot, scene.digits, scene.object_length
-    kind = str(robot.termination)
-    if kind not in ("open", "open_symmetric", "open_lift"):
-        raise ReleaseModelError("only the opening terminations (open, open_symmetric, open_lift) are modelled",
-                                kind)
-    theta, d, psi = (float(x) for x in state)
-    if robot.final_press > 0.0:
-        th_p, d_p, psi_p, found = pressed_state(theta, d, psi, robot.final_press / l, digits)
-        if bool(found):
-            theta, d, psi = float(th_p), float(d_p), float(psi_p)
-    t_l, r_l = digits.object_thickness, digits.finger_tip_radius
-    tip = thumb_tip(theta, d, psi, digits.alpha, t_l, r_l) * l
-    axis = digit_axis(theta, psi)
-    travel = release_travel(theta, psi, kind)
-    fastest = max(float(np.linalg.norm(travel["thumb"])), float(np.linalg.norm(travel["finger"])))
-    rate = TIMING_MARGIN * GRIPPER_SPEED
-    if fastest > 0.0:
-        rate = min(rate, robot.contact_speed / fastest)
-    hand = HandMotion(tip=(float(tip[0]), float(tip[1])), axis=(float(axis[0]), float(axis[1])),
-                      thumb_length=digits.thumb_length * l, palm=(float(travel["palm"][0]), float(travel["palm"][1])),
-                      opening=robot.termination_opening, held=min(scene.sim.squeeze, robot.termination_opening),
-                      rate=rate, acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
-    frame = tuple(map(tuple, _plane_frame(scene).tolist()))
-    return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
-
-
-def carried_start(scene: "Scene", plan: "Plan", setup: ReleaseSetup) -> ReleaseStart:
-    """Where the object is when the termination begins if the pinch carries it through the plan's
-    P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.17):
-    B keeps its place on the thumb over each P_dpsi (s_B does not shrink as the plan has it, and the
-    finger does not slide either), so that G slides on the table with the hand; the other primitives
-    go as planned (B slides in P_psi, nothing slides in P_theta). At the end the thumb is where
-    setup's hand puts it, B lies the kept s_B up its face and G on the table: theta = asin(B_z / l),
-    G = B_x - l cos(theta). The plan's own start (setup.start) for a plan without a P_dpsi."""
-    kept = [p for p in plan.primitives if str(p.type) == "P_dpsi"]
-    if not kept:
-        return setup.start
-    dg, l = scene.digits, scene.object_length
-    t_l, r_l = dg.object_thickness, dg.finger_tip_radius
-
-    def sb(q) -> float:
-        return float(s_b(q[1], q[2], dg.alpha, t_l, r_l)) * l
-
-    hand, body = setup.hand, setup.body
-    bx0, bz0 = setup.start.g + l * math.cos(setup.start.theta), l * math.sin(setup.start.theta)
-    planned = (bx0 - hand.tip[0]) * -hand.axis[0] + (bz0 - hand.tip[1]) * -hand.axis[1]
-    s_kept = planned + sum(sb(p.start) - sb(p.end) for p in kept)
-    bx, bz = hand.tip[0] - s_kept * hand.axis[0], hand.tip[1] - s_kept * hand.axis[1]
-    if not 0.0 <= bz < body.length:
-        raise ReleaseModelError(f"the carried object's end B would lie {bz * 1000:.3f} mm up: out of its reach")
-    theta = math.asin(bz / body.length)
-    return ReleaseStart(bx - body.length * math.cos(theta), theta)
-
-
 def _contact_axes(normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """MuJoCo's tangent axes of a contact with normal (world, unit): t1 the world y axis made
     orthogonal to the normal (the z axis where the normal lies within 60 deg of y), t2 = normal x t1
@@ -769,24 +683,3 @@ def predict_release(setup: ReleaseSetup, mu_g: float, mu_b: float, termination: 
     return ReleasePrediction(along, 0.0, (float(world[0]), float(world[1])), nominal.offset,
                              max(w.along for w in worlds) - min(w.along for w in worlds), nominal.carried,
                              tuple(worlds), nominal.over_tip, termination, carried, setup.start)
-
-
-def predict_landing(scene: "Scene", plan: "Plan", carried: bool = True) -> ReleasePrediction:
-    """Where the release at the end of a solved plan puts the object, against the plan's landing (the
-    last state turned flat about G), by the planar model of the fall (release_setup, fall) with the
-    scene's contact friction (mu_G on the table, mu_B on the thumb) over the worlds of the spread.
-    carried: the fall starts where the pinch leaves the object if it carries it through the plan's
-    P_dpsi legs (carried_start), as the simulated execution does; False: where the plan's last state
-    puts it. ReleaseModelError when the plan is not solved or the termination is not an opening one."""
-    if not plan.solved or not plan.states:
-        raise ReleaseModelError("the plan is not solved")
-    mu_g, _, mu_b = scene.mu_contacts or scene.mu
-    setup = release_setup(scene, tuple(plan.states[-1]))
-    if carried:
-        setup = ReleaseSetup(setup.body, setup.hand, carried_start(scene, plan, setup), setup.frame)
-    return predict_release(setup, float(mu_g), float(mu_b), str(scene.robot.termination), carried)
-
-
-__all__ = ["Contact", "Fall", "HandMotion", "PyramidReach", "ReleaseBody", "ReleaseModelError", "ReleasePrediction",
-           "ReleaseSetup", "ReleaseStart", "SPREAD_FACTORS", "WorldLanding", "carried_start", "contacts_at", "fall",
-           "predict_landing", "predict_release", "release_body", "release_setup", "spread_worlds"]

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.collision import CollisionChecker
 from ..mechanics.contact import Primitive
 from ..scene import Scene
 from .result import Plan, PrimitiveStep
@@ -79,8 +80,6 @@ def plan_problems(scene: Scene, plan: Plan) -> list[PlanProblem]:
     """Why the scene's model would reject the plan, primitive by primitive (empty: every leg is
     secure): kinematics, collision and force closure in each leg's contact mode (planning.verify);
     the first failure of each failing primitive."""
-    from ..geometry.collision import CollisionChecker
-
     checker = CollisionChecker(scene.collision_model())
     resolution = np.asarray(scene.options.resolution) / 2
     out = []
@@ -91,6 +90,3 @@ def plan_problems(scene: Scene, plan: Plan) -> list[PlanProblem]:
                 out.append(PlanProblem(k + 1, p.type, failure))
                 break
     return out
-
-
-__all__ = ["PlanProblem", "check_psi_offset", "deviated_plan", "plan_problems", "steeper_start"]

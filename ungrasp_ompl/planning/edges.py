@@ -144,6 +144,3 @@ def moved_from(shape: tuple[int, ...], step: list[int], index: NDArray[np.int_],
     out = np.full(shape, none, dtype=index.dtype)
     out[dst] = index[src]
     return out
-
-
-__all__ = ["LatticeEdges", "LatticeMove", "dpsi_region", "lattice_edges", "lattice_moves", "moved_from"]

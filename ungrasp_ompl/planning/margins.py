@@ -438,6 +438,3 @@ def _reached(src: NDArray[np.int_], dst: NDArray[np.int_], n: int, seeds) -> NDA
     graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
     order = breadth_first_order(graph, n, directed=True, return_predecessors=False)
     return order[order < n]
-
-
-__all__ = ["LatticeMargins", "MARGIN_FLOOR_DEG", "OBJECTIVES", "Objective", "TIE_SCALE_DEG", "TIE_TOLERANCE", "on_some_path"]

@@ -5,17 +5,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..mechanics.margin import friction_margin
 from ..mechanics.path import PlanSamples, plan_samples
+from ..scene import Scene
 from .result import Plan
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..scene import Scene
 
 
 def plan_friction_margins(scene: Scene, samples: PlanSamples) -> NDArray[np.float64]:
@@ -50,6 +47,3 @@ def path_friction_margin(scene: Scene, plan: Plan) -> PathMargin:
     on, a corner once in each leg's mode, the start included (in its first leg's mode)."""
     samples = plan_samples(plan, plan.resolution or scene.options.resolution, both_modes=True)
     return PathMargin(samples, plan_friction_margins(scene, samples))
-
-
-__all__ = ["PathMargin", "path_friction_margin", "plan_friction_margins"]

@@ -6,15 +6,19 @@ import json
 import math
 from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, StrEnum
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
+from ..io import read_json_file
 from ..mechanics import Friction, Primitive, primitive_sliding_signs
 from ..mechanics.force_closure import SlidingModel
 from ..scene import StateClass, StateDiagnosis
-from ..scene.tolerance import describe_tolerance
+from ..scene.options import Termination
+from ..scene.stability import describe_roll, describe_x_moments
+from ..scene.tolerance import ToleranceReason, describe_tolerance
 from .atlas import D, PSI, THETA, Leg, SecurityAtlas, reference_cost
 from .margins import Objective
 
@@ -125,8 +129,6 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
         if e.get("outside_box"):
             return "goal region lies outside the planning box"
         if e.get("holdable"):
-            from ..scene.options import Termination
-
             how = e.get("termination", "open")
             how = Termination(how).describe() if how in tuple(Termination) else how
             return (f"goal region is empty: the gripper cannot let go ({how}) at any goal state without a "
@@ -141,8 +143,6 @@ def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: st
     if outcome is PlanOutcome.INVALID_PATH:
         return f"the returned path fails re-validation: {e['problem']}"
     if outcome is PlanOutcome.BELOW_MIN_TOLERANCE:
-        from ..scene.tolerance import ToleranceReason
-
         return (f"the path found survives errors up to {e['tolerance']['scale']:.3f} times the "
                 f"{e['tolerance']['perturbation']} error bounds, below planning.min_tolerance {e['min_tolerance']:g} "
                 f"(beyond that, {ToleranceReason(e['tolerance']['reason']).describe()}); try --objective tolerance")
@@ -255,7 +255,7 @@ class Plan:
     report: Report3D | None = None  # scenes with an outline
     tolerance: dict | None = None  # the plan's tolerance of the paper errors (scene.tolerance.Tolerance.to_dict)
     friction: dict | None = None  # the friction planned with and its range (friction_record)
-    predicted_landing: dict | None = None  # where the release puts the object (mechanics.release.predict_landing)
+    predicted_landing: dict | None = None  # where the release puts the object (planning.predicted_landing)
     holdable_map: HoldableMap | None = field(default=None, repr=False, compare=False)  # in memory only
 
     @property
@@ -438,8 +438,6 @@ class Plan:
         for k, p in enumerate(self.primitives, 1):
             lines.append(f"  {k}. {_primitive_words(p)}")
         if self.stability_report is not None:
-            from ..scene.stability import describe_roll, describe_x_moments
-
             rep = self.stability_report
             lines.append("  rolling about GB, on every primitive: " + describe_x_moments(rep))
             for r in rep["roll_simulation"]:
@@ -553,15 +551,12 @@ def friction_record(friction: Friction) -> dict[str, Any]:
 def read_plan(path: str) -> Plan:
     """Read a plan.json, or the plan.json of a directory (what plan --out DIR or --export DIR
     wrote); InputError naming the field (or the file) when it cannot be used."""
-    from pathlib import Path
-
     path = Path(path)
     if path.is_dir():
         if not (path / "plan.json").is_file():
             raise InputError("plan", "holds no plan.json (plan --out DIR or plan --export DIR writes one)",
                              str(path))
         path = path / "plan.json"
-    from ..io import read_json_file
 
     return Plan.from_dict(read_json_file(path, "plan"), source=str(path))
 

@@ -30,14 +30,19 @@ from ompl import util as ou
 
 from ..errors import InputError, ToolError
 from ..geometry.collision import CollisionChecker
-from ..runner import TaskStatus, run_in_child
+from ..mechanics.margin import friction_margin
+from ..parallel.runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
+from ..scene.stability import analyse
 from .atlas import Leg, SecurityAtlas, goal_behind_start, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search, optimum_cost
-from .names import LATTICE, PLANNERS
 from .margins import OBJECTIVES, LatticeMargins, Objective
+from .names import LATTICE, PLANNERS
 from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
+from .path_margin import path_friction_margin
+from .plan_tolerance import tolerance
+from .predicted_landing import predict_landing
 from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, friction_record,
                      merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
@@ -422,9 +427,6 @@ def solved_plan(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: Latt
     """The plan solved by verified legs: merged primitives, corner states, cost, and the friction
     margins (the smallest of each primitive and of the path, the start's; with the lattice's
     margins, its bottleneck and whether the path's smallest margin is forced by it)."""
-    from ..mechanics.margin import friction_margin
-    from .path_margin import path_friction_margin
-
     steps = merge_legs(atlas, legs)
     states = [[float(x) for x in atlas.scene.start]] + [q for s in steps for q in s.waypoints[1:]]
     cost, l1, switches = sequence_cost(atlas, steps)
@@ -574,13 +576,11 @@ def with_cost_baseline(own: Plan, baseline: Plan, atlas: SecurityAtlas | None = 
 
 def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene], Plan]) -> Plan:
     """A solved plan held to the scene's planning.max_landing_spread (docs/model.md 11.24): with its
-    predicted landing (mechanics.release), kept when the landing moves no more than the bound over
+    predicted landing (planning.predicted_landing), kept when the landing moves no more than the bound over
     the friction's range and both cones; else, when the plan has a P_dpsi (which carries the object
     and makes its landing depend on friction), the scene planned again by replan without P_dpsi
     (planning.forbid_partial) and that plan kept when it keeps the bound; else failed
     (PlanOutcome.LANDING_SPREAD, path kept)."""
-    from ..mechanics.release import predict_landing
-
     bound = scene.options.max_landing_spread
     landing = predict_landing(scene, result)
     result = replace(result, predicted_landing=landing.to_dict())
@@ -608,7 +608,7 @@ def with_tolerance_floor(scene: Scene, result: Plan) -> Plan:
     floor = scene.options.min_tolerance
     if floor <= 0 or not result.solved:
         return result
-    tol = scene.tolerance(result).to_dict()
+    tol = tolerance(scene, result).to_dict()
     result = replace(result, tolerance=tol)
     return result if tol["scale"] >= floor else result.fail(PlanOutcome.BELOW_MIN_TOLERANCE, tolerance=tol,
                                                              min_tolerance=floor)
@@ -640,8 +640,6 @@ def seed_ompl(seed: int) -> None:
 def with_3d_report(scene: Scene, result: Plan) -> Plan:
     """The plan with its 3D report: the object, manipulation plane, effective friction and 3D
     stability of a scene with an outline; each primitive says how x-moments are held."""
-    from ..scene.stability import analyse
-
     states = [("start", scene.start)]
     if result.solved:
         states.append(("end", np.array(result.states[-1])))
@@ -664,6 +662,3 @@ def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = 
     if outcome.status is TaskStatus.DIED:
         raise ToolError(f"the process planning {scene.name} with {opts.planner} ended without an answer")
     return outcome.unwrap()
-
-
-__all__ = ["PLANNERS", "PlannerOptions", "UngraspSetup", "plan"]

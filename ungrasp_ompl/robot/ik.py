@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import EXIT_NO_SOLUTION, UngraspError
+from ..errors import NoSolutionError
 from .model import (UR5E_REACH, RobotModel, as_pose, configuration, max_flange_distance_from_shoulder,
                     shoulder_position)
 from .trajectory import ARM_JOINTS
@@ -59,7 +59,7 @@ class Unreachable(Enum):
     BRANCH_FLIP = "branch flip"  #: a joint jumps between consecutive path samples
 
 
-class ReachabilityError(UngraspError):
+class ReachabilityError(NoSolutionError):
     """The arm cannot put the palm at a target pose: out of reach, IK did not converge, a joint
     limit is in the way, or a path's solution jumps branches.
 
@@ -71,8 +71,6 @@ class ReachabilityError(UngraspError):
     ``joint``, ``jump_rad``, ``max_step_rad``; with ``starts`` (count) when no standard start of
     ik_seed_for converged (the figures are then the closest's). reason: all that in words.
     """
-
-    exit_code = EXIT_NO_SOLUTION
 
     def __init__(self, index: int | None, target: ArrayLike, kind: Unreachable, reason: str, **evidence: Any):
         self.index = index

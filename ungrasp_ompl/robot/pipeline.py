@@ -23,16 +23,17 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import EXIT_NO_SOLUTION, UngraspError
+from ..errors import NoSolutionError
 from ..mechanics.contact import Primitive
 from ..mechanics.kinematics import release_travel
+from ..mechanics.pincer import PincerLinks, pincer_links
+from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan
 from ..scene import Scene
 from ..scene.options import Termination
 from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
-from ..mechanics.pincer import PincerLinks, pincer_links
 from .placement import contact_points_world, default_plane_frame, densify, palm_poses
 from .timing import Samples, TimingError, Untimeable, ruckig_move, toppra_path
 from .trajectory import JOINT_NAMES, PINCER_JOINT_NAMES, JointTrajectory
@@ -47,13 +48,11 @@ PRESS_STEPS = 10
 ARM_JERK, GRIPPER_JERK = 15.0, 2.0
 
 
-class CollisionError(UngraspError):
+class CollisionError(NoSolutionError):
     """The arm or gripper would hit the table or an obstacle: during ``phase`` (a trajectory
     segment's name), first at ``time_s`` (s from the trajectory's start), with ``pairs`` the
     colliding bodies ("link - obstacle") and ``job`` the index of the plan whose part it is
     (execute_sequence's jobs)."""
-
-    exit_code = EXIT_NO_SOLUTION
 
     def __init__(self, phase: str, time_s: float, pairs: tuple[str, ...], job: int = 0):
         super().__init__(f"the robot collides during the {phase} at t = {time_s:.2f} s: " + ", ".join(pairs))
@@ -193,10 +192,8 @@ def _pincer_termination(scene: Scene, pose: NDArray, angle: float, links: Pincer
 
 def modelled_aim(scene: Scene, plan: Plan) -> Aim:
     """The aim of robot.landing modelled: the hand moved back by the offset at which the model of
-    the fall (mechanics.release.predict_landing) lands the object on average over the friction's
+    the fall (planning.predicted_landing.predict_landing) lands the object on average over the friction's
     range and both cones, in the world's x, y (m); no turn (the planar model has none)."""
-    from ..mechanics.release import predict_landing
-
     x, y = predict_landing(scene, plan).world
     return Aim(-x, -y, 0.0)
 

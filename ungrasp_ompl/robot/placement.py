@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import EXIT_NO_SOLUTION, UngraspError
+from ..errors import NoSolutionError
 from ..mechanics.kinematics import (aperture, contact_point, digit_axis, finger_corner, object_axis,
                                    thumb_normal, thumb_tip)
 from ..mechanics.pincer import PincerPose, pincer_pose
@@ -69,24 +69,22 @@ def plane_points(scene: Scene, q: ArrayLike) -> dict[str, NDArray[np.float64]]:
     q = np.atleast_2d(np.asarray(q, dtype=float))
     th, d, ps = q.T
     l, dg = scene.object_length, scene.digits
-    t, r = dg.object_thickness, dg.finger_tip_radius
+    t, r, sec = dg.object_thickness, dg.finger_tip_radius, dg.section  # sec: a curved section's rolling finger
     u = object_axis(th)
-    pts = {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r) * l, "finger": finger_corner(th, d, ps, t, r) * l,
-           "a": contact_point(th, d, ps, t, r) * l, "b": u * l,
-           "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r) * l}
+    pts = {"thumb": thumb_tip(th, d, ps, dg.alpha, t, r, sec) * l, "finger": finger_corner(th, d, ps, t, r, sec) * l,
+           "a": contact_point(th, d, ps, t, r, sec) * l, "b": u * l,
+           "e": digit_axis(th, ps), "n": thumb_normal(th, ps), "opening": aperture(d, ps, t, r, sec) * l}
     pincer = scene_pincer(scene, q)
     if pincer is not None:  # the pincer's own digits (the opening between the faces is the state's)
         pts["thumb"], pts["finger"] = pincer.thumb_tip * l, pincer.finger_corner * l
     return pts
 
 
-class PincerRangeError(UngraspError):
+class PincerRangeError(NoSolutionError):
     """A state the scene's pincer cannot make (its finger does not reach it, or its joint angle lies
     outside its range): a plan made for other digits or another gripper, or a deviated start. index:
     the state's index; state: (theta rad, d, psi rad); angle: the joint angle it would need (rad, NaN
     out of reach)."""
-
-    exit_code = EXIT_NO_SOLUTION
 
     def __init__(self, index: int, state: ArrayLike, angle: float, max_angle: float):
         self.index, self.state, self.angle = index, tuple(float(x) for x in state), float(angle)

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-from ..errors import EXIT_NO_SOLUTION, UngraspError
+from ..errors import NoSolutionError
 
 
 class _Deferred(types.ModuleType):
@@ -72,12 +72,10 @@ class Untimeable(Enum):
     LIMITS = "limits"  #: the timed trajectory leaves the robot's limits
 
 
-class TimingError(UngraspError):
+class TimingError(NoSolutionError):
     """A path that cannot be timed within the limits. kind: why (Untimeable); evidence: its
     figures (FREE_MOVE ``result``, Ruckig's result's name; LIMITS ``violations``, each limit
     left, in words)."""
-
-    exit_code = EXIT_NO_SOLUTION
 
     def __init__(self, kind: Untimeable, message: str, **evidence: Any):
         super().__init__(message)

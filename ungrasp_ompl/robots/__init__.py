@@ -19,3 +19,6 @@ def ur5e_urdf() -> Path:
     """Returns the filesystem path of the shipped UR5e URDF (loaded with importlib.resources).
     Raises FileNotFoundError when the installation lacks it."""
     return package_file(__name__, UR5E_URDF_NAME)
+
+
+__all__: list[str] = []  # nothing public: robot.model loads the shipped URDF

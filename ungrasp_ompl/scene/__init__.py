@@ -1,10 +1,16 @@
 """The scene: what is put down, by which digits, on what, from where to where.
 
-``model`` holds :class:`Scene` and its queries (force closure, margins, the cage, the tolerance of a
-plan, collision); ``loader`` reads and validates the YAML file, naming the field of any error;
+``model`` holds :class:`Scene` and its queries of states (force closure, margins, the cage,
+collision); ``loader`` reads and validates the YAML file, naming the field of any error;
 ``options`` holds the dataclasses of the scene's option blocks (planning, robot, simulation, the
-3D object). Every name a caller needs is importable from ``ungrasp_ompl.scene``.
+3D object); ``stability`` and ``stability3d`` the stability of its states; ``perturbation`` the
+errors of a set-up and ``tolerance`` the tolerance of states to them. A plan's tolerance is
+planning's (``planning.tolerance``).
 """
 
-from .model import *  # noqa: F401,F403
-from .model import __all__
+from .model import Scene, StateClass, StateDiagnosis
+from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
+from .tolerance import ToleranceOptions
+
+__all__ = ["Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass", "StateDiagnosis",
+           "ToleranceOptions"]

@@ -13,6 +13,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from ..errors import InputError, UnknownFieldError
@@ -20,6 +21,7 @@ from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
 from ..io import parse_yaml
 from ..mechanics.pincer import PincerSpec
+from ..mechanics.section import SECTION_KINDS, Section, SectionError
 from .options import GripperKind, Landing, Object3D, RobotOptions, SimOptions, Termination
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
@@ -369,6 +371,70 @@ class SceneReader:
         position = self.pair(tg, f"{prefix}.target.position", "position") if "position" in tg else (0.0, 0.0)
         yaw = math.radians(self.angle(tg, f"{prefix}.target.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
         return Object3D(outline, thickness, position, yaw)
+
+    def section(self, obj: dict, thickness: float, length: float) -> Section | None:
+        """object.section, over the object length: None for a slab (the default, or ``slab``);
+        ``semi_ellipse``, ``lens`` or ``rounded_rim`` (a name, or a mapping of it to its fields: a
+        lens's ``bottom``, m below GB, half the thickness unless given; a rounded rim's ``radius``, m,
+        half the thickness unless given) on object.thickness; or
+        ``profile`` with ``points`` ([x, z] in m from G's end, x = 0, to B's end, x = the object
+        length; the top's heights above GB) and ``smoothing`` (m: how far, root mean square, the
+        spline may pass from them; 0, the default, through them)."""
+        if "section" not in obj:
+            return None
+        value, key = obj["section"], "object.section"
+        if isinstance(value, str):
+            kind, spec = value, {}
+        elif isinstance(value, dict):
+            self.known(value, key, set(SECTION_KINDS))
+            if len(value) != 1:
+                self.fail(key, f"give exactly one of: {', '.join(SECTION_KINDS)}")
+            (kind, spec), = value.items()
+            spec = self.mapping(spec, f"{key}.{kind}")
+        else:
+            self.fail(key, f"must be one of {', '.join(SECTION_KINDS)} or a mapping of one to its fields, got {value!r}")
+        if kind not in SECTION_KINDS:
+            self.fail(key, f"must be one of {', '.join(SECTION_KINDS)}, got {kind!r}")
+        sub = f"{key}.{kind}"
+        if kind in ("slab", "semi_ellipse"):
+            self.known(spec, sub, set())
+        if kind in ("semi_ellipse", "lens", "rounded_rim") and thickness <= 0.0:
+            self.fail("object.thickness", f"must be > 0 for a {kind} section (it sets the section's height)")
+        try:
+            if kind == "slab":
+                return None
+            if kind == "semi_ellipse":
+                return Section.semi_ellipse(thickness / length)
+            if kind == "lens":
+                self.known(spec, sub, {"bottom"})
+                bottom = self.length(spec, f"{sub}.bottom", "bottom", zero=True, default=thickness / 2)
+                if bottom >= thickness:
+                    self.fail(f"{sub}.bottom", f"must be smaller than object.thickness ({thickness:g} m), got {bottom:g}")
+                return Section.lens(thickness / length, bottom / length)
+            if kind == "rounded_rim":
+                self.known(spec, sub, {"radius"})
+                radius = self.length(spec, f"{sub}.radius", "radius", default=thickness / 2)
+                if radius > thickness or radius > length / 2:
+                    self.fail(f"{sub}.radius", f"must be at most object.thickness ({thickness:g} m) and half the "
+                              f"object length, got {radius:g}")
+                return Section.rounded_rim(thickness / length, radius / length)
+            self.known(spec, sub, {"points", "smoothing"})
+            pts = np.array(self.points(self.require(spec, "points"), f"{sub}.points"))
+            smoothing = self.length(spec, f"{sub}.smoothing", "smoothing", zero=True, default=0.0)
+            if len(pts) < 4:
+                self.fail(f"{sub}.points", f"must give at least 4 points, got {len(pts)}")
+            if abs(pts[0, 0]) > 1e-6 or abs(pts[-1, 0] - length) > 0.01 * length:
+                self.fail(f"{sub}.points", f"must run from G's end (x = 0) to B's end (x = the object length "
+                          f"{length:.6g} m), got x from {pts[0, 0]:.6g} to {pts[-1, 0]:.6g} m")
+            scaled = np.column_stack([(pts[:, 0] - pts[0, 0]) / (pts[-1, 0] - pts[0, 0]), pts[:, 1] / length])
+            section = Section.profile(scaled, (smoothing / length) ** 2)
+        except SectionError as exc:
+            self.fail(sub, str(exc))
+        height = section.thickness * length
+        if thickness > 0.0 and abs(height - thickness) > 1e-6 + 0.01 * thickness:
+            self.fail("object.thickness", f"must be the profile's height ({height:.6g} m) or be left out, got "
+                      f"{thickness:g}")
+        return section
 
     def pair(self, m: dict, key: str, k: str) -> tuple[float, float]:
         """Two coordinates in metres, each within +-MAX_LENGTH."""

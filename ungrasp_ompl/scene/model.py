@@ -25,19 +25,15 @@ from ..geometry.plane import ManipulationPlane, choose_plane
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
 from ..mechanics.antipodal import effective_friction
-from ..mechanics.force_closure import SLIDING_MODELS, Friction, SlidingModel
+from ..mechanics.force_closure import SLIDING_MODELS, Friction, SectionContact, SlidingModel
+from ..mechanics.margin import Margins, friction_margin, kinematic_margins
 from ..mechanics.pincer import check_pincer
+from ..shipped import resolve, shipped_names
 from .loader import MAX_LENGTH, SceneReader, read_yaml
 from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
-from .tolerance import Tolerance, ToleranceOptions, tolerance
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanics.cage import Cage, CageGrid
-    from ..mechanics.margin import Margins
-    from ..planning.result import Plan
-
-__all__ = ["Box", "GoalSpec", "Object3D", "PlanningOptions", "RobotOptions", "Scene", "SimOptions", "StateClass",
-           "StateDiagnosis", "read_yaml"]
 
 
 #: The gripper housing's extent normal to the manipulation plane when a scene does not give it, m.
@@ -125,8 +121,6 @@ class Scene:
     def from_file(cls, path: str | os.PathLike[str]) -> "Scene":
         """Load and validate a scene file, or the shipped scene of that name ("guitar_pick"; see
         ``ungrasp-ompl scenes`` and shipped.resolve); raises InputError naming the bad field."""
-        from ..shipped import resolve, shipped_names
-
         path = resolve(path, "scene")
         data = read_yaml(path, "scene")
         return cls.from_dict(data, source=shipped_names(str(path)), default_name=path.stem)
@@ -142,7 +136,7 @@ class Scene:
         name = r.name(top, "name", default_name)
 
         obj = r.mapping(r.require(top, "object"), "object")
-        r.known(obj, "object", {"length", "thickness", "outline", "target"})
+        r.known(obj, "object", {"length", "thickness", "outline", "target", "section"})
         thickness = r.length(obj, "object.thickness", "thickness", zero=True, default=0.0)
         mu_contacts, uncertainty = r.friction(top)
         object3d, plane = None, None
@@ -178,6 +172,15 @@ class Scene:
             mu = mu_contacts
         if thickness >= length:
             raise InputError("object.thickness", f"must be smaller than the object length ({length:.4g} m)", source)
+        section = r.section(obj, thickness, length)  # None: the slab
+        if section is not None:
+            thickness = section.thickness * length  # a profile's height
+            if object3d is not None:
+                if not (isinstance(obj["outline"], dict) and "circle" in obj["outline"]):
+                    raise InputError("object.section", "needs a circle outline (the section is turned about the "
+                                     "object's centre to make its solid) or no outline", source)
+                object3d = replace(object3d, thickness=thickness)
+        d_max = 1.0 if section is None else section.top_length  # the slide coordinate's reach (mechanics.section)
 
         dig = r.mapping(r.require(top, "digits"), "digits")
         r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
@@ -240,13 +243,14 @@ class Scene:
         r.known(bd, "bounds", {"theta_deg", "d", "psi_deg"})
         bounds = np.array([
             r.interval(bd, "bounds.theta_deg", "theta_deg", default=(0.0, 90.0), degrees=True),
-            r.interval(bd, "bounds.d", "d", default=(0.0, 1.0)),
+            r.interval(bd, "bounds.d", "d", default=(0.0, d_max)),
             r.interval(bd, "bounds.psi_deg", "psi_deg", default=(0.0, 120.0), degrees=True),
         ]).T
         if bounds[0, 0] < 0.0 or bounds[1, 0] > math.pi / 2 + 1e-12:
             raise InputError("bounds.theta_deg", "must lie within [0, 90]", source)
-        if bounds[0, 1] < 0.0 or bounds[1, 1] > 1.0:
-            raise InputError("bounds.d", "must lie within [0, 1] (over the object length)", source)
+        if bounds[0, 1] < 0.0 or bounds[1, 1] > d_max + 1e-12:
+            raise InputError("bounds.d", "must lie within [0, 1] (over the object length)" if section is None else
+                             f"must lie within [0, {d_max:.6g}] (the section's top, over the object length)", source)
         if bounds[0, 2] < 0.0 or bounds[1, 2] >= math.pi:
             raise InputError("bounds.psi_deg", "must lie within [0, 180)", source)
         for i, key in enumerate(("start.theta_deg", "start.d", "start.psi_deg")):
@@ -261,7 +265,7 @@ class Scene:
             raise InputError("goal.psi_deg", f"must lie within [0, 180) deg, got high {goal_psi[1]:g}", source)
         goal = GoalSpec(
             theta_max=min(theta_max, bounds[1, 0]),
-            d=r.interval(gl, "goal.d", "d", within=(0.0, 1.0), unit=" (over the object length)"),
+            d=r.interval(gl, "goal.d", "d", within=(0.0, d_max), unit=" (over the object length)"),
             psi=(math.radians(goal_psi[0]), math.radians(goal_psi[1])),
             theta_min=bounds[0, 0],
         )
@@ -281,7 +285,8 @@ class Scene:
         support = (0.0, 0.0) if plane is None else \
             (min(plane.g.span) / length, min(min(plane.b.span) / length, lengths["width"] / 2))
         digits = replace(digits, thumb_tip_margin=margin / length, table_clearance=clearance / length,
-                         object_thickness=thickness / length, support=support, across_margin=across / length)
+                         object_thickness=thickness / length, support=support, across_margin=across / length,
+                         section=section)
         model = pl.get("sliding_model", "relaxed")
         if model not in SLIDING_MODELS:
             raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
@@ -317,6 +322,9 @@ class Scene:
                                          minimum=0.0, maximum=1e4, default=1.0),
         )
         robot = r.robot(top.get("robot", {}))
+        if robot.gripper is not None and section is not None:
+            raise InputError("object.section", "needs the parallel gripper (robot.gripper kind parallel): the pincer's "
+                             "kinematics place its finger on a slab", source)
         if robot.gripper is not None:  # a pincer's joint must carry these digits (mechanics.pincer)
             check_pincer(robot.gripper, digits, length, source)
         if robot.start_press > clearance:
@@ -351,10 +359,12 @@ class Scene:
         friction is known only within a range (friction_uncertainty), the plane's coefficients at
         the range's ends: what force closure uses (docs/model.md 4.7)."""
         u = self.friction_uncertainty
+        section = self.digits.section
+        contact = None if section is None or section.is_slab else SectionContact(section, self.digits.finger_tip_radius)
         if u == 0.0:
-            return Friction(self.mu, self.options.sliding_model)
+            return Friction(self.mu, self.options.sliding_model, contact_a=contact)
         return Friction(self.mu, self.options.sliding_model, u, self.plane_friction(1.0 - u),
-                        self.plane_friction(1.0 + u))
+                        self.plane_friction(1.0 + u), contact_a=contact)
 
     def plane_friction(self, factor: float) -> tuple[float, float, float]:
         """The plane's coefficients at G, A, B with every contact's coefficient (mu_contacts) times
@@ -382,8 +392,6 @@ class Scene:
         dq makes (every contact sticking without dq, as in :meth:`force_closure`), positive
         exactly where that holds, and the kinematic margins (m) of B on the thumb, the digits
         above the table and from the obstacles (mechanics.margin.kinematic_margins)."""
-        from ..mechanics.margin import Margins, friction_margin, kinematic_margins
-
         q, sa, sb = _states_and_mode(q, dq)
         l = self.object_length
         boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]]) / l
@@ -397,6 +405,7 @@ class Scene:
         the manipulation plane, its weight from sim.density and its volume) must gain to escape.
         squeeze: a constant force (N) pressing it where the finger does. Raises InputError for an
         object without thickness (it has no weight) and for a grid too fine to hold in memory."""
+        # scipy.ndimage and scipy.sparse: a second to import, loaded when a cage is computed
         from ..mechanics.cage import CageGrid, GridTooLarge, escape_energy, pinch_problem, weight_of
 
         q = _states(q, "q")
@@ -422,13 +431,6 @@ class Scene:
                                                 boxes, squeeze), grid, l) for state in q]
         except GridTooLarge as exc:
             raise InputError("grid", f"{exc}; choose coarser steps") from None
-
-    def tolerance(self, plan: "Plan", options: ToleranceOptions | None = None) -> Tolerance:
-        """The tolerance of a solved plan of this scene (docs/model.md, section 4.6): the largest
-        scale s of the `paper` error box (or options.perturbation's) such that every state of the
-        plan, moved by any error within s times the box, stays secure; with the check and the
-        error component that bind it. InputError for an unsolved plan or bad options."""
-        return tolerance(self, plan, options or ToleranceOptions())
 
     def collision_model(self) -> CollisionModel:
         """What collision checking needs of this scene, in plane coordinates (metres)."""

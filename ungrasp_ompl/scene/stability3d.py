@@ -235,7 +235,7 @@ def out_of_plane_margin(scene: Scene, q: ArrayLike, a_sign: ArrayLike = 0, b_sig
     Scene.friction.low) and the cone model. slide: (N, 2) how far (m) A and B slide over the leg
     each state lies on, which bounds their sideways slip by loads.turn; None: sliding contacts
     push only in the plane. InputError for bad arguments; ToolError where HiGHS fails on a state."""
-    from scipy.optimize import linprog
+    from scipy.optimize import linprog  # scipy.optimize: 0.5 s to import, loaded for the margin
 
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if q.ndim != 2 or q.shape[1] != 3 or not np.all(np.isfinite(q)):
@@ -411,8 +411,3 @@ def plan_out_of_plane(scene: Scene, plan, friction: tuple[float, float, float] |
     margin = out_of_plane_margin(scene, states.states, states.a_sign, states.b_sign, friction, cone, loads,
                                  states.slide if drift else None)
     return PlanOutOfPlane(states, margin)
-
-
-__all__ = ["ConeModel", "ContactLayout", "DEFAULT_OFFSET", "DEFAULT_TURN", "OutOfPlaneLoads", "OutOfPlaneMargin",
-           "PlanOutOfPlane", "PlanStates", "contact_layout", "object_mass_centre", "out_of_plane_margin",
-           "plan_out_of_plane", "plan_states"]

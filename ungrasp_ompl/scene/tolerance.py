@@ -1,6 +1,8 @@
-"""The tolerance of a plan: the largest scale s of an error box (the `paper` perturbation's by
-default) such that every state of the plan's executed motion, moved by any error within s times
-the box, stays secure (docs/model.md, section 4.6). From the model alone, no simulation.
+"""The tolerance of states to the errors of a set-up: the largest scale s of an error box (the
+`paper` perturbation's by default) such that a state, moved by any error within s times the box,
+stays secure (docs/model.md, section 4.6). From the model alone, no simulation. A plan's tolerance
+(planning.plan_tolerance) is that of every state of its executed motion at once; the words for it
+(describe_tolerance) are here, beside the reasons and the error components they name.
 
 How an error moves a state (lengths over l, angles rad; section 4.6 derives each):
 
@@ -38,7 +40,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from enum import Enum
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,15 +48,13 @@ from ..errors import InputError
 from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, s_b
 from ..mechanics.antipodal import effective_friction
+from ..mechanics.contact import Primitive
 from ..mechanics.kinematics import (DigitGeometry, across_support, aperture, contact_d, digit_axis, pressed_state,
                                    thumb_normal, thumb_tip)
 from ..mechanics.margin import kinematic_margins
-from ..mechanics.path import PlanSamples, plan_samples
-from ..perturbation import PRESETS, Perturbation
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..planning.result import Plan
-    from .model import Scene
+from ..mechanics.path import PlanSamples
+from .model import Scene
+from .perturbation import PRESETS, Perturbation
 
 
 class ToleranceReason(Enum):
@@ -140,54 +139,7 @@ class ToleranceOptions:
     None: the scene's planning.resolution."""
 
 
-@dataclass(frozen=True)
-class Tolerance:
-    """A plan's tolerance and what binds it (see module docstring)."""
-
-    scale: float
-    """s: the largest scale of the box with every moved state secure (dimensionless)."""
-    perturbation: str
-    """The box's preset."""
-    reason: ToleranceReason
-    """The check that fails just above s."""
-    component: str
-    """The binding error component (COMPONENTS): the one that alone is tolerated least at the binding state."""
-    state: tuple[float, float, float]
-    """The binding state of the plan, as planned: theta (rad), d (over l), psi (rad)."""
-    primitive: int
-    """The index of the plan's primitive it lies on."""
-    primitive_type: str
-    """That primitive's type."""
-    component_scales: dict[str, float]
-    """Each component's own tolerance at the binding state (the box with that component alone; inf: none)."""
-    physical: dict[str, float]
-    """The box at scale s in physical units: shift_mm, yaw_deg, friction_loss, thickness_fraction,
-    palm_shift_mm, palm_turn_deg, table_mm."""
-    samples: int
-    """How many states of the plan were checked."""
-
-    def describe(self) -> str:
-        """For a person (millimetres, degrees, per cent; two lines): the plan summary's."""
-        return describe_tolerance(self.to_dict())
-
-    @classmethod
-    def from_dict(cls, doc: dict) -> "Tolerance":
-        """Back from to_dict (plan.json's tolerance)."""
-        scales = {k: math.inf if v is None else float(v) for k, v in doc["component_scales"].items()}
-        return cls(float(doc["scale"]), doc["perturbation"], ToleranceReason(doc["reason"]), doc["component"],
-                   tuple(doc["state"]), int(doc["primitive"]), doc["primitive_type"], scales, dict(doc["physical"]),
-                   int(doc["samples"]))
-
-    def to_dict(self) -> dict:
-        """For plan.json (radians, over l, millimetres where named)."""
-        return {"scale": self.scale, "perturbation": self.perturbation, "reason": self.reason.value,
-                "component": self.component, "state": list(self.state), "primitive": self.primitive,
-                "primitive_type": self.primitive_type,
-                "component_scales": {k: (None if math.isinf(v) else v) for k, v in self.component_scales.items()},
-                "physical": dict(self.physical), "samples": self.samples}
-
-
-class _Box:
+class ErrorBox:
     """The error box of a set of states moved from one start, ready to move them at any scale (the
     module docstring): samples holds the states and their contact modes, terminal marks those from
     which the gripper must still be able to let go."""
@@ -378,11 +330,9 @@ class _Box:
 
 
 def describe_tolerance(tol: dict) -> str:
-    """A plan's tolerance (plan.json's, tolerance.Tolerance.to_dict) for a person, in millimetres,
+    """A plan's tolerance (plan.json's, planning.plan_tolerance.Tolerance.to_dict) for a person, in millimetres,
     degrees and per cent: what errors the plan survives together, then (a second line, indented)
     where a larger error first breaks it, what fails there and which error alone it tolerates least."""
-    from ..mechanics.contact import Primitive
-
     s, p, name = tol["scale"], tol["physical"], tol["perturbation"]
     reason = ToleranceReason(tol["reason"])
     bounds = "the paper's error bounds (docs/model.md 11.3)" if name == "paper" else f"the '{name}' error bounds"
@@ -474,7 +424,7 @@ def _lowest(theta: NDArray, d: NDArray, psi: NDArray, digits: DigitGeometry) -> 
     return low
 
 
-def _checked(scene: Scene, options: ToleranceOptions) -> tuple[Perturbation, NDArray[np.float64]]:
+def checked_box(scene: Scene, options: ToleranceOptions) -> tuple[Perturbation, NDArray[np.float64]]:
     """The box at scale 1 and the sampling resolution of options; InputError naming a bad field."""
     if options.box is None and options.perturbation not in PRESETS:
         raise InputError("perturbation", f"unknown preset {options.perturbation!r} (one of: {', '.join(PRESETS)})")
@@ -493,37 +443,6 @@ def _checked(scene: Scene, options: ToleranceOptions) -> tuple[Perturbation, NDA
     if bad:
         raise InputError(f"box.{bad[0]}", f"must be a finite bound >= 0 (friction at most 1), got {bounds[bad[0]]!r}")
     return box, res
-
-
-def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
-    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
-    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
-    if not plan.solved or not plan.primitives:
-        raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
-    box, res = _checked(scene, options)
-    samples = plan_samples(plan, res, both_modes=True)
-    terminal = np.zeros(len(samples.states), dtype=bool)
-    terminal[-1] = True
-    ctx = _Box(scene, np.asarray(plan.states[0], dtype=float), box, samples, terminal, res, options.housing)
-    every = np.arange(len(samples.states))
-    all_on = {c: True for c in COMPONENTS}
-    s, codes = ctx.scale(every, all_on, options.scale_tolerance, options.max_scale)
-    reasons = list(ToleranceReason)
-    failing = np.flatnonzero(codes)
-    k = int(failing[0]) if len(failing) else len(every) - 1
-    reason = reasons[int(codes[k]) - 1] if len(failing) else ToleranceReason.NONE
-    solo = {c: math.inf for c in COMPONENTS}
-    for c in COMPONENTS if len(failing) else ():
-        on = {x: x == c for x in COMPONENTS}
-        sc, cc = ctx.scale(np.array([k]), on, SOLO_TOLERANCE, options.max_scale)
-        solo[c] = sc if cc.any() else math.inf
-    component = min(solo, key=lambda c: solo[c]) if len(failing) else "none"
-    p = int(samples.primitive[k])
-    physical = {"shift_mm": s * box.shift_mm, "yaw_deg": s * box.yaw_deg, "friction_loss": s * box.friction,
-                "thickness_fraction": s * box.thickness, "palm_shift_mm": s * box.palm_shift_mm,
-                "palm_turn_deg": s * box.palm_turn_deg, "table_mm": s * box.table_mm}
-    return Tolerance(s, box.name, reason, component, tuple(float(x) for x in samples.states[k]), p,
-                     plan.primitives[p].type, solo, physical, len(samples.states))
 
 
 #: The scales state_tolerances tells apart (dimensionless): 0, then from FIRST_SCALE / 4 up by a
@@ -559,13 +478,13 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     The start's lift (G_LIFTED: a hand so high that the press leaves G above the table) is left out:
     it depends on the start alone, the same for every state, so a plan's tolerance is the least of its
     states' and of that."""
-    box, res = _checked(scene, options)
+    box, res = checked_box(scene, options)
     q = np.asarray(states, dtype=float).reshape(-1, 3)
     n = len(q)
     samples = PlanSamples(q, np.zeros(n, dtype=np.int64), np.broadcast_to(np.asarray(a_sign, dtype=np.int8), (n,)),
                           np.broadcast_to(np.asarray(b_sign, dtype=np.int8), (n,)))
     terminal = np.zeros(n, dtype=bool) if terminal is None else np.broadcast_to(np.asarray(terminal, dtype=bool), (n,))
-    ctx = _Box(scene, np.asarray(scene.start if start is None else start, dtype=float), box, samples, terminal, res,
+    ctx = ErrorBox(scene, np.asarray(scene.start if start is None else start, dtype=float), box, samples, terminal, res,
                options.housing, start_lift=False)
     levels = ladder(options.max_scale)
     on = {c: True for c in COMPONENTS}
@@ -596,7 +515,3 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
                     hi[part[bad]] = level
                     lo[part[~bad]] = level
     return np.where(lo >= 0, levels[np.maximum(lo, 0)], -np.inf)
-
-
-__all__ = ["COMPONENTS", "Tolerance", "ToleranceOptions", "ToleranceReason", "describe_tolerance", "ladder",
-           "state_tolerances", "tolerance"]

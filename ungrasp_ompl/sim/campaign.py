@@ -18,9 +18,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..planning.deviate import PlanProblem
-from ..runner import InlineRunner, LocalRunner, Runner, open_runner
-from .outcome import Outcome, TrialResult
-from ..perturbation import Perturbation, TrialParams, trial_params
+from ..parallel.runner import InlineRunner, LocalRunner, Runner, open_runner
+from .outcome import TrialResult
+from ..scene.perturbation import Perturbation, TrialParams, trial_params
 from ..robot.pipeline import Aim
 from .setup import Variant
 from .trial import TrialSetup, run_trial
@@ -40,6 +40,7 @@ class SimulationReport:
     trajectory_duration_s: float = 0.0
     aim: Aim = Aim()  #: how the hand's motion was moved from the plan's frame (robot.landing)
     world: World = World()  #: how the world the trials ran in differs from the scene's
+    engine: str = "mujoco"  #: the physics engine the trials ran in (ENGINES)
 
     @property
     def successes(self) -> int:
@@ -80,7 +81,7 @@ class SimulationReport:
             "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
-            "world": self.world.to_dict(),
+            "world": self.world.to_dict(), "engine": self.engine,
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
             "aim_m": [self.aim.x, self.aim.y], "aim_turn_rad": self.aim.turn,
@@ -106,46 +107,74 @@ def _stat(values: np.ndarray, f: Callable) -> float | None:
     return float(f(values)) if len(values) else None
 
 
-def _one(args: tuple[TrialSetup, TrialParams, int, int | None]) -> TrialResult:
-    setup, params, k, seed = args
-    return run_trial(setup, params, k, seed)
+#: The physics engines a trial runs in: MuJoCo (sim.trial, the default) and Drake (sim.drake_trial,
+#: the optional extra [drake]; docs/model.md 11.19).
+ENGINES = ("mujoco", "drake")
+
+
+def engine_name(engine: str) -> str:
+    """The engine as a person names it."""
+    return {"mujoco": "MuJoCo", "drake": "Drake"}.get(engine, engine)
+
+
+def run_engine_trial(setup: TrialSetup, params: TrialParams, k: int = 0, seed: int | None = None,
+                     engine: str = "mujoco") -> TrialResult:
+    """One trial in the engine named (ENGINES): sim.trial.run_trial or sim.drake_trial.run_drake_trial."""
+    if engine == "mujoco":
+        return run_trial(setup, params, k, seed)
+    if engine == "drake":
+        from .drake_trial import run_drake_trial
+
+        return run_drake_trial(setup, params, k, seed)
+    raise InputError("engine", f"must be one of {', '.join(ENGINES)}, got {engine!r}")
+
+
+def _one(args: tuple) -> TrialResult:
+    """(setup, params, trial index, seed[, engine]) simulated (MuJoCo without an engine)."""
+    return run_engine_trial(*args)
 
 
 def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
              progress: Callable[[TrialResult], None] | None = None, scene: str = "",
-             variant: Variant = Variant(), cluster: str | None = None, world: World = World()) -> SimulationReport:
+             variant: Variant = Variant(), cluster: str | None = None, world: World = World(),
+             engine: str = "mujoco") -> SimulationReport:
     """Run trials 0 .. trials-1 of a placement in world (sim.world: the world the setup, its plan
     and its aim were made without), each with its own seeded perturbation (the same
     seed gives the same trials wherever they run), jobs at a time in worker processes
     (ungrasp_ompl.runner), or on the Ray cluster at the address cluster. A trial that raises, or whose worker dies, ends the campaign with
     that error (TaskLost for a worker that died).
-    progress is called with each result as it arrives."""
+    progress is called with each result as it arrives. engine: the physics engine (ENGINES)."""
     if trials < 1:
         raise InputError("trials", f"must be at least 1, got {trials}")
     if jobs < 1:
         raise InputError("jobs", f"must be at least 1, got {jobs}")
-    results = run_trials([replace(setup, world=world)], perturbation, trials, seed, jobs, progress, cluster)[0]
+    results = run_trials([replace(setup, world=world)], perturbation, trials, seed, jobs, progress, cluster,
+                         engine)[0]
     return SimulationReport(scene, perturbation, variant, seed, results,
-                            trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim, world=world)
+                            trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim, world=world,
+                            engine=engine)
 
 
 def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
                progress: Callable[[TrialResult], None] | None = None,
-               cluster: str | None = None) -> list[list[TrialResult]]:
-    """Trials 0 .. trials-1 of each setup, in trial order per setup. Trial k of every setup meets
-    the same seeded perturbation (so that placements are compared on the same errors); all the
-    trials share one pool of jobs worker processes (or the Ray cluster at the address cluster).
+               cluster: str | None = None, engine: str = "mujoco") -> list[list[TrialResult]]:
+    """Trials 0 .. trials-1 of each setup, in trial order per setup, in the engine named (ENGINES).
+    Trial k of every setup meets the same seeded perturbation (so that placements are compared on
+    the same errors); all the trials share one pool of jobs worker processes (or the Ray cluster at
+    the address cluster).
     A trial that raises, or whose worker dies, raises here (TaskLost for a worker that died);
     progress is called with each result as it arrives."""
     params = trial_params(perturbation, seed, trials)
-    results = run_each([(setup, p, k, seed) for setup in setups for k, p in enumerate(params)], jobs, progress, cluster)
+    work = [(setup, p, k, seed) if engine == "mujoco" else (setup, p, k, seed, engine)
+            for setup in setups for k, p in enumerate(params)]
+    results = run_each(work, jobs, progress, cluster)
     return [results[i * trials:(i + 1) * trials] for i in range(len(setups))]
 
 
-def run_each(work: list[tuple[TrialSetup, TrialParams, int, int | None]], jobs: int = 1,
+def run_each(work: list[tuple], jobs: int = 1,
              progress: Callable[[TrialResult], None] | None = None,
              cluster: str | None = None) -> list[TrialResult]:
-    """Each (setup, errors, trial index, seed) of work simulated (sim.trial.run_trial), jobs at a
+    """Each (setup, errors, trial index, seed[, engine]) of work simulated (run_engine_trial), jobs at a
     time (trial_runner), in work's order. A trial that raises, or whose worker dies, raises here
     (TaskLost for a worker that died); progress is called with each result as it arrives."""
     # spawned workers import only numpy, mujoco and this package's sim modules
@@ -174,6 +203,3 @@ def trial_runner(jobs: int, trials: int, cluster: str | None = None) -> Iterator
 def default_jobs() -> int:
     """All cores."""
     return max(1, os.cpu_count() or 1)
-
-
-__all__ = ["Outcome", "SimulationReport", "failure_causes", "run_each", "run_trials", "simulate", "wilson_interval"]

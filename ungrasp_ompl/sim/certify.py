@@ -26,12 +26,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from ..errors import InputError, UngraspError
+from ..planning import plan
+from ..planning.atlas import SecurityAtlas, planning_box
 from ..planning.margins import OBJECTIVES, Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
+from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, check_objective
 from ..scene import Scene
+from ..scene.perturbation import preset
 from .campaign import failure_causes, run_trials, wilson_interval
 from .outcome import TrialResult
+from .plan_trials import placement
 
 
 @dataclass(frozen=True)
@@ -61,9 +66,6 @@ class CertifyOptions:
 
     def validated(self) -> "CertifyOptions":
         """These options checked; InputError naming the field otherwise."""
-        from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, check_objective
-        from ..perturbation import preset
-
         for name, value in (("trials", self.trials), ("candidates", self.candidates), ("jobs", self.jobs)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(name, f"must be at least 1, got {value!r}")
@@ -104,8 +106,6 @@ class CandidateSource:
 def candidate_sources(planner: str, objective: Objective, seed: int, count: int) -> list[CandidateSource]:
     """The first count candidates of the rule (see the module); InputError("candidates") when the
     rule gives fewer (the lattice planner gives one per objective)."""
-    from ..planning.setup import check_objective
-
     objectives = [objective] + [o for o in OBJECTIVES if o != objective]
     if planner == LATTICE:
         if count > len(objectives):
@@ -246,11 +246,6 @@ def certify(scene: Scene, options: CertifyOptions,
     simulate N trials of each executable one, and keep the one with the highest Wilson 95 %
     lower bound. Raises InputError naming the flag for bad options or a scene the simulator cannot
     take (no thickness); a candidate that is not solved or not executable is recorded as such."""
-    from ..planning import plan
-    from ..planning.atlas import SecurityAtlas, planning_box
-    from ..perturbation import preset
-    from .plan_trials import placement
-
     options = options.validated()
     if scene.object_thickness <= 0.0:
         raise InputError("trials", "the simulator needs an object with a thickness (object.thickness)")
@@ -319,7 +314,3 @@ def _same_path(a: Plan, b: Plan) -> bool:
         if any(not math.isclose(x, y, abs_tol=1e-12) for u, v in zip(p.waypoints, q.waypoints) for x, y in zip(u, v)):
             return False
     return True
-
-
-__all__ = ["Candidate", "CandidateSource", "CandidateStatus", "CertifyOptions", "CertifyProgress", "CertifyResult",
-           "best_candidate", "candidate_sources", "certify"]

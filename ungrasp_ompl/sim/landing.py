@@ -40,15 +40,17 @@ import math
 import os
 import pickle
 from dataclasses import dataclass, replace
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..io import write_text_atomic
-from ..perturbation import PRESETS, TrialParams
 from ..robot.pipeline import Aim
 from ..scene.options import Landing, RobotOptions
+from ..scene.perturbation import PRESETS, TrialParams
+from .campaign import run_each
 from .outcome import Outcome
 from .trial import TrialSetup, _rot_z, placement_offset, placement_turn, run_trial
 from .world import Cone, World
@@ -147,8 +149,6 @@ def expected_landing(setup: TrialSetup, pairs: int, jobs: int = 1, cluster: str 
     mean turn) of the pairs whose both releases placed the object by the paper's criterion (let
     go flat, wherever: where it lands is what is measured) gives the offset, turn and correction;
     with fewer than half the pairs so, the no-error landing does."""
-    from .campaign import run_each
-
     nominal = run_trial(setup, TrialParams())
     if not nominal.outcome.placed:
         return _prediction(setup, np.array(nominal.final_pose), nominal.outcome)
@@ -179,9 +179,7 @@ def _cache_file(setup: TrialSetup, robot: RobotOptions) -> Path | None:
     root = os.environ.get(CACHE_VARIABLE)
     if not root:
         return None
-    from importlib.metadata import PackageNotFoundError, version
-
-    import mujoco
+    import mujoco  # mujoco: loaded when a landing is simulated
 
     try:
         ours = version("ungrasp-ompl")
@@ -233,7 +231,3 @@ def robot_landing(setup: TrialSetup, robot: RobotOptions, jobs: int = 1,
     if path is not None:
         _keep(path, landing)
     return landing
-
-
-__all__ = ["CACHE_VARIABLE", "LANDING_ENTROPY", "LANDING_FRICTION_RANGE", "LandingPrediction", "expected_landing", "landing_correction",
-           "landing_draw", "landing_offset", "predict_landing", "robot_landing"]

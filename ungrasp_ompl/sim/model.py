@@ -1,5 +1,10 @@
 """The MuJoCo model of one trial: table, object, gripper, the scene's solids (MJCF text).
 
+The bodies, their shapes, masses, springs and frictions come from the world description
+(sim.world_description.describe), which Drake's builder (sim.drake_world) reads too; this module
+adds what is MuJoCo's own (the contacts' solref and solimp, the palm's weld to its mocap target,
+the equality coupling the jaws, the position servo); the engine-free parts are sim.spec's.
+
 World frame: the scene's (x, y on the table, z up, metres; the table's top is z = 0).
 
 What is dynamic and what is kinematic:
@@ -36,121 +41,13 @@ the reasons and the figures they come from.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..mechanics.pincer import PincerLinks
-
-#: Contact softness: MuJoCo's reference time constant (s) and damping ratio. 0.2 ms is the
-#: contact's own time scale between stiff solids (a gram-heavy object on a PLA dome of Hertz
-#: stiffness ~2.5e5 N/m at 5 N rings at ~0.1-0.4 ms), twice the 0.1 ms step as MuJoCo asks;
-#: critically damped (no bounce between stiff plastics). Steady sinking scales with its square.
-SOLREF = (0.0002, 1.0)
-#: Impedance: 0.95 at first touch rising to 0.995 over 0.02 mm, the Hertz deformation of a 1 mm
-#: PLA dome on celluloid at 5 N (docs/model.md 11.2), with MuJoCo's default sigmoid shape.
-SOLIMP = (0.95, 0.995, 0.00002, 0.5, 2.0)
-#: Ratio of frictional to normal constraint impedance: > 1 makes sticking contacts stiffer
-#: (less creep), as MuJoCo advises with elliptic cones. It does not change the friction coefficient.
-IMPRATIO = 10.0
-#: How far a rounded finger's face leans back from its dome toward the palm (rad).
-FACE_DRAFT = math.radians(3.0)
-#: Mass of each jaw (kg): the gripper's moving finger carriage the digit is fixed to.
-JAW_MASS = 0.05
-#: Mass of the palm (kg): the gripper's housing (the RH-P12-RN weighs about half a kilogram); the
-#: arm carries its weight (gravity compensated), so it only sets how hard the weld pulls.
-PALM_MASS = 0.5
-#: The weld that makes the palm follow its target: reference time constant (s) and damping ratio
-#: as stiff as the contacts' (SOLREF, the least MuJoCo's 0.1 ms step allows), critically damped;
-#: an impedance of 0.99 and more lets 10 N of pinch move a 0.5 kg palm by about 1e-8 m.
-PALM_SOLREF = (0.0002, 1.0)
-PALM_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
-#: The 3D-printed digits' material, PLA as printed (docs/model.md 11.2): Young's modulus (Pa),
-#: density (kg/m^3) and damping ratio (half the loss factor of about 0.1 of printed PLA).
-PLA_MODULUS = 3.0e9
-PLA_DENSITY = 1240.0
-PLA_DAMPING_RATIO = 0.05
-
-
-def digit_bending(length: float, t_tip: float, t_base: float, width: float,
-                  modulus: float = PLA_MODULUS, density: float = PLA_DENSITY) -> tuple[float, float]:
-    """A tapered digit as a rigid link on a torsion spring at its base: (stiffness N m/rad, damping
-    N m s/rad) that give its tip the deflection of the cantilever (Euler-Bernoulli, second moment
-    w h(z)^3 / 12 with the thickness h tapering from t_base at the palm to t_tip) and the
-    vibration's damping ratio PLA_DAMPING_RATIO. Tip deflection under a tip force F:
-    F * integral (L - z)^2 / (E I(z)) dz, so the spring is L^2 / that integral."""
-    z = np.linspace(0.0, length, 401)
-    h = t_base + (t_tip - t_base) * z / length
-    compliance = np.trapezoid((length - z) ** 2 / (modulus * width * h ** 3 / 12), z)
-    stiffness = length ** 2 / compliance
-    inertia = np.trapezoid(density * width * h * z ** 2, z)  # about the base, kg m^2
-    return float(stiffness), float(2 * PLA_DAMPING_RATIO * math.sqrt(stiffness * inertia))
-
-
-@dataclass(frozen=True)
-class GripperGeometry:
-    """The gripper as the simulator builds it (m). Digit lengths run from the palm (palm z = 0)
-    to the tip along palm z; thicknesses are behind each contact face (palm x), at the tip and
-    the base; width along palm y. finger_tip_radius 0 is a flat tip (an edge across the width);
-    otherwise a dome of that radius ends the finger, touching the object at one point."""
-
-    thumb_length: float  #: palm to thumb tip (m)
-    finger_length: float  #: palm to finger tip (m)
-    thumb_tip_thickness: float  #: behind the thumb's face at its tip (m)
-    thumb_base_thickness: float  #: behind the thumb's face at the palm (m)
-    finger_tip_thickness: float  #: behind the finger's face at its tip (m)
-    finger_base_thickness: float  #: behind the finger's face at the palm (m)
-    width: float  #: both digits along palm y (m)
-    finger_tip_radius: float  #: the finger's rounded tip (m); 0 for a flat tip
-    max_opening: float  #: the gripper's stroke between the digit faces (m)
-    palm_width: float  #: housing across the gap, palm x (m)
-    palm_thickness: float  #: housing along palm y (m)
-    palm_depth: float  #: housing along palm z, behind the palm (m)
-    hinge: PincerLinks | None = None  #: a pincer's links (m, rad): the jaws turn on one hinge; None: they slide
-
-
-@dataclass(frozen=True)
-class SimObject:
-    """The object as the simulator builds it: its outline's convex prism.
-
-    outline: (N, 2) vertices (m) in the body frame's xy plane; the body frame is the
-    manipulation plane's frame when the object lies at its target (origin at G on the
-    table, x toward B, z up), so the prism spans z in [0, thickness].
-    """
-
-    outline: NDArray[np.float64]
-    thickness: float  #: m
-    density: float  #: kg/m^3
-
-
-@dataclass(frozen=True)
-class Friction:
-    """Coulomb coefficients per contact pair, as the simulator uses them."""
-
-    table: float  #: object on the table (the scene's mu_G)
-    finger: float  #: object on the finger (mu_A)
-    thumb: float  #: object on the thumb (mu_B)
-    solids: float  #: object on walls and pieces already down (mu_G)
-
-
-@dataclass(frozen=True)
-class SimModelSpec:
-    """Everything the MJCF needs; plain data, so that it crosses to worker processes."""
-
-    obj: SimObject
-    gripper: GripperGeometry
-    friction: Friction
-    solids: tuple[tuple[str, NDArray[np.float64]], ...] = ()  #: (name, world vertices (N, 3)) convex bodies
-    placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()  #: free objects already down: name, object, 4x4 pose
-    timestep: float = 0.0001  #: s
-    table_height: float = 0.0  #: m, where the table's top really is (a calibration error moves it)
-    grip_force: float = 5.0  #: N, the jaws' force limit (squeeze on the object; a pincer's at its joint radius)
-    servo_stiffness: float = 1.0e4  #: N/m of opening error, below the force limit (a pincer's: at its joint radius)
-    contact_time: float = SOLREF[0]  #: s, the contacts' reference time constant (MuJoCo's solref)
-    cone: str = "elliptic"  #: the contacts' friction cone: elliptic or pyramidal (MuJoCo's option)
-
+from .spec import IMPRATIO, PALM_SOLIMP, PALM_SOLREF, SOLIMP, SOLREF, SimModelSpec
+from .world_description import WorldDescription, describe
 
 @dataclass
 class ModelIds:
@@ -187,26 +84,10 @@ def _floats(values, digits: int = 9) -> str:
     return " ".join(f"{float(v):.{digits}g}" for v in np.ravel(values))
 
 
-def _prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:
-    lo = np.column_stack([outline, np.full(len(outline), bottom)])
-    hi = np.column_stack([outline, np.full(len(outline), top)])
-    return np.vstack([lo, hi])
-
-
-def _digit(length: float, t_tip: float, t_base: float, side: float, tip_cut: float = 0.0,
-           relief: float = 0.0, draft: float = 0.0) -> NDArray[np.float64]:
-    """A tapered digit's outline (x, z) in its jaw frame, on the side of x given by side (extruded
-    along y by _extrude_y), the thickness measured from x = 0. The contact face runs from z = 0
-    to length - tip_cut; relief > 0 stands it back behind x = 0 (where a rounded tip's dome
-    touches) at its tip end, and draft (rad) tilts it further back toward the palm."""
-    end = length - tip_cut
-    t_end = t_base + (t_tip - t_base) * end / length
-    return np.array([[side * (relief + end * math.tan(draft)), 0.0], [side * relief, end], [side * t_end, end],
-                     [side * t_base, 0.0]])
-
-
-def _extrude_y(xz: NDArray, width: float) -> NDArray[np.float64]:
-    return np.vstack([np.column_stack([xz[:, 0], np.full(len(xz), s * width / 2), xz[:, 1]]) for s in (-1, 1)])
+def _exponent(values) -> str:
+    """_floats with the exponents written without a leading zero ('1e-5'), as the slide jaws'
+    inertia has always been written (the MJCF text stays the same, byte for byte)."""
+    return _floats(values).replace("e-0", "e-").replace("e+0", "e+")
 
 
 @dataclass(frozen=True)
@@ -220,109 +101,90 @@ class Keyframe:
     mocap_quat: NDArray[np.float64]  #: (nmocap, 4) w, x, y, z
 
 
-def _pincer_jaws(spec: SimModelSpec, thumb_bend: str, finger_bend: str, tip: str) -> tuple[str, str, str]:
-    """A pincer's jaws (GripperGeometry.hinge), MJCF: their bodies, their coupling and their
-    servo. Each jaw turns on a hinge about the palm's y axis at the palm's origin (the joint),
-    the thumb's by -phi/2 and the finger's by +phi/2 (phi the joint angle, rad), its digit turned
-    half the closed angle within it and its face's foot off the axis (mechanics.pincer). A jaw is a
-    rod of the parallel carriage's mass over the joint radius; the servo's stiffness and force
-    limit are the parallel's (N/m, N) moved to the joint radius (N m/rad, N m), so that the
-    fingertip feels the same servo; ctrl is the joint angle (rad)."""
-    g, f = spec.gripper, spec.friction
-    links = g.hinge
-    half = links.max_angle / 2
-    rod = JAW_MASS * links.radius ** 2 / 3  # kg m^2 about the joint
-    stiffness = spec.servo_stiffness * links.radius ** 2
+def _pincer_jaws(world: WorldDescription, thumb_bend: str, finger_bend: str, tip: str) -> tuple[str, str, str]:
+    """A pincer's jaws (GripperGeometry.hinge; the world description's hinged jaws), MJCF: their
+    bodies, their coupling and their servo; ctrl is the joint angle (rad)."""
     bodies = []
-    for name, sign, across, (lo, hi), bend, extra, mu, rgba in (
-            ("thumb", -1.0, links.offset, (-half, 0.0), thumb_bend, "", f.thumb, ".8 .3 .2 1"),
-            ("finger", 1.0, links.tip_radius, (0.0, half), finger_bend, tip, f.finger, ".2 .3 .8 1")):
-        a = sign * links.closed_angle / 2
+    for jaw, bend, extra in ((world.thumb, thumb_bend, ""), (world.finger, finger_bend, tip)):
+        name, digit, geom = jaw.name, jaw.digit, jaw.digit.geoms[0]
         bodies.append(
             f'<body name="{name}_jaw">\n'
-            f'        <joint name="{name}_hinge" type="hinge" axis="0 1 0" range="{lo:.9g} {hi:.9g}" damping="0"/>\n'
-            f'        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="{_floats([rod, rod, rod])}"/>\n'
-            f'        <body name="{name}" pos="{_floats([-across * math.cos(a), 0.0, across * math.sin(a)])}" '
-            f'quat="{_floats([math.cos(a / 2), 0.0, math.sin(a / 2), 0.0])}">\n'
+            f'        <joint name="{jaw.joint_name}" type="hinge" axis="0 1 0" range="{jaw.lower:.9g} {jaw.upper:.9g}" damping="0"/>\n'
+            f'        <inertial pos="0 0 0" mass="{jaw.mass}" diaginertia="{_floats(jaw.inertia)}"/>\n'
+            f'        <body name="{name}" pos="{_floats(digit.position)}" '
+            f'quat="{_floats(digit.quat)}">\n'
             f'          {bend}\n'
-            f'          <geom name="{name}" type="mesh" mesh="{name}" density="{PLA_DENSITY:g}" friction="{mu} 0 0" '
-            f'rgba="{rgba}"/>\n'
+            f'          <geom name="{name}" type="mesh" mesh="{name}" density="{geom.density:g}" friction="{geom.friction} 0 0" '
+            f'rgba="{geom.rgba}"/>\n'
             f'          {extra}\n'
             f'        </body>\n'
             f'      </body>')
     coupling = '<joint joint1="thumb_hinge" joint2="finger_hinge" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
-    force = spec.grip_force * links.radius
-    actuator = (f'<position name="opening" joint="finger_hinge" gear="2" kp="{stiffness:.9g}"\n'
-                f'              kv="{2 * math.sqrt(stiffness * rod):.9g}" forcelimited="true"\n'
-                f'              forcerange="{-force:.9g} {force:.9g}" ctrllimited="true" '
-                f'ctrlrange="0 {links.max_angle:.9g}"/>')
+    servo = world.servo
+    actuator = (f'<position name="opening" joint="{servo.joint}" gear="{servo.gear:g}" kp="{servo.stiffness:.9g}"\n'
+                f'              kv="{servo.damping:.9g}" forcelimited="true"\n'
+                f'              forcerange="{-servo.force_limit:.9g} {servo.force_limit:.9g}" ctrllimited="true" '
+                f'ctrlrange="0 {servo.command_max:.9g}"/>')
     return "\n      ".join(bodies), coupling, actuator
 
 
 def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     """The MJCF text of the trial's world (see the module docstring for what moves how), with
-    key as a <keyframe> when given."""
-    g, f, obj = spec.gripper, spec.friction, spec.obj
+    key as a <keyframe> when given: the world description's bodies (sim.world_description) with
+    MuJoCo's contacts, weld and servo."""
+
+    world = describe(spec)
     solref, solimp = _floats((spec.contact_time, SOLREF[1])), _floats(SOLIMP)
-    half = g.max_opening / 2
-    flat = g.finger_tip_radius <= 0.0
-    thumb = _extrude_y(_digit(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
-    # a rounded finger is a ball-nosed digit: its body ends at the dome's centre and its face
-    # stands back by the dome's radius there, and further toward the palm (FACE_DRAFT), so that
-    # nothing but the dome reaches the object, even where it turns a little in the grasp (psi < 0)
-    r = 0.0 if flat else g.finger_tip_radius
-    finger = _extrude_y(_digit(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r, r,
-                               0.0 if flat else FACE_DRAFT), g.width)
-    thumb_k, thumb_c = digit_bending(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, g.width)
-    finger_k, finger_c = digit_bending(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, g.width)
-    assets = [f'<mesh name="object" vertex="{_floats(_prism(obj.outline, 0.0, obj.thickness))}"/>',
-              f'<mesh name="thumb" vertex="{_floats(thumb)}"/>',
-              f'<mesh name="finger" vertex="{_floats(finger)}"/>']
+    thumb, finger, dome, obj = world.thumb, world.finger, world.dome, world.object.geom
+    assets = [f'<mesh name="object" vertex="{_floats(obj.shape.vertices)}"/>',
+              f'<mesh name="thumb" vertex="{_floats(thumb.digit.geoms[0].shape.vertices)}"/>',
+              f'<mesh name="finger" vertex="{_floats(finger.digit.geoms[0].shape.vertices)}"/>']
     solids = []
-    for k, (name, verts) in enumerate(spec.solids):
-        centre = np.asarray(verts).mean(axis=0)
-        assets.append(f'<mesh name="solid{k}" vertex="{_floats(np.asarray(verts) - centre)}"/>')
-        solids.append(f'<geom name="solid{k}" type="mesh" mesh="solid{k}" pos="{_floats(centre)}" '
-                      f'friction="{f.solids} 0 0" rgba=".55 .45 .35 1"/>')
+    for k, solid in enumerate(world.solids):
+        assets.append(f'<mesh name="solid{k}" vertex="{_floats(solid.shape.vertices)}"/>')
+        solids.append(f'<geom name="solid{k}" type="mesh" mesh="solid{k}" pos="{_floats(solid.shape.centre)}" '
+                      f'friction="{solid.friction} 0 0" rgba="{solid.rgba}"/>')
     placed = []
-    for k, (name, other, pose) in enumerate(spec.placed):
-        assets.append(f'<mesh name="placed{k}" vertex="{_floats(_prism(other.outline, 0.0, other.thickness))}"/>')
-        quat = _quat(np.asarray(pose)[:3, :3])
-        placed.append(f'<body name="placed{k}" pos="{_floats(np.asarray(pose)[:3, 3])}" quat="{_floats(quat)}">'
-                      f'<freejoint/><geom name="placed{k}" type="mesh" mesh="placed{k}" density="{other.density:.9g}" '
-                      f'friction="{f.solids} 0 0" rgba=".6 .6 .2 1"/></body>')
-    tip = "" if flat else (
-        f'<geom name="finger_tip" type="sphere" size="{g.finger_tip_radius:.9g}" '
-        f'pos="{g.finger_tip_radius:.9g} 0 {g.finger_length - g.finger_tip_radius:.9g}" '
-        f'density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>')
-    thumb_bend = (f'<joint name="thumb_bend" type="hinge" axis="0 1 0" stiffness="{thumb_k:.9g}" '
-                  f'damping="{thumb_c:.9g}"/>')
-    finger_bend = (f'<joint name="finger_bend" type="hinge" axis="0 1 0" stiffness="{finger_k:.9g}" '
-                   f'damping="{finger_c:.9g}"/>')
-    if g.hinge is not None:
-        jaws, coupling, actuator = _pincer_jaws(spec, thumb_bend, finger_bend, tip)
+    for k, other in enumerate(world.placed):
+        assets.append(f'<mesh name="placed{k}" vertex="{_floats(other.geom.shape.vertices)}"/>')
+        quat = _quat(other.pose[:3, :3])
+        placed.append(f'<body name="placed{k}" pos="{_floats(other.pose[:3, 3])}" quat="{_floats(quat)}">'
+                      f'<freejoint/><geom name="placed{k}" type="mesh" mesh="placed{k}" density="{other.geom.density:.9g}" '
+                      f'friction="{other.geom.friction} 0 0" rgba="{other.geom.rgba}"/></body>')
+    tip = "" if dome is None else (
+        f'<geom name="finger_tip" type="sphere" size="{dome.shape.radius:.9g}" '
+        f'pos="{dome.shape.centre[0]:.9g} 0 {dome.shape.centre[2]:.9g}" '
+        f'density="{dome.density:g}" friction="{dome.friction} 0 0" rgba="{dome.rgba}"/>')
+    thumb_bend = (f'<joint name="thumb_bend" type="hinge" axis="0 1 0" stiffness="{thumb.digit.bend.stiffness:.9g}" '
+                  f'damping="{thumb.digit.bend.damping:.9g}"/>')
+    finger_bend = (f'<joint name="finger_bend" type="hinge" axis="0 1 0" stiffness="{finger.digit.bend.stiffness:.9g}" '
+                   f'damping="{finger.digit.bend.damping:.9g}"/>')
+    if thumb.joint == "hinge":
+        jaws, coupling, actuator = _pincer_jaws(world, thumb_bend, finger_bend, tip)
     else:  # two carriages sliding on the palm, coupled, one force-limited servo on the opening
+        tg, fg, servo = thumb.digit.geoms[0], finger.digit.geoms[0], world.servo
         jaws = f"""<body name="thumb_jaw">
-        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{-half:.9g} 0" damping="0"/>
-        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{thumb.lower:.9g} {thumb.upper:.9g}" damping="0"/>
+        <inertial pos="0 0 0" mass="{thumb.mass}" diaginertia="{_exponent(thumb.inertia)}"/>
         <body name="thumb">
           {thumb_bend}
-          <geom name="thumb" type="mesh" mesh="thumb" density="{PLA_DENSITY:g}" friction="{f.thumb} 0 0" rgba=".8 .3 .2 1"/>
+          <geom name="thumb" type="mesh" mesh="thumb" density="{tg.density:g}" friction="{tg.friction} 0 0" rgba="{tg.rgba}"/>
         </body>
       </body>
       <body name="finger_jaw">
-        <joint name="finger_slide" type="slide" axis="1 0 0" range="0 {half:.9g}" damping="0"/>
-        <inertial pos="0 0 0" mass="{JAW_MASS}" diaginertia="1e-5 1e-5 1e-5"/>
+        <joint name="finger_slide" type="slide" axis="1 0 0" range="{finger.lower:.9g} {finger.upper:.9g}" damping="0"/>
+        <inertial pos="0 0 0" mass="{finger.mass}" diaginertia="{_exponent(finger.inertia)}"/>
         <body name="finger">
           {finger_bend}
-          <geom name="finger" type="mesh" mesh="finger" density="{PLA_DENSITY:g}" friction="{f.finger} 0 0" rgba=".2 .3 .8 1"/>
+          <geom name="finger" type="mesh" mesh="finger" density="{fg.density:g}" friction="{fg.friction} 0 0" rgba="{fg.rgba}"/>
           {tip}
         </body>
       </body>"""
         coupling = '<joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
-        actuator = f"""<position name="opening" joint="finger_slide" gear="2" kp="{spec.servo_stiffness:.9g}"
-              kv="{2 * math.sqrt(spec.servo_stiffness * JAW_MASS):.9g}" forcelimited="true"
-              forcerange="{-spec.grip_force:.9g} {spec.grip_force:.9g}" ctrllimited="true" ctrlrange="0 {g.max_opening:.9g}"/>"""
+        actuator = f"""<position name="opening" joint="{servo.joint}" gear="{servo.gear:g}" kp="{servo.stiffness:.9g}"
+              kv="{servo.damping:.9g}" forcelimited="true"
+              forcerange="{-servo.force_limit:.9g} {servo.force_limit:.9g}" ctrllimited="true" ctrlrange="0 {servo.command_max:.9g}"/>"""
+    palm = world.palm
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{spec.timestep:.9g}" cone="{spec.cone}" impratio="{IMPRATIO:g}" integrator="implicitfast">
@@ -335,19 +197,19 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
     {chr(10).join('    ' + a for a in assets).strip()}
   </asset>
   <worldbody>
-    <geom name="table" type="plane" size="0 0 1" pos="0 0 {spec.table_height:.9g}" friction="{f.table} 0 0"
+    <geom name="table" type="plane" size="0 0 1" pos="0 0 {world.table_height:.9g}" friction="{world.table_friction} 0 0"
           rgba=".8 .8 .8 1"/>
     {chr(10).join('    ' + s for s in solids).strip()}
     <body name="palm_target" mocap="true"/>
     <body name="palm" gravcomp="1">
       <freejoint name="palm"/>
-      <geom name="palm" type="box" size="{g.palm_width / 2:.9g} {g.palm_thickness / 2:.9g} {g.palm_depth / 2:.9g}"
-            pos="0 0 {-g.palm_depth / 2:.9g}" mass="{PALM_MASS:g}" rgba=".3 .3 .3 1"/>
+      <geom name="palm" type="box" size="{_floats(palm.shape.half)}"
+            pos="0 0 {palm.shape.centre[2]:.9g}" mass="{palm.mass:g}" rgba="{palm.rgba}"/>
       {jaws}
     </body>
     <body name="object">
       <freejoint name="object"/>
-      <geom name="object" type="mesh" mesh="object" density="{obj.density:.9g}" rgba=".9 .7 .1 1"/>
+      <geom name="object" type="mesh" mesh="object" density="{obj.density:.9g}" rgba="{obj.rgba}"/>
     </body>
     {chr(10).join('    ' + p for p in placed).strip()}
   </worldbody>

@@ -13,17 +13,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from typing import TYPE_CHECKING
-
 from ..errors import UngraspError
-from ..perturbation import preset, trial_params
 from ..planning.result import Plan
+from ..planning.setup import with_3d_report
+from ..robot.pipeline import Execution, execute, modelled_aim
 from ..scene import Scene
+from ..scene.options import Landing
+from ..scene.perturbation import preset, trial_params
+from .landing import robot_landing
 from .outcome import TrialResult
-from .setup import TrialSetup, Variant
-
-if TYPE_CHECKING:
-    from ..robot.pipeline import Execution
+from .setup import TrialSetup, Variant, trial_setup
+from .trial import run_trial
 
 
 @dataclass(frozen=True)
@@ -58,12 +58,6 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int 
     it, robot.pipeline.modelled_aim, no release simulated). Raises the
     robot's UngraspError when it cannot execute the plan (out of reach, an arm collision, beyond
     the joint limits)."""
-    from ..planning.setup import with_3d_report
-    from ..robot.pipeline import execute, modelled_aim
-    from ..scene.options import Landing
-    from .landing import robot_landing
-    from .setup import trial_setup
-
     if scene.plane is not None and plan.object is None:
         plan = with_3d_report(scene, plan)  # the object and its plane, which the placement needs
     if scene.robot.landing is Landing.MODELLED:  # the model's aim: no release simulated
@@ -81,14 +75,9 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int 
 def plan_trials(scene: Scene, plan: Plan, trials: int, perturbation: str = "paper", seed: int = 1) -> PlanTrials:
     """Execute a solved plan on the robot and simulate trials of it with the named preset's
     errors; PlanTrials (without results, and with the robot's error, when it cannot be executed)."""
-    from .trial import run_trial
-
     try:
         _, setup = placement(scene, plan)
     except UngraspError as exc:
         return PlanTrials((), exc)
     params = trial_params(preset(perturbation), seed, trials)
     return PlanTrials(tuple(run_trial(setup, p, k, seed) for k, p in enumerate(params)))
-
-
-__all__ = ["PlanTrials", "placement", "plan_trials"]

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..io import read_versioned_json, write_text_atomic
-from ..perturbation import TrialParams
+from ..scene.perturbation import TrialParams
 from .drive import UNDRIVEN
 from .outcome import TrialResult
 from .trial import TrialSetup, run_trial, trial_spec

@@ -40,9 +40,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import ndtr
 
-from ..errors import EXIT_FAILURE, UngraspError
+from ..errors import ToolError
 from ..robot.touch_off import TouchOffOptions
-from .model import ModelIds, SimModelSpec, build_mjcf, model_ids
+from .model import ModelIds, build_mjcf, model_ids
+from .spec import SimModelSpec
 
 #: Control periods of the descent that are stepped from its start before the hand skips the free
 #: air: the hand, put at rest at its start, takes up the arm's speed (20 ms).
@@ -56,11 +57,9 @@ GUARD = 2e-4
 TAIL_SIGMAS = 8.0
 
 
-class ProbeError(UngraspError):
+class ProbeError(ToolError):
     """The probe went its whole reach (reach, m of commanded descent from its start) without the
     force reading passing stop_at (N): nothing was found under the hand."""
-
-    exit_code = EXIT_FAILURE
 
     def __init__(self, reach: float, stop_at: float):
         super().__init__(f"the touch-off's probe went down {reach * 1000:.2f} mm without the force reading "
@@ -125,7 +124,7 @@ class _Hand:
 
     def __init__(self, model, ids: ModelIds, start: NDArray, opening: float, options: TouchOffOptions,
                  error: NDArray | None):
-        import mujoco
+        import mujoco  # mujoco: loaded when the probe runs
 
         self.model, self.ids, self.options = model, ids, options
         top = np.array(start, dtype=float)
@@ -151,7 +150,7 @@ class _Hand:
 
     def gap(self, geoms) -> float:
         """The least distance (m) from a geom of the hand to one of geoms, as the hand is now."""
-        import mujoco
+        import mujoco  # mujoco: loaded when the probe runs
 
         mujoco.mj_kinematics(self.model, self.data)
         fromto = np.zeros(6)
@@ -162,7 +161,7 @@ class _Hand:
     def _push(self, force6: NDArray) -> float:
         """The vertical (world z) component of the contact forces on the hand now (N, upward). A
         plain loop over the step's few contacts: numpy's per-call overhead would cost more."""
-        import mujoco
+        import mujoco  # mujoco: loaded when the probe runs
 
         hand, contact = self.hand, self.data.contact
         total = 0.0
@@ -180,7 +179,7 @@ class _Hand:
         per simulation step, and read the force each period; stop at the first period whose
         reading (force plus noise[period]) reaches stop_at (N) in magnitude. ProbeError once the
         descent would pass reach (m) without it."""
-        import mujoco
+        import mujoco  # mujoco: loaded when the probe runs
 
         model, data, ids = self.model, self.data, self.ids
         periods = periods_within(reach, self.options)
@@ -273,7 +272,7 @@ def calibrate(spec: SimModelSpec, start: NDArray, opening: float, options: Touch
 @functools.lru_cache(maxsize=32)
 def _calibrate(arguments: bytes) -> Calibration:
     """calibrate's work, on its arguments pickled (the key under which it is kept)."""
-    import mujoco
+    import mujoco  # mujoco: loaded when the probe runs
 
     spec, pinch, opening, options, sigma = pickle.loads(arguments)
     model = mujoco.MjModel.from_xml_string(build_mjcf(spec))

@@ -19,7 +19,7 @@ from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from .drive import drive_from_trajectory
-from .model import Friction, GripperGeometry, SimModelSpec, SimObject
+from .spec import Friction, GripperGeometry, SimModelSpec, SimObject
 from .trial import PlannedTravel, TrialSetup
 
 

@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..geometry.collision import CollisionChecker
 from ..geometry.solids import Solid
-from ..layout import Layout
-from ..perturbation import Perturbation
+from ..layout.model import Layout
+from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from ..planning.result import Plan
 from ..robot.model import RobotModel
 from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, modelled_aim, plane_frame
@@ -36,7 +36,7 @@ from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from ..scene.options import Landing
-from ..tiling import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
+from ..scene.perturbation import Perturbation
 from .campaign import trial_runner
 from .landing import robot_landing
 from .outcome import FLAT_TILT_DEG, TrialResult
@@ -281,7 +281,7 @@ def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], pertur
                     progress: Callable[[TilingAttempt], None] | None = None,
                     cluster: str | None = None) -> list[TilingAttempt]:
     """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes
-    (ungrasp_ompl.runner), or on the Ray cluster at the address cluster."""
+    (ungrasp_ompl.parallel.runner), or on the Ray cluster at the address cluster."""
     if attempts < 1:
         raise InputError("trials", f"must be at least 1, got {attempts}")
     work = [(layout, setups, perturbation, seed, k) for k in range(attempts)]

@@ -23,18 +23,20 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .drive import GripperDrive
-from .model import Keyframe, ModelIds, SimModelSpec, build_mjcf, model_ids
+from .model import Keyframe, ModelIds, build_mjcf, model_ids
+from .spec import SimModelSpec
 from .world import World
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from .probe import TouchOffProbe, calibrate, noise_sequence, periods_within, probing
 from ..mechanics.kinematics import GRAVITY
-from ..perturbation import TrialParams
+from ..scene.perturbation import TrialParams
 from ..robot.pipeline import Aim
 from ..robot.touch_off import TouchOffOptions
 
@@ -257,7 +259,30 @@ def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
                    contact_time=spec.contact_time * world.time_constant_factor)
 
 
-class Stillness:
+class StillWindow:
+    """Whether the free bodies have lain still, untouched by the digits, for STILL_WINDOW s
+    (engine-free: an engine tells it at each control tick whether anything moves or is touched)."""
+
+    def __init__(self):
+        self.since: float | None = None
+
+    def note(self, t: float, moving: bool, touched: bool) -> bool:
+        """Note the world at time t (s); True once it has been still for STILL_WINDOW."""
+        if moving or touched:
+            self.since = None
+            return False
+        self.since = t if self.since is None else self.since
+        return t - self.since >= STILL_WINDOW - 1e-9
+
+
+def moving(v: NDArray) -> bool:
+    """Whether any free body of velocities v (n, 6: linear m/s, angular rad/s) moves faster than
+    STILL_SPEED or STILL_SPIN."""
+    return bool((np.linalg.norm(v[:, :3], axis=1) > STILL_SPEED).any()
+                or (np.linalg.norm(v[:, 3:], axis=1) > STILL_SPIN).any())
+
+
+class Stillness(StillWindow):
     """Whether the trial's outcome is settled during the retreat: every free body (the object, the
     pieces already down) has moved slower than STILL_SPEED and STILL_SPIN, with no digit touching
     any of them, for STILL_WINDOW s. The retreat lifts the palm straight up and the rest that
@@ -265,25 +290,18 @@ class Stillness:
     trial's end is read off there instead of simulating the last second and a half."""
 
     def __init__(self, model, ids: ModelIds):
+        super().__init__()
         bodies = [ids.object_body, *ids.placed_bodies]
         self.dofs = np.concatenate([np.arange(model.body_dofadr[b], model.body_dofadr[b] + 6) for b in bodies])
         self.free = np.isin(model.geom_bodyid, bodies)
         self.digit = np.zeros(model.ngeom, bool)
         self.digit[list(ids.finger_geoms | ids.thumb_geoms)] = True
-        self.since: float | None = None
 
     def settled(self, data, t: float) -> bool:
         """Note the world at time t (s); True once it has been still for STILL_WINDOW."""
-        v = data.qvel[self.dofs].reshape(-1, 6)
-        moving = bool((np.linalg.norm(v[:, :3], axis=1) > STILL_SPEED).any()
-                      or (np.linalg.norm(v[:, 3:], axis=1) > STILL_SPIN).any())
         g = data.contact.geom[:data.ncon]
         touched = bool(((self.digit[g[:, 0]] & self.free[g[:, 1]]) | (self.digit[g[:, 1]] & self.free[g[:, 0]])).any())
-        if moving or touched:
-            self.since = None
-            return False
-        self.since = t if self.since is None else self.since
-        return t - self.since >= STILL_WINDOW - 1e-9
+        return self.note(t, moving(data.qvel[self.dofs].reshape(-1, 6)), touched)
 
 
 #: What a geom is to the watch: nothing it follows, the finger's body, its dome, the thumb, a wall or piece, the table.
@@ -502,9 +520,17 @@ def _pose(data, body: int) -> NDArray[np.float64]:
     return pose
 
 
-def _in_body(data, body: int, point: NDArray) -> NDArray[np.float64]:
-    """A world point in a body's frame (m)."""
-    return data.xmat[body].reshape(3, 3).T @ (point - data.xpos[body])
+def _frame_pose(rot: NDArray, origin: NDArray) -> NDArray[np.float64]:
+    """The 4x4 pose of a body's orientation (3, 3) and origin (3,)."""
+    pose = np.eye(4)
+    pose[:3, :3] = rot
+    pose[:3, 3] = origin
+    return pose
+
+
+def _in_frame(frame: tuple[NDArray, NDArray], point: NDArray) -> NDArray[np.float64]:
+    """A world point in a body's frame (orientation (3, 3), origin (3,)), m."""
+    return frame[0].T @ (point - frame[1])
 
 
 def _set_palm(data, ids: ModelIds, pose: NDArray, quat: NDArray) -> None:
@@ -657,86 +683,125 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
         record.append((0.0, _pose(data, ids.object_body)))
 
     watch = _Watch(model, ids)
-    travel = _Travel(setup.b_point)
-    primitive = _primitive_of_ticks(drive)
-    plane_y = setup.target_pose[:3, 1]
-    release = drive.phase_start("termination")
-    lifting = drive.phase_start("retreat") if any(name == "retreat" for name, _, _ in drive.phases) else math.inf
     stillness = Stillness(model, ids)
     settled = False
-    grip = Grip(setup.max_contact_gap)
-    solid_seen_at = -math.inf
-    roll = sinking = dome = off_dome = table_push = 0.0
-    failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
-    lost: tuple[Outcome, float] | None = None  # a grip lost before the termination: the paper's criterion fails too
+    judge = Judge(setup)
+    bodies = {"object": ids.object_body, "finger": ids.finger_body, "thumb": ids.thumb_body, "palm": ids.palm_body}
 
-    def loss(since: float, obj: NDArray) -> tuple[Outcome, float]:
-        """The lost grip dated since (s), named by its cause with the object at pose obj."""
-        return _loss_cause(data, ids, setup, obj, plane_y, solid_seen_at >= since - 0.2), since
+    def frame(name: str) -> tuple[NDArray, NDArray]:
+        """A body's orientation and origin now (world)."""
+        return data.xmat[bodies[name]].reshape(3, 3), data.xpos[bodies[name]]
+
+    def look() -> _Tick:
+        return watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
 
     for k in range(1, len(drive.times)):
-        if lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
+        if judge.lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
             break
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
         _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
-        if record is None and t >= lifting and stillness.settled(data, t):
+        if record is None and t >= judge.lifting and stillness.settled(data, t):
             settled = True  # nothing left can move what lies on the table
             break
-        if lost is None and drive.times[k - 1] < release <= t:  # the termination opens the pinch: is it there?
-            if (since := grip.pinch_lost()) is not None:
-                lost = loss(since, _pose(data, ids.object_body))
-                failure = failure or lost
-        if t >= release or lost is not None:  # after a loss of grip (a falling object) nothing is measured
-            continue
-        now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
-        if failure is None:  # the contacts' figures are those of the plan's contact modes, until they are lost
-            sinking, dome, off_dome = max(sinking, now.sinking), dome + now.on_dome, off_dome + now.off_dome
-            if now.a_point is not None and primitive[k] >= 0:
-                rot, origin = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
-                travel.note(int(primitive[k]), np.array([
-                    _in_body(data, ids.object_body, now.a_point), _in_body(data, ids.finger_body, now.a_point),
-                    np.zeros(3), _in_body(data, ids.thumb_body, now.b_end)]), (now.b_points - origin) @ rot)
-        if now.solid:
-            solid_seen_at = t
-        table_push = max(table_push, now.table_push)
-        if now.digit_on_table and failure is None:  # a collision: a real arm stops (or the plan's clearance was not there)
-            failure = (Outcome.DIGIT_HIT_TABLE, t)
-        obj = _pose(data, ids.object_body)
-        roll = max(roll, _roll(obj, plane_y))
-        if roll > LEFT_PLANE_DEG and failure is None:  # held, but turned out of the plane: the contact modes are lost
-            failure = (Outcome.LEFT_PLANE, t)
-        if (since := grip.note(t, now.a, now.b)) is not None:
-            lost = loss(since, obj)
-            failure = failure or lost
-    if ((lost is None or not stop_at_failure) and not settled) or record is not None:
+        judge.tick(k, t, look, frame)
+    if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
     if record is not None:
         record.append((float(drive.times[-1]) + setup.rest_time, final))
     others = [_pose(data, body).tolist() for body in ids.placed_bodies]
-    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
-    pos_err, yaw_err = _placement_error(final, setup.target_pose, spec.obj.outline)
-    if lost is None:  # the checks after the retreat, which both verdicts make
-        now = watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
-        if tilt > FLAT_TILT_DEG:
-            lost = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
-        elif now.a or now.b:
-            lost = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
-        elif pos_err > setup.max_error * 1000:
-            lost = (Outcome.OFF_TARGET, None)
-        failure = failure or lost
-    outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
-    paper = lost[0] if lost is not None else Outcome.SUCCESS
-    phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
-    share = off_dome / (dome + off_dome) if ids.finger_dome >= 0 and dome + off_dome > 0 else None
-    return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, roll, params.to_dict(),
-                       trial, seed, float(data.time), time.perf_counter() - wall, final.tolist(), others,
-                       sinking * 1000, share, travel.travels(setup.planned), table_push, grip.a_gap, grip.b_gap,
-                       **(probed[0].result_fields() if probed else {}))
+    return judge.result(final, look, params, trial, seed, float(data.time), wall, others, probed)
+
+
+class Judge:
+    """The verdicts of one trial (see run_trial and Outcome) from what an engine reports at each
+    control tick: whether A, B, a wall or piece touch the object and how (a _Tick), and where the
+    object, the digits and the palm are. Engine-free: MuJoCo's trial (run_trial) and Drake's
+    (sim.drake_trial) feed it the same quantities, so both are judged by the same rule."""
+
+    def __init__(self, setup: TrialSetup):
+        drive = setup.drive
+        self.setup = setup
+        self.primitive = _primitive_of_ticks(drive)
+        self.plane_y = setup.target_pose[:3, 1]
+        self.release = drive.phase_start("termination")
+        #: when the retreat begins (s; inf without one): from then on a still world settles the trial
+        self.lifting = drive.phase_start("retreat") if any(name == "retreat" for name, _, _ in drive.phases) else math.inf
+        self.grip = Grip(setup.max_contact_gap)
+        self.travel = _Travel(setup.b_point)
+        self.solid_seen_at = -math.inf
+        self.roll = self.sinking = self.dome = self.off_dome = self.table_push = 0.0
+        self.failure: tuple[Outcome, float] | None = None  # the strict verdict's first failure
+        self.lost: tuple[Outcome, float] | None = None  # a grip lost before the termination: the paper's criterion fails too
+
+    def _loss(self, since: float, obj: NDArray, frame: Callable) -> tuple[Outcome, float]:
+        """The lost grip dated since (s), named by its cause with the object at pose obj."""
+        return _loss_cause(frame("palm"), self.setup, obj, self.plane_y, self.solid_seen_at >= since - 0.2), since
+
+    def tick(self, k: int, t: float, look: Callable[[], "_Tick"], frame: Callable[[str], tuple[NDArray, NDArray]]) -> None:
+        """Note control tick k at time t (s): look() is the object's contacts now (a _Tick), frame(name)
+        the orientation (3, 3) and origin (3,) of the body 'object', 'finger', 'thumb' or 'palm'."""
+        drive = self.setup.drive
+        if self.lost is None and drive.times[k - 1] < self.release <= t:  # the termination opens the pinch: is it there?
+            if (since := self.grip.pinch_lost()) is not None:
+                self.lost = self._loss(since, _frame_pose(*frame("object")), frame)
+                self.failure = self.failure or self.lost
+        if t >= self.release or self.lost is not None:  # after a loss of grip (a falling object) nothing is measured
+            return
+        now = look()
+        if self.failure is None:  # the contacts' figures are those of the plan's contact modes, until they are lost
+            self.sinking, self.dome, self.off_dome = (max(self.sinking, now.sinking), self.dome + now.on_dome,
+                                                      self.off_dome + now.off_dome)
+            if now.a_point is not None and self.primitive[k] >= 0:
+                rot, origin = frame("object")
+                self.travel.note(int(self.primitive[k]), np.array([
+                    _in_frame(frame("object"), now.a_point), _in_frame(frame("finger"), now.a_point),
+                    np.zeros(3), _in_frame(frame("thumb"), now.b_end)]), (now.b_points - origin) @ rot)
+        if now.solid:
+            self.solid_seen_at = t
+        self.table_push = max(self.table_push, now.table_push)
+        if now.digit_on_table and self.failure is None:  # a collision: a real arm stops (or the plan's clearance was not there)
+            self.failure = (Outcome.DIGIT_HIT_TABLE, t)
+        obj = _frame_pose(*frame("object"))
+        self.roll = max(self.roll, _roll(obj, self.plane_y))
+        if self.roll > LEFT_PLANE_DEG and self.failure is None:  # held, but turned out of the plane: the contact modes are lost
+            self.failure = (Outcome.LEFT_PLANE, t)
+        if (since := self.grip.note(t, now.a, now.b)) is not None:
+            self.lost = self._loss(since, obj, frame)
+            self.failure = self.failure or self.lost
+
+    def result(self, final: NDArray, look: Callable[[], "_Tick"], params: TrialParams, trial: int, seed: int | None,
+               sim_time: float, wall: float, others: list, probed: list) -> TrialResult:
+        """The trial's result with the object at pose final (4x4) at its end: the checks after the
+        retreat, which both verdicts make (look() the object's contacts then), where no grip was lost.
+        sim_time: the simulated time (s); wall: time.perf_counter() at the trial's start; others: the
+        poses of the objects already down; probed: the touch-off's probe, if any, in a list."""
+        setup, drive = self.setup, self.setup.drive
+        failure, lost = self.failure, self.lost
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
+        pos_err, yaw_err = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
+        if lost is None:  # the checks after the retreat, which both verdicts make
+            now = look()
+            if tilt > FLAT_TILT_DEG:
+                lost = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
+            elif now.a or now.b:
+                lost = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
+            elif pos_err > setup.max_error * 1000:
+                lost = (Outcome.OFF_TARGET, None)
+            failure = failure or lost
+        outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
+        paper = lost[0] if lost is not None else Outcome.SUCCESS
+        phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
+        dome, off_dome = self.dome, self.off_dome
+        share = off_dome / (dome + off_dome) if setup.spec.gripper.finger_tip_radius > 0.0 and dome + off_dome > 0 else None
+        return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, self.roll, params.to_dict(),
+                           trial, seed, sim_time, time.perf_counter() - wall, final.tolist(), others,
+                           self.sinking * 1000, share, self.travel.travels(setup.planned), self.table_push,
+                           self.grip.a_gap, self.grip.b_gap, **(probed[0].result_fields() if probed else {}))
 
 
 def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
@@ -751,14 +816,16 @@ def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
     return out
 
 
-def _loss_cause(data, ids: ModelIds, setup: TrialSetup, obj: NDArray, plane_y: NDArray, solid: bool) -> Outcome:
+def _loss_cause(palm: tuple[NDArray, NDArray], setup: TrialSetup, obj: NDArray, plane_y: NDArray,
+                solid: bool) -> Outcome:
     """Why the grip was lost: the object turned out of the plane, its end B went past the
-    thumb's tip, a wall or piece pushed it, or (none of these) it slipped out."""
+    thumb's tip, a wall or piece pushed it, or (none of these) it slipped out. palm: the palm's
+    orientation (3, 3) and origin (3,) now."""
     if _roll(obj, plane_y) > LEFT_PLANE_DEG:
         return Outcome.LEFT_PLANE
-    digit_axis = data.xmat[ids.palm_body].reshape(3, 3)[:, 2]  # palm z: from the palm toward the tips
+    digit_axis = palm[0][:, 2]  # palm z: from the palm toward the tips
     b_world = obj[:3, :3] @ setup.b_point + obj[:3, 3]
-    if float((b_world - data.xpos[ids.palm_body]) @ digit_axis) > setup.spec.gripper.thumb_length:
+    if float((b_world - palm[1]) @ digit_axis) > setup.spec.gripper.thumb_length:
         return Outcome.B_PAST_THUMB_TIP
     if solid:
         return Outcome.HIT_SOLID

@@ -126,6 +126,3 @@ class World:
         d = asdict(self)
         d["cone"] = str(self.cone)
         return d
-
-
-__all__ = ["Cone", "World"]

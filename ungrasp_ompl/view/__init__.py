@@ -12,13 +12,20 @@ Modules: ``record`` (view_scene.json: what the view needs besides the trajectory
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
-from ..sim.poses import POSES_FILE
-from .record import RECORD_FILE, write_view_record
+from ..robot.export import read_json
+from ..robot.trajectory import JOINT_NAMES, PINCER_JOINT_NAMES
+from ..sim.poses import POSES_FILE, read_trial_poses
+from .html import write_page
+from .record import RECORD_FILE, default_record, read_view_record
+from .scene import build_scene
 
 TRAJECTORY_FILE = "trajectory.json"
 VIEW_FILE = "view.html"
@@ -43,11 +50,6 @@ class ViewFiles:
 def load_scene(directory: PathLike):
     """The ViewScene (view.scene) of what DIR holds; InputError naming DIR when it holds no
     trajectory.json, or naming the field of a malformed file."""
-    from ..robot.export import read_json
-    from .record import default_record, read_view_record
-    from .scene import build_scene
-    from ..sim.poses import read_trial_poses
-
     d = Path(directory)
     if not d.is_dir():
         raise InputError("DIR", f"{d} is not a directory (give what plan --export DIR, tile --out DIR or "
@@ -77,16 +79,12 @@ def load_scene(directory: PathLike):
 
 def _is_pincer(traj) -> bool:
     """Whether traj's gripper is a pincer: its last joint is the pincer's joint angle (rad)."""
-    from ..robot.trajectory import PINCER_JOINT_NAMES
-
     return tuple(traj.joint_names) == PINCER_JOINT_NAMES
 
 
 def _named(traj, source: str):
     """traj once its joints are the UR5e's six and a gripper's, in that order: the parallel jaws'
     opening (m) or a pincer's joint angle (rad); InputError naming joint_names otherwise."""
-    from ..robot.trajectory import JOINT_NAMES, PINCER_JOINT_NAMES
-
     if tuple(traj.joint_names) not in (JOINT_NAMES, PINCER_JOINT_NAMES):
         raise InputError("joint_names", f"must be {', '.join(JOINT_NAMES)} (the UR5e and its gripper), or the same "
                          f"ending in {PINCER_JOINT_NAMES[-1]} (a pincer), got {', '.join(traj.joint_names)}", source)
@@ -98,12 +96,6 @@ def _viewable(traj, source: str, record=None):
     joints and the gripper opening (m; a pincer's joint angle, rad, when record's gripper is a
     pincer), in that order, at angles the arm can take and openings the gripper can, for at most
     MAX_DURATION_S; InputError naming the field otherwise."""
-    import math
-
-    import numpy as np
-
-    from ..robot.trajectory import JOINT_NAMES, PINCER_JOINT_NAMES
-
     _named(traj, source)
     pincer = None if record is None else record.pincer
     wanted = JOINT_NAMES if pincer is None else PINCER_JOINT_NAMES
@@ -137,8 +129,7 @@ def _viewable(traj, source: str, record=None):
 def make_view(directory: PathLike, out: PathLike | None = None, frames: int | None = None) -> ViewFiles:
     """Write the view page of DIR to out (default DIR/view.html) and, with frames = K, the strip of
     K key frames beside it (view_frames.png)."""
-    from .frames import MAX_FRAMES, draw_frames
-    from .html import write_page
+    from .frames import MAX_FRAMES, draw_frames  # matplotlib: loaded when key frames are drawn
 
     if frames is not None and not 1 <= frames <= MAX_FRAMES:
         raise InputError("frames", f"must be a count of key frames in 1..{MAX_FRAMES}, got {frames}")
@@ -156,4 +147,4 @@ def make_view(directory: PathLike, out: PathLike | None = None, frames: int | No
     return ViewFiles(page, strip, times, sources, scene.notes)
 
 
-__all__ = ["FRAMES_FILE", "RECORD_FILE", "VIEW_FILE", "ViewFiles", "load_scene", "make_view", "write_view_record"]
+__all__ = ["ViewFiles", "make_view"]

@@ -29,7 +29,7 @@ BACKGROUND = ((0.97, 0.97, 0.98), (0.80, 0.84, 0.90))  # top, bottom colours of 
 
 def viewer_script() -> str:
     """meshcat's viewer (three.js and its scene handling), shipped in the meshcat package."""
-    import meshcat
+    import meshcat  # meshcat: loaded to write a page, not to read a record
 
     return (Path(meshcat.viewer_assets_path()) / "dist" / "main.min.js").read_text(encoding="utf-8")
 
@@ -41,7 +41,7 @@ def _rgb_int(rgba: tuple[float, ...]) -> int:
 
 def _quaternions(rot: NDArray) -> NDArray[np.float64]:
     """three.js quaternions (x, y, z, w) of rotations (F, 3, 3), sign-continuous along F."""
-    from scipy.spatial.transform import Rotation
+    from scipy.spatial.transform import Rotation  # scipy.spatial: 0.4 s, loaded to write a page
 
     quat = Rotation.from_matrix(rot).as_quat()  # scalar last: x, y, z, w
     for i in range(1, len(quat)):
@@ -65,7 +65,7 @@ def _changes(values: NDArray, tol: float = 1e-7) -> NDArray[np.int64]:
 
 def commands(scene: ViewScene) -> list[bytes]:
     """The meshcat commands (msgpack, as meshcat's server sends them) that build and animate scene."""
-    import meshcat.animation as mca
+    import meshcat.animation as mca  # meshcat, as in viewer_script
     import meshcat.commands as mcc
     import meshcat.geometry as mcg
     import umsgpack

@@ -33,7 +33,9 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..io import read_versioned_json, write_text_atomic
 from ..mechanics.pincer import PincerLinks
-from ..robot.model import GripperSpec, tcp_pose
+from ..robot.model import GripperSpec, load_ur5e, tcp_pose
+from ..robot.pipeline import aimed_frame, hand_offsets, plane_frame
+from ..robot.placement import densify, palm_poses
 from ..robot.trajectory import JointTrajectory
 
 RECORD_FILE = "view_scene.json"
@@ -72,7 +74,7 @@ class PieceRecord:
     def poses(self, times: NDArray, palm: NDArray) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """World body poses (T, 4, 4) and visibility (T,) at times (T,) s, given the palm poses
         (T, 4, 4) at those times."""
-        from ..sim.setup import tilted
+        from ..sim.setup import tilted  # the simulator's modules (scipy.special): loaded when poses are asked for
 
         times = np.asarray(times, dtype=float)
         out = np.empty((len(times), 4, 4))
@@ -136,8 +138,6 @@ def build_record(jobs: list, execution: Any, labels: list[str] | None = None, ki
     jobs: [(Scene, Plan)] as given to robot.pipeline.execute_sequence; execution: its Execution;
     labels: the segment labels it was given (a tiling's piece names), None for one plan.
     """
-    from ..robot.pipeline import plane_frame
-
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     traj, robot = execution.trajectory, execution.robot
@@ -182,9 +182,7 @@ def _piece(scene: Any, plan: Any, traj: JointTrajectory, robot: Any, prefix: str
            aim: tuple[float, float] = (0.0, 0.0)) -> PieceRecord:
     """The record of one object: its prism, target, and planned pose along traj (module docstring),
     in the plane's frame shifted by aim as the hand ran it (robot.pipeline.aimed_frame)."""
-    from ..robot.pipeline import aimed_frame, hand_offsets
-    from ..robot.placement import densify, palm_poses
-    from ..sim.setup import object_outline, tilted
+    from ..sim.setup import object_outline, tilted  # the simulator's modules (scipy.special), as in poses
 
     segs = _segments(traj, prefix)
     approach = next(s for s in segs if s[0] == "approach")
@@ -348,8 +346,6 @@ def _pose(value: Any, name: str, source: str) -> NDArray[np.float64]:
 
 def robot_model(record: ViewRecord) -> Any:
     """The robot model (robot.model.RobotModel) the record's trajectory was made for."""
-    from ..robot.model import load_ur5e
-
     return load_ur5e(record.gripper, record.base, pincer=record.pincer)
 
 
@@ -370,7 +366,3 @@ def default_record(pincer: bool = False) -> ViewRecord:
         return ViewRecord("plan", np.eye(4), spec, [], [], "trajectory", pincer=links)
     spec = GripperSpec(finger_length=0.075, thumb_length=0.06, finger_width=0.02, digit_thickness=0.002)
     return ViewRecord("plan", np.eye(4), spec, [], [], "trajectory")
-
-
-__all__ = ["DEFAULT_PINCER", "RECORD_FILE", "PieceRecord", "SolidRecord", "ViewRecord", "build_record",
-           "default_record", "read_view_record", "robot_model", "write_view_record"]

@@ -16,10 +16,11 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..robot.trajectory import JointTrajectory
+from ..robot.model import PINCER_FINGER_FRAME, PINCER_THUMB_FRAME, THUMB_SLIDE, configuration
+from ..robot.trajectory import GRIPPER_JOINT, JointTrajectory
+from ..sim.poses import TrialPoses
 from . import geometry as geo
 from .record import PieceRecord, ViewRecord, robot_model
-from ..sim.poses import TrialPoses
 
 #: Frames per second of the animation (key frames; the browser interpolates between them).
 FPS = 30.0
@@ -183,9 +184,6 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
     in their hinged frames (robot.model.PINCER_THUMB_FRAME, PINCER_FINGER_FRAME: each turned about
     the joint by half the joint angle and half the closed angle), from the joint's level to their
     tips, and its joint's pin (PINCER_PIN) on the palm's y axis."""
-    from ..robot.model import PINCER_FINGER_FRAME, PINCER_THUMB_FRAME, THUMB_SLIDE, configuration
-    from ..robot.trajectory import GRIPPER_JOINT
-
     model, data, geom = robot.model, robot.data, robot.collision_model
     links = robot.pincer
     gdata = pin.GeometryData(geom)
@@ -260,7 +258,7 @@ def _robot_bodies(robot, q: NDArray, digits: dict[str, float] | None = None
 def _simulated_poses(times: NDArray, trial: TrialPoses, planned: NDArray) -> NDArray[np.float64]:
     """The simulated object's poses at times: the planned ones before the trial's first recorded
     time, interpolated (position linearly, rotation by slerp) in between, the last after."""
-    from scipy.spatial.transform import Rotation, Slerp
+    from scipy.spatial.transform import Rotation, Slerp  # scipy.spatial: 0.4 s, loaded to animate
 
     out = planned.copy()
     inside = (times >= trial.times[0]) & (times <= trial.times[-1])

@@ -3,6 +3,31 @@
 Each workflow chains the floors below it (scene -> plan -> robot -> export -> sim -> view) the
 way its command does, takes an options dataclass whose fields are checked and named in its
 errors, and returns a result with ``summary()`` (what the command prints) and ``write(dir)``
-(what it writes, atomically). ``cli.py`` only parses, calls, prints and maps the options'
-field names to the flags a person typed.
+(what it writes, atomically). ``cli`` only parses, calls, prints and maps the options' field
+names to the flags a person typed.
+
+The names below load on first use (PEP 562): a workflow loads its own stack (the simulator, the
+pictures) and no other's.
 """
+
+from importlib import import_module
+
+_WHERE = {"PlanOptions": ".plan", "ScenePlan": ".plan", "plan_scene": ".plan",
+          "SimulateOptions": ".simulate", "SceneSimulation": ".simulate", "LayoutSimulation": ".simulate",
+          "simulate_scene": ".simulate", "simulate_layout": ".simulate",
+          "TiledLayout": ".tile", "tile_layout": ".tile",
+          "CageOptions": ".cage", "CageReport": ".cage", "cage_report": ".cage"}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(_WHERE[name], __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))

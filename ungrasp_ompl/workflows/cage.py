@@ -2,7 +2,7 @@
 
 :func:`cage_report` takes a scene and :class:`CageOptions`, plans the scene (or reads a plan),
 optionally starts it deviated, computes the cage of every state the plan passes
-(robustness.cage_profile) and each state's friction margin, and returns a :class:`CageReport`
+(planning.cage_profile) and each state's friction margin, and returns a :class:`CageReport`
 whose ``summary()`` is what the command prints and whose ``write(dir)`` writes cage.json and
 cage.png. Energies in joules (mJ where named), angles in radians (degrees where named), forces
 in newtons.
@@ -17,22 +17,22 @@ from collections.abc import Callable
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
 from ..io import write_text_atomic
+from ..mechanics.cage import Cage, CageGrid
+from ..mechanics.path import plan_samples
+from ..parallel.runner import InlineRunner, LocalRunner, resolve_jobs
+from ..planning.cage_profile import CageMinimum, CageProfile
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
+from ..planning.path_margin import path_friction_margin, plan_friction_margins
 from ..planning.result import Plan
-from ..robustness import CageMinimum, CageProfile
-from ..runner import InlineRunner, LocalRunner, resolve_jobs
+from ..planning.setup import plan as plan_scene
 from ..scene import Scene
 from .plan_files import read_plan_for
-
-if TYPE_CHECKING:
-    from ..mechanics.cage import Cage, CageGrid
 
 
 @dataclass(frozen=True)
@@ -150,7 +150,7 @@ class CageReport:
 
     def write(self, directory: str | os.PathLike[str]) -> list[Path]:
         """Write cage.json and cage.png into directory (atomically); returns their paths."""
-        from ..robustness_plot import draw_cage_profile
+        from ..plots.cage_profile import draw_cage_profile  # matplotlib: loaded when a picture is drawn
 
         out = Path(directory)
         if out.exists() and not out.is_dir():
@@ -190,10 +190,8 @@ def _chunk_cages(task: tuple[Scene, NDArray[np.float64], CageGrid, float]) -> li
 
 def profile_cages(scene: Scene, plan: Plan, grid: CageGrid, squeeze: float = 0.0, jobs: int = 1,
                   progress: Callable[[CageProgress], None] | None = None) -> CageProfile:
-    """robustness.cage_profile with the states' cages computed in chunks, jobs worker processes at
+    """planning.cage_profile.cage_profile with the states' cages computed in chunks, jobs worker processes at
     a time (this process for one job); progress is called after each chunk. squeeze in newtons. Raises the cage's InputError (a grid too fine)."""
-    from ..robustness import plan_samples
-
     samples = plan_samples(plan)
     n = len(samples.states)
     pieces = [k for k in np.array_split(np.arange(n), min(n, max(10, CHUNKS_PER_JOB * jobs))) if len(k)]
@@ -218,10 +216,6 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
     deviate its start if asked, and profile its cage (options.jobs worker processes; progress
     called as states are done) and friction margins; a report without a profile when planning
     finds no plan. Raises InputError naming the option or the scene field before any work."""
-    from ..mechanics.cage import CageGrid
-    from ..planning import plan as plan_scene
-    from ..planning.path_margin import path_friction_margin, plan_friction_margins
-
     o = options.validated(scene)
     if o.plan is not None:
         result = read_plan_for(scene, o.plan, o.force)
@@ -245,6 +239,3 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
     report.margins = plan_friction_margins(scene, report.profile.samples)
     report.smallest_margin = path_friction_margin(scene, result).smallest
     return report
-
-
-__all__ = ["CageOptions", "CageProgress", "CageReport", "cage_report", "profile_cages"]

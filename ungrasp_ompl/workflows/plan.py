@@ -8,7 +8,9 @@ writes the trajectory, plan.json and the view's record. Lengths in metres, angle
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import json
 import os
 from collections.abc import Callable
@@ -18,16 +20,21 @@ from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..io import write_text_atomic
-from ..planning import plan as plan_planar
+from ..mechanics.release import ReleaseModelError
 from ..planning.margins import Objective
+from ..planning.plan_tolerance import tolerance
+from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan
 from ..planning.setup import LATTICE, PlannerOptions
+from ..planning.setup import plan as plan_planar
+from ..robot.export import export_all
+from ..robot.pipeline import Execution, execute
+from ..robot.touch_off import touch_off
 from ..scene import Scene
+from ..scene.options import Landing
 
-if TYPE_CHECKING:  # the arm, the simulator, the cage and the pictures are imported where used:
-    # planning alone need not load Pinocchio, MuJoCo's trial code or matplotlib (0.4 s)
-    from ..robot.pipeline import Execution
-    from ..robustness import CageMinimum
+if TYPE_CHECKING:  # pragma: no cover
+    from ..planning.cage_profile import CageMinimum
     from ..sim.certify import CertifyOptions, CertifyProgress, CertifyResult
 
 
@@ -113,7 +120,7 @@ class ScenePlan:
         out = Path(out)
         files = {"plan": out / "plan.json", "cspace": out / "cspace.png"}
         write_text_atomic(files["plan"], json.dumps(self.document(), indent=2) + "\n")
-        from ..plotting import draw_plan
+        from ..plots.cspace import draw_plan  # matplotlib: loaded when a picture is drawn
 
         draw_plan(self.scene, self.plan, files["cspace"])
         if self.certification is not None:
@@ -124,9 +131,6 @@ class ScenePlan:
         """Write certify.csv into out, atomically: a row per candidate (CERTIFY_COLUMNS, as
         plan.json's certification.candidates holds them; kept 1 or 0; causes as "cause: count; ...";
         an empty cell for none), whether one was kept or not. Returns its path."""
-        import csv
-        import io
-
         if self.certification is None:
             raise ValueError("the plan was not certified (PlanOptions.certify)")
         buf = io.StringIO()
@@ -148,22 +152,18 @@ class ScenePlan:
         the fall lands it: robot.pipeline.modelled_aim)."""
         if not self.plan.solved:
             raise ValueError("the scene has no plan to execute")
-        from ..scene.options import Landing
-
         if self.scene.robot.landing is not Landing.PLANNED:  # placement aims it as robot.landing says
+            # the simulator (MuJoCo and the trials' modules): loaded when a landing is simulated
             from ..sim.plan_trials import placement
 
             return placement(self.scene, self.plan, jobs=jobs)[0]
-        from ..robot.pipeline import execute
-
         return execute(self.scene, self.plan)
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
         """Write the executed trajectory (every format robot.export writes, with the touch-off's
         program when the scene's robot makes one), the view's record and plan.json into out,
         atomically; returns their paths by kind."""
-        from ..robot.export import export_all
-        from ..robot.touch_off import touch_off
+        # the view's record reads the simulator's modules (sim.poses; scipy.special): loaded to export
         from ..view.record import write_view_record
 
         out = Path(out)
@@ -179,31 +179,30 @@ def plan_scene(scene: Scene, options: PlanOptions,
                progress: Callable[[CertifyProgress], None] | None = None) -> ScenePlan:
     """Plan the scene (or certify options.certify's candidates, progress reporting each step),
     measure the plan's tolerance, predict where its release lands the object (an object with a
-    thickness and an opening termination: mechanics.release) and, with options.cage, its weakest cage."""
+    thickness and an opening termination: planning.predicted_landing) and, with options.cage, its weakest cage."""
     options.validated(scene)
     certification = None
     if options.certify is None:
         result = plan_planar(scene, planner=options.planner, time=options.time, seed=options.seed,
                              iterations=options.iterations, objective=options.objective)
     else:
-        from ..sim.certify import certify
+        from ..sim.certify import certify  # the simulator (MuJoCo and the trials' modules): loaded to certify
 
         certification = certify(scene, options.certify, progress)
         if not certification.certified:
             return ScenePlan(scene, certification.candidates[0].plan, options, certification)
         result = certification.plan
     if result.solved and result.tolerance is None:
-        result = dataclasses.replace(result, tolerance=scene.tolerance(result).to_dict())
+        result = dataclasses.replace(result, tolerance=tolerance(scene, result).to_dict())
     if result.solved and result.predicted_landing is None and scene.object_thickness > 0.0:
-        from ..mechanics.release import ReleaseModelError, predict_landing
-
         try:
             result = dataclasses.replace(result, predicted_landing=predict_landing(scene, result).to_dict())
         except ReleaseModelError:  # a termination the model of the fall does not cover (rotate)
             pass
     cage = None
     if options.cage and result.solved:
-        from ..robustness import cage_profile
+        # scipy.ndimage and scipy.sparse: a second to import, loaded when a cage is asked for
+        from ..planning.cage_profile import cage_profile
 
         cage = cage_profile(scene, result).weakest(result)
     return ScenePlan(scene, result, options, certification, cage)
@@ -242,6 +241,3 @@ def kept_line(result: CertifyResult) -> str:
     return (f"kept candidate #{kept.index} ({kept.source.label()}): success {kept.successes}/{len(kept.results)}, "
             f"Wilson 95 % interval {100 * low:.1f}-{100 * high:.1f} % (the highest lower bound of the "
             f"{sum(c.simulated for c in result.candidates)} simulated)")
-
-
-__all__ = ["CERTIFY_COLUMNS", "PlanOptions", "ScenePlan", "certification_table", "kept_line", "plan_scene"]

@@ -58,6 +58,3 @@ def clear_plan_files(directory: str | os.PathLike[str]) -> list[Path]:
             path.unlink()
             removed.append(path)
     return removed
-
-
-__all__ = ["PLAN_FILES", "PLAN_FILE_PATTERNS", "clear_plan_files", "plan_made_for", "read_plan_for"]

@@ -18,26 +18,26 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..io import write_text_atomic
-from ..layout import Layout
-from ..perturbation import Perturbation, preset, trial_params
+from ..layout.model import Layout
+from ..scene.perturbation import Perturbation, preset, trial_params
 from ..planning import plan as plan_scene
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.margins import Objective
 from ..planning.result import Plan
-from ..plotting import draw_trials
+from ..plots.trials import draw_trials
 from ..robot.export import export_all
 from ..robot.touch_off import touch_off
 from ..robot.pipeline import Execution
 from ..scene import Scene
 from ..scene.options import Landing
-from ..sim.campaign import SimulationReport, default_jobs, simulate
+from ..sim.campaign import ENGINES, SimulationReport, default_jobs, engine_name, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
 from ..sim.tiling import TilingAttempt, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..sim.world import World
-from ..tiling import Tiling, TilingOptions
+from ..layout.tiler import Tiling, TilingOptions
 from ..view.record import write_view_record
 from .plan_files import read_plan_for
 from .tile import first_touch_off, layout_summary
@@ -78,6 +78,9 @@ class SimulateOptions:
     """Simulate a thumb as long as the finger (alpha 0), the motion unchanged (a control)."""
     force: bool = False
     """Execute a plan made for another scene (plan.json names its scene); False: refuse it (InputError)."""
+    engine: str = "mujoco"
+    """The physics engine the trials run in (sim.campaign.ENGINES): mujoco, or drake (the optional
+    extra [drake]; docs/model.md 11.19); ToolError (exit 1) when Drake is not installed."""
 
     @property
     def workers(self) -> int:
@@ -96,6 +99,7 @@ class SimulateOptions:
         self.perturbation()
         if self.force and self.plan is None:
             raise InputError("force", "applies only with plan (a plan.json to execute)")
+        self._check_engine(scene)
         if scene is None:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
@@ -111,6 +115,26 @@ class SimulateOptions:
         if self.start_psi_offset is not None:
             check_psi_offset(self.start_psi_offset)
         return self
+
+    def _check_engine(self, scene: Scene | None) -> None:
+        """The engine known, and Drake installed and asked for what its world builds (a scene, a
+        parallel gripper, a world that changes no contact setting of MuJoCo's own)."""
+        if self.engine not in ENGINES:
+            raise InputError("engine", f"must be one of {', '.join(ENGINES)}, got {self.engine!r}")
+        if self.engine != "drake":
+            return
+        if scene is None:
+            raise InputError("engine", "drake runs a single scene; a layout's pieces run in MuJoCo")
+        if self.world.cone != World().cone or self.world.stiffness != 1.0:
+            raise InputError("world", "cone and stiffness are MuJoCo's contact settings; Drake's contacts are its own "
+                             "(docs/model.md 11.19)")
+        from ..robot.pipeline import gripper_links
+
+        if gripper_links(scene) is not None:
+            raise InputError("engine", "drake builds the parallel gripper; a pincer runs in MuJoCo")
+        from ..sim.drake_world import require_drake
+
+        require_drake()
 
 
 @dataclass
@@ -144,7 +168,8 @@ class SceneSimulation:
         s = report.to_dict()
         errs, yaw, (low, high) = s["position_error_mm"], s["yaw_error_deg"], s["success_interval_95"]
         n = len(report.trials)
-        lines.append(f"{scene.name}: {n} trials in MuJoCo of the plan's {len(self.plan.primitives)} primitives "
+        lines.append(f"{scene.name}: {n} trials in {engine_name(report.engine)} of the plan's "
+                     f"{len(self.plan.primitives)} primitives "
                      f"({self.setup.drive.times[-1]:.2f} s from the first primitive to the end of the retreat); "
                      f"{errors_words(report.perturbation)}; seed {report.seed}"
                      + ("" if report.world.nominal else
@@ -178,12 +203,17 @@ class SceneSimulation:
         lines.append(f"the simulation ran at {report.real_time_factor():.1f} times real time per worker process "
                      f"({wall:.2f} s of computing per trial); the object sank at most {s['max_penetration_mm']:.3f} mm "
                      "into a digit or the table (the simulated contacts are slightly soft)")
+        tracking = [(t.palm_tracking_mm, t.palm_tracking_deg) for t in report.trials if hasattr(t, "palm_tracking_mm")]
+        if tracking:
+            lines.append(f"the palm's PD joints kept it within {max(m for m, _ in tracking) * 1000:.1f} um and "
+                         f"{max(d for _, d in tracking):.4f} deg of its commanded pose at every control tick")
         return "\n".join(lines)
 
     def write(self, out: str | os.PathLike[str]) -> dict[str, Path]:
         """Write plan.json, the exported trajectory, trials.csv, summary.json, trials.png,
         view_scene.json, trial_poses.json (trial 0 recorded) and model.xml (trial 0's world with
-        its keyframe 'start') into out, each atomically; returns their paths by name."""
+        its keyframe 'start') into out, each atomically; returns their paths by name. Trials run in
+        Drake write neither of the last two (both are MuJoCo's: its world, its trial 0 replayed)."""
         if self.report is None or self.execution is None or self.setup is None:
             raise ValueError("nothing was simulated: the scene has no plan")
         out = Path(out)
@@ -193,9 +223,13 @@ class SceneSimulation:
         trajectory = self.execution.trajectory
         files.update(export_all(trajectory, out, touch_off(self.scene, self.plan, trajectory)))
         first = trial_params(self.report.perturbation, self.report.seed, 1)[0]
-        write_text_atomic(files["model"], trial_mjcf(self.setup, first))
+        mujoco = self.report.engine == "mujoco"
+        if mujoco:
+            write_text_atomic(files["model"], trial_mjcf(self.setup, first))
+        else:
+            del files["model"]
         world = {f"world_{k}": v for k, v in self.report.world.to_dict().items()}
-        rows = [{**t.to_row(), **world} for t in self.report.trials]
+        rows = [{**t.to_row(), **world, "engine": self.report.engine} for t in self.report.trials]
         buf = io.StringIO()
         writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
         writer.writeheader()
@@ -204,8 +238,10 @@ class SceneSimulation:
         write_text_atomic(files["summary"], json.dumps(self.report.to_dict(), indent=1) + "\n")
         draw_trials(self.report, object_outline(self.scene), self.setup.target_pose, files["picture"])
         files["view"] = write_view_record(out, [(self.scene, self.plan)], self.execution, kind="simulation")
-        files["poses"] = write_trial_poses(out, record_trial(
-            self.setup, first, trial_start_time(self.execution.trajectory), 0, self.report.seed, self.report.trials[0]))
+        if mujoco:
+            files["poses"] = write_trial_poses(out, record_trial(
+                self.setup, first, trial_start_time(self.execution.trajectory), 0, self.report.seed,
+                self.report.trials[0]))
         return files
 
 
@@ -274,7 +310,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
     execution, setup = placement(scene, result, variant, options.workers, options.cluster)
     report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
-                      cluster=options.cluster, world=options.world)
+                      cluster=options.cluster, world=options.world, engine=options.engine)
     report.plan_problems = problems
     return SceneSimulation(scene, result, options, execution, replace(setup, world=options.world), report)
 
@@ -350,6 +386,3 @@ def simulate_layout(layout: Layout, options: SimulateOptions,
     attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.seed,
                                options.workers, progress, cluster=options.cluster)
     return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.short)
-
-
-__all__ = ["LayoutSimulation", "SceneSimulation", "SimulateOptions", "simulate_layout", "simulate_scene"]

@@ -15,14 +15,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..io import write_text_atomic
-from ..layout import Layout
+from ..layout.model import Layout
+from ..layout.tiler import Tiling, TilingOptions, TilingProgress
 from ..planning.setup import PlannerOptions
-from ..plotting import draw_layout, draw_plan
+from ..plots.cspace import draw_plan
+from ..plots.layout import draw_layout
 from ..robot.export import export_all
 from ..robot.pipeline import Execution
 from ..robot.touch_off import TouchOff, touch_off
 from ..sim.tiling import describe_short, tile_aimed
-from ..tiling import Tiling, TilingOptions, TilingProgress
 from ..view.record import write_view_record
 
 
@@ -108,6 +109,3 @@ def tile_layout(layout: Layout, options: TilingOptions,
     if aimed is None:
         return TiledLayout(layout, tiling)
     return TiledLayout(layout, tiling, aimed.execution, aimed.short)
-
-
-__all__ = ["TiledLayout", "check_tiling_options", "tile_layout"]

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import textwrap
 
 import matplotlib
 
@@ -13,9 +12,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-from .io import write_atomic  # noqa: E402
-from .planning.result import HoldableMap, Plan  # noqa: E402
-from .scene import Scene  # noqa: E402
+from ..geometry.collision import CollisionChecker  # noqa: E402
+from ..planning.atlas import SecurityAtlas, planning_box  # noqa: E402
+from ..planning.result import HoldableMap, Plan  # noqa: E402
+from ..scene import Scene  # noqa: E402
+from .common import legend_marks, save_png  # noqa: E402
 
 #: Labels of the C-space map's state classes (scene.StateClass values, in drawing order).
 REGION_CLASSES = ("free (force-closed)", "not force-closed", "in collision", "kinematically invalid")
@@ -27,30 +28,10 @@ AXIS_LABELS = ("theta: object-table angle at G (deg)", "d: A's distance from B (
               "psi: object-thumb angle at B (deg)")
 
 
-def legend_marks(*axes) -> dict:
-    """Each label of the axes' labelled marks once, with its first mark: label -> artist, for one
-    legend over several axes."""
-    marks: dict = {}
-    for ax in axes:
-        for handle, label in zip(*ax.get_legend_handles_labels()):
-            marks.setdefault(label, handle)
-    return marks
-
-
-#: The pictures' resolution (dots per inch).
-DPI = 110
-
-
-def _save(fig, path: str | os.PathLike[str]) -> None:
-    # zlib's fastest level: a third of the time of the default for a file about a third larger
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=DPI, pil_kwargs={"compress_level": 1}))
-    plt.close(fig)
-
-
 def draw_regions(scene: Scene, path: str | os.PathLike[str], d_values: int = 6, step_deg: float = 1.0,
                  plan: Plan | None = None) -> None:
     """Write regions_figure's picture to path (PNG)."""
-    _save(regions_figure(scene, d_values, step_deg, plan), path)
+    save_png(regions_figure(scene, d_values, step_deg, plan), path, fast=True)
 
 
 #: The class of a kinematically invalid state (scene.StateClass.KINEMATICS's value).
@@ -71,8 +52,6 @@ def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0, plan:
     plan, its path (thick where it is at the slice's d, dashed elsewhere). psi above the rows that
     differ in some slice is left out (the title says so). One legend names the classes' colours
     and the marks. Returns the matplotlib Figure."""
-    from .geometry.collision import CollisionChecker
-
     lo, hi = scene.bounds
     th = np.arange(lo[0], hi[0] + 1e-9, math.radians(step_deg))
     ps = np.arange(lo[2], hi[2] + 1e-9, math.radians(step_deg))
@@ -189,7 +168,7 @@ def _informative_psi(ps: np.ndarray, slices: list[np.ndarray], keep: list[float]
 
 def draw_plan(scene: Scene, plan: Plan, path: str | os.PathLike[str], max_points: int = 5000) -> None:
     """Write plan_figure's picture to path (PNG)."""
-    _save(plan_figure(scene, plan, max_points), path)
+    save_png(plan_figure(scene, plan, max_points), path, fast=True)
 
 
 def plan_figure(scene: Scene, plan: Plan, max_points: int = 5000):
@@ -264,8 +243,6 @@ def _cell_span(values: np.ndarray, unit: float) -> tuple[float, float]:
 
 def _holdable_map(scene: Scene) -> HoldableMap:
     """The planner's lattice for a plan that does not carry it (one read from plan.json)."""
-    from .planning.atlas import SecurityAtlas, planning_box
-
     return HoldableMap.of(SecurityAtlas(scene, planning_box(scene)))
 
 
@@ -285,144 +262,3 @@ def _wire_box(ax, lo: np.ndarray, hi: np.ndarray, label: str) -> None:
                 points += [p0, p1, np.full(3, np.nan)]  # NaN breaks the line between edges
     x, y, z = np.array(points).T
     ax.plot(x, y, z, color="r", lw=0.8, alpha=0.6, label=label)
-
-
-def draw_layout(layout, tiling, path: str | os.PathLike[str]) -> None:
-    """Write layout_figure's picture to path (PNG)."""
-    _save(layout_figure(layout, tiling), path)
-
-
-def layout_figure(layout, tiling):
-    """Top view of a layout after tiling (world x, y in mm): the frame's walls, every piece at its
-    target numbered in placement order, its G (dot) and B (square), the ungrasp direction G -> B
-    (the B end is the one put down last), and the thumb's width at B. A piece that could not be
-    placed is hatched red; pieces not reached are outlined only. One legend names every mark.
-    Returns the matplotlib Figure."""
-    from matplotlib.patches import Polygon as PolygonPatch
-
-    fig, ax = plt.subplots(figsize=(8, 8.4), constrained_layout=True)
-    for wall in layout.frame.walls():
-        ax.add_patch(PolygonPatch(wall.vertices[:4, :2] * 1000, closed=True, color="#969696", label="frame wall"))
-    placed = {p.index: p for p in tiling.placements}
-    cmap = plt.get_cmap("viridis")
-    n = len(layout.pieces)
-    for i, piece in enumerate(layout.pieces):
-        pts = layout.footprint(i) * 1000
-        centre = pts.mean(axis=0)
-        if i in placed:
-            p = placed[i]
-            ax.add_patch(PolygonPatch(pts, closed=True, facecolor=cmap(0.15 + 0.7 * (p.order - 1) / max(n - 1, 1)),
-                                      edgecolor="k", alpha=0.55, label="piece placed (number and shade: order)"))
-            frame = p.scene.plane.frame
-            g, b = frame[:2, 3] * 1000, (frame[:2, 3] + frame[:2, 0] * p.scene.object_length) * 1000
-            ax.annotate("", xy=b, xytext=g, arrowprops={"arrowstyle": "->", "color": "#d7301f", "lw": 1.6})
-            ax.plot(*g, "o", color="#08519c", ms=6, label="G (on the table)")
-            ax.plot(*b, "s", color="#d7301f", ms=6, label="B (thumb)")
-            half = p.scene.digits.width * p.scene.object_length / 2 * 1000
-            side = frame[:2, 1] * half
-            ax.plot(*np.array([b - side, b + side]).T, color="#d7301f", lw=3, alpha=0.6, label="the thumb's width at B")
-            ax.text(*centre, f"{p.order}\n{piece.name}", ha="center", va="center", fontsize=7)
-        else:
-            failed = piece.name == tiling.failed_piece
-            ax.add_patch(PolygonPatch(pts, closed=True, fill=False, edgecolor="#d7301f" if failed else "k",
-                                      hatch="///" if failed else None, lw=1.5 if failed else 0.8,
-                                      label="piece that cannot be placed" if failed else "piece not placed"))
-            ax.text(*centre, f"{piece.name}\n{'cannot be placed' if failed else 'not placed'}", ha="center",
-                    va="center", fontsize=7, color="#d7301f" if failed else "k")
-    marks = legend_marks(ax)
-    if placed:
-        marks["ungrasp direction G -> B (arrow)"] = plt.Line2D([], [], color="#d7301f", lw=1.6)
-    fig.legend(marks.values(), marks.keys(), loc="outside lower center", ncol=3, fontsize=8)
-    ax.set_aspect("equal")
-    ax.autoscale_view()
-    ax.set_xlabel("world x (mm)")
-    ax.set_ylabel("world y (mm)")
-    status = "all pieces placed" if tiling.solved else f"{tiling.failed_piece} cannot be placed"
-    fig.suptitle(f"{layout.name}: top view, {len(tiling.placements)} of {n} pieces ({status})")
-    return fig
-
-
-#: The errors a simulated trial draws (perturbation.TrialParams.to_dict keys) in words, with units.
-TRIAL_PARAM_LABELS = {
-    "shift_along_mm": "object shifted in the grasp along GB (mm)",
-    "shift_across_mm": "object shifted in the grasp across GB (mm)",
-    "yaw_deg": "object turned in the grasp (deg)",
-    "mass_scale": "object mass (x the scene's)",
-    "thickness_scale": "object thickness (x the scene's)",
-    **{f"friction_scale_{c}": f"friction at {c} (x the scene's)" for c in "GAB"},
-    **{f"palm_shift_{a}_mm": f"palm offset along palm {a}, calibration (mm)" for a in "xyz"},
-    **{f"palm_turn_{a}_deg": f"palm turn about palm {a}, calibration (deg)" for a in "xyz"},
-    "table_height_mm": "table top above the planned height (mm)",
-    "probe_noise_n": "touch-off force reading noise, one sd (N)",
-    "probe_seed": "touch-off force noise draws, their seed (index)",
-}
-
-
-def draw_trials(report, outline: np.ndarray, target: np.ndarray, path: str | os.PathLike[str]) -> None:
-    """Write trials_figure's picture to path (PNG)."""
-    _save(trials_figure(report, outline, target), path)
-
-
-def trials_figure(report, outline: np.ndarray, target: np.ndarray):
-    """Simulated trials: (top left, large) each trial's final object outline over the target
-    outline, top view in mm about the target's centroid, green for success and red for failure;
-    (small panels, in a grid) success against each perturbation the trials drew. report: a sim SimulationReport; outline: the
-    object's outline (N, 2) in its body frame (m); target: its body pose at the target (4x4).
-    Returns the matplotlib Figure."""
-    def placed(pose: np.ndarray) -> np.ndarray:
-        pts = np.column_stack([outline, np.zeros(len(outline))]) @ np.asarray(pose)[:3, :3].T + np.asarray(pose)[:3, 3]
-        return pts[:, :2]
-
-    outcome = {True: ("tab:green", "placed"), False: ("tab:red", "failed")}
-    want = placed(target)
-    centre = want.mean(axis=0)
-    keys = [k for k in report.trials[0].params if len({round(t.params[k], 9) for t in report.trials}) > 1]
-    fig, axes = _trial_axes(max(1, len(keys)))
-    ax = axes[0]
-    ax.fill(*((want - centre) * 1000).T, color="0.85", label="target outline")
-    for t in report.trials:
-        got = (placed(t.final_pose) - centre) * 1000
-        colour, word = outcome[bool(t.success)]
-        ax.plot(*np.vstack([got, got[:1]]).T, color=colour, lw=0.8, alpha=0.7, label=f"final outline, {word}")
-    ax.set_aspect("equal")
-    ax.set_xlabel("world x from the target's centre (mm)")
-    ax.set_ylabel("world y from the target's centre (mm)")
-    ax.set_title(f"{report.scene}: {report.successes}/{len(report.trials)} placed", fontsize=10)
-    if not keys:
-        axes[1].text(0.5, 0.5, f"perturbation '{report.perturbation.name}':\nno random error drawn",
-                     ha="center", va="center")
-        axes[1].set_axis_off()
-    for ax, key in zip(axes[1:], keys):
-        x = np.array([t.params[key] for t in report.trials])
-        y = np.array([1.0 if t.success else 0.0 for t in report.trials])
-        jitter = np.random.default_rng(0).uniform(-0.06, 0.06, len(y))
-        for success, (colour, word) in outcome.items():
-            sel = (y > 0) == success
-            if sel.any():
-                ax.scatter(x[sel], y[sel] + jitter[sel], color=colour, s=14, label=f"trial {word}")
-        ax.set_yticks([0, 1], ["failed", "placed"])
-        ax.set_ylim(-0.4, 1.4)
-        ax.set_xlabel(textwrap.fill(TRIAL_PARAM_LABELS.get(key, key.replace("_", " ")), 34), fontsize=8)
-        ax.tick_params(labelsize=7)
-        if key.endswith("_seed"):  # a seed names its draws: its size means nothing
-            ax.set_xticks([])
-    drawn = legend_marks(*axes)
-    fig.legend(drawn.values(), drawn.keys(), loc="outside lower center", ncol=5, fontsize=8)
-    return fig
-
-
-#: The size of one small panel of the trials' picture (inches): readable at the pictures' dpi.
-TRIAL_PANEL_INCHES = (2.8, 2.3)
-
-
-def _trial_axes(panels: int):
-    """A figure of a grid of small panels, the first axes (the outlines) over the top-left 2 x 2
-    cells and one axes per panel after it, row by row: ceil(sqrt(panels + 4)) columns (at least
-    3). Returns the figure and its axes."""
-    cols = max(3, math.ceil(math.sqrt(panels + 4)))
-    rows = max(2, math.ceil((panels + 4) / cols))
-    w, h = TRIAL_PANEL_INCHES
-    fig = plt.figure(figsize=(w * cols, h * rows + 0.7), layout="constrained")
-    grid = fig.add_gridspec(rows, cols)
-    free = [(r, c) for r in range(rows) for c in range(cols) if not (r < 2 and c < 2)]
-    return fig, [fig.add_subplot(grid[:2, :2])] + [fig.add_subplot(grid[r, c]) for r, c in free[:panels]]

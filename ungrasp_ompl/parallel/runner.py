@@ -35,6 +35,8 @@ from dataclasses import dataclass
 from multiprocessing.connection import wait
 from typing import Any, Generic, Protocol, TypeVar
 
+from ..errors import InputError, ToolError
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -237,10 +239,8 @@ class RayRunner:
 
 def _ray():
     try:
-        import ray
+        import ray  # ray: optional (the cluster extra), loaded for --cluster
     except ImportError:
-        from .errors import ToolError
-
         raise ToolError("--cluster needs Ray: pip install 'ungrasp-ompl[cluster]'") from None
     return ray
 
@@ -249,8 +249,6 @@ def _check_reachable(address: str, timeout_s: float = 3.0, probe_s: float = 30.0
     """InputError("cluster") unless a Ray cluster answers at the address: something must accept
     a connection on HOST:PORT within timeout_s, and a child process must connect to Ray there
     within probe_s (where Ray itself would retry for long, logging every attempt)."""
-    from .errors import InputError
-
     if address != "auto":
         host, sep, port = address.removeprefix("ray://").rpartition(":")
         if not sep or not host or not port.isdigit():
@@ -479,7 +477,3 @@ def _leave() -> None:
         except (OSError, ValueError, AttributeError):
             pass
     os._exit(0)
-
-
-__all__ = ["InlineRunner", "LocalRunner", "RayRunner", "Runner", "TaskLost", "TaskOutcome", "TaskStatus",
-           "UnsentError", "default_jobs", "open_runner", "resolve_jobs", "run_in_child"]

@@ -57,18 +57,19 @@ from typing import Callable, Iterator
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputError
-from .layout import Layout
-from .mechanics.antipodal import antipodal_pairs
-from .geometry.plane import curved, flush
-from .planning import plan as plan_scene
-from .geometry.collision import CollisionChecker
-from .mechanics import kinematic_validity
-from .planning.atlas import SecurityAtlas, lattice_axes, planning_box
-from .planning.lattice import optimum_cost
-from .planning.result import Plan, PlanOutcome, describe_outcome
-from .planning.setup import LATTICE, EndsProblem
-from .scene import Scene
+from ..errors import InputError
+from ..geometry.collision import CollisionChecker
+from ..geometry.plane import curved, flush
+from ..mechanics import kinematic_validity
+from ..mechanics.antipodal import antipodal_pairs
+from ..planning import plan as plan_scene
+from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
+from ..planning.lattice import optimum_cost
+from ..planning.plan_tolerance import tolerance
+from ..planning.result import Plan, PlanOutcome, describe_outcome
+from ..planning.setup import LATTICE, EndsProblem
+from ..scene import Scene
+from .model import Layout
 
 #: Room beyond B (and behind G) counted by the ranking, m: more is not better.
 ROOM_CAP = 0.02
@@ -602,7 +603,7 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
         if key in memo.plans:
             return memo.plans[key]
         p = plan_scene(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
-        found = p, scene.tolerance(p).scale if p.solved else None
+        found = p, tolerance(scene, p).scale if p.solved else None
         if planner == LATTICE or seed is not None:
             memo.plans[key] = found
         return found

@@ -1,4 +1,4 @@
-"""The picture of a plan's robustness: escape energy and friction margin along it (matplotlib)."""
+"""The picture of a plan's cage profile: escape energy and friction margin along it (matplotlib)."""
 
 from __future__ import annotations
 
@@ -12,11 +12,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from .io import write_atomic  # noqa: E402
-from .mechanics.cage import CageOutcome  # noqa: E402
-from .planning.result import Plan  # noqa: E402
-from .plotting import legend_marks  # noqa: E402
-from .robustness import CageProfile  # noqa: E402
+from ..mechanics.cage import CageOutcome  # noqa: E402
+from ..planning.cage_profile import CageProfile  # noqa: E402
+from ..planning.result import Plan  # noqa: E402
+from .common import legend_marks, save_png  # noqa: E402
 
 _COLOURS = {CageOutcome.NOT_CAGED: "#d62728", CageOutcome.CAGED: "#ff7f0e", CageOutcome.FULLY_CAGED: "#2ca02c"}
 
@@ -24,9 +23,7 @@ _COLOURS = {CageOutcome.NOT_CAGED: "#d62728", CageOutcome.CAGED: "#ff7f0e", Cage
 def draw_cage_profile(name: str, plan: Plan, profile: CageProfile, margins: NDArray[np.float64],
                       path: str | os.PathLike[str]) -> None:
     """Write cage_figure's picture to path (PNG)."""
-    fig = cage_figure(name, plan, profile, margins)
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-    plt.close(fig)
+    save_png(cage_figure(name, plan, profile, margins), path)
 
 
 def cage_figure(name: str, plan: Plan, profile: CageProfile, margins: NDArray[np.float64]):

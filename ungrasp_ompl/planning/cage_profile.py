@@ -1,5 +1,6 @@
-"""How robust a plan is along its way: the friction margin and the energy-bounded cage of the
-states it passes (docs/model.md, sections 4.4 and 4.5).
+"""The energy-bounded cage along a plan: the cage of the states it passes (docs/model.md, section
+4.5). Its friction margin along the way is planning.path_margin's; the tolerance of its states,
+planning.plan_tolerance's.
 
 A plan's primitives are sampled along their waypoints (each straight leg at least every
 ``resolution`` in theta, d and psi: rad, over l, rad), and every sample keeps the contact mode of
@@ -10,18 +11,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .mechanics.path import PROFILE_RESOLUTION, PlanSamples, plan_samples  # noqa: F401
-from .planning.path_margin import PathMargin, path_friction_margin, plan_friction_margins  # noqa: F401
-from .planning.result import Plan
-from .scene import Scene
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .mechanics.cage import Cage, CageGrid  # scipy: loaded when a cage is computed
+from ..mechanics.cage import Cage, CageGrid, CageOutcome
+from ..mechanics.path import PROFILE_RESOLUTION, PlanSamples, plan_samples
+from ..scene import Scene
+from .result import Plan
 
 
 @dataclass(frozen=True)
@@ -44,8 +41,6 @@ class CageProfile:
 
     def counts(self) -> dict[str, int]:
         """How many samples have each outcome."""
-        from .mechanics.cage import CageOutcome
-
         return {o.value: sum(c.outcome is o for c in self.cages) for o in CageOutcome}
 
     def weakest(self, plan: Plan) -> "CageMinimum":
@@ -78,8 +73,6 @@ class CageMinimum:
 
     def describe(self) -> str:
         """One line for a person (millijoules and degrees)."""
-        from .mechanics.cage import CageOutcome
-
         theta, d, psi = self.state
         energy = "infinite" if math.isinf(self.escape_energy) else f"{self.escape_energy * 1000:.4f} mJ"
         counts = ", ".join(f"{n} {CageOutcome(o).label}" for o, n in self.counts.items() if n)
@@ -101,6 +94,3 @@ def cage_profile(scene: Scene, plan: Plan, grid: CageGrid | None = None, squeeze
     samples = plan_samples(plan, resolution)
     return CageProfile(samples, scene.cage(samples.states, grid, squeeze))
 
-
-__all__ = ["CageMinimum", "CageProfile", "PROFILE_RESOLUTION", "PathMargin", "PlanSamples", "cage_profile",
-           "path_friction_margin", "plan_friction_margins", "plan_samples"]

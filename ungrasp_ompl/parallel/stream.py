@@ -19,8 +19,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from .errors import InputError
-from .io import write_text_atomic
+from ..errors import InputError
+from ..io import write_text_atomic
 
 
 class RowStream:
@@ -92,6 +92,3 @@ def _csv_text(rows: Sequence[Sequence[object]]) -> str:
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerows(rows)
     return buf.getvalue()
-
-
-__all__ = ["RowStream"]

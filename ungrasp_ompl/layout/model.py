@@ -35,12 +35,13 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError
-from .geometry.solids import Solid, box, polygons_overlap, prism
-from .geometry.spread import Spread, spread
-from .scene import Scene
-from .scene.loader import SceneReader, read_yaml
-from .scene.options import Object3D
+from ..errors import InputError
+from ..geometry.solids import Solid, box, polygons_overlap, prism
+from ..geometry.spread import Spread, spread
+from ..scene import Scene
+from ..scene.loader import SceneReader, read_yaml
+from ..scene.options import Object3D
+from ..shipped import resolve, shipped_names
 
 #: Scene sections a layout shares among its pieces.
 SHARED_SECTIONS = ("friction", "friction_angle_deg", "digits", "start", "goal", "bounds", "planning",
@@ -113,8 +114,6 @@ class Layout:
     def from_file(cls, path: str | os.PathLike[str]) -> "Layout":
         """Load and validate a layout file, or the shipped layout of that name ("tangram"); raises
         InputError naming the bad field."""
-        from .shipped import resolve, shipped_names
-
         path = resolve(path, "layout")
         data = read_yaml(path, "layout")
         return cls.from_dict(data, source=shipped_names(str(path)), default_name=path.stem)

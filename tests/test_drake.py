@@ -1,0 +1,201 @@
+"""The second physics engine, Drake (``simulate --engine drake``; the optional extra ``[drake]``):
+one world description built by both engines, the same drop and the same negative control in both.
+
+Without the extra every test here skips (the quick tier of a plain install).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from dataclasses import fields, is_dataclass, replace
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pydrake")
+
+from conftest import ROOT, SCENES  # noqa: E402
+from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.robot.model import load_ur5e  # noqa: E402
+from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec  # noqa: E402
+from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
+from ungrasp_ompl.sim import drake_world  # noqa: E402
+from ungrasp_ompl.sim.drake_trial import run_drake_trial, settle_object  # noqa: E402
+from ungrasp_ompl.sim.model import build_mjcf, model_ids  # noqa: E402
+from ungrasp_ompl.sim.spec import Friction, SimModelSpec, SimObject  # noqa: E402
+from ungrasp_ompl.sim.setup import gripper_geometry, object_outline  # noqa: E402
+from ungrasp_ompl.sim.world import World  # noqa: E402
+from ungrasp_ompl.sim.world_description import describe  # noqa: E402
+
+OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+
+
+def _spec(name: str) -> SimModelSpec:
+    """The simulated world of a shipped scene, as sim.setup.trial_setup builds it (no plan needed)."""
+    scene = Scene.from_file(SCENES / f"{name}.yaml")
+    robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base), pincer=gripper_links(scene))
+    mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
+    return SimModelSpec(obj=SimObject(object_outline(scene), scene.object_thickness, scene.sim.density),
+                        gripper=gripper_geometry(scene, robot), friction=Friction(mu_g, mu_a, mu_b, mu_g),
+                        timestep=scene.sim.timestep, grip_force=scene.sim.grip_force,
+                        servo_stiffness=2 * scene.sim.grip_force / scene.sim.squeeze)
+
+
+def _same(a, b) -> bool:
+    """Two descriptions equal field by field (arrays element by element)."""
+    if is_dataclass(a):
+        return type(a) is type(b) and all(_same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b))
+    return a == b
+
+
+def _flat_pose(spec: SimModelSpec, height: float) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, 3] = [0.45, 0.10, height]
+    return pose
+
+
+def _mujoco_drop(spec: SimModelSpec, pose: np.ndarray, duration: float) -> np.ndarray:
+    """The object of spec put at pose and left to gravity and the table in MuJoCo, the hand parked
+    a metre above: its pose at the end."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    data = mujoco.MjData(model)
+    ids = model_ids(model)
+    palm = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+    data.qpos[palm:palm + 7] = [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
+    data.mocap_pos[ids.palm_mocap] = [0.0, 0.0, 1.0]
+    obj = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
+    data.qpos[obj:obj + 3], data.qpos[obj + 3:obj + 7] = pose[:3, 3], quat
+    mujoco.mj_step(model, data, nstep=round(duration / model.opt.timestep))
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
+    return out
+
+
+def test_the_world_description_is_what_both_engines_build():
+    """Both builders read one description: the MJCF holds its masses, frictions, springs and the
+    dome; Drake's plant holds the same masses and, through its friction combination, each pair's
+    coefficient."""
+    import mujoco
+    import pydrake.all as drake
+
+    spec = _spec("guitar_pick")
+    world = describe(spec)
+    assert _same(world, describe(spec))
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    ids = model_ids(model)
+
+    def geom(name):
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+
+    def body(name):
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+
+    def joint(name):
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+
+    # frictions: MuJoCo's geom values are the pairs' (the object's own is 0)
+    assert model.geom_friction[ids.object_geom, 0] == 0.0
+    assert model.geom_friction[ids.table_geom, 0] == world.table_friction == spec.friction.table
+    for name, mu in (("thumb", spec.friction.thumb), ("finger", spec.friction.finger),
+                     ("finger_tip", spec.friction.finger)):
+        assert model.geom_friction[geom(name), 0] == mu
+    assert model.geom_size[geom("finger_tip"), 0] == pytest.approx(world.dome.shape.radius, rel=1e-9)
+    # the bends' springs and damping
+    for jaw in world.jaws:
+        j = joint(f"{jaw.name}_bend")
+        assert model.jnt_stiffness[j] == pytest.approx(jaw.digit.bend.stiffness, rel=1e-8)
+        assert model.dof_damping[model.jnt_dofadr[j]] == pytest.approx(jaw.digit.bend.damping, rel=1e-8)
+        assert tuple(model.jnt_range[joint(jaw.joint_name)]) == pytest.approx((jaw.lower, jaw.upper), abs=1e-12)
+
+    # Drake builds the same bodies: its masses are MuJoCo's
+    flat = np.zeros((1, 6))
+    dw = drake_world.build(world, drake.PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((6, 2))),
+                           drake.PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], flat[:, :2]), np.eye(3))
+    assert _same(dw.world, world)
+    ctx = dw.plant_context
+    for name in ("object", "thumb", "finger", "palm", "thumb_jaw", "finger_jaw"):
+        assert dw.bodies[name].get_mass(ctx) == pytest.approx(model.body_mass[body(name)], rel=1e-6), name
+    # and each pair's friction, through Drake's combination, is the scene's
+    inspector = dw.scene_graph.model_inspector()
+
+    def mu(kind):
+        gid = next(g for g, k in dw.geoms.items() if k == kind)
+        return inspector.GetProximityProperties(gid).GetProperty("material", "coulomb_friction")
+
+    for kind, pair in (("table", spec.friction.table), ("thumb", spec.friction.thumb), ("finger", spec.friction.finger),
+                       ("finger_tip", spec.friction.finger)):
+        combined = drake.CalcContactFrictionFromSurfaceProperties(mu("object"), mu(kind))
+        assert combined.dynamic_friction() == pytest.approx(pair, rel=1e-12), kind
+    dome = next(g for g, k in dw.geoms.items() if k == "finger_tip")
+    assert inspector.GetShape(dome).radius() == world.dome.shape.radius
+
+
+@pytest.mark.parametrize("mu", [0.05, 0.25, 0.35, 0.45, 0.7, 1.3])
+def test_a_geometrys_friction_combines_with_the_objects_to_the_pairs(mu):
+    """Drake's 2 a b / (a + b) of the object's coefficient and the one pair_friction gives is the pair's."""
+    from pydrake.multibody.plant import CalcContactFrictionFromSurfaceProperties, CoulombFriction
+
+    a, b = drake_world.OBJECT_FRICTION, drake_world.pair_friction(mu)
+    combined = CalcContactFrictionFromSurfaceProperties(CoulombFriction(a, a), CoulombFriction(b, b))
+    assert combined.dynamic_friction() == pytest.approx(mu, rel=1e-12)
+    assert drake_world.combined_friction(a, b) == pytest.approx(mu, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", OBJECTS)
+def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_engines(name):
+    """The positive control of the table's contact: flat, 1 mm above the table, let go; after 0.3 s
+    it lies on the table within 0.05 mm of below where it was dropped, flat, in MuJoCo and in Drake."""
+    spec = _spec(name)
+    pose = _flat_pose(spec, 0.001)
+    for engine, final in (("mujoco", _mujoco_drop(spec, pose, 0.3)), ("drake", settle_object(spec, pose, 0.3))):
+        moved = np.linalg.norm(final[:2, 3] - pose[:2, 3])
+        assert moved < 5e-5, f"{engine}: moved {moved * 1000:.4f} mm"
+        assert abs(final[2, 3]) < 5e-5, f"{engine}: rests {final[2, 3] * 1000:.4f} mm off the table's top"
+        assert math.degrees(math.acos(min(1.0, final[2, 2]))) < 0.05, engine
+
+
+@pytest.mark.slow
+def test_a_fifth_of_the_friction_fails_in_both_engines():
+    """The negative control: the puzzle piece's lattice plan, executed and aimed as simulate runs it,
+    no error drawn, in a world with a fifth of every friction coefficient, fails in MuJoCo and in
+    Drake: the grip is lost (both verdicts), or the piece is dragged along the table and put down
+    more than sim.max_error from its target (as tests/test_simulation.py's control allows)."""
+    from ungrasp_ompl.planning import plan
+    from ungrasp_ompl.sim.outcome import Outcome
+    from ungrasp_ompl.sim.plan_trials import placement
+    from ungrasp_ompl.sim.trial import run_trial
+
+    scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
+    _, setup = placement(scene, plan(scene, planner="lattice"))
+    setup = replace(setup, world=World(friction=0.2))
+    for trial in (run_trial(setup, TrialParams()), run_drake_trial(setup, TrialParams())):
+        assert not trial.success, trial.cause()
+        assert trial.outcome is Outcome.OFF_TARGET or not trial.placed, trial.cause()
+
+
+def test_engine_drake_without_the_extra_exits_1_naming_it(tmp_path):
+    """Without pydrake, simulate --engine drake says which extra installs it, in one line, exit 1,
+    before planning anything."""
+    args = ["simulate", "guitar_pick", "--engine", "drake", "--trials", "1", "--out", str(tmp_path / "o")]
+    code = ("import sys; sys.modules['pydrake'] = None\n"  # import pydrake raises ImportError
+            "from ungrasp_ompl.cli import run\n"
+            f"sys.exit(run({args!r}))\n")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "ungrasp-ompl[drake]" in lines[0], done.stderr
+    assert not (tmp_path / "o").exists()

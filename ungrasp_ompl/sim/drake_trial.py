@@ -1,0 +1,303 @@
+"""One simulated trial in Drake (``simulate --engine drake``; docs/model.md 11.19): the same trial
+as sim.trial.run_trial runs in MuJoCo, judged by the same rule (sim.trial.Judge).
+
+What is shared with MuJoCo's trial, computed once and not again here: the trial's world (its
+friction, mass, thickness, table height: sim.trial.trial_spec, and its bodies:
+sim.world_description), and its start (sim.trial._start: the calibration error applied to the
+commanded palm poses, the touch-off's probe and the shift it found, the object's perturbed start
+pose in the grasp, where the hand starts from, raised above a wall or piece). The touch-off's probe
+runs in MuJoCo's world of the trial (sim.probe): the arm's commands it moves are what Drake then
+executes. What is Drake's own: the bodies' dynamics, the contacts, the palm's and the servo's
+controllers (sim.drake_world), and the contacts the verdict reads.
+
+The sequence is MuJoCo's trial's: the settling (the hand brought down over its first half where it
+starts raised, the servo squeezing), every control period the palm's and the servo's commands of
+the drive (the palm moving at a constant speed between two periods' poses), the rest after the
+retreat, read off early once the world lies still during the retreat, or at a lost grip.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..scene.perturbation import TrialParams
+from .outcome import TrialResult
+from .trial import Judge, StillWindow, TrialSetup, _pose, _start, _Tick, moving
+from .world_description import describe
+
+
+#: SAP's time step (s); None: the scene's sim.timestep, MuJoCo's.
+DRAKE_TIME_STEP: float | None = None
+
+
+@dataclass
+class DrakeTrialResult(TrialResult):
+    """A trial's result in Drake: TrialResult's fields and how closely the palm's PD joints
+    tracked the commanded palm (MuJoCo's weld holds it within nanometres)."""
+
+    #: the largest distance (mm) of the palm from its commanded pose at a control tick of the drive
+    palm_tracking_mm: float = 0.0
+    #: the largest angle (deg) between the palm's orientation and the commanded one, the same
+    palm_tracking_deg: float = 0.0
+
+
+def _schedule(setup: TrialSetup, palm: NDArray, offset: NDArray, dt: float):
+    """The palm's commanded poses and the servo's commands against Drake's time (s, from the
+    settling's start), as MuJoCo's trial moves its palm target and sets its control: (palm
+    times (M,), palm poses (M, 4, 4), servo times (N,), servo commands (N,) m of opening, the
+    drive's tick times (K,), the settling's end)."""
+    drive = setup.drive
+    settle = max(1, round(setup.settle_time / dt))
+    period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
+    substeps = max(1, round(period / dt))
+    raised = palm[0].copy()
+    raised[:3, 3] += offset
+    t0 = settle * dt
+    if np.any(offset):  # the hand comes down to its first pose over the first half of the settling
+        times, poses = [0.0, (settle // 2) * dt, t0], [raised, palm[0], palm[0]]
+    else:
+        times, poses = [0.0, t0], [palm[0], palm[0]]
+    ticks = t0 + np.arange(len(drive.times)) * substeps * dt
+    times += list(ticks[1:])
+    poses += list(palm[1:])
+    end = ticks[-1] + setup.rest_time
+    times.append(end + 1.0)
+    poses.append(palm[-1])
+    command = np.clip(drive.opening - setup.squeeze, 0.0, setup.spec.gripper.max_opening)
+    # the servo's command over a tick is the tick's (MuJoCo's trial sets it as the tick begins)
+    servo_times = np.concatenate([[0.0], ticks[:-1], [end + 1.0]])
+    servo = np.concatenate([[command[0]], command[1:], [command[-1]]])
+    return np.array(times), np.array(poses), servo_times, servo, ticks, t0
+
+
+def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
+                    record: list | None = None, stop_at_failure: bool = True) -> DrakeTrialResult:
+    """Simulate one trial of a placement in Drake and judge it as sim.trial.run_trial judges
+    MuJoCo's (its arguments the same)."""
+    from .drake_world import build, palm_angles, require_drake
+
+    drake = require_drake()
+    wall = time.perf_counter()
+    probed: list = []
+    spec, model, data, ids, palm, offset = _start(setup, params, probed)  # MuJoCo's start, the probe's shift
+    start_pose = _pose(data, ids.object_body)
+    opening0 = float(data.qpos[model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]]) * 2
+    world = describe(spec)
+    dt = DRAKE_TIME_STEP if DRAKE_TIME_STEP else spec.timestep
+    times, poses, servo_times, servo, ticks, t0 = _schedule(setup, palm, offset, dt)
+    base = palm[0][:3, :3]
+    angles = np.unwrap(np.array([palm_angles(base, p[:3, :3]) for p in poses]), axis=0)
+    q = np.column_stack([poses[:, :3, 3], angles])
+    palm_trajectory = drake.PiecewisePolynomial.FirstOrderHold(times, q.T)
+    jaw_trajectory = drake.PiecewisePolynomial.ZeroOrderHold(servo_times, (servo / world.servo.gear)[None, :])
+    dw = build(world, palm_trajectory, jaw_trajectory, base, dt)
+    plant, ctx = dw.plant, dw.plant_context
+    simulator = dw.simulator
+
+    # the first state: MuJoCo's trial's
+    for joint, value in zip(dw.palm_joints, q[0]):
+        joint.set_translation(ctx, value) if hasattr(joint, "set_translation") else joint.set_angle(ctx, value)
+    dw.jaw_joints["thumb"].set_translation(ctx, -opening0 / 2)
+    dw.jaw_joints["finger"].set_translation(ctx, opening0 / 2)
+    obj = dw.bodies["object"]
+    plant.SetFreeBodyPose(ctx, obj, drake.RigidTransform(drake.RotationMatrix(start_pose[:3, :3]), start_pose[:3, 3]))
+    simulator.Initialize()
+    simulator.AdvanceTo(t0)
+    if record is not None:
+        record.append((0.0, _body_pose(plant, ctx, obj)))
+
+    drive = setup.drive
+    judge = Judge(setup)
+    still = StillWindow()
+    settled = False
+    watch = _DrakeWatch(dw)
+    track_m = track_rad = 0.0
+
+    def frame(name: str) -> tuple[NDArray, NDArray]:
+        pose = plant.EvalBodyPoseInWorld(ctx, dw.bodies[name])
+        return pose.rotation().matrix(), pose.translation()
+
+    def look() -> _Tick:
+        return watch.look(setup.b_point)
+
+    for k in range(1, len(drive.times)):
+        if judge.lost is not None and record is None and stop_at_failure:
+            break
+        simulator.AdvanceTo(ticks[k])
+        t = float(drive.times[k])
+        rot, origin = frame("palm")
+        track_m = max(track_m, float(np.linalg.norm(origin - palm[k][:3, 3])))
+        track_rad = max(track_rad, _angle(rot, palm[k][:3, :3]))
+        if record is not None:
+            record.append((t, _body_pose(plant, ctx, obj)))
+        if record is None and t >= judge.lifting:
+            v = plant.EvalBodySpatialVelocityInWorld(ctx, obj)
+            velocity = np.concatenate([v.translational(), v.rotational()])[None, :]
+            if still.note(t, moving(velocity), watch.digit_touches_object()):
+                settled = True
+                break
+        judge.tick(k, t, look, frame)
+    if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
+        simulator.AdvanceTo(simulator.get_context().get_time() + setup.rest_time)
+    final = _body_pose(plant, ctx, obj)
+    if record is not None:
+        record.append((float(drive.times[-1]) + setup.rest_time, final))
+    result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall, [],
+                          probed)
+    return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
+                            palm_tracking_deg=math.degrees(track_rad))
+
+
+def _angle(a: NDArray, b: NDArray) -> float:
+    """The angle (rad) of the turn between two orientations."""
+    return math.acos(max(-1.0, min(1.0, (float(np.trace(a.T @ b)) - 1.0) / 2.0)))
+
+
+def _body_pose(plant, ctx, body) -> NDArray[np.float64]:
+    return plant.EvalBodyPoseInWorld(ctx, body).GetAsMatrix4()
+
+
+class _DrakeWatch:
+    """The object's contacts at a control tick, from Drake's contact results, as the verdict reads
+    them (sim.trial._Tick; MuJoCo's trial reads its own with sim.trial._Watch): who touches the
+    object, with what normal force, where, and how deep; whether a digit touches the table."""
+
+    DIGITS = ("thumb", "finger", "finger_tip")
+
+    def __init__(self, dw):
+        self.dw = dw
+        self.plant, self.ctx = dw.plant, dw.plant_context
+        self.kind = dw.geoms
+        self.object_id = next(g for g, k in dw.geoms.items() if k == "object")
+        self.vertices = dw.world.object.geom.shape.vertices
+        self.table_height = dw.world.table_height
+        self._results = None
+        self._time = None
+
+    def _contacts(self):
+        """(kind of the other geometry, normal force N, points (n, 3) world, depth m or None) of
+        each contact of the object now, and the digits' contacts with the table (kind, force)."""
+        t = self.ctx.get_time()
+        if self._time == t:
+            return self._results
+        results = self.plant.get_contact_results_output_port().Eval(self.ctx)
+        mine, table = [], []
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            pair = info.point_pair()
+            a, b = self.kind.get(pair.id_A), self.kind.get(pair.id_B)
+            force = abs(float(info.contact_force() @ pair.nhat_BA_W))
+            if "object" in (a, b):
+                other = b if a == "object" else a
+                mine.append((other, force, np.asarray(info.contact_point())[None, :], float(pair.depth)))
+            elif "table" in (a, b) and (b if a == "table" else a) in self.DIGITS:
+                table.append(force)
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)
+            surface = info.contact_surface()
+            a, b = self.kind.get(surface.id_M()), self.kind.get(surface.id_N())
+            force = info.F_Ac_W().translational()
+            if "table" in (a, b):  # the table's normal is the world's z
+                force = abs(float(force[2]))
+                points = np.asarray(surface.centroid())[None, :]
+            else:  # the patch's area-weighted normal; its vertices are where it touches
+                mesh = surface.poly_mesh_W()
+                normal = sum(mesh.area(f) * mesh.face_normal(f) for f in range(mesh.num_faces()))
+                force = abs(float(force @ (normal / max(float(np.linalg.norm(normal)), 1e-300))))
+                points = np.array([mesh.vertex(v) for v in range(mesh.num_vertices())])
+            if "object" in (a, b):
+                other = b if a == "object" else a
+                mine.append((other, force, points, None))
+            elif "table" in (a, b) and (b if a == "table" else a) in self.DIGITS:
+                table.append(force)
+        self._time, self._results = t, (mine, table)
+        return mine, table
+
+    def digit_touches_object(self) -> bool:
+        return any(kind in self.DIGITS for kind, *_ in self._contacts()[0])
+
+    def _depth(self, kind: str, depth: float | None) -> float:
+        """How deep the object reaches into the other geometry (m): a point contact's depth; into
+        the table, its lowest vertex's; into a digit's face, their signed distance."""
+        if depth is not None:
+            return depth
+        if kind == "table":
+            pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["object"]).GetAsMatrix4()
+            low = float(np.min(self.vertices @ pose[:3, :3].T[:, 2] + pose[2, 3]))
+            return max(0.0, self.table_height - low)
+        query = self.dw.scene_graph.get_query_output_port().Eval(self.dw.scene_graph.GetMyContextFromRoot(
+            self.dw.simulator.get_context()))
+        gid = next(g for g, k in self.kind.items() if k == kind)
+        return max(0.0, -query.ComputeSignedDistancePairClosestPoints(self.object_id, gid).distance)
+
+    def look(self, b_point: NDArray) -> _Tick:
+        tick = _Tick()
+        mine, table = self._contacts()
+        if table:
+            tick.digit_on_table = True
+            tick.table_push = max(table)
+        if not mine:
+            return tick
+        tick.touched = True
+        pressing_a, pressing_b = [], []
+        for kind, force, points, depth in mine:
+            if kind == "solid":
+                tick.solid = True
+            if kind not in ("table", "thumb", "finger", "finger_tip"):
+                continue
+            tick.sinking = max(tick.sinking, self._depth(kind, depth))
+            if kind == "table":
+                continue
+            if kind == "thumb":
+                tick.b = True
+                if force > 0:
+                    pressing_b.append(points)
+                continue
+            tick.a = True
+            if kind == "finger_tip":
+                tick.on_dome += force
+            else:
+                tick.off_dome += force
+            if force > 0:
+                pressing_a.append(points)
+        if pressing_a and pressing_b:
+            finger = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["finger"])
+            axis, origin = finger.rotation().matrix()[:, 2], finger.translation()
+            points = np.vstack(pressing_a)
+            tick.a_point = points[int(np.argmax((points - origin) @ axis))].copy()
+            tick.b_points = np.vstack(pressing_b)
+            pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["object"])
+            tick.b_end = pose.rotation().matrix() @ b_point + pose.translation()
+        return tick
+
+
+def settle_object(spec, pose: NDArray, duration: float, time_step: float | None = None,
+                  record: list | None = None) -> NDArray[np.float64]:
+    """The object of spec put at pose (4x4) and left to gravity and the table for duration (s) in
+    Drake, the hand parked a metre above, still: its pose at the end (4x4). record: when a list is
+    given, (time s, pose) every control period (2 ms). The drop test of tests/test_drake.py."""
+    from .drake_world import build, require_drake
+
+    drake = require_drake()
+    world = describe(spec)
+    dt = time_step or DRAKE_TIME_STEP or spec.timestep
+    park = np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]).T
+    dw = build(world, drake.PiecewisePolynomial.FirstOrderHold([0.0, duration + 1.0], park),
+               drake.PiecewisePolynomial.ZeroOrderHold([0.0, duration + 1.0], np.zeros((1, 2))), np.eye(3), dt)
+    plant, ctx = dw.plant, dw.plant_context
+    dw.palm_joints[2].set_translation(ctx, 1.0)
+    obj = dw.bodies["object"]
+    plant.SetFreeBodyPose(ctx, obj, drake.RigidTransform(drake.RotationMatrix(pose[:3, :3]), pose[:3, 3]))
+    dw.simulator.Initialize()
+    if record is None:
+        dw.simulator.AdvanceTo(duration)
+    else:
+        for t in np.arange(1, int(round(duration / 0.002)) + 1) * 0.002:
+            dw.simulator.AdvanceTo(float(t))
+            record.append((float(t), _body_pose(plant, ctx, obj)))
+    return _body_pose(plant, ctx, obj)

@@ -1,0 +1,311 @@
+"""A trial's world in Drake (pydrake, the optional extra ``[drake]``): the world description
+(sim.world_description) built as a MultibodyPlant, solved by SAP at the scene's step (0.1 ms), with
+each contact pair's model chosen by what it is (docs/model.md 11.19).
+
+* The object is a free body: the convex prism of the description, its mass from the density.
+  Against the table it makes hydroelastic contact (a rigid hydroelastic prism on a compliant
+  table), which spreads the force over the patch where the two lie on each other; a point contact
+  there carries a resting object on one point that jumps from corner to corner.
+* The digits (the thumb, the finger, a rounded finger's dome) make point contact with the object:
+  they carry no hydroelastic representation, and Drake falls back to point contact for their
+  pairs. A 1 mm dome pressed by a few newtons into a thin prism needs the contact's stiffness from
+  Hertz (POINT_STIFFNESS), not from a pressure field across the prism's half-thickness, which it
+  sinks through; compliant hydroelastic faces (PLA, a pressure field fanned from the digit's
+  centroid) threw the pick out of the pinch in the settling, the thumb's force jumping from 1.3 N
+  to 16 N within a millisecond as the object's edge crossed between the field's tetrahedra.
+* The palm rides on six joints from the world (three slides along the world's axes, three
+  hinges about axes fixed in the palm's first orientation), each driven by a stiff PD controller
+  that SAP applies implicitly (an arm that goes where it is told, the weld of MuJoCo's model),
+  toward the drive's poses and velocities (a TrajectorySource), so that the digits carry the
+  velocity the contacts' friction sees.
+* The jaws slide on the palm, coupled (a coupler constraint, the thumb's slide minus the
+  finger's), and one PD servo with an effort limit on the finger's slide drives the opening: the
+  description's servo (its stiffness and damping on the opening, its force limit the grip force).
+* Each digit hangs on its jaw by a hinge with the description's torsion spring and damping.
+
+Friction: Drake combines a pair's two coefficients as 2 mu1 mu2 / (mu1 + mu2) (for point and
+hydroelastic contact alike), where MuJoCo takes the larger. The object's geometry gets
+OBJECT_FRICTION and every other geometry the coefficient that makes the combination its pair's
+coefficient with the object (pair_friction): mu OBJECT_FRICTION / (2 OBJECT_FRICTION - mu). SAP uses
+the dynamic coefficient; the static one is set equal. A digit on the table (a failure whatever its
+friction) then has 2 a b / (a + b) of the two geometries' values, not MuJoCo's larger coefficient.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ToolError
+from .world_description import Box, Geom, Mesh, Sphere, WorldDescription
+
+#: The coefficient the object's own geometry carries (any value above half the largest pair's
+#: coefficient serves: every other geometry's is solved from it, pair_friction).
+OBJECT_FRICTION = 1.0
+#: Point contact (the finger's dome on the object; a digit on the table): the pair's stiffness
+#: (N/m), the Hertz secant stiffness of a 1 mm PLA dome on celluloid at 5 N (docs/model.md 11.2:
+#: 5 N over its 0.02 mm indentation). Drake puts two geometries' stiffnesses in series, so each
+#: geometry carries twice it.
+POINT_STIFFNESS = 2.5e5
+#: SAP's dissipation time scale (s, its "relaxation_time", set on each geometry; Drake combines a pair's)
+#: of the digits' point contacts: a gram-heavy object on POINT_STIFFNESS is critically damped at
+#: 2 sqrt(m / k), 0.1 ms for the 0.8 g pick (stiff plastics hardly bounce).
+RELAXATION_TIME = 1e-4
+#: The table's and the object's own (s): the object lying flat on the table (1e8 N/m of the pick's
+#: face on TABLE_MODULUS / TABLE_SLAB) is critically damped at some 4 us; 1e-5 s each. At 1e-4 s
+#: each, a pick dropped flat from a millimetre is thrown 0.2-0.3 mm along the table as it lands.
+TABLE_RELAXATION_TIME = 1e-5
+OBJECT_RELAXATION_TIME = 1e-5
+#: The table's compliant layer (hydroelastic modulus, Pa, and the depth to its rigid core, m): a
+#: laminate top's modulus, 3e11 Pa/m between them, the stiffest SAP keeps a flat object still on at
+#: 0.1 ms (at 1e12 Pa/m a pick dropped flat from a millimetre is thrown 2 mm along the table, at
+#: 1.4e13 Pa/m off it). Under the pinch the object's lower edge sinks 0.08 mm into it.
+TABLE_MODULUS = 3.0e9
+TABLE_SLAB = 0.01
+#: The housing's hydroelastic modulus (Pa), a stiff plastic's: it touches only in a failure.
+HOUSING_MODULUS = 3.0e9
+#: SAP's near-rigid threshold (its default).
+NEAR_RIGID = 1.0
+#: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes and half
+#: spaces, which are all there are here.
+RESOLUTION = 0.001
+#: The palm's PD joints: natural frequency (rad/s) and damping ratio, those of MuJoCo's weld
+#: (sim.spec.PALM_SOLREF: a 0.2 ms time constant, critically damped), on the whole hand's mass
+#: and (turns) on HAND_TURN_INERTIA.
+PALM_FREQUENCY = 5000.0
+PALM_DAMPING_RATIO = 1.0
+#: The hand's rotational inertia about the palm (kg m^2) that the palm's turning joints' gains are
+#: sized for: the housing, the jaws and the digits reach some 0.1 m from the palm's origin.
+HAND_TURN_INERTIA = 0.6 * 0.1 ** 2
+
+
+def pair_friction(mu: float) -> float:
+    """The coefficient a geometry carries so that Drake's combination with the object's
+    OBJECT_FRICTION, 2 a b / (a + b), gives the pair's mu."""
+    return mu * OBJECT_FRICTION / (2.0 * OBJECT_FRICTION - mu)
+
+
+def combined_friction(a: float, b: float) -> float:
+    """Drake's friction of a pair whose geometries carry a and b."""
+    return 2.0 * a * b / (a + b) if a + b > 0 else 0.0
+
+
+def require_drake():
+    """pydrake, or ToolError (exit 1, one line) naming the extra that installs it."""
+    try:
+        import pydrake  # noqa: F401
+    except ImportError:
+        raise ToolError("--engine drake needs Drake: pip install 'ungrasp-ompl[drake]' (the drake wheel)") from None
+    import pydrake.all as drake
+
+    return drake
+
+
+def palm_angles(base: NDArray, rot: NDArray) -> NDArray[np.float64]:
+    """The palm's three hinge angles (rad) that turn it from base (3, 3: the palm's first
+    orientation) to rot: base^T rot = Ry(a) Rx(b) Rz(c), (a, b, c); singular only at b = 90 deg,
+    a turn about the palm's x the plans never make."""
+    m = base.T @ rot
+    b = math.asin(max(-1.0, min(1.0, -m[1, 2])))
+    return np.array([math.atan2(m[0, 2], m[2, 2]), b, math.atan2(m[1, 0], m[1, 1])])
+
+
+def palm_rotation(base: NDArray, angles: NDArray) -> NDArray[np.float64]:
+    """The palm's orientation (3, 3) at hinge angles (a, b, c) from base (palm_angles' inverse)."""
+    a, b, c = angles
+    ry = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(b), -math.sin(b)], [0.0, math.sin(b), math.cos(b)]])
+    rz = np.array([[math.cos(c), -math.sin(c), 0.0], [math.sin(c), math.cos(c), 0.0], [0.0, 0.0, 1.0]])
+    return base @ ry @ rx @ rz
+
+
+@dataclass
+class DrakeWorld:
+    """A built world: the diagram, its plant and context, the bodies and geometries a trial reads."""
+
+    world: WorldDescription
+    diagram: object
+    plant: object
+    scene_graph: object
+    simulator: object
+    palm_base: NDArray[np.float64]  #: the palm's first orientation (3, 3), the hinges' reference
+    palm_source: object  #: the palm's desired state (TrajectorySource)
+    jaw_source: object  #: the servo's desired state (TrajectorySource)
+    bodies: dict[str, object] = field(default_factory=dict)  #: object, palm, thumb, finger, thumb_jaw, finger_jaw
+    palm_joints: list = field(default_factory=list)
+    jaw_joints: dict[str, object] = field(default_factory=dict)  #: thumb, finger
+    #: GeometryId -> object, table, thumb, finger, finger_tip, palm, solid
+    geoms: dict[object, str] = field(default_factory=dict)
+
+    @property
+    def context(self):
+        return self.simulator.get_context()
+
+    @property
+    def plant_context(self):
+        return self.plant.GetMyContextFromRoot(self.simulator.get_context())
+
+
+def _properties(drake, geom: Geom, friction: float, hydro: str | None, modulus: float = 0.0,
+                relaxation: float | None = None):
+    props = drake.ProximityProperties()
+    drake.AddContactMaterial(None, 2 * POINT_STIFFNESS, drake.CoulombFriction(friction, friction), props)
+    props.AddProperty("material", "relaxation_time", RELAXATION_TIME if relaxation is None else relaxation)
+    if hydro == "rigid":
+        drake.AddRigidHydroelasticProperties(RESOLUTION, props)
+    elif hydro == "compliant":
+        drake.AddCompliantHydroelasticProperties(RESOLUTION, modulus, props)
+    return props
+
+
+def _shape(drake, geom: Geom):
+    """Drake's shape of a description geometry and its pose in the body's frame."""
+    s = geom.shape
+    if isinstance(s, Mesh):
+        return drake.Convex(np.ascontiguousarray(s.vertices.T), geom.name), drake.RigidTransform(s.centre)
+    if isinstance(s, Sphere):
+        return drake.Sphere(s.radius), drake.RigidTransform(s.centre)
+    if isinstance(s, Box):
+        return drake.Box(*(2 * s.half)), drake.RigidTransform(s.centre)
+    raise TypeError(f"no Drake shape for {s!r}")
+
+
+def _inertia(drake, geoms: tuple[Geom, ...]):
+    """The spatial inertia (about the body's origin) of a body's geometries, each of its density
+    (or its mass)."""
+    total = None
+    for geom in geoms:
+        shape, pose = _shape(drake, geom)
+        if geom.density is not None:
+            m = drake.CalcSpatialInertia(shape, geom.density)
+        else:
+            unit = drake.CalcSpatialInertia(shape, 1.0)
+            m = drake.SpatialInertia(geom.mass, unit.get_com(), unit.get_unit_inertia())
+        m = m.Shift(-pose.translation())
+        if total is None:
+            total = m
+        else:
+            total += m
+    return total
+
+
+def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: NDArray,
+          time_step: float | None = None) -> DrakeWorld:
+    """The world in Drake: palm_trajectory (a PiecewisePolynomial of the palm's six joint
+    coordinates, three positions then palm_angles) and jaw_trajectory (the finger's slide, m) are
+    what the PD controllers track; palm_base the palm's first orientation."""
+    drake = require_drake()
+    if world.thumb.joint != "slide":
+        raise ToolError("the Drake world builds the parallel gripper only (a pincer's hinged jaws are MuJoCo's)")
+    dt = world.spec.timestep if time_step is None else time_step
+    builder = drake.DiagramBuilder()
+    plant, scene_graph = drake.AddMultibodyPlant(drake.MultibodyPlantConfig(
+        time_step=dt, discrete_contact_approximation="sap", contact_model="hydroelastic_with_fallback",
+        sap_near_rigid_threshold=NEAR_RIGID), builder)
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -9.81])
+    geoms: dict = {}
+    X = drake.RigidTransform
+
+    # the table: a compliant half space at its height
+    table = drake.ProximityProperties()
+    mu_table = pair_friction(world.table_friction)
+    drake.AddContactMaterial(None, 2 * POINT_STIFFNESS, drake.CoulombFriction(mu_table, mu_table), table)
+    table.AddProperty("material", "relaxation_time", TABLE_RELAXATION_TIME)
+    drake.AddCompliantHydroelasticPropertiesForHalfSpace(TABLE_SLAB, TABLE_MODULUS, table)
+    gid = plant.RegisterCollisionGeometry(plant.world_body(), X([0.0, 0.0, world.table_height]), drake.HalfSpace(),
+                                          "table", table)
+    geoms[gid] = "table"
+    for solid in world.solids:  # fixed convex bodies: point contact
+        shape, pose = _shape(drake, solid)
+        gid = plant.RegisterCollisionGeometry(plant.world_body(), pose, shape, solid.name,
+                                              _properties(drake, solid, pair_friction(solid.friction), None))
+        geoms[gid] = "solid"
+
+    # the palm on six PD-driven joints
+    hand = plant.AddModelInstance("hand")
+    previous, joints = plant.world_body(), []
+    for k, name in enumerate(("palm_x", "palm_y", "palm_z", "palm_a", "palm_b")):
+        link = plant.AddRigidBody(name + "_link", hand, drake.SpatialInertia.Zero())
+        if k < 3:
+            joint = drake.PrismaticJoint(name, previous.body_frame(), link.body_frame(), np.eye(3)[k])
+        else:
+            parent = previous.body_frame() if k > 3 else plant.AddFrame(drake.FixedOffsetFrame(
+                "palm_base", previous.body_frame(), X(drake.RotationMatrix(palm_base), np.zeros(3))))
+            joint = drake.RevoluteJoint(name, parent, link.body_frame(), [0.0, 1.0, 0.0] if k == 3 else [1.0, 0.0, 0.0])
+        joints.append(plant.AddJoint(joint))
+        previous = link
+    palm = plant.AddRigidBody("palm", hand, _inertia(drake, (world.palm,)))
+    joints.append(plant.AddJoint(drake.RevoluteJoint("palm_c", previous.body_frame(), palm.body_frame(),
+                                                     [0.0, 0.0, 1.0])))
+    shape, pose = _shape(drake, world.palm)
+    # the housing carries no friction, as in MuJoCo's model (its geom's default, 0)
+    gid = plant.RegisterCollisionGeometry(palm, pose, shape, "palm", _properties(drake, world.palm, 0.0, "compliant",
+                                                                                  HOUSING_MODULUS))
+    geoms[gid] = "palm"
+
+    # the jaws, the digits on their bends
+    gripper = plant.AddModelInstance("gripper")
+    bodies = {"palm": palm}
+    jaw_joints = {}
+    for jaw in world.jaws:
+        carriage = plant.AddRigidBody(jaw.name + "_jaw", gripper, drake.SpatialInertia.MakeFromCentralInertia(
+            jaw.mass, np.zeros(3), drake.RotationalInertia(*jaw.inertia)))
+        jaw_joints[jaw.name] = plant.AddJoint(drake.PrismaticJoint(
+            jaw.joint_name, palm.body_frame(), carriage.body_frame(), jaw.axis, jaw.lower, jaw.upper))
+        digit = jaw.digit
+        body = plant.AddRigidBody(digit.name, gripper, _inertia(drake, digit.geoms))
+        w, x, y, z = digit.quat
+        bend = plant.AddJoint(drake.RevoluteJoint(
+            f"{digit.name}_bend", plant.AddFrame(drake.FixedOffsetFrame(
+                f"{digit.name}_base", carriage.body_frame(),
+                X(drake.RotationMatrix(drake.Quaternion(w, x, y, z)), digit.position))),
+            body.body_frame(), [0.0, 1.0, 0.0], digit.bend.damping))
+        plant.AddForceElement(drake.RevoluteSpring(bend, 0.0, digit.bend.stiffness))
+        for geom in digit.geoms:
+            shape, pose = _shape(drake, geom)
+            gid = plant.RegisterCollisionGeometry(body, pose, shape, geom.name, _properties(
+                drake, geom, pair_friction(geom.friction), None))
+            geoms[gid] = geom.name
+        bodies[jaw.name + "_jaw"], bodies[digit.name] = carriage, body
+    plant.AddCouplerConstraint(jaw_joints["thumb"], jaw_joints["finger"], -1.0, 0.0)
+
+    # the object
+    objects = plant.AddModelInstance("object")
+    obj = plant.AddRigidBody("object", objects, _inertia(drake, (world.object.geom,)))
+    shape, pose = _shape(drake, world.object.geom)
+    gid = plant.RegisterCollisionGeometry(obj, pose, shape, "object", _properties(
+        drake, world.object.geom, OBJECT_FRICTION, "rigid", relaxation=OBJECT_RELAXATION_TIME))
+    geoms[gid] = "object"
+    bodies["object"] = obj
+    if world.placed:
+        raise ToolError("the Drake world has no objects already down (a layout's pieces are MuJoCo's)")
+
+    # actuators: the palm's six joints and the servo, each a PD controller SAP applies implicitly
+    hand_mass = world.palm.mass + sum(j.mass for j in world.jaws) + 0.05
+    for k, joint in enumerate(joints):
+        inertia = hand_mass if k < 3 else HAND_TURN_INERTIA
+        kp = inertia * PALM_FREQUENCY ** 2
+        actuator = plant.AddJointActuator(joint.name(), joint, math.inf)
+        kd = 2 * PALM_DAMPING_RATIO * inertia * PALM_FREQUENCY
+        actuator.set_controller_gains(drake.PdControllerGains(p=kp, d=kd))
+    servo = world.servo
+    actuator = plant.AddJointActuator("opening", jaw_joints["finger"], servo.gear * servo.force_limit)
+    actuator.set_controller_gains(drake.PdControllerGains(p=servo.gear ** 2 * servo.stiffness,
+                                                          d=servo.gear ** 2 * servo.damping))
+    # the hand does not touch itself (MuJoCo's model excludes the same pairs)
+    hand_set = plant.CollectRegisteredGeometries([palm, bodies["thumb"], bodies["finger"], bodies["thumb_jaw"],
+                                                  bodies["finger_jaw"]])
+    plant.Finalize()
+    scene_graph.collision_filter_manager().Apply(drake.CollisionFilterDeclaration().ExcludeWithin(hand_set))
+
+    palm_source = builder.AddSystem(drake.TrajectorySource(palm_trajectory, 1))
+    builder.Connect(palm_source.get_output_port(), plant.get_desired_state_input_port(hand))
+    jaw_source = builder.AddSystem(drake.TrajectorySource(jaw_trajectory, 1))
+    builder.Connect(jaw_source.get_output_port(), plant.get_desired_state_input_port(gripper))
+    diagram = builder.Build()
+    simulator = drake.Simulator(diagram)
+    return DrakeWorld(world, diagram, plant, scene_graph, simulator, np.asarray(palm_base, dtype=float), palm_source,
+                      jaw_source, bodies, joints, jaw_joints, geoms)
