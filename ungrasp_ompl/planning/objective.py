@@ -14,6 +14,14 @@ from .atlas import D, PSI, THETA, SecurityAtlas
 from .margins import LatticeMargins, Objective
 
 
+
+def lattice_ends(atlas: SecurityAtlas, s1, s2):
+    """The lattice indices of a motion's two states (OMPL states: theta rad, d over l, psi rad), or
+    None when either lies off the lattice."""
+    a = atlas.index((s1[0], s1[1], s1[2]))
+    b = atlas.index((s2[0], s2[1], s2[2]))
+    return None if a is None or b is None else (a, b)
+
 class PrimitiveCostObjective(ob.OptimizationObjective):
     """Weighted L1 length (degrees of theta and psi + d_weight * d) plus a penalty per primitive leg.
 
@@ -43,11 +51,10 @@ class PrimitiveCostObjective(ob.OptimizationObjective):
         return self.identityCost()
 
     def motionCost(self, s1, s2) -> ob.Cost:
-        index = self.atlas.index
-        a = index((s1[0], s1[1], s1[2]))
-        b = index((s2[0], s2[1], s2[2]))
-        if a is None or b is None:
+        ends = lattice_ends(self.atlas, s1, s2)
+        if ends is None:
             return self.infiniteCost()
+        a, b = ends
         step = (b[THETA] - a[THETA], b[D] - a[D], b[PSI] - a[PSI])
         if not self.atlas.allowed(step):
             return self.infiniteCost()
@@ -172,11 +179,10 @@ class MaximinObjective(ob.OptimizationObjective):
         return self.identityCost()
 
     def motionCost(self, s1, s2) -> ob.Cost:
-        index = self.atlas.index
-        a = index((s1[0], s1[1], s1[2]))
-        b = index((s2[0], s2[1], s2[2]))
-        if a is None or b is None:
+        ends = lattice_ends(self.atlas, s1, s2)
+        if ends is None:
             return self.infiniteCost()
+        a, b = ends
         margin, penalty = self.margins.motion_value(a, b)
         if not math.isfinite(penalty):
             return self.infiniteCost()
