@@ -3,6 +3,7 @@ the one-line errors run in a new process, as a user runs them; the rest through 
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import re
@@ -229,7 +230,12 @@ def test_bench_and_sweep_commands(tmp_path):
     proc = run_cli("bench", str(SCENES / "reference_asymmetric.yaml"), "--planners", "RRTConnect,lattice",
                    "--runs", "1", "--time", "0.3", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
-    assert "gap %" in proc.stdout and (out / "benchmark.db").is_file() and (out / "summary.csv").is_file()
+    assert (out / "benchmark.db").is_file() and (out / "summary.csv").is_file()
+    with open(out / "summary.csv", newline="") as f:
+        rows = {r["planner"]: r for r in csv.DictReader(f)}
+    assert float(rows["lattice"]["gap_to_optimum_percent"]) == 0.0  # the yardstick is its own optimum
+    table = [line for line in proc.stdout.splitlines() if not line.startswith("wrote ")]
+    assert max(map(len, table)) <= 100  # the printed table and its notes fit 100 columns
     proc = run_cli("sweep", str(SCENES / "reference_asymmetric.yaml"), "--alpha", "0:0.47:0.47", "--runs", "1",
                    "--time", "0.3", "--out", str(tmp_path / "s"))
     assert proc.returncode == 0, proc.stderr

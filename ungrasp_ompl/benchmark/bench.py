@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import re
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -30,7 +31,7 @@ from .database import logs_to_database
 from .ompl_log import Experiment, cost_units
 from .options import BenchmarkOptions
 from .statistics import SUMMARY_COLUMNS, SummaryRow, limitation_notes, summarise
-from .table import format_table, write_csv
+from .table import TABLE_WIDTH, format_table, write_csv
 from .tasks import RUN_COLUMNS, RUN_KEY_COLUMNS, Progress, RunResult, Task, lattice_yardstick, run_tasks, task_key
 
 
@@ -54,14 +55,17 @@ class BenchmarkResult:
     @property
     def table(self) -> str:
         """The summary as a text table, with what its columns mean and the planners' known limitations."""
-        text = format_table(SUMMARY_COLUMNS, self.summary)
-        text += ("\ntimes in s over the solved runs: OMPL planners from the start of solve(); lattice: building "
-                 f"the lattice plus the exact search.\ncosts: {' or '.join(self.units)}; gap = median cost / lattice "
-                 "optimum - 1 (the optimum on the planners' own lattice).")
+        lines = [format_table(SUMMARY_COLUMNS, self.summary),
+                 *textwrap.wrap("times in s over the solved runs: OMPL planners from the start of solve(); lattice: "
+                                "building the lattice plus the exact search.", TABLE_WIDTH),
+                 *textwrap.wrap(f"costs: {' or '.join(self.units)}; gap = median cost / lattice optimum - 1 (the "
+                                "optimum on the planners' own lattice).", TABLE_WIDTH)]
         notes = limitation_notes(self.summary)
         if notes:
-            text += "\nknown limitations (why these planners solve nothing here):\n" + "\n".join(f"  {n}" for n in notes)
-        return text
+            lines.append("known limitations (why these planners solve nothing here):")
+            lines += [line for n in notes for line in textwrap.wrap(n, TABLE_WIDTH, initial_indent="  ",
+                                                                    subsequent_indent="    ")]
+        return "\n".join(lines)
 
 
 def scene_key(name: str, taken: set[str]) -> str:
