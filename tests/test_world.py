@@ -188,5 +188,7 @@ def test_simulate_runs_a_kept_plan_in_another_world_and_records_it(tmp_path):
     assert len(rows) == 2 and all(float(r["world_friction"]) == 0.7 and r["world_cone"] == "pyramidal" for r in rows)
     model = mujoco.MjModel.from_xml_path(str(other / "model.xml"))  # trial 0's world, as it ran
     assert model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
-    assert math.isclose(float(rows[0]["p_friction_scale_G"]) * 0.7 * Scene.from_file("guitar_pick").mu_contacts[0],
+    # the world sets every pair's friction, so trial 0 meets x0.7 whatever its drawn factor (decision 0100)
+    assert float(rows[0]["p_friction_scale_G"]) < 1.0
+    assert math.isclose(0.7 * Scene.from_file("guitar_pick").mu_contacts[0],
                         model.geom_friction[model_ids(model).table_geom][0], rel_tol=1e-6)
