@@ -15,14 +15,32 @@ from .margins import LatticeMargins, Objective
 
 
 
-def lattice_ends(atlas: SecurityAtlas, s1, s2):
-    """The lattice indices of a motion's two states (OMPL states: theta rad, d over l, psi rad), or
-    None when either lies off the lattice."""
-    a = atlas.index((s1[0], s1[1], s1[2]))
-    b = atlas.index((s2[0], s2[1], s2[2]))
-    return None if a is None or b is None else (a, b)
+class LatticeObjective(ob.OptimizationObjective):
+    """An objective over the security atlas's lattice: asymmetric, no state cost, and a motion's cost
+    from the lattice indices of its two states (lattice_cost), infinite where either lies off the
+    lattice (OMPL states: theta rad, d over l, psi rad)."""
 
-class PrimitiveCostObjective(ob.OptimizationObjective):
+    def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas):
+        super().__init__(si)
+        self.atlas = atlas
+
+    def isSymmetric(self) -> bool:
+        return False
+
+    def stateCost(self, state) -> ob.Cost:
+        return self.identityCost()
+
+    def motionCost(self, s1, s2) -> ob.Cost:
+        a = self.atlas.index((s1[0], s1[1], s1[2]))
+        b = self.atlas.index((s2[0], s2[1], s2[2]))
+        return self.infiniteCost() if a is None or b is None else self.lattice_cost(a, b, s1, s2)
+
+    def lattice_cost(self, a, b, s1, s2) -> ob.Cost:
+        """The cost of the motion from lattice index a to b (the OMPL states s1, s2 beside them)."""
+        raise NotImplementedError
+
+
+class PrimitiveCostObjective(LatticeObjective):
     """Weighted L1 length (degrees of theta and psi + d_weight * d) plus a penalty per primitive leg.
 
     Asymmetric: a motion against the allowed primitive directions costs
@@ -36,25 +54,14 @@ class PrimitiveCostObjective(ob.OptimizationObjective):
                  penalty: float | None = None):
         """length_weight: the weight of the L1 length; penalty: the cost of a leg (the scene's
         planning.mode_change_penalty when None)."""
-        super().__init__(si)
-        self.atlas = atlas
+        super().__init__(si, atlas)
         opts = atlas.scene.options
         self.d_weight = opts.d_weight
         self.length_weight = length_weight
         self.penalty = opts.mode_change_penalty if penalty is None else penalty
         self._res = tuple(float(x) for x in atlas.res)
 
-    def isSymmetric(self) -> bool:
-        return False
-
-    def stateCost(self, state) -> ob.Cost:
-        return self.identityCost()
-
-    def motionCost(self, s1, s2) -> ob.Cost:
-        ends = lattice_ends(self.atlas, s1, s2)
-        if ends is None:
-            return self.infiniteCost()
-        a, b = ends
+    def lattice_cost(self, a, b, s1, s2) -> ob.Cost:
         step = (b[THETA] - a[THETA], b[D] - a[D], b[PSI] - a[PSI])
         if not self.atlas.allowed(step):
             return self.infiniteCost()
@@ -73,29 +80,17 @@ def _l1(dtheta: float, dd: float, dpsi: float, d_weight: float) -> float:
     return math.degrees(abs(dtheta) + abs(dpsi)) + d_weight * abs(dd)
 
 
-class MarginPenaltyObjective(ob.OptimizationObjective):
+class MarginPenaltyObjective(LatticeObjective):
     """The margin penalty of a motion (LatticeMargins.motion): the sum over its lattice steps of
     the step's weighted L1 length times the objective's penalty of its friction margin (the best
     secure staircase's), infinite for a motion against the allowed directions or with no secure
     staircase. Additive and asymmetric."""
 
     def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
-        super().__init__(si)
-        self.atlas = atlas
+        super().__init__(si, atlas)
         self.margins = margins
 
-    def isSymmetric(self) -> bool:
-        return False
-
-    def stateCost(self, state) -> ob.Cost:
-        return self.identityCost()
-
-    def motionCost(self, s1, s2) -> ob.Cost:
-        index = self.atlas.index
-        a = index((s1[0], s1[1], s1[2]))
-        b = index((s2[0], s2[1], s2[2]))
-        if a is None or b is None:
-            return self.infiniteCost()
+    def lattice_cost(self, a, b, s1, s2) -> ob.Cost:
         return ob.Cost(self.margins.motion(a, b))
 
     def motionCostHeuristic(self, s1, s2) -> ob.Cost:
@@ -137,7 +132,7 @@ class RobustObjective(ob.MultiOptimizationObjective):
         return self.cost_part.motionCostHeuristic(s1, s2)
 
 
-class MaximinObjective(ob.OptimizationObjective):
+class MaximinObjective(LatticeObjective):
     """The ``margin`` (or ``tolerance``) objective for OMPL's planners: lexicographic, the path's
     smallest margin first (larger is better), then the tie-break (docs/model.md, section 6.1).
 
@@ -165,24 +160,13 @@ class MaximinObjective(ob.OptimizationObjective):
     """
 
     def __init__(self, si: ob.SpaceInformation, atlas: SecurityAtlas, margins: LatticeMargins):
-        super().__init__(si)
+        super().__init__(si, atlas)
         if not margins.objective.maximin:
             raise ValueError(f"MaximinObjective serves the maximin objectives, not {margins.objective}")
-        self.atlas = atlas
         self.margins = margins
         self.cost_part = PrimitiveCostObjective(si, atlas, MARGIN_LENGTH_WEIGHT, MARGIN_LEG_WEIGHT)
 
-    def isSymmetric(self) -> bool:
-        return False
-
-    def stateCost(self, state) -> ob.Cost:
-        return self.identityCost()
-
-    def motionCost(self, s1, s2) -> ob.Cost:
-        ends = lattice_ends(self.atlas, s1, s2)
-        if ends is None:
-            return self.infiniteCost()
-        a, b = ends
+    def lattice_cost(self, a, b, s1, s2) -> ob.Cost:
         margin, penalty = self.margins.motion_value(a, b)
         if not math.isfinite(penalty):
             return self.infiniteCost()
