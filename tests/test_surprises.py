@@ -25,22 +25,22 @@ def one_line_error(proc) -> str:
     return lines[0]
 
 
-@pytest.fixture(scope="module")
-def puzzle_plan(tmp_path_factory):
-    """A directory holding what `plan puzzle_piece --planner lattice --out DIR` wrote."""
-    out = tmp_path_factory.mktemp("puzzle") / "plan"
-    proc = run_cli("plan", "puzzle_piece", "--planner", "lattice", "--out", str(out))
+def lattice_plan(tmp_path_factory, scene: str):
+    """A directory holding what `plan SCENE --planner lattice --out DIR` wrote."""
+    out = tmp_path_factory.mktemp(scene) / "plan"
+    proc = run_cli("plan", scene, "--planner", "lattice", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     return out
+
+
+@pytest.fixture(scope="module")
+def puzzle_plan(tmp_path_factory):
+    return lattice_plan(tmp_path_factory, "puzzle_piece")
 
 
 @pytest.fixture(scope="module")
 def pick_plan(tmp_path_factory):
-    """A directory holding what `plan guitar_pick --planner lattice --out DIR` wrote."""
-    out = tmp_path_factory.mktemp("pick") / "plan"
-    proc = run_cli("plan", "guitar_pick", "--planner", "lattice", "--out", str(out))
-    assert proc.returncode == 0, proc.stderr
-    return out
+    return lattice_plan(tmp_path_factory, "guitar_pick")
 
 
 # --- a: a plan made for another scene ---
