@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..mechanics.contact import Primitive
 from ..mechanics.path import plan_samples
 from ..scene import Scene
 from ..scene.tolerance import (COMPONENTS, SOLO_TOLERANCE, ErrorBox, ToleranceOptions, ToleranceReason, checked_box,
@@ -34,7 +35,7 @@ class Tolerance:
     """The binding state of the plan, as planned: theta (rad), d (over l), psi (rad)."""
     primitive: int
     """The index of the plan's primitive it lies on."""
-    primitive_type: str
+    primitive_type: Primitive
     """That primitive's type."""
     component_scales: dict[str, float]
     """Each component's own tolerance at the binding state (the box with that component alone; inf: none)."""
@@ -53,7 +54,7 @@ class Tolerance:
         """Back from to_dict (plan.json's tolerance)."""
         scales = {k: math.inf if v is None else float(v) for k, v in doc["component_scales"].items()}
         return cls(float(doc["scale"]), doc["perturbation"], ToleranceReason(doc["reason"]), doc["component"],
-                   tuple(doc["state"]), int(doc["primitive"]), doc["primitive_type"], scales, dict(doc["physical"]),
+                   tuple(doc["state"]), int(doc["primitive"]), Primitive(doc["primitive_type"]), scales, dict(doc["physical"]),
                    int(doc["samples"]))
 
     def to_dict(self) -> dict:

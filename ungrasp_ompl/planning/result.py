@@ -29,13 +29,13 @@ _B_WORDS = {-1: "toward_palm", 1: "toward_tip"}  # friction on the object at B, 
 
 
 class StoppedBy(StrEnum):
-    """Why a planner stopped (Plan.stopped_by; a str, so plan.json holds its value)."""
+    """Why a planner stopped (Plan.stopped_by; a StrEnum, so plan.json holds its value)."""
 
     PLANNER = "planner"  #: the planner returned by itself (a non-optimising planner's first path)
     ITERATIONS = "iterations"  #: the seeded run's iteration budget ran out
     TIME = "time"  #: the time limit (or a seeded run's hard cap) ran out
     OPTIMUM = "optimum"  #: the path reached the exact lattice optimum: no path can cost less
-    NOT_STARTED = "not started"  #: planning could not start (PlanOutcome's evidence says why)
+    NOT_STARTED = "not_started"  #: planning could not start (PlanOutcome's evidence says why)
     KILLED = "killed"  #: a planner that ignores its time limit was stopped after its deadline
 
     def describe(self) -> str:
@@ -204,8 +204,8 @@ class Diagnostics:
     """s building the lattice, the space and the planner."""
     iterations: int = 0
     """Termination checks while solving (count)."""
-    stopped_by: str = ""
-    """Why solving stopped (a StoppedBy value)."""
+    stopped_by: StoppedBy | None = None
+    """Why solving stopped; None before solving."""
     resolution: list[float] = field(default_factory=list)
     """The lattice's step in theta (rad), d (over l) and psi (rad)."""
     lattice_optimum: float | None = None
@@ -374,7 +374,13 @@ class Plan:
         report = part(Report3D)
         solution = Solution(**{**part(Solution, ("states", "primitives")),
                                "states": [state(s, f"states[{k}]") for k, s in enumerate(states)], "primitives": steps})
-        return cls(outcome=PlanOutcome.SOLVED, solution=solution, diagnostics=Diagnostics(**part(Diagnostics)),
+        diagnostics = part(Diagnostics)
+        if diagnostics.get("stopped_by") is not None:
+            if diagnostics["stopped_by"] not in tuple(StoppedBy):
+                raise InputError("stopped_by", f"must be one of {', '.join(StoppedBy)} or null, got "
+                                 f"{diagnostics['stopped_by']!r:.80}", source)
+            diagnostics["stopped_by"] = StoppedBy(diagnostics["stopped_by"])
+        return cls(outcome=PlanOutcome.SOLVED, solution=solution, diagnostics=Diagnostics(**diagnostics),
                    report=Report3D(**report) if len(report) == len(Report3D.__dataclass_fields__)
                    and None not in report.values() else None, **own)
 
@@ -429,7 +435,7 @@ class Plan:
                          f"with friction 0.7 to 1.3 times the scene's and either friction-cone model (a spread of "
                          f"{1000 * p['spread_m']:.2f} mm)")
         first = self.time_to_first_solution_s
-        why = StoppedBy(self.stopped_by).describe() if self.stopped_by in tuple(StoppedBy) else self.stopped_by
+        why = self.stopped_by.describe() if self.stopped_by is not None else "it did not run"
         lines.append(f"  planning took {self.planning_time_s:.2f} s, the first path after {first:.3f} s; it stopped "
                      f"after {self.iterations} iterations because {why}; building the lattice took "
                      f"{self.setup_time_s:.2f} s")

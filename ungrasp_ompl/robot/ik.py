@@ -53,10 +53,10 @@ _SEED_POSTURES = (
 class Unreachable(Enum):
     """Why the arm cannot put the palm at a target pose (ReachabilityError.kind)."""
 
-    OUT_OF_REACH = "out of reach"  #: the flange would lie farther from the shoulder than the arm reaches
-    JOINT_LIMIT = "joint limit"  #: the solver stopped with joints held at their limits
-    NOT_CONVERGED = "not converged"  #: the solver stopped with the residual above the tolerance
-    BRANCH_FLIP = "branch flip"  #: a joint jumps between consecutive path samples
+    OUT_OF_REACH = "out_of_reach"  #: the flange would lie farther from the shoulder than the arm reaches
+    JOINT_LIMIT = "joint_limit"  #: the solver stopped with joints held at their limits
+    NOT_CONVERGED = "not_converged"  #: the solver stopped with the residual above the tolerance
+    BRANCH_FLIP = "branch_flip"  #: a joint jumps between consecutive path samples
 
 
 class ReachabilityError(NoSolutionError):
@@ -264,7 +264,7 @@ def solve_path(robot: RobotModel, targets: Sequence[ArrayLike], q0: ArrayLike, m
     the previous one (the first from q0, (6,) or (7,), e.g. from ``ik_seed_for``).
 
     Continuity: every joint moves at most ``max_step`` (rad) between consecutive samples, else
-    ReachabilityError ("branch flip"); so does the first sample from q0. Raises ReachabilityError
+    ReachabilityError ("branch_flip"); so does the first sample from q0. Raises ReachabilityError
     naming the sample for anything unreachable. Returns IKPath(q (N, 6), pos_residual (N,) m,
     rot_residual (N,) rad).
     """

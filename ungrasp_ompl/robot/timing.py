@@ -67,8 +67,8 @@ TOPPRA_MARGIN = 0.9
 class Untimeable(Enum):
     """Why a path cannot be timed (TimingError.kind)."""
 
-    NO_PARAMETERISATION = "no parameterisation"  #: TOPPRA found no timing of the contact path within the limits
-    FREE_MOVE = "free move"  #: Ruckig could not plan a free move
+    NO_PARAMETERISATION = "no_parameterisation"  #: TOPPRA found no timing of the contact path within the limits
+    FREE_MOVE = "free_move"  #: Ruckig could not plan a free move
     LIMITS = "limits"  #: the timed trajectory leaves the robot's limits
 
 
