@@ -13,7 +13,7 @@ subpackage); any other name is internal. The names below load on first use (PEP 
 ungrasp_ompl`` alone costs nothing, and the command line loads only what a command needs.
 """
 
-from importlib import import_module
+from ._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -23,14 +23,4 @@ _WHERE = {"InputError": ".errors", "NoSolutionError": ".errors", "ToolError": ".
 
 __all__ = sorted(_WHERE) + ["__version__"]
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(_WHERE[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

@@ -5,7 +5,7 @@ The names below (the package's public API) load on first use (PEP 562), so that 
 submodule (the planner names for the command line's help) does not load OMPL and the planning stack.
 """
 
-from importlib import import_module
+from .._lazy import lazy_exports
 
 _WHERE = {"Plan": ".result", "PlanOutcome": ".result", "PrimitiveStep": ".result", "PLANNERS": ".names",
           "PlannerOptions": ".setup", "UngraspSetup": ".setup", "plan": ".setup", "Objective": ".margins",
@@ -13,14 +13,4 @@ _WHERE = {"Plan": ".result", "PlanOutcome": ".result", "PrimitiveStep": ".result
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(_WHERE[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)

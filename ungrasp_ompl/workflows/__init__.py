@@ -10,7 +10,7 @@ The names below load on first use (PEP 562): a workflow loads its own stack (the
 pictures) and no other's.
 """
 
-from importlib import import_module
+from .._lazy import lazy_exports
 
 _WHERE = {"PlanOptions": ".plan", "ScenePlan": ".plan", "plan_scene": ".plan",
           "SimulateOptions": ".simulate", "SceneSimulation": ".simulate", "LayoutSimulation": ".simulate",
@@ -20,14 +20,4 @@ _WHERE = {"PlanOptions": ".plan", "ScenePlan": ".plan", "plan_scene": ".plan",
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(_WHERE[name], __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE)
