@@ -112,7 +112,7 @@ def predict_landing(scene: Scene, plan: Plan, carried: bool = True) -> ReleasePr
     puts it. ReleaseModelError when the plan is not solved or the termination is not an opening one."""
     if not plan.solved or not plan.states:
         raise ReleaseModelError("the plan is not solved")
-    mu_g, _, mu_b = scene.mu_contacts or scene.mu
+    mu_g, _, mu_b = scene.mu_contacts
     setup = release_setup(scene, tuple(plan.states[-1]))
     if carried:
         setup = ReleaseSetup(setup.body, setup.hand, carried_start(scene, plan, setup), setup.frame)

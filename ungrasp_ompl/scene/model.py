@@ -108,13 +108,17 @@ class Scene:
     source: str | None = None
     object3d: "Object3D | None" = None  # the object's outline, when the scene has one
     plane: ManipulationPlane | None = None  # the manipulation plane chosen on that outline
-    mu_contacts: tuple[float, float, float] | None = None  # friction at G, A, B before the plane reduces it
+    mu_contacts: tuple[float, float, float] | None = None  # friction at G, A, B before the plane reduces it (None: mu, a planar scene's)
     max_tilt: float = math.radians(30.0)  # roll range of the prism simulation, rad
     robot: RobotOptions = field(default_factory=RobotOptions)
     solids: tuple = ()  # convex Solids fixed in the world (a layout's frame walls, pieces placed already)
     sim: SimOptions = field(default_factory=SimOptions)  # how the scene is simulated
     planar_only: str | None = None  # why the robot cannot execute this scene's plans (None: robot-ready)
     friction_uncertainty: float = 0.0  # how far mu_contacts may be off, a fraction of each either way (docs/model.md 4.7)
+
+    def __post_init__(self) -> None:
+        if self.mu_contacts is None:  # a planar scene's contacts are its plane's
+            self.mu_contacts = tuple(self.mu)
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -371,7 +375,7 @@ class Scene:
         factor, reduced at G and B as mu is (docs/model.md 5.2: mu' = tan(arccos(cos(atan mu) /
         cos beta)), NaN where the plane misses the cone); mu times factor for a scene without a
         manipulation plane."""
-        if self.plane is None or self.mu_contacts is None:
+        if self.plane is None:
             return tuple(m * factor for m in self.mu)
         g, a, b = (m * factor for m in self.mu_contacts)
         return (float(effective_friction(g, self.plane.g.beta)), a, float(effective_friction(b, self.plane.b.beta)))

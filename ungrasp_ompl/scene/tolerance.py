@@ -167,7 +167,7 @@ class ErrorBox:
                                          [b.lo[0], b.hi[1]]]) / l for b in scene.obstacles)
         plane = scene.plane
         self.beta = (plane.g.beta, plane.b.beta) if plane is not None else None
-        self.mu_contacts = scene.mu_contacts or scene.mu
+        self.mu_contacts = scene.mu_contacts
         self.checker = CollisionChecker(scene.collision_model())
 
     # -- the moved quantities ------------------------------------------------------------------

@@ -19,7 +19,7 @@ from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from .drive import drive_from_trajectory
-from .spec import Friction, GripperGeometry, SimModelSpec, SimObject
+from .spec import Friction, GripperGeometry, SimModelSpec, SimObject, curved_solid
 from .trial import PlannedTravel, TrialSetup
 
 
@@ -109,9 +109,11 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     opts = scene.sim
     frame = plane_frame(scene)
     l = scene.object_length
-    mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
+    mu_g, mu_a, mu_b = scene.mu_contacts
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
-    obj = SimObject(object_outline(scene), thickness, opts.density)
+    turned = scene.object3d is not None and scene.plane is not None  # a round object's section turns about its axis
+    obj = SimObject(object_outline(scene), thickness, opts.density,
+                    curved_solid(scene.digits.section, l, scene.digits.width * l, turned, thickness))
     # a pincer's servo is on its joint: its torque limit gives the pinch at the joint radius, and the
     # squeeze (m at the fingertip) is commanded as the angle that turns the fingertip that far
     links = robot.pincer
