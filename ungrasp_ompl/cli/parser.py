@@ -61,11 +61,14 @@ OBJECTIVE_NAMES = ("cost", "margin", "balanced", "tolerance")
 BENCH_PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "FMT", "AORRTC", "RRTConnect", "lattice")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="ungrasp-ompl", description="Plan dexterous ungrasping with OMPL.")
-    p.add_argument("--version", action="version", version=f"ungrasp-ompl {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+def _add_cluster(parser: argparse.ArgumentParser) -> None:
+    """--cluster, as every command that can run on Ray takes it."""
+    parser.add_argument("--cluster", default=None, metavar="ADDRESS",
+                        help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
 
+
+def _add_plan(sub: argparse._SubParsersAction) -> None:
+    """The `plan` command's arguments."""
     pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
     pl.add_argument("scene", help="scene file (YAML), or the name of a shipped scene (see `scenes`)")
     pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
@@ -105,6 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="parallel trials with --certify, and of the expected landing with --export "
                          "(robot.landing: expected) (default: all cores)")
 
+
+def _add_bench(sub: argparse._SubParsersAction) -> None:
+    """The `bench` command's arguments."""
     bn = sub.add_parser("bench", help="benchmark OMPL planners (and the exact lattice search) on scenes")
     bn.add_argument("scenes", nargs="+", help="scene files (YAML) or names of shipped scenes")
     bn.add_argument("--planners", default=",".join(BENCH_PLANNERS),
@@ -117,11 +123,14 @@ def build_parser() -> argparse.ArgumentParser:
                     help="planner iterations per run: runs become reproducible like plan --seed (5x --time as a "
                          "hard cap); default: stop on wall time, like OMPL's Benchmark")
     bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
-    bn.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    _add_cluster(bn)
     bn.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
     bn.add_argument("--objective", default="cost", choices=OBJECTIVE_NAMES,
                     help="what every planner (and the lattice yardstick) optimises, as for plan (default cost)")
 
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:
+    """The `sweep` command's arguments."""
     sw = sub.add_parser("sweep", help="success and cost against digit asymmetry alpha")
     sw.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     sw.add_argument("--alpha", required=True, help="START:STOP:STEP over the object length, e.g. 0:0.6:0.05")
@@ -133,9 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--iterations", type=int, default=None,
                     help="planner iterations per run (reproducible runs); default: stop on wall time")
     sw.add_argument("--out", default="sweep", help="output directory (default ./sweep)")
-    sw.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    _add_cluster(sw)
     sw.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs.csv, run the others")
 
+
+def _add_map(sub: argparse._SubParsersAction) -> None:
+    """The `map` command's arguments."""
     mp = sub.add_parser("map", help="a feasibility map over digit asymmetry and friction: the exact verdict, the "
                         "planner's success and cost (and simulated success) per cell")
     mp.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
@@ -152,10 +164,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="also simulate N trials of each cell's plan (needs an object thickness)")
     mp.add_argument("--perturb", default="paper", help="perturbation preset of the simulated trials (default paper)")
     mp.add_argument("--jobs", type=int, default=None, help="cells at a time on this machine (default: all cores)")
-    mp.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    _add_cluster(mp)
     mp.add_argument("--resume", action="store_true", help="keep the cells already done in OUT/map.csv")
     mp.add_argument("--out", default="map", help="output directory (default ./map): map.csv and map.png")
 
+
+def _add_design(sub: argparse._SubParsersAction) -> None:
+    """The `design` command's arguments."""
     dn = sub.add_parser("design", help="the digits for an object: plan a grid of digit asymmetries and finger-tip radii, "
                         "choose the most tolerant plan (or the most successful with --simulate)")
     dn.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
@@ -173,14 +188,19 @@ def build_parser() -> argparse.ArgumentParser:
     dn.add_argument("--perturb", default="paper", help="error preset of the simulated trials (default paper)")
     dn.add_argument("--seed", type=int, default=1, help="seed of the simulated trials' errors (default 1)")
     dn.add_argument("--jobs", type=int, default=None, help="designs at a time on this machine (default: all cores)")
-    dn.add_argument("--cluster", default=None, metavar="ADDRESS",
-                    help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    _add_cluster(dn)
     dn.add_argument("--out", default="design", help="output directory (default ./design): design.csv, design.png, "
                     "design_scene.yaml")
 
+
+def _add_stability(sub: argparse._SubParsersAction) -> None:
+    """The `stability` command's arguments."""
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
     st.add_argument("scene", help="scene file (YAML) with object.outline, or the name of a shipped scene")
 
+
+def _add_cage(sub: argparse._SubParsersAction) -> None:
+    """The `cage` command's arguments."""
     cg = sub.add_parser("cage", help="the energy-bounded cage (escape energy) and the friction margin along a plan")
     cg.add_argument("scene", help="scene file (YAML) of an object with a thickness, or the name of a shipped scene")
     cg.add_argument("--plan", default=None, help="plan.json to examine, or a directory holding one (plan --export "
@@ -204,6 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="parallel worker processes over the plan's states (default: all cores)")
     cg.add_argument("--out", default=None, help="directory for cage.png and cage.json")
 
+
+def _add_tile(sub: argparse._SubParsersAction) -> None:
+    """The `tile` command's arguments."""
     tl = sub.add_parser("tile", help="put every piece of a layout into its frame: order, planes, plans, one trajectory")
     tl.add_argument("layout", help="layout file (YAML): a frame and its pieces; or the name of a shipped layout")
     tl.add_argument("--planner", default="RRTstar", help="planner per piece (an OMPL planner, or lattice)")
@@ -220,6 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "layout.png, a C-space picture per piece and the exported trajectory (the files an earlier "
                     "plan, tiling or simulation left there are removed first; other files stay)")
 
+
+def _add_simulate(sub: argparse._SubParsersAction) -> None:
+    """The `simulate` command's arguments."""
     sm = sub.add_parser("simulate", help="execute a plan in MuJoCo (or Drake): success rate and placement errors "
                         "over perturbed trials")
     sm.add_argument("scene", help="scene file (YAML) with an object thickness, or a layout (every piece in "
@@ -241,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--out", default=None,
                     help="output directory (default: DIR/simulation beside --plan's plan.json, else ./simulation); "
                          "the files an earlier plan or simulation left there are removed first, other files stay")
-    sm.add_argument("--cluster", default=None, metavar="ADDRESS", help="run on the Ray cluster at HOST:PORT (or the RAY_ADDRESS variable); local: start one here")
+    _add_cluster(sm)
     sm.add_argument("--finger-tip", choices=("rounded", "flat"), default=None,
                     help="the finger's tip instead of the scene's (rounded: point contact; flat: edge contact)")
     sm.add_argument("--start-psi-offset-deg", type=float, default=None,
@@ -258,6 +284,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="the physics engine the trials run in (default mujoco); drake needs the optional extra: "
                          "pip install 'ungrasp-ompl[drake]' (docs/model.md 11.19)")
 
+
+def _add_view(sub: argparse._SubParsersAction) -> None:
+    """The `view` command's arguments."""
     vw = sub.add_parser("view", help="an animated 3D view (one offline HTML page) of what plan --export, tile or "
                         "simulate wrote")
     vw.add_argument("dir", metavar="DIR", help="a directory holding trajectory.json (plan --export DIR, tile --out DIR, "
@@ -266,6 +295,9 @@ def build_parser() -> argparse.ArgumentParser:
     vw.add_argument("--frames", type=int, default=None, metavar="K",
                     help="also write a PNG strip of K key frames beside it (view_frames.png)")
 
+
+def _add_regions(sub: argparse._SubParsersAction) -> None:
+    """The `regions` command's arguments."""
     rg = sub.add_parser("regions", help="draw the C-space map (free, not force-closed, in collision)")
     rg.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
     rg.add_argument("--out", required=True, help="PNG file to write")
@@ -273,5 +305,22 @@ def build_parser() -> argparse.ArgumentParser:
                     "its path, start and goal are drawn on every slice")
     rg.add_argument("--force", action="store_true", help="draw a --plan made for another scene (with a warning)")
 
+
+def _add_scenes(sub: argparse._SubParsersAction) -> None:
+    """The `scenes` command's arguments."""
     sub.add_parser("scenes", help="list the shipped scenes and layouts, which every command takes by name")
+
+
+#: Each command's arguments, in the order --help lists them.
+COMMANDS = (_add_plan, _add_bench, _add_sweep, _add_map, _add_design, _add_stability, _add_cage, _add_tile,
+            _add_simulate, _add_view, _add_regions, _add_scenes)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser: one sub-parser per command (COMMANDS)."""
+    p = _Parser(prog="ungrasp-ompl", description="Plan dexterous ungrasping with OMPL.")
+    p.add_argument("--version", action="version", version=f"ungrasp-ompl {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for add in COMMANDS:
+        add(sub)
     return p
