@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from ompl import base as ob
 
-from ..scene.model import GoalSpec
+from ..scene.options import GoalSpec
 from .atlas import SecurityAtlas
 from .space import set_state
 

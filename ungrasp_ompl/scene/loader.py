@@ -1,6 +1,6 @@
 """Reading scene and layout files: the YAML, and typed access to its fields.
 
-SceneReader is shared by Scene.from_dict and Layout.from_dict: every value is
+SceneReader is shared by scene_fields (Scene.from_dict) and Layout.from_dict: every value is
 checked where it is read (type, finiteness, range, unit) and a bad one raises
 InputError naming its dotted key and the reason. A person types degrees in keys
 ending ``_deg``; the reader returns radians where the docstring says so.
@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -19,10 +20,14 @@ import yaml
 from ..errors import InputError, UnknownFieldError
 from ..geometry.collision import Box
 from ..geometry.outline import Outline, OutlineError, ellipse, polygon, rounded_polygon
+from ..geometry.plane import ManipulationPlane, choose_plane
 from ..io import parse_yaml
-from ..mechanics.pincer import PincerSpec
+from ..mechanics import DigitGeometry
+from ..mechanics.force_closure import SLIDING_MODELS, SlidingModel
+from ..mechanics.pincer import PincerSpec, check_pincer
 from ..mechanics.section import SECTION_KINDS, Section, SectionError
-from .options import GripperKind, Landing, Object3D, RobotOptions, SimOptions, Termination
+from .options import (GoalSpec, GripperKind, Landing, Object3D, PlanningOptions, RobotOptions, SimOptions,
+                      Termination)
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
@@ -453,3 +458,260 @@ class SceneReader:
         if not v.strip() or any(c in v for c in "/\\$") or any(ord(c) < 32 for c in v):
             self.fail(key, f"must be a non-empty name without /, \\, $ or control characters, got {v!r}")
         return v
+
+
+# -- a scene file, step by step ------------------------------------------------------------------
+#: The top-level keys of a scene file.
+SCENE_KEYS = {"name", "description", "object", "friction", "friction_angle_deg", "digits", "obstacles", "start",
+              "goal", "bounds", "planning", "contacts", "stability", "robot", "sim", "planar_only"}
+#: The gripper housing's extent normal to the manipulation plane when a scene does not give it, m.
+DEFAULT_PALM_THICKNESS = 0.06
+#: Most lattice states planning.resolution may make over the bounds (memory and time stay bounded).
+MAX_LATTICE_STATES = 25_000_000
+
+
+@dataclass(frozen=True)
+class _ObjectPart:
+    """What the object block and the friction make of a scene: the object's size, its 3D outline and
+    manipulation plane (with an outline), its section, and the friction at G, A, B."""
+
+    length: float  #: l = |GB|, m
+    thickness: float  #: m (a curved section's height)
+    mu: tuple[float, float, float]  #: the plane's coefficients at G, A, B
+    mu_contacts: tuple[float, float, float]  #: the contacts' own coefficients at G, A, B
+    uncertainty: float  #: the friction's uncertainty, a fraction either way
+    object3d: Object3D | None
+    plane: ManipulationPlane | None
+    section: Section | None  #: None: a slab
+    d_max: float  #: the slide coordinate's reach, over l
+
+
+def scene_fields(data: Any, source: str | None = None, default_name: str = "scene") -> dict[str, Any]:
+    """The fields of a Scene from a scene file's parsed mapping, each read and checked in turn (the
+    object and friction, the digits, where it starts and ends, the planning options, the robot);
+    InputError naming the first bad field."""
+    r = SceneReader(source)
+    top = r.mapping(data, "scene")
+    r.known(top, "", SCENE_KEYS)
+    name = r.name(top, "name", default_name)
+    part = _object_part(r, top)
+    digits, width = _digits(r, top, part)
+    obstacles = r.obstacles(top.get("obstacles", []))
+    start, bounds, goal = _start_bounds_goal(r, top, part)
+    options, digits, clearance = _planning(r, top, part, digits, bounds, width)
+    robot = r.robot(top.get("robot", {}))
+    if robot.gripper is not None and part.section is not None:
+        raise InputError("object.section", "needs the parallel gripper (robot.gripper kind parallel): the pincer's "
+                         "kinematics place its finger on a slab", source)
+    if robot.gripper is not None:  # a pincer's joint must carry these digits (mechanics.pincer)
+        check_pincer(robot.gripper, digits, part.length, source)
+    if robot.start_press > clearance:
+        raise InputError("robot.start_press", f"must not exceed planning.table_clearance ({clearance:g} m): "
+                         "the pressed digits would run into the table", source)
+    digits = replace(digits, press=robot.start_press / part.length)
+    planar_only = top.get("planar_only")
+    if planar_only is not None and not (isinstance(planar_only, str) and planar_only.strip()):
+        raise InputError("planar_only", f"must say why the robot cannot execute the scene, got {planar_only!r}",
+                         source)
+    stab = r.mapping(top.get("stability", {}), "stability")
+    r.known(stab, "stability", {"max_tilt_deg"})
+    max_tilt = math.radians(r.angle(stab, "stability.max_tilt_deg", "max_tilt_deg", 1.0, 90.0, default=30.0))
+    return dict(name=name, object_length=part.length, object_thickness=part.thickness, mu=part.mu, digits=digits,
+                obstacles=obstacles, start=start, goal=goal, bounds=bounds,
+                options=options, source=source, object3d=part.object3d, plane=part.plane,
+                mu_contacts=part.mu_contacts, max_tilt=max_tilt, robot=robot, sim=r.sim(top.get("sim", {})),
+                planar_only=planar_only and planar_only.strip(), friction_uncertainty=part.uncertainty)
+
+
+def _object_part(r: SceneReader, top: dict) -> _ObjectPart:
+    """The object block with the friction: its outline and plane, or its length; its section."""
+    source = r.source
+    obj = r.mapping(r.require(top, "object"), "object")
+    r.known(obj, "object", {"length", "thickness", "outline", "target", "section"})
+    thickness = r.length(obj, "object.thickness", "thickness", zero=True, default=0.0)
+    mu_contacts, uncertainty = r.friction(top)
+    object3d, plane = None, None
+    if "outline" in obj:
+        if "length" in obj:
+            raise InputError("object.length", "is set by the outline (the distance from G to B); remove it", source)
+        object3d = r.object3d(obj["outline"], obj.get("target", {}), thickness)
+        fixed = None
+        if "contacts" in top:
+            ct = r.mapping(top["contacts"], "contacts")
+            r.known(ct, "contacts", {"G", "B"})
+            fixed = (r.pair(ct, "contacts.G", "G"), r.pair(ct, "contacts.B", "B"))
+        plane = choose_plane(object3d.outline, mu_contacts[0], mu_contacts[2], object3d.position,
+                             object3d.yaw, fixed, source)
+        length = plane.length
+        if length > MAX_LENGTH:
+            raise InputError("object.outline", f"makes the object length |GB| {length:.4g} m, over {MAX_LENGTH:g} m",
+                             source)
+        mu = (plane.mu_g, mu_contacts[1], plane.mu_b)
+        if uncertainty > 0.0:  # the plane must meet every cone over the whole range (Assumption 2)
+            key = "friction" if "friction" in top else "friction_angle_deg"
+            for contact, m, beta in (("G", mu_contacts[0], plane.g.beta), ("B", mu_contacts[2], plane.b.beta)):
+                low = m * (1.0 - uncertainty)
+                if not beta < math.atan(low):
+                    raise InputError(f"{key}.uncertainty", f"puts the friction angle at {contact} as low as "
+                                     f"{math.degrees(math.atan(low)):.1f} deg, not above the "
+                                     f"{math.degrees(beta):.1f} deg GB makes with the boundary normal there, so "
+                                     "the manipulation plane misses that friction cone (Assumption 2)", source)
+    else:
+        if "contacts" in top:
+            raise InputError("contacts", "needs object.outline", source)
+        length = r.length(obj, "object.length", "length")
+        mu = mu_contacts
+    if thickness >= length:
+        raise InputError("object.thickness", f"must be smaller than the object length ({length:.4g} m)", source)
+    section = r.section(obj, thickness, length)  # None: the slab
+    if section is not None:
+        thickness = section.thickness * length  # a profile's height
+        if object3d is not None:
+            if not (isinstance(obj["outline"], dict) and "circle" in obj["outline"]):
+                raise InputError("object.section", "needs a circle outline (the section is turned about the "
+                                 "object's centre to make its solid) or no outline", source)
+            object3d = replace(object3d, thickness=thickness)
+    d_max = 1.0 if section is None else section.top_length  # the slide coordinate's reach (mechanics.section)
+    return _ObjectPart(length, thickness, tuple(mu), tuple(mu_contacts), uncertainty, object3d, plane, section, d_max)
+
+
+def _digits(r: SceneReader, top: dict, part: _ObjectPart) -> tuple[DigitGeometry, float]:
+    """The digits block, over l, and the digits' width over l."""
+    source, length, thickness = r.source, part.length, part.thickness
+    dig = r.mapping(r.require(top, "digits"), "digits")
+    r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
+                            "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
+                            "width", "max_aperture", "finger_tip", "finger_tip_radius", "palm_width",
+                            "palm_length", "palm_thickness"})
+    lengths = {key: r.length(dig, f"digits.{key}", key) / length
+               for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
+                           "finger_tip_thickness", "finger_base_thickness", "width")}
+    thumb_len = lengths["thumb_length"]
+    if "alpha" in dig:
+        alpha = r.number(dig, "digits.alpha", "alpha")
+    elif "finger_length" in dig:  # alpha follows from the lengths and l
+        alpha = r.length(dig, "digits.finger_length", "finger_length") / length - thumb_len
+    else:
+        raise InputError("digits.alpha", "is missing (give alpha, over the object length, or finger_length)", source)
+    if not -1.0 < alpha < 1.0:
+        raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha:.4g}", source)
+    if "finger_length" in dig and "alpha" in dig:
+        finger = r.length(dig, "digits.finger_length", "finger_length")
+        if abs(finger / length - (thumb_len + alpha)) > 1e-6:
+            raise InputError("digits.finger_length", "must equal thumb_length + alpha * object length "
+                             f"({(thumb_len + alpha) * length:.6g} m), got {finger:g}", source)
+    if thumb_len + alpha <= 0:
+        raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive", source)
+    max_ap = r.length(dig, "digits.max_aperture", "max_aperture", default=math.inf) / length
+    finger_tip = dig.get("finger_tip", "rounded")
+    if finger_tip not in ("rounded", "flat"):
+        raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got "
+                         f"{finger_tip!r}", source)
+    if finger_tip == "flat":
+        if "finger_tip_radius" in dig:
+            raise InputError("digits.finger_tip_radius", "needs finger_tip: rounded (a flat tip has no radius)", source)
+        tip_radius = 0.0
+    else:  # a dome across the tip's thickness unless given; a segment object keeps a point finger
+        default_radius = lengths["finger_tip_thickness"] * length / 2 if thickness > 0 else 0.0
+        tip_radius = r.number(dig, "digits.finger_tip_radius", "finger_tip_radius", minimum=0.0,
+                              default=default_radius) / length
+        if tip_radius > lengths["finger_tip_thickness"] / 2 + 1e-12:
+            raise InputError("digits.finger_tip_radius", "must be at most half of finger_tip_thickness "
+                             f"({lengths['finger_tip_thickness'] * length / 2:.4g} m)", source)
+    palm = {k: r.length(dig, f"digits.{k}", k, zero=True, default=0.0) / length for k in ("palm_width", "palm_length")}
+    # the housing's extent normal to the plane: the RH-P12-RN class's 60 mm unless given
+    palm["palm_thickness"] = r.length(dig, "digits.palm_thickness", "palm_thickness",
+                                      default=DEFAULT_PALM_THICKNESS) / length
+    digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat",
+                           finger_tip_radius=tip_radius, **lengths, **palm)
+    return digits, lengths["width"]
+
+
+def _start_bounds_goal(r: SceneReader, top: dict, part: _ObjectPart) -> tuple[np.ndarray, np.ndarray, GoalSpec]:
+    """The start state (rad, over l, rad), the bounds (2, 3) and the goal region, each within the bounds."""
+    source, d_max = r.source, part.d_max
+    st = r.mapping(r.require(top, "start"), "start")
+    r.known(st, "start", {"theta_deg", "d", "psi_deg"})
+    start = np.array([math.radians(r.number(st, "start.theta_deg", "theta_deg")), r.number(st, "start.d", "d"),
+                      math.radians(r.number(st, "start.psi_deg", "psi_deg"))])
+    bd = r.mapping(top.get("bounds", {}), "bounds")
+    r.known(bd, "bounds", {"theta_deg", "d", "psi_deg"})
+    bounds = np.array([
+        r.interval(bd, "bounds.theta_deg", "theta_deg", default=(0.0, 90.0), degrees=True),
+        r.interval(bd, "bounds.d", "d", default=(0.0, d_max)),
+        r.interval(bd, "bounds.psi_deg", "psi_deg", default=(0.0, 120.0), degrees=True),
+    ]).T
+    if bounds[0, 0] < 0.0 or bounds[1, 0] > math.pi / 2 + 1e-12:
+        raise InputError("bounds.theta_deg", "must lie within [0, 90]", source)
+    if bounds[0, 1] < 0.0 or bounds[1, 1] > d_max + 1e-12:
+        raise InputError("bounds.d", "must lie within [0, 1] (over the object length)" if part.section is None else
+                         f"must lie within [0, {d_max:.6g}] (the section's top, over the object length)", source)
+    if bounds[0, 2] < 0.0 or bounds[1, 2] >= math.pi:
+        raise InputError("bounds.psi_deg", "must lie within [0, 180)", source)
+    for i, key in enumerate(("start.theta_deg", "start.d", "start.psi_deg")):
+        if not bounds[0, i] - 1e-12 <= start[i] <= bounds[1, i] + 1e-12:
+            raise InputError(key, "lies outside the bounds", source)
+    gl = r.mapping(r.require(top, "goal"), "goal")
+    r.known(gl, "goal", {"theta_max_deg", "d", "psi_deg"})
+    theta_max = math.radians(r.angle(gl, "goal.theta_max_deg", "theta_max_deg", 0.0, 90.0))
+    goal_psi = r.interval(gl, "goal.psi_deg", "psi_deg", within=(0.0, 180.0), unit=" deg")
+    if goal_psi[1] >= 180.0:
+        raise InputError("goal.psi_deg", f"must lie within [0, 180) deg, got high {goal_psi[1]:g}", source)
+    goal = GoalSpec(theta_max=min(theta_max, bounds[1, 0]),
+                    d=r.interval(gl, "goal.d", "d", within=(0.0, d_max), unit=" (over the object length)"),
+                    psi=(math.radians(goal_psi[0]), math.radians(goal_psi[1])), theta_min=bounds[0, 0])
+    glo, ghi = goal.box()
+    if np.any(np.minimum(ghi, bounds[1]) < np.maximum(glo, bounds[0])):
+        raise InputError("goal", "lies outside the bounds", source)
+    return start, bounds, goal
+
+
+def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometry, bounds: np.ndarray,
+              width: float) -> tuple[PlanningOptions, DigitGeometry, float]:
+    """The planning block: its options, the digits with their margins and the object's section, and
+    the table clearance (m)."""
+    source, length = r.source, part.length
+    pl = r.mapping(top.get("planning", {}), "planning")
+    r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
+                             "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
+                             "min_tolerance", "table_clearance", "across_margin", "max_landing_spread"})
+    margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
+    if margin >= digits.thumb_length * length:
+        raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
+    clearance = r.length(pl, "planning.table_clearance", "table_clearance", zero=True, default=0.0)
+    across = r.length(pl, "planning.across_margin", "across_margin", zero=True, default=0.0)
+    plane = part.plane
+    support = (0.0, 0.0) if plane is None else (min(plane.g.span) / length, min(min(plane.b.span) / length, width / 2))
+    digits = replace(digits, thumb_tip_margin=margin / length, table_clearance=clearance / length,
+                     object_thickness=part.thickness / length, support=support, across_margin=across / length,
+                     section=part.section)
+    model = pl.get("sliding_model", "relaxed")
+    if model not in SLIDING_MODELS:
+        raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
+    res = r.mapping(pl.get("resolution", {}), "planning.resolution")
+    r.known(res, "planning.resolution", {"theta_deg", "d", "psi_deg"})
+    resolution = (
+        math.radians(r.number(res, "planning.resolution.theta_deg", "theta_deg", positive=True, maximum=10.0,
+                              default=0.5, unit=" deg")),
+        r.number(res, "planning.resolution.d", "d", positive=True, maximum=0.1, default=0.005),
+        math.radians(r.number(res, "planning.resolution.psi_deg", "psi_deg", positive=True, maximum=10.0,
+                              default=0.5, unit=" deg")),
+    )
+    states = float(np.prod(np.floor((bounds[1] - bounds[0]) / np.asarray(resolution)) + 1))
+    if states > MAX_LATTICE_STATES:
+        raise InputError("planning.resolution", f"is too fine for the bounds: its lattice would hold {states:.3g} "
+                         f"states (at most {MAX_LATTICE_STATES:.3g}); coarsen it or narrow the bounds", source)
+    options = PlanningOptions(
+        sliding_model=SlidingModel(model),
+        reverse_primitives=r.flag(pl, "planning.reverse_primitives", "reverse_primitives"),
+        forbid_partial=r.flag(pl, "planning.forbid_partial", "forbid_partial"),
+        margin_weight=r.margin_weight(pl),
+        min_tolerance=r.number(pl, "planning.min_tolerance", "min_tolerance", minimum=0.0, maximum=5.0, default=0.0),
+        max_landing_spread=(r.length(pl, "planning.max_landing_spread", "max_landing_spread")
+                            if "max_landing_spread" in pl else None),
+        resolution=resolution,
+        d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
+        mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
+                                     minimum=0.0, maximum=1e4, default=1.0),
+    )
+    return options, digits, clearance

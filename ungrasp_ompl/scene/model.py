@@ -21,25 +21,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..geometry.collision import Box, CollisionChecker, CollisionModel
-from ..geometry.plane import ManipulationPlane, choose_plane
+from ..geometry.plane import ManipulationPlane
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
 from ..mechanics.antipodal import effective_friction
-from ..mechanics.force_closure import SLIDING_MODELS, Friction, SectionContact, SlidingModel
+from ..mechanics.force_closure import Friction, SectionContact
 from ..mechanics.margin import Margins, friction_margin, kinematic_margins
-from ..mechanics.pincer import check_pincer
 from ..shipped import resolve, shipped_names
-from .loader import MAX_LENGTH, SceneReader, read_yaml
-from .options import Object3D, PlanningOptions, RobotOptions, SimOptions
+from .loader import read_yaml, scene_fields
+from .options import GoalSpec, Object3D, PlanningOptions, RobotOptions, SimOptions
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanics.cage import Cage, CageGrid
-
-
-#: The gripper housing's extent normal to the manipulation plane when a scene does not give it, m.
-DEFAULT_PALM_THICKNESS = 0.06
-#: Most lattice states planning.resolution may make over the bounds (memory and time stay bounded).
-MAX_LATTICE_STATES = 25_000_000
 
 
 class StateClass(Enum):
@@ -70,25 +63,6 @@ class StateDiagnosis:
         if self.state_class is StateClass.COLLISION:
             return f"{what} is in collision: " + ", ".join(self.contacts)
         return f"{what} is not force-closed (contacts cannot hold the object)"
-
-
-@dataclass(frozen=True)
-class GoalSpec:
-    """Goal region: theta at most theta_max, d and psi within ranges (radians, over l)."""
-
-    theta_max: float
-    d: tuple[float, float]
-    psi: tuple[float, float]
-    theta_min: float = 0.0
-
-    def box(self) -> NDArray[np.float64]:
-        """Lower and upper corners, shape (2, 3), in (theta, d, psi)."""
-        return np.array([[self.theta_min, self.d[0], self.psi[0]], [self.theta_max, self.d[1], self.psi[1]]])
-
-    def contains(self, q: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        lo, hi = self.box()
-        return np.all((q >= lo - tol) & (q <= hi + tol), axis=-1)
 
 
 @dataclass
@@ -131,217 +105,9 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "scene") -> "Scene":
-        """Build a scene from the parsed YAML mapping; raises InputError on a bad field."""
-        r = SceneReader(source)
-        top = r.mapping(data, "scene")
-        r.known(top, "", {"name", "description", "object", "friction", "friction_angle_deg", "digits",
-                          "obstacles", "start", "goal", "bounds", "planning", "contacts", "stability", "robot",
-                          "sim", "planar_only"})
-        name = r.name(top, "name", default_name)
-
-        obj = r.mapping(r.require(top, "object"), "object")
-        r.known(obj, "object", {"length", "thickness", "outline", "target", "section"})
-        thickness = r.length(obj, "object.thickness", "thickness", zero=True, default=0.0)
-        mu_contacts, uncertainty = r.friction(top)
-        object3d, plane = None, None
-        if "outline" in obj:
-            if "length" in obj:
-                raise InputError("object.length", "is set by the outline (the distance from G to B); remove it", source)
-            object3d = r.object3d(obj["outline"], obj.get("target", {}), thickness)
-            fixed = None
-            if "contacts" in top:
-                ct = r.mapping(top["contacts"], "contacts")
-                r.known(ct, "contacts", {"G", "B"})
-                fixed = (r.pair(ct, "contacts.G", "G"), r.pair(ct, "contacts.B", "B"))
-            plane = choose_plane(object3d.outline, mu_contacts[0], mu_contacts[2], object3d.position,
-                                 object3d.yaw, fixed, source)
-            length = plane.length
-            if length > MAX_LENGTH:
-                raise InputError("object.outline", f"makes the object length |GB| {length:.4g} m, over {MAX_LENGTH:g} m",
-                                 source)
-            mu = (plane.mu_g, mu_contacts[1], plane.mu_b)
-            if uncertainty > 0.0:  # the plane must meet every cone over the whole range (Assumption 2)
-                key = "friction" if "friction" in top else "friction_angle_deg"
-                for contact, m, beta in (("G", mu_contacts[0], plane.g.beta), ("B", mu_contacts[2], plane.b.beta)):
-                    low = m * (1.0 - uncertainty)
-                    if not beta < math.atan(low):
-                        raise InputError(f"{key}.uncertainty", f"puts the friction angle at {contact} as low as "
-                                         f"{math.degrees(math.atan(low)):.1f} deg, not above the "
-                                         f"{math.degrees(beta):.1f} deg GB makes with the boundary normal there, so "
-                                         "the manipulation plane misses that friction cone (Assumption 2)", source)
-        else:
-            if "contacts" in top:
-                raise InputError("contacts", "needs object.outline", source)
-            length = r.length(obj, "object.length", "length")
-            mu = mu_contacts
-        if thickness >= length:
-            raise InputError("object.thickness", f"must be smaller than the object length ({length:.4g} m)", source)
-        section = r.section(obj, thickness, length)  # None: the slab
-        if section is not None:
-            thickness = section.thickness * length  # a profile's height
-            if object3d is not None:
-                if not (isinstance(obj["outline"], dict) and "circle" in obj["outline"]):
-                    raise InputError("object.section", "needs a circle outline (the section is turned about the "
-                                     "object's centre to make its solid) or no outline", source)
-                object3d = replace(object3d, thickness=thickness)
-        d_max = 1.0 if section is None else section.top_length  # the slide coordinate's reach (mechanics.section)
-
-        dig = r.mapping(r.require(top, "digits"), "digits")
-        r.known(dig, "digits", {"alpha", "thumb_length", "finger_length", "thumb_tip_thickness",
-                                "thumb_base_thickness", "finger_tip_thickness", "finger_base_thickness",
-                                "width", "max_aperture", "finger_tip", "finger_tip_radius", "palm_width",
-                                "palm_length", "palm_thickness"})
-        lengths = {}
-        for key in ("thumb_length", "thumb_tip_thickness", "thumb_base_thickness",
-                    "finger_tip_thickness", "finger_base_thickness", "width"):
-            lengths[key] = r.length(dig, f"digits.{key}", key) / length
-        thumb_len = lengths["thumb_length"]
-        if "alpha" in dig:
-            alpha = r.number(dig, "digits.alpha", "alpha")
-        elif "finger_length" in dig:  # alpha follows from the lengths and l
-            alpha = r.length(dig, "digits.finger_length", "finger_length") / length - thumb_len
-        else:
-            raise InputError("digits.alpha", "is missing (give alpha, over the object length, or finger_length)", source)
-        if not -1.0 < alpha < 1.0:
-            raise InputError("digits.alpha", f"must lie in (-1, 1) (over the object length), got {alpha:.4g}", source)
-        if "finger_length" in dig and "alpha" in dig:
-            finger = r.length(dig, "digits.finger_length", "finger_length")
-            if abs(finger / length - (thumb_len + alpha)) > 1e-6:
-                raise InputError("digits.finger_length", "must equal thumb_length + alpha * object length "
-                                 f"({(thumb_len + alpha) * length:.6g} m), got {finger:g}", source)
-        if thumb_len + alpha <= 0:
-            raise InputError("digits.alpha", "makes the finger length thumb_length + alpha * l non-positive", source)
-        max_ap = r.length(dig, "digits.max_aperture", "max_aperture", default=math.inf) / length
-        finger_tip = dig.get("finger_tip", "rounded")
-        if finger_tip not in ("rounded", "flat"):
-            raise InputError("digits.finger_tip", f"must be rounded (point contact at A) or flat (edge contact), got {finger_tip!r}", source)
-        if finger_tip == "flat":
-            if "finger_tip_radius" in dig:
-                raise InputError("digits.finger_tip_radius", "needs finger_tip: rounded (a flat tip has no radius)", source)
-            tip_radius = 0.0
-        else:  # a dome across the tip's thickness unless given; a segment object keeps a point finger
-            default_radius = lengths["finger_tip_thickness"] * length / 2 if thickness > 0 else 0.0
-            tip_radius = r.number(dig, "digits.finger_tip_radius", "finger_tip_radius", minimum=0.0,
-                                  default=default_radius) / length
-            if tip_radius > lengths["finger_tip_thickness"] / 2 + 1e-12:
-                raise InputError("digits.finger_tip_radius", "must be at most half of finger_tip_thickness "
-                                 f"({lengths['finger_tip_thickness'] * length / 2:.4g} m)", source)
-        palm = {k: r.length(dig, f"digits.{k}", k, zero=True, default=0.0) / length for k in ("palm_width", "palm_length")}
-        # the housing's extent normal to the plane: the RH-P12-RN class's 60 mm unless given
-        palm["palm_thickness"] = r.length(dig, "digits.palm_thickness", "palm_thickness",
-                                          default=DEFAULT_PALM_THICKNESS) / length
-        digits = DigitGeometry(alpha=alpha, max_aperture=max_ap, flat_finger_tip=finger_tip == "flat",
-                               finger_tip_radius=tip_radius, **lengths, **palm)
-
-        obstacles = r.obstacles(top.get("obstacles", []))
-
-        st = r.mapping(r.require(top, "start"), "start")
-        r.known(st, "start", {"theta_deg", "d", "psi_deg"})
-        start = np.array([
-            math.radians(r.number(st, "start.theta_deg", "theta_deg")),
-            r.number(st, "start.d", "d"),
-            math.radians(r.number(st, "start.psi_deg", "psi_deg")),
-        ])
-
-        bd = r.mapping(top.get("bounds", {}), "bounds")
-        r.known(bd, "bounds", {"theta_deg", "d", "psi_deg"})
-        bounds = np.array([
-            r.interval(bd, "bounds.theta_deg", "theta_deg", default=(0.0, 90.0), degrees=True),
-            r.interval(bd, "bounds.d", "d", default=(0.0, d_max)),
-            r.interval(bd, "bounds.psi_deg", "psi_deg", default=(0.0, 120.0), degrees=True),
-        ]).T
-        if bounds[0, 0] < 0.0 or bounds[1, 0] > math.pi / 2 + 1e-12:
-            raise InputError("bounds.theta_deg", "must lie within [0, 90]", source)
-        if bounds[0, 1] < 0.0 or bounds[1, 1] > d_max + 1e-12:
-            raise InputError("bounds.d", "must lie within [0, 1] (over the object length)" if section is None else
-                             f"must lie within [0, {d_max:.6g}] (the section's top, over the object length)", source)
-        if bounds[0, 2] < 0.0 or bounds[1, 2] >= math.pi:
-            raise InputError("bounds.psi_deg", "must lie within [0, 180)", source)
-        for i, key in enumerate(("start.theta_deg", "start.d", "start.psi_deg")):
-            if not bounds[0, i] - 1e-12 <= start[i] <= bounds[1, i] + 1e-12:
-                raise InputError(key, "lies outside the bounds", source)
-
-        gl = r.mapping(r.require(top, "goal"), "goal")
-        r.known(gl, "goal", {"theta_max_deg", "d", "psi_deg"})
-        theta_max = math.radians(r.angle(gl, "goal.theta_max_deg", "theta_max_deg", 0.0, 90.0))
-        goal_psi = r.interval(gl, "goal.psi_deg", "psi_deg", within=(0.0, 180.0), unit=" deg")
-        if goal_psi[1] >= 180.0:
-            raise InputError("goal.psi_deg", f"must lie within [0, 180) deg, got high {goal_psi[1]:g}", source)
-        goal = GoalSpec(
-            theta_max=min(theta_max, bounds[1, 0]),
-            d=r.interval(gl, "goal.d", "d", within=(0.0, d_max), unit=" (over the object length)"),
-            psi=(math.radians(goal_psi[0]), math.radians(goal_psi[1])),
-            theta_min=bounds[0, 0],
-        )
-        glo, ghi = goal.box()
-        if np.any(np.minimum(ghi, bounds[1]) < np.maximum(glo, bounds[0])):
-            raise InputError("goal", "lies outside the bounds", source)
-
-        pl = r.mapping(top.get("planning", {}), "planning")
-        r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
-                                 "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                                 "min_tolerance", "table_clearance", "across_margin", "max_landing_spread"})
-        margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
-        if margin >= digits.thumb_length * length:
-            raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
-        clearance = r.length(pl, "planning.table_clearance", "table_clearance", zero=True, default=0.0)
-        across = r.length(pl, "planning.across_margin", "across_margin", zero=True, default=0.0)
-        support = (0.0, 0.0) if plane is None else \
-            (min(plane.g.span) / length, min(min(plane.b.span) / length, lengths["width"] / 2))
-        digits = replace(digits, thumb_tip_margin=margin / length, table_clearance=clearance / length,
-                         object_thickness=thickness / length, support=support, across_margin=across / length,
-                         section=section)
-        model = pl.get("sliding_model", "relaxed")
-        if model not in SLIDING_MODELS:
-            raise InputError("planning.sliding_model", f"must be one of {', '.join(SLIDING_MODELS)}, got {model!r}", source)
-        reverse = r.flag(pl, "planning.reverse_primitives", "reverse_primitives")
-        forbid_partial = r.flag(pl, "planning.forbid_partial", "forbid_partial")
-        stab = r.mapping(top.get("stability", {}), "stability")
-        r.known(stab, "stability", {"max_tilt_deg"})
-        max_tilt = math.radians(r.angle(stab, "stability.max_tilt_deg", "max_tilt_deg", 1.0, 90.0, default=30.0))
-        res = r.mapping(pl.get("resolution", {}), "planning.resolution")
-        r.known(res, "planning.resolution", {"theta_deg", "d", "psi_deg"})
-        resolution = (
-            math.radians(r.number(res, "planning.resolution.theta_deg", "theta_deg", positive=True, maximum=10.0,
-                                  default=0.5, unit=" deg")),
-            r.number(res, "planning.resolution.d", "d", positive=True, maximum=0.1, default=0.005),
-            math.radians(r.number(res, "planning.resolution.psi_deg", "psi_deg", positive=True, maximum=10.0,
-                                  default=0.5, unit=" deg")),
-        )
-        states = float(np.prod(np.floor((bounds[1] - bounds[0]) / np.asarray(resolution)) + 1))
-        if states > MAX_LATTICE_STATES:
-            raise InputError("planning.resolution", f"is too fine for the bounds: its lattice would hold {states:.3g} "
-                             f"states (at most {MAX_LATTICE_STATES:.3g}); coarsen it or narrow the bounds", source)
-        options = PlanningOptions(
-            sliding_model=SlidingModel(model),
-            reverse_primitives=reverse,
-            forbid_partial=forbid_partial,
-            margin_weight=r.margin_weight(pl),
-            min_tolerance=r.number(pl, "planning.min_tolerance", "min_tolerance", minimum=0.0, maximum=5.0, default=0.0),
-            max_landing_spread=(r.length(pl, "planning.max_landing_spread", "max_landing_spread")
-                                if "max_landing_spread" in pl else None),
-            resolution=resolution,
-            d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
-            mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
-                                         minimum=0.0, maximum=1e4, default=1.0),
-        )
-        robot = r.robot(top.get("robot", {}))
-        if robot.gripper is not None and section is not None:
-            raise InputError("object.section", "needs the parallel gripper (robot.gripper kind parallel): the pincer's "
-                             "kinematics place its finger on a slab", source)
-        if robot.gripper is not None:  # a pincer's joint must carry these digits (mechanics.pincer)
-            check_pincer(robot.gripper, digits, length, source)
-        if robot.start_press > clearance:
-            raise InputError("robot.start_press", f"must not exceed planning.table_clearance ({clearance:g} m): "
-                             "the pressed digits would run into the table", source)
-        digits = replace(digits, press=robot.start_press / length)
-        planar_only = top.get("planar_only")
-        if planar_only is not None and not (isinstance(planar_only, str) and planar_only.strip()):
-            raise InputError("planar_only", f"must say why the robot cannot execute the scene, got {planar_only!r}",
-                             source)
-        return cls(name, length, thickness, mu, digits, obstacles, start, goal, bounds, options, source,
-                   object3d, plane, mu_contacts, max_tilt, robot, sim=r.sim(top.get("sim", {})),
-                   planar_only=planar_only and planar_only.strip(), friction_uncertainty=uncertainty)
+        """Build a scene from the parsed YAML mapping (scene.loader.scene_fields reads and checks
+        it); raises InputError on a bad field."""
+        return cls(**scene_fields(data, source, default_name))
 
     def __repr__(self) -> str:
         """One line in SI units (metres; angles in degrees where marked _deg; d over l as in the files)."""

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..geometry.outline import Outline
 from ..mechanics.force_closure import SlidingModel
@@ -212,3 +212,22 @@ class SimOptions:
     too high leaves it hanging with G above the table; true, set into the open gripper at the start
     pose with its end on the table, so that it starts slid along GB in the pinch until it rests
     there (docs/model.md 11.3)."""
+
+
+@dataclass(frozen=True)
+class GoalSpec:
+    """Goal region: theta at most theta_max, d and psi within ranges (radians, over l)."""
+
+    theta_max: float
+    d: tuple[float, float]
+    psi: tuple[float, float]
+    theta_min: float = 0.0
+
+    def box(self) -> NDArray[np.float64]:
+        """Lower and upper corners, shape (2, 3), in (theta, d, psi)."""
+        return np.array([[self.theta_min, self.d[0], self.psi[0]], [self.theta_max, self.d[1], self.psi[1]]])
+
+    def contains(self, q: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        lo, hi = self.box()
+        return np.all((q >= lo - tol) & (q <= hi + tol), axis=-1)
