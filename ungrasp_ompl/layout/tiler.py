@@ -542,34 +542,57 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     progress, when given, is called with a TilingProgress at each approach checked during the
     search and before and after each piece is planned (it must not raise). memo, when given,
     answers what an earlier call on this layout worked out and keeps what this one does."""
-    opts = options.validated()
-    memo = (TilingMemo() if memo is None else memo).claim(layout)
-    t0 = time.perf_counter()
-    result = Tiling(layout.name)
-    n = len(layout.pieces)
+    return _Tiler(layout, options.validated(), progress, memo).run()
 
-    def report(stage: str, done: int, i: int) -> None:
-        if progress is not None:
-            progress(TilingProgress(stage, done, n, result.checks, layout.pieces[i].name))
-    walls = [wall_contact(layout, i) for i in range(n)]
-    screened: dict[tuple[frozenset, int], tuple[list, list[ApproachRejected]]] = {}
-    proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
-    deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
 
-    def out_of_checks() -> bool:
-        return result.checks >= opts.max_checks
+class _Tiler:
+    """One tiling of a layout, in two named steps: search an order in which every piece can be
+    proven placeable (search), then plan the pieces in that order (plan_pieces). It keeps what both
+    steps share: the answers of the screens and proofs by the set of pieces down, and the result."""
 
-    def viable(i: int, placed: list[int]) -> tuple[list[tuple[Approach, Scene]], list[ApproachRejected]]:
+    def __init__(self, layout: Layout, opts: TilingOptions, progress: Callable[[TilingProgress], None] | None,
+                 memo: TilingMemo | None):
+        self.layout, self.opts, self.progress = layout, opts, progress
+        self.memo = (TilingMemo() if memo is None else memo).claim(layout)
+        self.result = Tiling(layout.name)
+        self.n = len(layout.pieces)
+        self.walls = [wall_contact(layout, i) for i in range(self.n)]
+        self.screened: dict[tuple[frozenset, int], tuple[list, list[ApproachRejected]]] = {}
+        self.proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
+        self.deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
+        self.dead: set[frozenset[int]] = set()  # sets of pieces down from which no order completes the layout
+
+    def run(self) -> Tiling:
+        """The tiling: an order found and every piece planned, or where and why it failed."""
+        t0 = time.perf_counter()
+        found = self.search([], [])
+        if found is None:
+            self.explain_failure()
+        else:
+            self.plan_pieces(found)
+        self.result.time_s = time.perf_counter() - t0
+        return self.result
+
+    # -- what the steps share ---------------------------------------------------------------
+    def report(self, stage: str, done: int, i: int) -> None:
+        if self.progress is not None:
+            self.progress(TilingProgress(stage, done, self.n, self.result.checks, self.layout.pieces[i].name))
+
+    def out_of_checks(self) -> bool:
+        return self.result.checks >= self.opts.max_checks
+
+    def viable(self, i: int, placed: list[int]) -> tuple[list[tuple[Approach, Scene]], list[ApproachRejected]]:
         """Approaches of piece i that pass the screen with placed down, and why the others fail."""
         key = (frozenset(placed), i)
-        if key not in screened:
+        if key not in self.screened:
             ok, why = [], []
-            for a in approaches(layout, i, placed, opts.approaches, opts.avoid):
-                result.checks += 1
-                report("search", len(placed), i)
+            memo = self.memo
+            for a in approaches(self.layout, i, placed, self.opts.approaches, self.opts.avoid):
+                self.result.checks += 1
+                self.report("search", len(placed), i)
                 at = _at(placed, i, a)
                 if at not in memo.scenes:
-                    memo.scenes[at] = approach_scene(layout, i, a, placed)
+                    memo.scenes[at] = approach_scene(self.layout, i, a, placed)
                 scene = memo.scenes[at]
                 if isinstance(scene, DigitsDoNotFit):
                     why.append(ApproachRejected(Rejection.DIGITS_DO_NOT_FIT, a, scene))
@@ -586,135 +609,148 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
                     ok.append((a, scene))
             if not ok and not why:
                 why.append(ApproachRejected(Rejection.NO_ANTIPODAL_PAIR))
-            screened[key] = (ok, why)
-        return screened[key]
+            self.screened[key] = (ok, why)
+        return self.screened[key]
 
-    def proved(placed: list[int], i: int, a: Approach, scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
+    def proved(self, placed: list[int], i: int, a: Approach, scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
         at = _at(placed, i, a)
-        if at not in memo.proofs:
-            memo.proofs[at] = prove(scene)
-        return memo.proofs[at]
+        if at not in self.memo.proofs:
+            self.memo.proofs[at] = prove(scene)
+        return self.memo.proofs[at]
 
-    def planned(placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas, planner: str,
+    def planned(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas, planner: str,
                 seed: int | None = None) -> tuple[Plan, float | None]:
         """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
         unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
+        opts = self.opts
         key = (_at(placed, i, a), planner, opts.time, seed, opts.range)
-        if key in memo.plans:
-            return memo.plans[key]
+        if key in self.memo.plans:
+            return self.memo.plans[key]
         p = plan_scene(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
         found = p, tolerance(scene, p).scale if p.solved else None
         if planner == LATTICE or seed is not None:
-            memo.plans[key] = found
+            self.memo.plans[key] = found
         return found
 
-    def fail(i: int, placed: list[int], reasons: list[ApproachRejected]) -> None:
-        if len(placed) > deepest["depth"]:
-            deepest.update(depth=len(placed), piece=i, reasons=reasons, placed=list(placed))
+    def fail(self, i: int, placed: list[int], reasons: list[ApproachRejected]) -> None:
+        if len(placed) > self.deepest["depth"]:
+            self.deepest.update(depth=len(placed), piece=i, reasons=reasons, placed=list(placed))
 
-    dead: set[frozenset[int]] = set()  # sets of pieces down from which no order completes the layout
-
-    def search(placed: list[int], chosen: list) -> list | None:
+    # -- step 1: an order --------------------------------------------------------------------
+    def search(self, placed: list[int], chosen: list) -> list | None:
         """chosen extended to every piece after placed, or None. Whether it can be depends on the
         set of pieces down, not on their order (the screens and proofs are kept by that set), so a
         set that failed in one order is not searched again in another."""
         down = frozenset(placed)
-        if down in dead:
+        if down in self.dead:
             return None
-        found = extend(placed, chosen)
+        found = self.extend(placed, chosen)
         if found is None:
-            dead.add(down)
+            self.dead.add(down)
         return found
 
-    def extend(placed: list[int], chosen: list) -> list | None:
-        if len(placed) == n:
+    def extend(self, placed: list[int], chosen: list) -> list | None:
+        if len(placed) == self.n:
             return chosen
-        if out_of_checks():
+        if self.out_of_checks():
             return None
-        remaining = [i for i in range(n) if i not in placed]
-        options = {i: viable(i, placed) for i in remaining}
+        remaining = [i for i in range(self.n) if i not in placed]
+        options = {i: self.viable(i, placed) for i in remaining}
         for i in remaining:  # a piece with no approach now has none later either: more pieces only add obstacles
             if not options[i][0]:
-                fail(i, placed, options[i][1])
+                self.fail(i, placed, options[i][1])
                 return None
         # the most constrained piece first; among equals the one touching the walls least
-        for i in sorted(remaining, key=lambda k: (len(options[k][0]), walls[k], k)):
-            key = (frozenset(placed), i)
-            if key not in proven:
-                proven[key] = None
-                why = list(options[i][1])
-                for a, scene in options[i][0]:
-                    if out_of_checks():
-                        why.append(ApproachRejected(Rejection.OUT_OF_CHECKS, evidence=opts.max_checks))
-                        break
-                    result.checks += 1
-                    report("search", len(placed), i)
-                    problem, atlas = proved(placed, i, a, scene)
-                    if problem is None:
-                        proven[key] = (a, scene, atlas)
-                        break
-                    why.append(ApproachRejected(Rejection.NO_SECURE_PATH, a))
-                if proven[key] is None:  # it cannot be placed now, nor after more pieces
-                    fail(i, placed, why)
-                    return None
-            found = search(placed + [i], chosen + [(i, *proven[key])])
+        for i in sorted(remaining, key=lambda k: (len(options[k][0]), self.walls[k], k)):
+            proof = self.first_proven(i, placed, options[i])
+            if proof is None:  # it cannot be placed now, nor after more pieces
+                return None
+            found = self.search(placed + [i], chosen + [(i, *proof)])
             if found is not None:
                 return found
         return None
 
-    def most_tolerant(i: int, placed: list[int], first: tuple[Approach, Scene, SecurityAtlas]
+    def first_proven(self, i: int, placed: list[int], options: tuple[list, list[ApproachRejected]]
+                     ) -> tuple[Approach, Scene, SecurityAtlas] | None:
+        """Piece i's first screened approach whose secure lattice reaches the goal with placed down
+        (kept by the set down), or None, the reasons recorded."""
+        key = (frozenset(placed), i)
+        if key not in self.proven:
+            self.proven[key] = None
+            why = list(options[1])
+            for a, scene in options[0]:
+                if self.out_of_checks():
+                    why.append(ApproachRejected(Rejection.OUT_OF_CHECKS, evidence=self.opts.max_checks))
+                    break
+                self.result.checks += 1
+                self.report("search", len(placed), i)
+                problem, atlas = self.proved(placed, i, a, scene)
+                if problem is None:
+                    self.proven[key] = (a, scene, atlas)
+                    break
+                why.append(ApproachRejected(Rejection.NO_SECURE_PATH, a))
+            if self.proven[key] is None:
+                self.fail(i, placed, why)
+        elif self.proven[key] is None:
+            return None
+        return self.proven[key]
+
+    def explain_failure(self) -> None:
+        """The result's failed piece, its reasons and the pieces down before it: the deepest failure."""
+        result, deepest, pieces = self.result, self.deepest, self.layout.pieces
+        result.failed_piece = pieces[deepest["piece"]].name if deepest["piece"] is not None else None
+        result.reasons = list(deepest["reasons"])
+        result.down_before = [pieces[j].name for j in deepest["placed"]]
+        if result.failed_piece is None:
+            result.failed_piece, result.reasons, result.down_before = "?", [], None
+        if self.out_of_checks():
+            result.capped = self.opts.max_checks
+
+    # -- step 2: the plans -------------------------------------------------------------------
+    def plan_pieces(self, found: list) -> None:
+        """Plan every piece in the order found, each on its proof's lattice (the lattice's own plan
+        where the planner finds none), into the result's placements."""
+        opts, result, pieces = self.opts, self.result, self.layout.pieces
+        placed_before: list[int] = []
+        for k, (i, a, scene, atlas) in enumerate(found):
+            self.report("plan", k, i)
+            ranked = 1
+            if opts.rank is Rank.TOLERANCE:
+                a, scene, atlas, ranked = self.most_tolerant(i, placed_before, (a, scene, atlas))
+            down = list(placed_before)
+            placed_before.append(i)
+            seed = None if opts.seed is None else opts.seed + k
+            p, tol = self.planned(down, i, a, scene, atlas, opts.planner, seed)  # on the lattice the proof searched
+            note = None
+            if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
+                note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
+                p, tol = self.planned(down, i, a, scene, atlas, LATTICE)  # the proof's lattice again
+            if not p.solved:
+                result.failed_piece = pieces[i].name
+                result.reasons = [ApproachRejected(Rejection.NOT_PLANNED, a, p)]
+                return
+            result.placements.append(Placement(k + 1, i, pieces[i].name, a, scene, p, note, tol, ranked))
+            self.report("plan", k + 1, i)
+
+    def most_tolerant(self, i: int, placed: list[int], first: tuple[Approach, Scene, SecurityAtlas]
                       ) -> tuple[Approach, Scene, SecurityAtlas, int]:
         """Of piece i's approaches that pass the screen and the proof with placed down, the one
         whose exact lattice plan tolerates most (the first in the search's order among equals),
         and how many were measured."""
         best, best_tol, measured = first, -math.inf, 0
-        for a, scene in viable(i, placed)[0]:
+        for a, scene in self.viable(i, placed)[0]:
             if a is first[0]:
                 atlas = first[2]
             else:
-                result.checks += 1
-                report("plan", len(placed), i)
-                problem, atlas = proved(placed, i, a, scene)
+                self.result.checks += 1
+                self.report("plan", len(placed), i)
+                problem, atlas = self.proved(placed, i, a, scene)
                 if problem is not None:
                     continue
-            p, tol = planned(placed, i, a, scene, atlas, LATTICE)
+            p, tol = self.planned(placed, i, a, scene, atlas, LATTICE)
             if not p.solved:
                 continue
             measured += 1
             if tol > best_tol:
                 best, best_tol = (a, scene, atlas), tol
         return (*best, max(measured, 1))
-
-    found = search([], [])
-    if found is None:
-        result.failed_piece = layout.pieces[deepest["piece"]].name if deepest["piece"] is not None else None
-        result.reasons = list(deepest["reasons"])
-        result.down_before = [layout.pieces[j].name for j in deepest["placed"]]
-        if result.failed_piece is None:
-            result.failed_piece, result.reasons, result.down_before = "?", [], None
-        if out_of_checks():
-            result.capped = opts.max_checks
-        result.time_s = time.perf_counter() - t0
-        return result
-    placed_before: list[int] = []
-    for k, (i, a, scene, atlas) in enumerate(found):
-        report("plan", k, i)
-        ranked = 1
-        if opts.rank is Rank.TOLERANCE:
-            a, scene, atlas, ranked = most_tolerant(i, placed_before, (a, scene, atlas))
-        down = list(placed_before)
-        placed_before.append(i)
-        seed = None if opts.seed is None else opts.seed + k
-        p, tol = planned(down, i, a, scene, atlas, opts.planner, seed)  # on the lattice the proof searched
-        note = None
-        if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
-            note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
-            p, tol = planned(down, i, a, scene, atlas, LATTICE)  # the proof's lattice again
-        if not p.solved:
-            result.failed_piece = layout.pieces[i].name
-            result.reasons = [ApproachRejected(Rejection.NOT_PLANNED, a, p)]
-            break
-        result.placements.append(Placement(k + 1, i, layout.pieces[i].name, a, scene, p, note, tol, ranked))
-        report("plan", k + 1, i)
-    result.time_s = time.perf_counter() - t0
-    return result
