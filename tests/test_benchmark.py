@@ -135,15 +135,14 @@ def test_plots_are_png(bench):
         assert_picture(out / name)
 
 
-@pytest.mark.parametrize("planners, words", [(["RRTstar", "NoSuchPlanner"], ["unknown planner", "NoSuchPlanner"]),
-                                             (["LazyPRMstar"], ["unknown planner", "LazyPRMstar"]),
-                                             ([], ["no planner"])])
-def test_bad_planner_is_refused_before_running(tmp_path, planners, words):
+@pytest.mark.parametrize("planners, named", [(["RRTstar", "NoSuchPlanner"], "NoSuchPlanner"),
+                                             (["LazyPRMstar"], "LazyPRMstar"), ([], None)])
+def test_bad_planner_is_refused_before_running(tmp_path, planners, named):
     out = tmp_path / "out"
     with pytest.raises(InputError) as err:
         run_benchmark([SCENE], BenchmarkOptions(planners=tuple(planners), runs=1, time=0.3, jobs=2, out=out))
     assert err.value.field == "planners"
-    assert all(w in str(err.value) for w in words), str(err.value)
+    assert named is None or named in err.value.reason  # the planner refused is named
     assert not out.exists()
 
 

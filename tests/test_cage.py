@@ -372,8 +372,9 @@ def test_scene_cage_needs_a_weight():
 def test_a_grid_too_fine_to_hold_is_refused_naming_it():
     """A pose grid beyond MAX_GRID_CELLS is refused before anything is allocated."""
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
-    with pytest.raises(InputError, match="^grid: a pose grid of .* cells is more than"):
+    with pytest.raises(InputError) as err:
         scene.cage(scene.start, grid=CageGrid().refined(40.0))
+    assert err.value.field == "grid"
 
 
 @pytest.mark.parametrize("args,field", [

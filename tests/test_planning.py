@@ -238,14 +238,14 @@ def test_python_api_queries(scenes):
     assert scene.is_valid(scene.start)[0]
     with pytest.raises(ValueError, match="shape"):
         scene.force_closure(np.zeros((3, 2)))
-    for bad, why in (([[0.5, np.nan, 0.2]], r"^q: must be finite, got \[0.5, nan, 0.2\] in row 0"),
-                     ([[0.1, 0.8, 0.0], [0.2, 0.8, np.inf]], r"^q: must be finite, .* in row 1"),
-                     ("theta", r"^q: must be numbers")):
+    for bad in ([[0.5, np.nan, 0.2]], [[0.1, 0.8, 0.0], [0.2, 0.8, np.inf]], "theta"):
         for query in (scene.force_closure, scene.margin, scene.is_valid):
-            with pytest.raises(InputError, match=why):
+            with pytest.raises(InputError) as err:
                 query(bad)
-    with pytest.raises(InputError, match=r"^dq: must be finite"):
+            assert err.value.field == "q"
+    with pytest.raises(InputError) as err:
         scene.margin(q[:1], [[0.0, np.nan, 0.1]])
+    assert err.value.field == "dq"
 
 
 def test_plan_api_is_reproducible_in_process(scenes):

@@ -701,11 +701,13 @@ def test_the_hand_aimed_by_the_simulated_release_puts_the_piece_on_its_target(pi
     assert not any(placement(as_planned, result)[1].aim)
     raw = yaml.safe_load((SCENES / "puzzle_piece.yaml").read_text())
     raw["robot"]["landing"] = "thrown"
-    with pytest.raises(InputError, match=r"robot.landing: must be one of planned, simulated, expected, modelled, got 'thrown'"):
+    with pytest.raises(InputError) as err:
         Scene.from_dict(raw)
+    assert err.value.field == "robot.landing"
     raw["robot"].update(landing="expected", landing_pairs=0)
-    with pytest.raises(InputError, match=r"robot.landing_pairs: must be a whole number from 1 to 64, got 0"):
+    with pytest.raises(InputError) as err:
         Scene.from_dict(raw)
+    assert err.value.field == "robot.landing_pairs"
 
 
 @given(st.integers(0, 2**32 - 1))
