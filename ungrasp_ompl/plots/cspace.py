@@ -55,40 +55,12 @@ def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0, plan:
     lo, hi = scene.bounds
     th = np.arange(lo[0], hi[0] + 1e-9, math.radians(step_deg))
     ps = np.arange(lo[2], hi[2] + 1e-9, math.radians(step_deg))
-    T, P = np.meshgrid(th, ps, indexing="ij")
-    checker = CollisionChecker(scene.collision_model())
-    cache: dict[float, np.ndarray] = {}
-
-    def classes(d: float) -> np.ndarray:
-        if d not in cache:
-            q = np.column_stack([T.ravel(), np.full(T.size, d), P.ravel()])
-            cache[d] = scene.classify(q, checker).reshape(T.shape)
-        return cache[d]
-
     route = _path_points(plan) if plan is not None and plan.primitives else None
     glo, ghi = scene.goal.box()
-    # B stays on the thumb (s_B = d cos psi - alpha >= 0) only for d >= alpha
-    d_lo = max(lo[1], scene.digits.alpha, 0.05)
-    anchors = [float(d) for d in (route[:, 1] if route is not None else [])]
-    anchors += [float(scene.start[1]), float((glo[1] + ghi[1]) / 2)]
-    close = (hi[1] - d_lo) / (2 * _REGION_CANDIDATES)  # d values this near show the same slice
-
-    def wanted(d: float, chosen: list[float]) -> bool:
-        """A new slice, whose commonest class leaves others their share of it."""
-        commonest = np.bincount(classes(d).ravel()).max()
-        return all(abs(d - e) > close for e in chosen) and commonest <= (1 - _REGION_OTHERS) * T.size
-
-    ds: list[float] = []
-    for d in anchors:  # the path's, the start's and the goal's d first
-        if len(ds) < d_values and d_lo - 1e-9 <= d <= hi[1] + 1e-9 and wanted(d, ds):
-            ds.append(d)
-    rest = [float(d) for d in np.linspace(d_lo, hi[1], _REGION_CANDIDATES) if wanted(float(d), ds)]
-    while rest and len(ds) < d_values:  # then the others, each as far as can be from those chosen
-        d = max(rest, key=lambda x: min([abs(x - e) for e in ds], default=math.inf))
-        ds.append(d)
-        rest = [x for x in rest if abs(x - d) > close]
-    ds.sort()
-    conv = np.array([180 / math.pi, 1.0, 180 / math.pi])
+    slices = _RegionSlices(scene, th, ps)
+    ds = slices.informative(d_values, [float(d) for d in (route[:, 1] if route is not None else [])]
+                            + [float(scene.start[1]), float((glo[1] + ghi[1]) / 2)])
+    classes, close = slices.classes, slices.close
     psi_top = _informative_psi(ps, [classes(d) for d in ds], [float(scene.start[2]), float(ghi[2])]
                                + ([float(route[:, 2].max())] if route is not None else []), step_deg)
     nrows = max(1, int(math.ceil(len(ds) / 3)))
@@ -96,32 +68,15 @@ def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0, plan:
     fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 3.6 * nrows + 0.6), squeeze=False,
                              constrained_layout=True)
     cmap = ListedColormap(_REGION_COLOURS)
-    start = scene.start * conv
     fine = _densified(route) if route is not None else None
     for ax, d in zip(axes.flat, ds):
-        cls = classes(d)
-        ax.imshow(cls.T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5, interpolation="nearest",
+        ax.imshow(classes(d).T, origin="lower", aspect="auto", cmap=cmap, vmin=-0.5, vmax=3.5,
+                  interpolation="nearest",
                   extent=[math.degrees(th[0]), math.degrees(th[-1]), math.degrees(ps[0]), math.degrees(ps[-1])])
-        ax.add_patch(plt.Rectangle((glo[0] * conv[0], glo[2] * conv[2]), (ghi[0] - glo[0]) * conv[0],
-                                   (ghi[2] - glo[2]) * conv[2], fill=False, color="#1f78b4", lw=2,
-                                   label=f"goal region: theta-psi box (d {glo[1]:.2f}-{ghi[1]:.2f} l)"))
-        if fine is not None:
-            ax.plot(fine[:, 0] * conv[0], fine[:, 2] * conv[2], color="k", lw=1, ls="--",
-                    label="the plan's path, theta and psi (at any d)")
-            here = np.where(np.abs(fine[:, 1] - d) <= close, fine[:, 2], np.nan)
-            ax.plot(fine[:, 0] * conv[0], here * conv[2], color="k", lw=3,
-                    label=f"the plan's path at this slice's d (within {close:.2f} l)")
-        ax.plot(start[0], start[2], "o", color="white", markeredgecolor="k", ms=8, zorder=4, label="start (theta, psi)")
-        roles = [r for r, hit in (("start", abs(d - scene.start[1]) <= close),
-                                  ("goal", glo[1] - close <= d <= ghi[1] + close),
-                                  ("path", route is not None and bool(np.any(np.abs(route[:, 1] - d) <= close))))
-                 if hit]
-        ax.set_title(f"d = {d:.2f} l" + (f" ({', '.join(roles)})" if roles else ""))
+        _mark_slice(ax, scene, d, close, route, fine)
         # a margin about the map: marks on its edges (psi 0, theta 0) stay in sight
         ax.set_xlim(math.degrees(th[0]) - 3, math.degrees(th[-1]) + 3)
         ax.set_ylim(math.degrees(ps[0]) - 3, psi_top)
-        ax.set_xlabel(AXIS_LABELS[0])
-        ax.set_ylabel(AXIS_LABELS[2])
     for ax in list(axes.flat)[len(ds):]:
         ax.axis("off")
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in _REGION_COLOURS]
@@ -137,6 +92,72 @@ def regions_figure(scene: Scene, d_values: int = 6, step_deg: float = 1.0, plan:
         title += "\nno value of d shows more than one class"
     fig.suptitle(title)
     return fig
+
+
+class _RegionSlices:
+    """The theta-psi slices of a scene's C-space map at values of d (regions_figure): each slice's
+    classes, computed once, and which d values carry information."""
+
+    def __init__(self, scene: Scene, th: np.ndarray, ps: np.ndarray):
+        self.scene, self.T, self.P = scene, *np.meshgrid(th, ps, indexing="ij")
+        self.checker = CollisionChecker(scene.collision_model())
+        self._cache: dict[float, np.ndarray] = {}
+        lo, hi = scene.bounds
+        # B stays on the thumb (s_B = d cos psi - alpha >= 0) only for d >= alpha
+        self.d_lo, self.d_hi = max(lo[1], scene.digits.alpha, 0.05), float(hi[1])
+        self.close = (self.d_hi - self.d_lo) / (2 * _REGION_CANDIDATES)  # d values this near show the same slice
+
+    def classes(self, d: float) -> np.ndarray:
+        """The class of every (theta, psi) of the slice at d (REGION_CLASSES' index)."""
+        if d not in self._cache:
+            T = self.T
+            q = np.column_stack([T.ravel(), np.full(T.size, d), self.P.ravel()])
+            self._cache[d] = self.scene.classify(q, self.checker).reshape(T.shape)
+        return self._cache[d]
+
+    def wanted(self, d: float, chosen: list[float]) -> bool:
+        """A new slice, whose commonest class leaves others their share of it."""
+        commonest = np.bincount(self.classes(d).ravel()).max()
+        return all(abs(d - e) > self.close for e in chosen) and commonest <= (1 - _REGION_OTHERS) * self.T.size
+
+    def informative(self, count: int, anchors: list[float]) -> list[float]:
+        """Up to count values of d, ascending, whose slices carry information: the anchors' first
+        (the path's, the start's and the goal's d), then others, each as far as can be from those chosen."""
+        ds: list[float] = []
+        for d in anchors:
+            if len(ds) < count and self.d_lo - 1e-9 <= d <= self.d_hi + 1e-9 and self.wanted(d, ds):
+                ds.append(d)
+        rest = [float(d) for d in np.linspace(self.d_lo, self.d_hi, _REGION_CANDIDATES) if self.wanted(float(d), ds)]
+        while rest and len(ds) < count:
+            d = max(rest, key=lambda x: min([abs(x - e) for e in ds], default=math.inf))
+            ds.append(d)
+            rest = [x for x in rest if abs(x - d) > self.close]
+        return sorted(ds)
+
+
+def _mark_slice(ax, scene: Scene, d: float, close: float, route: np.ndarray | None, fine: np.ndarray | None) -> None:
+    """On the slice at d: the goal region's theta-psi box, the plan's path (route, densified as
+    fine; thick within close of d), the start, the title naming what lies at this d, the axes' labels."""
+    conv = np.array([180 / math.pi, 1.0, 180 / math.pi])
+    glo, ghi = scene.goal.box()
+    ax.add_patch(plt.Rectangle((glo[0] * conv[0], glo[2] * conv[2]), (ghi[0] - glo[0]) * conv[0],
+                               (ghi[2] - glo[2]) * conv[2], fill=False, color="#1f78b4", lw=2,
+                               label=f"goal region: theta-psi box (d {glo[1]:.2f}-{ghi[1]:.2f} l)"))
+    if fine is not None:
+        ax.plot(fine[:, 0] * conv[0], fine[:, 2] * conv[2], color="k", lw=1, ls="--",
+                label="the plan's path, theta and psi (at any d)")
+        here = np.where(np.abs(fine[:, 1] - d) <= close, fine[:, 2], np.nan)
+        ax.plot(fine[:, 0] * conv[0], here * conv[2], color="k", lw=3,
+                label=f"the plan's path at this slice's d (within {close:.2f} l)")
+    start = scene.start * conv
+    ax.plot(start[0], start[2], "o", color="white", markeredgecolor="k", ms=8, zorder=4, label="start (theta, psi)")
+    roles = [r for r, hit in (("start", abs(d - scene.start[1]) <= close),
+                              ("goal", glo[1] - close <= d <= ghi[1] + close),
+                              ("path", route is not None and bool(np.any(np.abs(route[:, 1] - d) <= close))))
+             if hit]
+    ax.set_title(f"d = {d:.2f} l" + (f" ({', '.join(roles)})" if roles else ""))
+    ax.set_xlabel(AXIS_LABELS[0])
+    ax.set_ylabel(AXIS_LABELS[2])
 
 
 def _path_points(plan: Plan) -> np.ndarray:
