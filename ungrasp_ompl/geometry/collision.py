@@ -240,9 +240,19 @@ class CollisionChecker:
         #: Per target and body: the target's rectangle ((x, z) low, high) in the body's slab normal
         #: to the plane, when exact there (None: the slab misses it); bodies absent: FCL decides.
         self._rect: dict[str, dict[str, NDArray | None]] = {}
+        self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
+        self._add_targets(model, exact_planar)
+        #: How far a digit, where the hand runs (model.lowered below its plan), may reach below the
+        #: table's top (m): the lowering less the scene's clearance over it.
+        self._table_gap = _TABLE_GAP - dg.table_clearance * l + model.lowered
+        self._request = fcl.CollisionRequest()
+        self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
+
+    def _add_targets(self, model: CollisionModel, exact_planar: bool) -> None:
+        """The scene's boxes and solids as collision targets, each with its broad-phase rectangle in
+        the plane and, where exact_planar allows, its exact rectangle in each prism body's slab."""
         # the digits and the housing are prisms normal to the plane; the object's outline is not
         prisms = [body for body in self._bodies if body != "object"]
-        self._target_y: dict[str, tuple[float, float]] = {}  # y extent of the solids (others: through the plane)
         for box in model.boxes:
             lo, hi = np.array(box.lo), np.array(box.hi)
             size, centre = hi - lo, (hi + lo) / 2
@@ -267,11 +277,6 @@ class CollisionChecker:
                     heights = (bottom - frame[2, 3], top - frame[2, 3])
                     self._rect[solid.name] = {body: _slab_rect(local_foot, heights, *self._y_range[body])
                                               for body in prisms}
-        #: How far a digit, where the hand runs (model.lowered below its plan), may reach below the
-        #: table's top (m): the lowering less the scene's clearance over it.
-        self._table_gap = _TABLE_GAP - dg.table_clearance * l + model.lowered
-        self._request = fcl.CollisionRequest()
-        self._placers = {name: _PlanarPose(obj) for name, obj in self._bodies.items()}
 
     def _frames(self, theta: NDArray, d: NDArray, psi: NDArray) -> dict[str, tuple[NDArray, NDArray, NDArray]]:
         """Per body but the object, for states that theta, d and psi (rad, over l, rad) broadcast to:
