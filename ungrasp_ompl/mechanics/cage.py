@@ -457,7 +457,10 @@ def _row_level(free: NDArray[np.bool_], rows: NDArray[np.float64], start: tuple[
 def _watershed(free: NDArray[np.bool_], energy: NDArray[np.float64], start: tuple[int, int, int],
                border: NDArray[np.bool_], periodic: bool = False) -> tuple[float, int | None]:
     """escape_level's watershed on one grid (see the module docstring); periodic: the last
-    rotation layer is the first, so each of its cells is joined to its twin."""
+    rotation layer is the first, so each of its cells is joined to its twin.
+
+    Size: one union-find sweep over the grid's cells in the order of their energy; its steps share the
+    arrays it fills as it goes, which split parts would pass back and forth."""
     shape = free.shape
     n = free.size
     flat_free = free.ravel()
@@ -598,7 +601,10 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     as the robot model and the simulator build it: r shorter, its tip's corner on the face
     replaced by a disc of radius r touching the face and the shortened end; the obstacles (CCW
     polygons (k, 2), m); the table. squeeze (N): a constant force pressing the object where the
-    finger does (at A, along the finger's normal)."""
+    finger does (at A, along the finger's normal).
+
+    Size: mechanics lies below the scene, so a cage problem is made from the state's coordinates, the
+    digits and the object's size, weight and obstacles given one by one."""
     c, s = math.cos(theta), math.sin(theta)
     u, top = np.array([c, s]), np.array([-s, c])
     corners = np.array([[0.0, 0.0], [length, 0.0], [length, thickness], [0.0, thickness]]) if thickness > 0 else \

@@ -302,6 +302,8 @@ class Contact:
 
     def __init__(self, key: str, rx: float, rz: float, nx: float, nz: float, tx: float, tz: float,
                  wn: float, wt: float, gap: float, mu: float):
+        """Size: a slotted record of floats made at every integration step of fall (contacts_at), from
+        the scalars the step has."""
         self.key, self.gap, self.mu, self.wall_normal, self.wall_tangent = key, gap, mu, wn, wt
         self.normal = (nx, nz, rx * nz - rz * nx)
         self.tangent = (tx, tz, rx * tz - rz * tx)
@@ -315,7 +317,10 @@ def contacts_at(body: ReleaseBody, hand: HandMotion, X: float, Z: float, th: flo
     face, while B lies on it); and whether B lies past the thumb's tip. Once B has passed the tip,
     nothing of the thumb touches the object: the face meets the object at psi > 0, so that the tip's
     corner lies beyond B's end and above the bottom face. B's corner on the table is the landing,
-    which fall handles itself."""
+    which fall handles itself.
+
+    Size: called at every integration step of fall with the step's state (X, Z, th, t) and the pair's
+    friction as floats; an object per step would cost the integrator its speed."""
     c, s = math.cos(th), math.sin(th)
     lc, hc, l = body.centre, body.thickness / 2.0, body.length
     # G and B (bottom corners) relative to the centre of mass
@@ -444,7 +449,10 @@ def fall(setup: ReleaseSetup, mu_g: float, mu_b: float, step: float = STEP, trac
     sliding coefficients; math.inf sticks without limit): the carry while the pinch holds, then the
     fall from the moment it lets go until the object lies flat and still (or SETTLE s after the
     retreat). thumb False leaves the thumb out after the pinch (the object falls against the table
-    alone); trace keeps every step's state (Fall.states)."""
+    alone); trace keeps every step's state (Fall.states).
+
+    Size: one explicit integration loop with its events (the release, contacts made and lost, the
+    landing); its locals are the integrator's state."""
     body, hand, start = setup.body, setup.hand, setup.start
     l, lc, hc = body.length, body.centre, body.thickness / 2.0
     # the carry: B held in the pinch moves with the palm, G stays on the table

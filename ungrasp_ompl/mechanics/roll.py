@@ -142,7 +142,9 @@ def roll_simulation(
     grasp counts as self-restoring when it restores at every tilt from onset to max_tilt.
     The same inputs give the same result, remembered for the last ROLL_CACHE of them (a copy is
     returned).
-    """
+    
+
+    Size: its arguments are ROLL_CACHE's key (floats and tuples of floats), so they are given one by one."""
     vectors = tuple(tuple(float(v) for v in np.ravel(a)) for a in (g, b, normal_g, normal_b))
     outline = np.ascontiguousarray(outline, dtype=float)
     key = (outline.tobytes(), outline.shape, float(thickness), vectors, float(a_from_g), float(theta), float(psi),

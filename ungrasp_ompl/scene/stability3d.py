@@ -234,7 +234,10 @@ def out_of_plane_margin(scene: Scene, q: ArrayLike, a_sign: ArrayLike = 0, b_sig
     plane's coefficients friction at G, A, B (default: the scene's friction range's low end,
     Scene.friction.low) and the cone model. slide: (N, 2) how far (m) A and B slide over the leg
     each state lies on, which bounds their sideways slip by loads.turn; None: sliding contacts
-    push only in the plane. InputError for bad arguments; ToolError where HiGHS fails on a state."""
+    push only in the plane. InputError for bad arguments; ToolError where HiGHS fails on a state.
+
+    Size: one vectorised assembly of every state's linear programme (the contacts, the loads, the cone's
+    rows) before HiGHS solves them; split, each part would pass the same dozen (N, ...) arrays."""
     from scipy.optimize import linprog  # scipy.optimize: 0.5 s to import, loaded for the margin
 
     q = np.atleast_2d(np.asarray(q, dtype=float))

@@ -197,7 +197,10 @@ class ErrorBox:
         """For the samples rows: 0 where every error of s times the box (components on) leaves the
         state secure, else the ToleranceReason index (in its order) of the first check failing;
         with closure or kinematic False, that part of the checks (force closure; everything
-        else) is left out."""
+        else) is left out.
+
+        Size: one vectorised pass over rows x turns x shifts, each check masking the states the next
+        one sees; the checks share the broadcast arrays built at its top."""
         b, sc, dg = self.box, self.scene, self.scene.digits
         q = self.samples.states[rows]
         n = len(q)
@@ -477,7 +480,10 @@ def state_tolerances(scene: Scene, states: NDArray[np.float64], a_sign: NDArray,
     boxes are larger and cost more moved states. Where upto is -inf the state is not checked (-inf).
     The start's lift (G_LIFTED: a hand so high that the press leaves G above the table) is left out:
     it depends on the start alone, the same for every state, so a plan's tolerance is the least of its
-    states' and of that."""
+    states' and of that.
+
+    Size: the planner's margins call it on lattice slices (states, their modes and terminal flags as
+    arrays, no plan's samples), with the check's switches as the plan's tolerance has them."""
     box, res = checked_box(scene, options)
     q = np.asarray(states, dtype=float).reshape(-1, 3)
     n = len(q)
