@@ -15,7 +15,7 @@ from conftest import SCENES, run_cli
 from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.robot.export import read_csv, read_json, write_json
 from ungrasp_ompl.robot.model import finger_tip, load_ur5e, tcp_pose, thumb_tip
-from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec, plane_frame
+from ungrasp_ompl.robot.pipeline import check_limits, execute, gripper_spec
 from ungrasp_ompl.robot.placement import contact_points_world, densify
 from ungrasp_ompl.robot.trajectory import JOINT_NAMES
 
@@ -31,7 +31,7 @@ def pick():
 def pressed_frame(scene):
     """The plane frame moved straight down by the start press: where a hand that lets none of it
     out runs the plan."""
-    frame = plane_frame(scene).copy()
+    frame = scene.plane_frame().copy()
     frame[2, 3] -= scene.robot.start_press
     return frame
 
@@ -171,7 +171,7 @@ def test_termination_maneuver(executed):
     # open_lift: the finger leaves the object's top face along its normal (in the plane, theta
     # from the plan's last state), the thumb goes down as far as the gripper's own opening takes it
     # and the palm turns not at all
-    frame, theta = plane_frame(scene), result.states[-1][0]
+    frame, theta = scene.plane_frame(), result.states[-1][0]
     normal = frame[:3, :3] @ np.array([-math.sin(theta), 0.0, math.cos(theta)])
     rise = fingers - fingers[0]
     assert np.max(np.linalg.norm(rise - (rise @ normal)[:, None] * normal, axis=1)) < 1e-6

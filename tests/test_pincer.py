@@ -203,7 +203,6 @@ def test_the_simulated_pincer_places_the_piece():
     import mujoco
 
     from ungrasp_ompl.planning.setup import plan
-    from ungrasp_ompl.robot.pipeline import plane_frame
     from ungrasp_ompl.robot.placement import scene_pincer, to_world
     from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.sim.model import build_mjcf, model_ids
@@ -225,7 +224,7 @@ def test_the_simulated_pincer_places_the_piece():
         data.qpos[model.jnt_qposadr[model.body_jntadr[jaw]]] = side * angle / 2
     mujoco.mj_kinematics(model, data)
     pose = scene_pincer(scene, result.states[0])
-    frame = setup.aim.transform(plane_frame(scene)[:3, 3]) @ plane_frame(scene)
+    frame = setup.aim.transform(scene.plane_frame()[:3, 3]) @ scene.plane_frame()
     down = np.array([0.0, 0.0, scene.robot.start_press])
     dome = to_world(frame, pose.dome * scene.object_length)[0] - down
     assert np.linalg.norm(data.geom_xpos[ids.finger_dome] - dome) < 1e-6

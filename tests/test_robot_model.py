@@ -240,14 +240,13 @@ def test_robot_collision_broad_phase_drops_no_pair(robot):
     from ungrasp_ompl.layout.model import Layout
     from ungrasp_ompl.robot.collision import RobotCollisionChecker
     from ungrasp_ompl.robot.model import configuration
-    from ungrasp_ompl.robot.pipeline import plane_frame
     from ungrasp_ompl.shipped import resolve
     from ungrasp_ompl.layout.tiler import approaches
 
     layout = Layout.from_file(resolve("tangram", "layout"))
     a = approaches(layout, 0, [1, 2, 3, 4], 1)[0]
     scene = layout.scene(0, (a.g, a.b), [1, 2, 3, 4])
-    checker = RobotCollisionChecker(robot, scene, plane_frame(scene))
+    checker = RobotCollisionChecker(robot, scene, scene.plane_frame())
     request = fcl.CollisionRequest()
     rng = np.random.default_rng(2)
     found = 0

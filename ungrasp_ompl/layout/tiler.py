@@ -62,7 +62,7 @@ from ..geometry.collision import CollisionChecker
 from ..geometry.plane import curved, flush
 from ..mechanics import kinematic_validity
 from ..mechanics.antipodal import antipodal_pairs
-from ..planning import plan as plan_scene
+from .. import planning
 from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from ..planning.lattice import optimum_cost
 from ..planning.plan_tolerance import tolerance
@@ -626,7 +626,7 @@ class _Tiler:
         key = (_at(placed, i, a), planner, opts.time, seed, opts.range)
         if key in self.memo.plans:
             return self.memo.plans[key]
-        p = plan_scene(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
+        p = planning.plan(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
         found = p, tolerance(scene, p).scale if p.solved else None
         if planner == LATTICE or seed is not None:
             self.memo.plans[key] = found

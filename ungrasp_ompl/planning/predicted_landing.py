@@ -8,26 +8,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..mechanics.kinematics import digit_axis, pressed_state, release_travel, s_b, thumb_tip
 from ..mechanics.release import (GRIPPER_ACCELERATION, GRIPPER_SPEED, TIMING_MARGIN, HandMotion, ReleaseBody,
                                  ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, predict_release)
 from ..scene import Scene
 from .result import Plan
-
-
-def _plane_frame(scene: Scene) -> NDArray[np.float64]:
-    """The manipulation plane's frame in the world (4 x 4) with the object at its target (the
-    export's plane_frame): the outline's plane, or G at robot.object_position with x at
-    robot.object_yaw."""
-    if scene.plane is not None:
-        return np.asarray(scene.plane.frame, dtype=float)
-    c, s = math.cos(scene.robot.object_yaw), math.sin(scene.robot.object_yaw)
-    frame = np.eye(4)
-    frame[:3, 0], frame[:3, 1] = [c, s, 0.0], [-s, c, 0.0]
-    frame[:2, 3] = scene.robot.object_position
-    return frame
 
 
 def release_body(scene: Scene) -> ReleaseBody:
@@ -71,7 +57,7 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
                       thumb_length=digits.thumb_length * l, palm=(float(travel["palm"][0]), float(travel["palm"][1])),
                       opening=robot.termination_opening, held=min(scene.sim.squeeze, robot.termination_opening),
                       rate=rate, acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
-    frame = tuple(map(tuple, _plane_frame(scene).tolist()))
+    frame = tuple(map(tuple, scene.plane_frame().tolist()))
     return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
 
 

@@ -34,7 +34,7 @@ from ..scene.options import Termination
 from .collision import RobotCollisionChecker
 from .ik import ik_seed_for, solve_path
 from .model import GripperSpec, RobotModel, finger_tip, load_ur5e, thumb_tip
-from .placement import contact_points_world, default_plane_frame, densify, palm_poses
+from .placement import contact_points_world, densify, palm_poses
 from .timing import Samples, TimingError, Untimeable, ruckig_move, toppra_path
 from .trajectory import JOINT_NAMES, PINCER_JOINT_NAMES, JointTrajectory
 
@@ -113,12 +113,6 @@ def gripper_links(scene: Scene) -> PincerLinks | None:
     if scene.robot.gripper is None:
         return None
     return pincer_links(scene.robot.gripper, scene.digits, scene.object_length)
-
-
-def plane_frame(scene: Scene) -> NDArray[np.float64]:
-    if scene.plane is not None:
-        return scene.plane.frame
-    return default_plane_frame(scene.robot.object_position, scene.robot.object_yaw)
 
 
 def _tips(robot: RobotModel, poses: NDArray, openings: NDArray) -> tuple[NDArray, NDArray]:
@@ -259,7 +253,7 @@ def execute_sequence(jobs: list[tuple[Scene, Plan]], labels: list[str] | None = 
     for k, (scene, _) in enumerate(jobs):
         spans = [seg for seg, owner in zip(trajectory.segments, owners) if owner == k]
         lo, hi = spans[0][1], spans[-1][2]
-        hit = RobotCollisionChecker(robot, scene, plane_frame(scene)).first_collision(trajectory.positions[lo:hi + 1])
+        hit = RobotCollisionChecker(robot, scene, scene.plane_frame()).first_collision(trajectory.positions[lo:hi + 1])
         if hit is not None:
             i, pairs = hit
             i += lo
@@ -326,7 +320,7 @@ class Aim(NamedTuple):
 
 def aimed_frame(scene: Scene, aim: Aim | None = None) -> NDArray[np.float64]:
     """The plane's frame in the world (plane_frame) moved by aim: where the hand runs the plan."""
-    frame = plane_frame(scene)
+    frame = scene.plane_frame()
     return frame.copy() if aim is None or not any(aim) else aim.transform(frame[:3, 3]) @ frame
 
 

@@ -160,12 +160,3 @@ def contact_points_world(scene: Scene, q: ArrayLike, frame: NDArray) -> dict[str
     """Planned world positions (N, 3) of the thumb tip, the finger's tip corner, A and B."""
     pts = plane_points(scene, q)
     return {k: to_world(frame, pts[k]) for k in ("thumb", "finger", "a", "b")}
-
-
-def default_plane_frame(position: ArrayLike = (0.45, 0.10), yaw: float = 0.0) -> NDArray[np.float64]:
-    """A plane frame for scenes without an outline: G at position on the table, x at yaw, z up."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    frame = np.eye(4)
-    frame[:3, 0], frame[:3, 1] = [c, s, 0.0], [-s, c, 0.0]
-    frame[:2, 3] = position
-    return frame

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
 from ..geometry.collision import Box, CollisionChecker, CollisionModel
-from ..geometry.plane import ManipulationPlane
+from ..geometry.plane import ManipulationPlane, plane_frame
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
 from ..mechanics.antipodal import effective_friction
@@ -201,6 +201,14 @@ class Scene:
                                                 boxes, squeeze), grid, l) for state in q]
         except GridTooLarge as exc:
             raise InputError("grid", f"{exc}; choose coarser steps") from None
+
+    def plane_frame(self) -> NDArray[np.float64]:
+        """The manipulation plane's frame in the world (4 x 4, m) with the object at its target: x
+        along GB from G, z up: the outline's plane, or, for a scene without an outline, G at
+        robot.object_position with GB at robot.object_yaw."""
+        if self.plane is not None:
+            return np.asarray(self.plane.frame, dtype=float)
+        return plane_frame(np.zeros(2), np.array([1.0, 0.0]), self.robot.object_position, self.robot.object_yaw)
 
     def collision_model(self) -> CollisionModel:
         """What collision checking needs of this scene, in plane coordinates (metres)."""

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import Aim, aimed_frame, plane_frame
+from ..robot.pipeline import Aim, aimed_frame
 from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -107,7 +107,7 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     piece's segment prefix in a tiling trajectory; placed: objects already down (free bodies) with
     their poses."""
     opts = scene.sim
-    frame = plane_frame(scene)
+    frame = scene.plane_frame()
     l = scene.object_length
     mu_g, mu_a, mu_b = scene.mu_contacts
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness

@@ -31,7 +31,7 @@ from ..layout.model import Layout
 from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, modelled_aim, plane_frame
+from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, modelled_aim
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -110,7 +110,7 @@ def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
 def _object_hits(scene: Scene, states: NDArray[np.float64], aim: Aim) -> bool:
     """Whether the object (or a digit), at states (N, 3) with the hand moved by aim, runs into the
     scene's walls or pieces down: checked among the solids moved the other way."""
-    back = np.linalg.inv(aim.transform(plane_frame(scene)[:3, 3]))
+    back = np.linalg.inv(aim.transform(scene.plane_frame()[:3, 3]))
     solids = tuple(Solid(s.name, np.asarray(s.vertices) @ back[:3, :3].T + back[:3, 3]) for s in scene.solids)
     return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
 

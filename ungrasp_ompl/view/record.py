@@ -34,7 +34,7 @@ from ..errors import InputError
 from ..io import read_versioned_json, write_text_atomic
 from ..mechanics.pincer import PincerLinks
 from ..robot.model import GripperSpec, load_ur5e, tcp_pose
-from ..robot.pipeline import aimed_frame, hand_offsets, plane_frame
+from ..robot.pipeline import aimed_frame, hand_offsets
 from ..robot.placement import densify, palm_poses
 from ..robot.trajectory import JointTrajectory
 
@@ -148,7 +148,7 @@ def build_record(jobs: list, execution: Any, labels: list[str] | None = None, ki
         for box in scene.obstacles:
             if box.name not in seen:
                 seen.add(box.name)
-                solids.append(SolidRecord(box.name, _obstacle_corners(box, plane_frame(scene)), "obstacle"))
+                solids.append(SolidRecord(box.name, _obstacle_corners(box, scene.plane_frame()), "obstacle"))
     aims = execution.aims or [(0.0, 0.0)] * len(jobs)
     pieces = [_piece(scene, plan, traj, robot, f"{labels[k]}/" if labels else "", aims[k])
               for k, (scene, plan) in enumerate(jobs)]

@@ -30,7 +30,7 @@ from ..planning.cage_profile import CageMinimum, CageProfile
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.path_margin import path_friction_margin, plan_friction_margins
 from ..planning.result import Plan
-from ..planning.setup import plan as plan_scene
+from .. import planning
 from ..scene import Scene
 from .plan_files import read_plan_for
 
@@ -221,7 +221,7 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
         result = read_plan_for(scene, o.plan, o.force)
         report = CageReport(scene, result, o, problems=plan_problems(scene, result))
     else:
-        result = plan_scene(scene, planner=o.planner, time=o.time, seed=o.seed)
+        result = planning.plan(scene, planner=o.planner, time=o.time, seed=o.seed)
         report = CageReport(scene, result, o, planned=True)
         if not result.solved:
             return report

@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..io import write_text_atomic
 from ..layout.model import Layout
 from ..scene.perturbation import Perturbation, preset, trial_params
-from ..planning import plan as plan_scene
+from .. import planning
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.margins import Objective
 from ..planning.result import Plan
@@ -301,7 +301,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.plan is not None:
         result = read_plan_for(scene, options.plan, options.force)
     else:
-        result = plan_scene(scene, planner=options.planner, time=options.time, seed=options.seed,
+        result = planning.plan(scene, planner=options.planner, time=options.time, seed=options.seed,
                             objective=options.objective)
         if not result.solved:
             return SceneSimulation(scene, result, options)
