@@ -19,6 +19,12 @@ leg    primitive     moves                           sliding
 ``Y``  P_dpsi        psi, while the P_dpsi slides d  A and B (the lattice search's step only)
 =====  ============  ==============================  ===================
 
+A T, P or D leg is secure between its lattice states too: each lattice step it makes is
+force-closed all the way in the leg's mode (SecurityAtlas.step_ok, with the re-validation's own
+check, planning.verify.first_loss_along, over the pieces that re-validation samples), so that a
+thin band where the grip is lost between two states that hold (a curved section's, where the
+finger's contact passes from its face to its rounded tip) is not stepped over.
+
 A straight motion between two lattice states is realised by a staircase of
 such legs, one leg per moving coordinate (or one X leg for d and psi); the
 atlas tries every order and takes the one with fewest legs.
@@ -36,7 +42,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, kinematic_validity, primitive_sliding_signs
+from ..mechanics.section import finger_contact
 from ..scene import Scene
+from .verify import SAMPLES_PER_STEP, first_loss_along
 
 THETA, D, PSI = 0, 1, 2
 LEG_PRIMITIVE = {"T": "P_theta", "P": "P_psi", "D": "P_dpsi", "X": "P_dpsi", "Y": "P_dpsi"}
@@ -91,6 +99,7 @@ class SecurityAtlas:
         self.holdable = check & ~self.collision
         self._mode_ok: dict[tuple[int, int], NDArray[np.bool_]] = {(0, 0): self.holdable}
         self._runs: dict[tuple[str, int], NDArray[np.int32]] = {}
+        self._steps: dict[tuple[str, int], NDArray[np.bool_]] = {}
         self._reverse = scene.options.reverse_primitives
         self._no_dpsi = scene.options.forbid_partial  # P_dpsi slides A and B: partial 3D stability
         #: lattice_search's cost optima by goal box (planning.lattice fills it: the lattice planner
@@ -204,20 +213,78 @@ class SecurityAtlas:
             out |= self.mode_ok(direction, int(b)) & (sb == b)[None]
         return out
 
+    def step_ok(self, kind: str, direction: int) -> NDArray[np.bool_]:
+        """Per lattice state: a leg of this kind (T, P or D) run in direction (+1 or -1 along its
+        coordinate) is secure at this state and the next one along its coordinate (leg_ok) and
+        force-closed all the way between them in its contact mode: at the SAMPLES_PER_STEP pieces'
+        ends the re-validation samples and between them (planning.verify.first_loss_along) where
+        the finger's contact on a curved section passes between its face and its rounded tip
+        (_contact_turns: the one place where the contact wrenches turn at a rate that changes at
+        once); False at the lattice's last state that way. Shape of the lattice."""
+        key = (kind, direction)
+        if key not in self._steps:
+            axis = LEG_AXES[kind][0]
+            ok = self.leg_ok(kind, direction)
+            src, dst = [slice(None)] * 3, [slice(None)] * 3
+            src[axis], dst[axis] = (slice(0, -1), slice(1, None)) if direction > 0 else (slice(1, None), slice(0, -1))
+            both = np.zeros(self.shape, dtype=bool)
+            both[tuple(src)] = ok[tuple(src)] & ok[tuple(dst)]
+            idx = np.nonzero(both)
+            q0 = np.column_stack([ax[i] for ax, i in zip(self.axes, idx)])
+            if kind == "T":
+                sa, sb = 0, 0
+            elif kind == "P":
+                sa, sb = primitive_sliding_signs("P_psi", 1.0, 0.0, 0.0, direction)
+            else:
+                sa, sb = primitive_sliding_signs("P_dpsi", q0[:, D], q0[:, PSI], direction, 0.0)
+            move = np.zeros(3)
+            move[axis] = direction * self.res[axis] / SAMPLES_PER_STEP
+            sa, sb = (np.broadcast_to(x, len(q0)) for x in (sa, sb))
+            secure = np.ones(len(q0), dtype=bool)
+            turns = self._contact_turns(axis, direction)
+            for j in range(SAMPLES_PER_STEP):
+                live = np.flatnonzero(secure & turns[j][idx[D], idx[PSI]])
+                start = q0[live] + j * move
+                secure[live] = np.isnan(first_loss_along(start, start + move, sa[live], sb[live], self.scene.friction))
+            both[idx] = secure
+            self._steps[key] = both
+        return self._steps[key]
+
+    def _contact_turns(self, axis: int, direction: int) -> list[NDArray[np.bool_]]:
+        """For each of the SAMPLES_PER_STEP pieces of a lattice step along axis in direction: per
+        (d, psi) of the lattice (shape (n_d, n_psi)), whether the finger's contact on the scene's
+        curved section passes between its face and its rounded tip within the piece (there a
+        contact wrench turns at a rate that changes at once, and force closure can be lost and
+        regained within the piece); all False for a flat object or along theta, which moves no
+        contact over the object."""
+        shape = (len(self.axes[D]), len(self.axes[PSI]))
+        contact = self.scene.friction.contact_a
+        if contact is None or axis == THETA:
+            return [np.zeros(shape, dtype=bool)] * SAMPLES_PER_STEP
+        on_face = []
+        for j in range(SAMPLES_PER_STEP + 1):
+            shift = np.zeros(3)
+            shift[axis] = direction * self.res[axis] * j / SAMPLES_PER_STEP
+            d, psi = self.axes[D][:, None] + shift[D], self.axes[PSI][None, :] + shift[PSI]
+            on_face.append(finger_contact(contact.section, d, psi, contact.tip_radius).on_face)
+        return [a != b for a, b in zip(on_face[:-1], on_face[1:])]
+
     def runs(self, kind: str, direction: int) -> NDArray[np.int32]:
-        """How many consecutive secure states a leg finds from each lattice state on, its start included."""
+        """How many consecutive secure states a leg finds from each lattice state on, its start
+        included, each reached by a secure step (step_ok) from the one before."""
         key = (kind, direction)
         if key not in self._runs:
             axis = LEG_AXES[kind][0]
             ok = np.moveaxis(self.leg_ok(kind, direction), axis, -1)
+            link = np.moveaxis(self.step_ok(kind, direction), axis, -1)
             if direction < 0:
-                ok = ok[..., ::-1]
-            # distance to the next insecure state, walking toward the end of the axis
+                ok, link = ok[..., ::-1], link[..., ::-1]
+            # secure steps in a row from each state on, walking toward the end of the axis
             n = ok.shape[-1]
             pos = np.arange(n)
-            blocked = np.where(ok, n, pos)
+            blocked = np.where(link, n, pos)
             nxt = np.minimum.accumulate(blocked[..., ::-1], axis=-1)[..., ::-1]
-            run = (nxt - pos).astype(np.int32)
+            run = np.where(ok, nxt - pos + 1, 0).astype(np.int32)
             if direction < 0:
                 run = run[..., ::-1]
             self._runs[key] = np.ascontiguousarray(np.moveaxis(run, -1, axis))

@@ -1,5 +1,6 @@
 """The secure lattice's edges: one per lattice step of a primitive that is secure in its contact
-mode at both ends (docs/model.md, section 8.2), built from the atlas's tables a move at a time.
+mode at both ends (docs/model.md, section 8.2), and for a T, P or D step force-closed between them
+(SecurityAtlas.step_ok), built from the atlas's tables a move at a time.
 The exact search (lattice.py) and the robust objectives' margins (margins.py) both search them.
 Indices are flat lattice indices; lengths in reference units."""
 
@@ -11,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..mechanics import primitive_sliding_signs
-from .atlas import D, FORWARD, PSI, THETA, SecurityAtlas, reference_cost
+from .atlas import D, FORWARD, LEG_AXES, PSI, THETA, SecurityAtlas, reference_cost
 
 
 def _moves(reverse: bool, turns: bool = False):
@@ -114,6 +115,8 @@ def lattice_moves(atlas: SecurityAtlas, turns: bool = False) -> list[LatticeMove
         src, dst = _shifted(atlas.shape, step)
         arrives = np.zeros(atlas.shape, dtype=bool)
         arrives[dst] = ok[src] & ok[dst]
+        if kind in "TPD" and not (turns and kind == "D"):  # force-closed between its ends too
+            arrives[dst] &= atlas.step_ok(kind, step[LEG_AXES[kind][0]])[src]
         out.append(LatticeMove(kind, slot, step, float(reference_cost(np.asarray(step) * atlas.res, opts.d_weight)),
                                arrives))
     return out

@@ -1,23 +1,50 @@
 """Independent re-validation of planned legs with the exact mechanics (no atlas).
 
 Every leg is sampled in its travel direction at a resolution no coarser than
-the lattice's (default: half a lattice step), and each sample is checked for
-kinematic validity, collision (python-fcl) and force closure in the contact
-mode the leg's velocity makes there.
+the lattice's (default: half a lattice step, SAMPLES_PER_STEP), and each sample is
+checked for kinematic validity, collision (python-fcl) and force closure in the contact
+mode the leg's velocity makes there; force closure is also checked everywhere between
+two samples in the same contact mode (first_loss_along), so that a band thinner than
+the sampling where the grip is lost is not stepped over.
+
+Force closure in a contact mode changes only where three contact wrenches become coplanar,
+where one of the 20 triple products det(w_i, w_j, w_k) of the six wrench slots changes sign
+(mechanics/force_closure.py: the test is a function of those signs). The products are smooth
+along a motion but where the finger's contact on a curved section passes from its face to its
+rounded tip, where the contact's speed over the section changes at once: there a product can
+dip through 0 and back within a fraction of a lattice step, a thin band where the grip is lost
+between two states that hold. first_loss_along halves a segment's pieces where a product may
+change sign (its sign differs at the piece's ends, or the tangents at its ends meet below 0, as
+they do around such a dip) and checks force closure where it halves them, to 2^-30 of the
+segment (DEPTH). A product convex or concave along a piece is caught; one with an inflection
+that dips through 0 and back between two tangents that do not meet below 0 is not.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..geometry.collision import CollisionChecker
-from ..mechanics import force_closure, kinematic_checks, primitive_sliding_signs
+from ..mechanics import Friction, contact_wrenches, force_closure, kinematic_checks, primitive_sliding_signs
 from ..scene import Scene
+
+#: Samples per lattice step that the re-validation takes along a leg (verify_legs: at half a
+#: lattice step), and the pieces each lattice step of the secure lattice is checked in (atlas.py):
+#: the same points, so that a leg the lattice finds secure re-validates.
+SAMPLES_PER_STEP = 2
+#: How often first_loss_along halves a piece of a segment where force closure may change (to
+#: 2^-30 of the segment: a band where it is lost narrower than that is not looked for).
+DEPTH = 30
+#: The step (a fraction of the segment) of the finite differences that give a product's slope.
+_SLOPE_STEP = 1e-7
+#: The wrench slots' triples (i, j, k), i < j < k, whose triple products decide force closure.
+_TRIPLES = np.array(list(itertools.combinations(range(6), 3)), dtype=np.intp)
 
 
 class LegCheck(Enum):
@@ -119,12 +146,99 @@ def verify_leg(
     fc = force_closure(th, d, ps, sa, sb, scene.friction)
     if not fc.all():
         return LegFailure(LegCheck.FORCE_CLOSURE, _state(q[np.argmin(fc)]))
+    same = np.flatnonzero((sa[:-1] == sa[1:]) & (sb[:-1] == sb[1:]))  # pieces in one contact mode
+    lost = first_loss_along(q[same], q[same + 1], sa[same], sb[same], scene.friction)
+    if not np.isnan(lost).all():
+        k = int(np.argmax(~np.isnan(lost)))
+        return LegFailure(LegCheck.FORCE_CLOSURE, _state(q[same[k]] + lost[k] * (q[same[k] + 1] - q[same[k]])))
     checker = checker or CollisionChecker(scene.collision_model())
     hit = checker.in_collision(q)
     if hit.any():
         bad = q[np.argmax(hit)]
         return LegFailure(LegCheck.COLLISION, _state(bad), ", ".join(checker.contacts(bad)))
     return None
+
+
+def first_loss_along(q0: ArrayLike, q1: ArrayLike, a_sign: ArrayLike, b_sign: ArrayLike, friction: Friction,
+                     depth: int = DEPTH) -> NDArray[np.float64]:
+    """Where force closure is first lost along each straight segment from q0 to q1 ((N, 3) states
+    (theta rad, d over l, psi rad)) in the contact mode (a_sign, b_sign) (each (N,) or a scalar):
+    the fraction t in [0, 1] of the first point found not force-closed (0 or 1: an end), NaN where
+    the segment is force-closed throughout (see the module docstring; friction's whole range, as
+    force_closure checks it)."""
+    q0, q1 = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q0, q1))
+    n = len(q0)
+    sa, sb = (np.broadcast_to(np.asarray(x, dtype=int), (n,)) for x in (a_sign, b_sign))
+    out = np.full(n, np.nan)
+    for a, b in {(int(x), int(y)) for x, y in zip(sa, sb)}:
+        sel = np.flatnonzero((sa == a) & (sb == b))
+        out[sel] = _first_loss(q0[sel], q1[sel], a, b, friction, depth)
+    return out
+
+
+def _triple_products(q: NDArray, a: int, b: int, friction: Friction) -> NDArray[np.float64]:
+    """The triple products of the contact wrenches' slots at states q (N, 3) in mode (a, b), at
+    every friction that decides the range (Friction.ends): shape (N, 20 times their count)."""
+    out = []
+    for f in (friction.ends(a != 0, b != 0) if friction.uncertainty > 0.0 else (friction,)):
+        w, exists = contact_wrenches(q[:, 0], q[:, 1], q[:, 2], a, b, f)
+        w = w * exists[..., None]  # a slot the mode does not have spans nothing
+        i, j, k = _TRIPLES.T
+        out.append(np.einsum("ntc,ntc->nt", np.cross(w[:, i], w[:, j]), w[:, k]))
+    return np.concatenate(out, axis=1)
+
+
+def _first_loss(q0: NDArray, q1: NDArray, a: int, b: int, friction: Friction, depth: int) -> NDArray[np.float64]:
+    """first_loss_along for segments in one contact mode (a, b): the segments' pieces where some
+    triple product may change sign (_may_change) halved, force closure checked where they are
+    halved, depth times at most."""
+    out = np.full(len(q0), np.nan)
+    if not len(q0):
+        return out
+    step = q1 - q0
+    for t, q in ((1.0, q1), (0.0, q0)):  # the ends (the first one last, so that it wins)
+        fc = force_closure(q[:, 0], q[:, 1], q[:, 2], a, b, friction)
+        out[~fc] = t
+    seg = np.flatnonzero(np.isnan(out))
+    lo, hi = np.zeros(len(seg)), np.ones(len(seg))
+    for _ in range(depth):
+        if not len(seg):
+            break
+        may = _may_change(q0[seg], step[seg], lo, hi, a, b, friction)
+        seg, lo, hi = seg[may], lo[may], hi[may]
+        mid = (lo + hi) / 2.0
+        q = q0[seg] + mid[:, None] * step[seg]
+        lost = ~force_closure(q[:, 0], q[:, 1], q[:, 2], a, b, friction)
+        np.fmin.at(out, seg[lost], mid[lost])
+        keep = ~lost
+        seg, lo, mid, hi = seg[keep], lo[keep], mid[keep], hi[keep]
+        seg, lo, hi = np.concatenate([seg, seg]), np.concatenate([lo, mid]), np.concatenate([mid, hi])
+    return out
+
+
+def _may_change(q0: NDArray, step: NDArray, lo: NDArray, hi: NDArray, a: int, b: int, friction: Friction
+                ) -> NDArray[np.bool_]:
+    """Per piece [lo, hi] of a segment q0 + t step: whether some triple product may change sign
+    on it. It may where its sign differs at the two ends; else where the tangents at its ends
+    (slopes by finite differences) meet at or beyond 0, i.e. where a product convex along the piece
+    might dip through 0 and back (the tangents lie below a convex function; a concave one is
+    least at an end)."""
+    h = np.minimum(_SLOPE_STEP, (hi - lo) / 8.0)
+    ts = np.concatenate([lo, lo + h, hi - h, hi])
+    n = len(lo)
+    q = np.tile(q0, (4, 1)) + ts[:, None] * np.tile(step, (4, 1))
+    p = _triple_products(q, a, b, friction).reshape(4, n, -1)
+    width = (hi - lo)[:, None]
+    f0, f1 = p[0], p[3]
+    sign = np.sign(f0)
+    changes = np.sign(f1) != sign
+    g0 = (p[1] - p[0]) / h[:, None] * width * sign  # slopes along the piece (its length 1), the sign made positive
+    g1 = (p[3] - p[2]) / h[:, None] * width * sign
+    f0, f1 = f0 * sign, f1 * sign
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (f1 - g1 - f0) / (g0 - g1)  # where f0 + g0 t = f1 - g1 (1 - t)
+        dips = (sign != 0) & (t > 0.0) & (t < 1.0) & (f0 + g0 * t <= 0.0)
+    return np.any(changes | dips, axis=1)
 
 
 def _state(q: ArrayLike) -> tuple[float, float, float]:
