@@ -133,7 +133,7 @@ class Experiment:
         if planner == LATTICE:
             res = self.scene.options.resolution
             return [f"resolution TEXT = {math.degrees(res[0]):g} deg / {res[1]:g} / {math.degrees(res[2]):g} deg"]
-        opts = PlannerOptions(planner=planner, time=self.time_limit)
+        opts = PlannerOptions(planner=planner, time=self.time_limit).for_scene(self.scene)
         return [f"range REAL = {opts.range!r}", f"goal_bias REAL = {opts.goal_bias!r}",
                 f"simplify BOOLEAN = {int(opts.simplify)}"]
 

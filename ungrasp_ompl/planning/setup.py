@@ -126,7 +126,7 @@ class PlannerOptions:
     PLANNER_ITERATIONS_PER_SECOND) times time when seeded, unbounded otherwise."""
     range: float | None = None
     """The planner's longest motion, in state units (theta and psi in rad, d over l); None: the
-    objective's DEFAULT_RANGE (set when the options are made)."""
+    scene's planning.range, else the objective's DEFAULT_RANGE (for_scene)."""
     goal_bias: float = 0.1
     """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
@@ -135,10 +135,6 @@ class PlannerOptions:
     """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
     the path), balanced (cost plus planning.margin_weight times a penalty growing as it shrinks) or
     tolerance (the smallest tolerance of the `paper` errors along the path, section 4.6)."""
-
-    def __post_init__(self) -> None:
-        if self.range is None:
-            object.__setattr__(self, "range", DEFAULT_RANGE.get(self.objective, DEFAULT_RANGE["cost"]))
 
     def validated(self) -> "PlannerOptions":
         if self.planner in UNUSABLE_PLANNERS:
@@ -151,11 +147,18 @@ class PlannerOptions:
             raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
         if self.iterations is not None and (not isinstance(self.iterations, int) or self.iterations < 1):
             raise InputError("iterations", f"must be a positive integer, got {self.iterations!r}")
-        if not self.range > 0:
+        if self.range is not None and not self.range > 0:
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not 0 <= self.goal_bias <= 1:
             raise InputError("goal_bias", f"must lie in [0, 1], got {self.goal_bias!r}")
         return replace(self, objective=check_objective(self.objective, self.planner))
+
+    def for_scene(self, scene: Scene) -> "PlannerOptions":
+        """These options with the range resolved for scene: their own, else the scene's
+        planning.range, else the objective's DEFAULT_RANGE."""
+        if self.range is not None:
+            return self
+        return replace(self, range=scene.options.range or DEFAULT_RANGE.get(self.objective, DEFAULT_RANGE["cost"]))
 
 
 def check_objective(objective: Objective | str, planner: str) -> Objective:
@@ -176,7 +179,7 @@ class UngraspSetup:
         """atlas: the scene's secure lattice over its planning box when built already (tiling's
         proof built it); otherwise it is built here."""
         self.scene = scene
-        self.options = options.validated()
+        self.options = options.validated().for_scene(scene)
         if self.options.seed is not None:  # before OMPL builds anything that draws numbers
             seed_ompl(self.options.seed)
         t0 = perf_counter()

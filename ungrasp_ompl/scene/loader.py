@@ -674,7 +674,7 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
     pl = r.mapping(top.get("planning", {}), "planning")
     r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                              "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                             "min_tolerance", "table_clearance", "across_margin", "max_landing_spread"})
+                             "min_tolerance", "table_clearance", "across_margin", "max_landing_spread", "range"})
     margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
     if margin >= digits.thumb_length * length:
         raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -713,5 +713,6 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
         d_weight=r.number(pl, "planning.d_weight", "d_weight", positive=True, maximum=1e4, default=100.0),
         mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
                                      minimum=0.0, maximum=1e4, default=1.0),
+        range=r.number(pl, "planning.range", "range", positive=True, maximum=10.0) if "range" in pl else None,
     )
     return options, digits, clearance

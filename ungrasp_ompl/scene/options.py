@@ -93,6 +93,10 @@ class PlanningOptions:
     """The most the predicted landing may move along GB over friction x0.7-1.3 and both cones (m;
     mechanics.release, docs/model.md 11.17); a plan with P_dpsi beyond it is planned again without
     P_dpsi; None: no bound."""
+    range: float | None = None
+    """The tree planners' longest motion for this scene, in state units (theta and psi in rad, d over
+    l): shorter where the secure states lie in thin bands that a long motion leaves; None: the
+    objective's default (planning.setup.DEFAULT_RANGE); a planner's own range overrides it."""
 
 
 @dataclass(frozen=True)
