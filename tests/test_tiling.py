@@ -757,3 +757,27 @@ def test_a_piece_held_into_a_piece_down_starts_above_it(aimed):
         piece.spec, placed=(("parallelogram", beside.spec.obj, beside.target_pose),))))
     assert deepest > -1e-5  # not inside the parallelogram
     assert beside_z > alone_z + 2e-4
+
+
+@pytest.mark.slow
+def test_curved_pieces_are_tiled_each_on_its_own_section():
+    """The shipped go_stones layout: both stones placed, each planned as a curved (semi-elliptical)
+    piece of the go_stone scene's size, the second with the first down as a solid, every leg of
+    both plans secure again under the exact mechanics at a quarter of the lattice step."""
+    from ungrasp_ompl.planning.verify import verify_leg
+
+    layout = Layout.from_file("go_stones")
+    result = tile(layout, TilingOptions(planner="lattice"))
+    assert [p.name for p in result.placements] == ["stone_1", "stone_2"] or \
+        [p.name for p in result.placements] == ["stone_2", "stone_1"]
+    stone = Scene.from_file("go_stone")
+    for k, placement in enumerate(result.placements):
+        scene = placement.scene
+        assert scene.digits.section is not None and not scene.digits.section.is_slab
+        assert scene.object_length == pytest.approx(stone.object_length, abs=1e-9)
+        assert len(scene.solids) == 4 + k  # the frame's walls and the stones down before it
+        assert placement.plan.solved
+        res = np.asarray(scene.options.resolution) / 4
+        for p in placement.plan.primitives:
+            for a, b in zip(p.waypoints[:-1], p.waypoints[1:]):
+                assert verify_leg(scene, p.type, a, b, res) is None

@@ -233,8 +233,9 @@ def _add_tile(sub: argparse._SubParsersAction) -> None:
     tl.add_argument("--time", type=_seconds, default=1.0, help="planning time per piece in seconds (default 1)")
     tl.add_argument("--seed", type=int, default=None,
                     help="seed: piece k is planned with seed + k (default: one drawn at random and printed)")
-    tl.add_argument("--range", type=float, default=1.0,
-                    help="the planner's longest motion per piece, state units (default 1.0)")
+    tl.add_argument("--range", type=float, default=None,
+                    help="the planner's longest motion per piece, state units (default: the layout's "
+                         "planning.range, else 1.0)")
     tl.add_argument("--approaches", type=int, default=6, help="manipulation planes tried per piece (default 6)")
     tl.add_argument("--rank", default="first", choices=("first", "tolerance"),
                     help="once an order is found, each piece's approach: the first the search proved (default) or "

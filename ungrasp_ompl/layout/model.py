@@ -7,8 +7,9 @@ A layout file holds:
   ``wall_thickness`` (m). The frame's own coordinates have their origin at the inner
   corner, x along the inner width and y along the inner depth.
 * ``pieces``: a list of ``name``, ``thickness`` (m), ``outline`` (as a scene's
-  ``object.outline``, in the piece's own coordinates) and ``target``
-  (``position`` [x, y] of the outline's origin in frame coordinates, m; ``yaw_deg``).
+  ``object.outline``, in the piece's own coordinates), ``target``
+  (``position`` [x, y] of the outline's origin in frame coordinates, m; ``yaw_deg``) and, for a
+  curved piece, ``section`` (as a scene's ``object.section``; its outline a circle).
 * the sections every piece's scene shares: ``friction`` (or ``friction_angle_deg``),
   ``digits``, ``start``, ``goal``, ``bounds``, ``planning``, ``stability``, ``robot``, ``sim``
   (see ungrasp_ompl.scene). Without a ``goal`` a piece's goal is theta at most 3 deg
@@ -20,7 +21,8 @@ A layout file holds:
   (ungrasp_ompl.geometry.spread); ``Layout.spread`` then holds the shifts and the gaps.
 
 Pieces must lie inside the frame and not overlap (touching is fine); each is
-treated by its convex hull in collision checks. Every bad field raises
+treated by its convex hull in collision checks, a piece put down already by its outline's prism
+up to its thickness (a curved piece's dome lies inside it: the check is conservative). Every bad field raises
 :class:`~ungrasp_ompl.errors.InputError` naming it (``pieces[2].target.position``).
 """
 
@@ -92,6 +94,7 @@ class Piece:
     name: str
     object3d: Object3D  # position and yaw here are in the frame's coordinates
     outline_spec: dict  # the outline as the file gives it, for the piece's scene
+    section_spec: Any = None  # the section as the file gives it (None: a slab), for the piece's scene
 
 
 @dataclass
@@ -143,7 +146,7 @@ class Layout:
         for i, item in enumerate(items):
             key = f"pieces[{i}]"
             p = r.mapping(item, key)
-            r.known(p, key, {"name", "thickness", "outline", "target"})
+            r.known(p, key, {"name", "thickness", "outline", "target", "section"})
             name = r.name(p, f"{key}.name", f"piece{i + 1}")
             if name in names:
                 raise InputError(f"{key}.name", f"{name!r} is used twice", source)
@@ -152,7 +155,7 @@ class Layout:
             if "outline" not in p:
                 raise InputError(f"{key}.outline", "is missing", source)
             obj = r.object3d(p["outline"], p.get("target", {}), thickness, prefix=key)
-            pieces.append(Piece(name, obj, copy.deepcopy(p["outline"])))
+            pieces.append(Piece(name, obj, copy.deepcopy(p["outline"]), copy.deepcopy(p.get("section"))))
 
         shared = {k: copy.deepcopy(top[k]) for k in SHARED_SECTIONS if k in top}
         shared.setdefault("goal", dict(DEFAULT_GOAL))
@@ -235,6 +238,8 @@ class Layout:
         data["name"] = piece.name
         data["object"] = {"thickness": piece.object3d.thickness, "outline": copy.deepcopy(piece.outline_spec),
                           "target": {"position": list(position), "yaw_deg": math.degrees(yaw)}}
+        if piece.section_spec is not None:
+            data["object"]["section"] = copy.deepcopy(piece.section_spec)
         if contacts is not None:
             data["contacts"] = {"G": list(contacts[0]), "B": list(contacts[1])}
         try:

@@ -82,6 +82,12 @@ class Rank(StrEnum):
     FIRST = "first"  #: the first proved in the search's order (room, then margin)
 
 
+#: A piece's planner range (state units) unless the layout or the options set one. Longer than
+#: plan's 0.3: a piece's secure states are a thin share of its wide planning box (measured on the
+#: tangram's last piece, RRT* found a path in 0.5 s in 7 of 8 runs at 1.0 against 4 of 8 at 0.3).
+PIECE_RANGE = 1.0
+
+
 @dataclass(frozen=True)
 class TilingOptions:
     """How to tile a layout."""
@@ -92,10 +98,9 @@ class TilingOptions:
     """Planning time per piece (s)."""
     seed: int | None = None
     """Seed: piece k of the order is planned with seed + k. None: not reproducible."""
-    range: float = 1.0
-    """The planner's longest motion (state units). Longer than plan's 0.3: a piece's secure states
-    are a thin share of its wide planning box (measured on the tangram's last piece, RRT* found a
-    path in 0.5 s in 7 of 8 runs at 1.0 against 4 of 8 at 0.3)."""
+    range: float | None = None
+    """The planner's longest motion (state units); None: the layout's planning.range, else
+    PIECE_RANGE."""
     approaches: int = 6
     """Manipulation planes (G, B pairs) tried per piece."""
     max_checks: int = 400
@@ -111,7 +116,7 @@ class TilingOptions:
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
             raise InputError("approaches", f"must be a positive integer, got {self.approaches!r}")
-        if not (isinstance(self.range, (int, float)) and self.range > 0):
+        if self.range is not None and not (isinstance(self.range, (int, float)) and self.range > 0):
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not isinstance(self.max_checks, int) or self.max_checks < 1:
             raise InputError("max_checks", f"must be a positive integer, got {self.max_checks!r}")
@@ -623,10 +628,11 @@ class _Tiler:
         """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
         unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
         opts = self.opts
-        key = (_at(placed, i, a), planner, opts.time, seed, opts.range)
+        longest = opts.range if opts.range is not None else (scene.options.range or PIECE_RANGE)
+        key = (_at(placed, i, a), planner, opts.time, seed, longest)
         if key in self.memo.plans:
             return self.memo.plans[key]
-        p = planning.plan(scene, planner=planner, time=opts.time, seed=seed, range=opts.range, atlas=atlas)
+        p = planning.plan(scene, planner=planner, time=opts.time, seed=seed, range=longest, atlas=atlas)
         found = p, tolerance(scene, p).scale if p.solved else None
         if planner == LATTICE or seed is not None:
             self.memo.plans[key] = found
