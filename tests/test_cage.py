@@ -420,3 +420,24 @@ def test_the_cage_workflow_returns_its_profile_as_values(tmp_path):
     with pytest.raises(InputError) as err:
         cage_report(scene, CageOptions(planner="lattice", refine=0.0))
     assert err.value.field == "refine"
+
+
+def test_a_curved_object_is_caged_as_its_solid():
+    """The Go stone's cage problem: its section is the dome (at G's end it has no height, at the
+    apex the stone's 7 mm), its weight the glass's density times the semi-ellipsoid's volume
+    (2/3 pi a^2 c, within the hull's sampling) and its centre of mass 3c/8 above the table."""
+    from ungrasp_ompl.geometry.collision import object_solid
+    from ungrasp_ompl.geometry.solids import solid_mass_properties
+    from ungrasp_ompl.mechanics.cage import pinch_problem
+
+    scene = Scene.from_file("go_stone")
+    l, c = scene.object_length, scene.object_thickness
+    volume, centre = solid_mass_properties(object_solid(scene.digits.section, l, scene.digits.width * l, True))
+    assert volume == pytest.approx(2 / 3 * math.pi * (l / 2) ** 2 * c, rel=2e-3)
+    assert centre[0] == pytest.approx(l / 2, abs=1e-9) and centre[2] == pytest.approx(3 * c / 8, rel=2e-3)
+    theta, d, psi = scene.start
+    body = pinch_problem(theta, d, psi, scene.digits, l, c, centre[0], 0.04, centre_z=centre[2]).body.vertices
+    along = body @ np.array([math.cos(theta), math.sin(theta)])
+    up = body @ np.array([-math.sin(theta), math.cos(theta)])
+    assert up.max() == pytest.approx(c, abs=1e-9) and up[np.argmin(along)] == pytest.approx(0.0, abs=1e-9)
+    assert along.min() == pytest.approx(0.0, abs=1e-9) and along.max() == pytest.approx(l, abs=1e-9)

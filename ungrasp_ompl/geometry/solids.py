@@ -85,6 +85,19 @@ def _convex_hull(points: NDArray):
     return ConvexHull(points)
 
 
+def solid_mass_properties(vertices: ArrayLike) -> tuple[float, NDArray[np.float64]]:
+    """The volume (m^3) and centroid (3,) (m, the points' frame) of the convex hull of points
+    (N, 3): the hull split into tetrahedra from an inner point, each weighted by its volume."""
+    v = np.asarray(vertices, dtype=float)
+    hull = _convex_hull(v)
+    inner = v[hull.vertices].mean(axis=0)
+    tri = v[hull.simplices]  # (F, 3, 3)
+    vols = np.abs(np.einsum("fi,fi->f", tri[:, 0] - inner, np.cross(tri[:, 1] - inner, tri[:, 2] - inner))) / 6.0
+    centres = (tri.sum(axis=1) + inner) / 4.0
+    volume = float(vols.sum())
+    return volume, (vols[:, None] * centres).sum(axis=0) / volume
+
+
 def convex_shape(vertices: ArrayLike) -> fcl.Convex:
     """An FCL convex shape on the convex hull of points (N, 3), faces wound outward."""
     v = np.asarray(vertices, dtype=float)

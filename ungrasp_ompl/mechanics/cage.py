@@ -592,11 +592,12 @@ def escape_energy(problem: CageProblem, grid: CageGrid, length: float) -> Cage:
 
 
 def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, length: float, thickness: float,
-                  centre_x: float, weight: float, obstacles: tuple[NDArray, ...] = (), squeeze: float = 0.0
-                  ) -> CageProblem:
+                  centre_x: float, weight: float, obstacles: tuple[NDArray, ...] = (), squeeze: float = 0.0,
+                  centre_z: float | None = None) -> CageProblem:
     """The cage problem of a state (theta rad, d over l, psi rad): the object's section by the
-    manipulation plane (the chord GB, thickness thick; metres) at its pose, its centre of mass
-    centre_x (m from G along GB, half the thickness up), its weight (N); the thumb, the finger
+    manipulation plane (the chord GB, thickness thick, or a curved section, digits.section; metres)
+    at its pose, its centre of mass centre_x (m from G along GB) and centre_z (m above GB; None:
+    half the thickness), its weight (N); the thumb, the finger
     and the housing where the state puts them, a rounded finger (digits.finger_tip_radius r > 0)
     as the robot model and the simulator build it: r shorter, its tip's corner on the face
     replaced by a disc of radius r touching the face and the shortened end; the obstacles (CCW
@@ -607,10 +608,15 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     digits and the object's size, weight and obstacles given one by one."""
     c, s = math.cos(theta), math.sin(theta)
     u, top = np.array([c, s]), np.array([-s, c])
-    corners = np.array([[0.0, 0.0], [length, 0.0], [length, thickness], [0.0, thickness]]) if thickness > 0 else \
-        np.array([[0.0, 0.0], [length, 0.0]])
+    section = digits.section if digits.section is not None and not digits.section.is_slab else None
+    if section is not None:  # the curved section as the planner collides with it
+        corners = section.polygon() * length
+    elif thickness > 0:
+        corners = np.array([[0.0, 0.0], [length, 0.0], [length, thickness], [0.0, thickness]])
+    else:
+        corners = np.array([[0.0, 0.0], [length, 0.0]])
     body = ConvexShape(corners[:, :1] * u + corners[:, 1:] * top)
-    centre = centre_x * u + 0.5 * thickness * top
+    centre = centre_x * u + (0.5 * thickness if centre_z is None else centre_z) * top
     shapes = []
     bodies = [b[0] * length for b in digit_bodies(theta, d, psi, digits)]
     r = digits.finger_tip_radius * length
@@ -625,7 +631,7 @@ def pinch_problem(theta: float, d: float, psi: float, digits: DigitGeometry, len
     force = point = None
     if squeeze > 0:
         force = squeeze * np.array([s, -c])
-        point = contact_point(theta, d, psi, thickness / length, digits.finger_tip_radius) * length
+        point = contact_point(theta, d, psi, thickness / length, digits.finger_tip_radius, section) * length
     return CageProblem(body, centre, weight, tuple(shapes), near, True, force, point)
 
 

@@ -20,8 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
-from ..geometry.collision import Box, CollisionChecker, CollisionModel
+from ..geometry.collision import Box, CollisionChecker, CollisionModel, object_solid
 from ..geometry.plane import ManipulationPlane, plane_frame
+from ..geometry.solids import solid_mass_properties
 from ..mechanics import (DigitGeometry, force_closure, kinematic_checks, kinematic_validity, primitive_sliding_signs,
                         sliding_signs)
 from ..mechanics.antipodal import effective_friction
@@ -185,20 +186,27 @@ class Scene:
         if not (math.isfinite(squeeze) and squeeze >= 0.0):
             raise InputError("squeeze", f"must be a force in newtons >= 0, got {squeeze!r}")
         l = self.object_length
-        centre_x, area = l / 2, l * self.digits.width * l
+        centre_x, centre_z, area = l / 2, None, l * self.digits.width * l
         section = self.collision_model().section
-        if section is not None:
-            x, y = section[:, 0], section[:, 1]
-            cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-            area = abs(float(cross.sum())) / 2
-            centre_x = float(((x + np.roll(x, -1)) * cross).sum() / (3 * cross.sum()))
-        weight = weight_of(self.sim.density * area * self.object_thickness)
+        curved = self.digits.section is not None and not self.digits.section.is_slab
+        if curved:  # the solid the planner collides with: its volume and centre of mass
+            volume, centroid = solid_mass_properties(object_solid(self.digits.section, l, self.digits.width * l,
+                                                                  self.object3d is not None))
+            weight = weight_of(self.sim.density * volume)
+            centre_x, centre_z = float(centroid[0]), float(centroid[2])
+        else:
+            if section is not None:
+                x, y = section[:, 0], section[:, 1]
+                cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+                area = abs(float(cross.sum())) / 2
+                centre_x = float(((x + np.roll(x, -1)) * cross).sum() / (3 * cross.sum()))
+            weight = weight_of(self.sim.density * area * self.object_thickness)
         boxes = tuple(np.array([[b.lo[0], b.lo[1]], [b.hi[0], b.lo[1]], [b.hi[0], b.hi[1]], [b.lo[0], b.hi[1]]])
                       for b in self.obstacles)
         grid = grid or CageGrid()
         try:
             return [escape_energy(pinch_problem(*state, self.digits, l, self.object_thickness, centre_x, weight,
-                                                boxes, squeeze), grid, l) for state in q]
+                                                boxes, squeeze, centre_z), grid, l) for state in q]
         except GridTooLarge as exc:
             raise InputError("grid", f"{exc}; choose coarser steps") from None
 
