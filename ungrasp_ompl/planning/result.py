@@ -7,7 +7,7 @@ import math
 from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, StrEnum
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -113,7 +113,80 @@ class PlanOutcome(Enum):
                                             "(planning.max_landing_spread)"}[self]
 
 
-def describe_outcome(outcome: PlanOutcome, evidence: dict[str, Any], planner: str = "the planner") -> str:
+class StartNotHeld(TypedDict):
+    """PlanOutcome.START_NOT_HELD's evidence: the start's class and what fails (Scene.diagnose)."""
+
+    state_class: str  #: a StateClass name
+    failed_checks: list[str]  #: the kinematic conditions that fail (mechanics.kinematic_checks' names)
+    contacts: list[str]  #: the colliding body/target pairs
+
+
+class GoalEmpty(TypedDict, total=False):
+    """PlanOutcome.GOAL_EMPTY's evidence: outside_box and behind_start (the coordinates along
+    which the goal lies wholly behind the start), or holdable and termination."""
+
+    outside_box: bool
+    behind_start: list[str]
+    holdable: bool  #: some goal state can be held, but not let go
+    termination: str  #: how the gripper lets go (a Termination value)
+
+
+class NoSecurePath(TypedDict):
+    """PlanOutcome.NO_SECURE_PATH's evidence."""
+
+    resolution: list[float]  #: the lattice's step (theta rad, d over l, psi rad)
+
+
+class NotFound(TypedDict):
+    """PlanOutcome.NOT_FOUND's evidence: the budget that ran out and the path the lattice holds."""
+
+    resolution: list[float]  #: the lattice's step (theta rad, d over l, psi rad)
+    stopped_by: str  #: a StoppedBy value
+    limit: str  #: the budget in words ("6000 iterations", "1.00 s")
+    lattice_optimum: float  #: the exact search's cost (reference units)
+
+
+class InvalidPath(TypedDict, total=False):
+    """PlanOutcome.INVALID_PATH's evidence (planning.verify.PathProblem.evidence)."""
+
+    problem: str  #: the failure in words
+    path_check: str  #: a PathCheck value
+    index: int  #: the leg's index in the path
+    primitive: str  #: the leg's primitive, where a leg failed
+    leg_check: str  #: a LegCheck value
+    state: list[float]  #: where it failed (theta rad, d over l, psi rad)
+    detail: str
+
+
+class Hung(TypedDict):
+    """PlanOutcome.HUNG's evidence."""
+
+    deadline_s: float  #: when the planner was stopped, s
+    known: str  #: why the planner is known not to stop (UNRULY_PLANNERS), or ""
+
+
+class BelowMinTolerance(TypedDict):
+    """PlanOutcome.BELOW_MIN_TOLERANCE's evidence."""
+
+    tolerance: dict[str, Any]  #: the path's tolerance (planning.plan_tolerance.Tolerance.to_dict)
+    min_tolerance: float  #: planning.min_tolerance
+
+
+class LandingSpread(TypedDict):
+    """PlanOutcome.LANDING_SPREAD's evidence."""
+
+    spread_m: float  #: the path's predicted landing spread, m
+    max_landing_spread_m: float  #: planning.max_landing_spread, m
+    without_p_dpsi: float | str  #: the spread without P_dpsi (m), or why there is none
+
+
+#: What supports an outcome (Plan.evidence), by PlanOutcome: a solved plan's is empty. Mappings of
+#: JSON types, as plan.json holds them.
+PlanEvidence = StartNotHeld | GoalEmpty | NoSecurePath | NotFound | InvalidPath | Hung | BelowMinTolerance | \
+    LandingSpread | dict[str, Any]
+
+
+def describe_outcome(outcome: PlanOutcome, evidence: PlanEvidence, planner: str = "the planner") -> str:
     """One sentence for a person from an outcome and its evidence."""
     e = evidence
     if outcome is PlanOutcome.SOLVED:
@@ -249,7 +322,7 @@ class Plan:
     seed: int | None
     sliding_model: str
     objective: Objective = Objective.COST  # what the planner optimised (docs/model.md, section 6)
-    evidence: dict[str, Any] = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
+    evidence: PlanEvidence = field(default_factory=dict)  # what supports the outcome (see PlanOutcome)
     solution: Solution = field(default_factory=Solution)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
     report: Report3D | None = None  # scenes with an outline

@@ -43,8 +43,8 @@ from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
 from .predicted_landing import predict_landing
-from .result import (Diagnostics, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StoppedBy, friction_record,
-                     merge_legs, sequence_cost)
+from .result import (Diagnostics, GoalEmpty, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StartNotHeld,
+                     StoppedBy, friction_record, merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -376,8 +376,8 @@ class EndsProblem:
 
     outcome: PlanOutcome
     """START_NOT_HELD or GOAL_EMPTY."""
-    evidence: dict[str, Any]
-    """Plan.evidence under that outcome (the keys PlanOutcome names; JSON types)."""
+    evidence: StartNotHeld | GoalEmpty
+    """Plan.evidence under that outcome."""
 
 
 def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None = None) -> EndsProblem | None:
