@@ -113,7 +113,7 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
     turned = scene.object3d is not None and scene.plane is not None  # a round object's section turns about its axis
     obj = SimObject(object_outline(scene), thickness, opts.density,
-                    curved_solid(scene.digits.section, l, scene.digits.width * l, turned, thickness))
+                    curved_solid(scene.digits.section, l, scene.digits.width * l, turned))
     # a pincer's servo is on its joint: its torque limit gives the pinch at the joint radius, and the
     # squeeze (m at the fingertip) is commanded as the angle that turns the fingertip that far
     links = robot.pincer

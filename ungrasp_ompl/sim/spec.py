@@ -14,7 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..geometry.collision import object_solid
 from ..mechanics.pincer import PincerLinks
+from ..mechanics.section import Section
 
 #: Contact softness: MuJoCo's reference time constant (s) and damping ratio. 0.2 ms is the
 #: contact's own time scale between stiff solids (a gram-heavy object on a PLA dome of Hertz
@@ -44,6 +46,11 @@ PALM_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 PLA_MODULUS = 3.0e9
 PLA_DENSITY = 1240.0
 PLA_DAMPING_RATIO = 0.05
+#: The samples a curved section's solid is built with (geometry.collision.object_solid: as many
+#: turns of the section about the axis, and twice as many points along its top): the hull's facets
+#: then stray at most 1.2 um from the Go stone's dome and 0.9 um from the coin's rim, within the
+#: 2 um the outlines' curves are filled in to (sim.setup.OUTLINE_SAGITTA; tests/test_curved_sim.py).
+SOLID_SAMPLES = 128
 
 
 def digit_bending(length: float, t_tip: float, t_base: float, width: float,
@@ -85,16 +92,21 @@ class GripperGeometry:
 
 @dataclass(frozen=True)
 class SimObject:
-    """The object as the simulator builds it: its outline's convex prism.
+    """The object as the simulator builds it: its outline's convex prism, or the true solid of a
+    curved section.
 
     outline: (N, 2) vertices (m) in the body frame's xy plane; the body frame is the
     manipulation plane's frame when the object lies at its target (origin at G on the
-    table, x toward B, z up), so the prism spans z in [0, thickness].
+    table, x toward B, z up), so the prism spans z in [0, thickness]. solid: a curved section's
+    solid (curved_solid), the convex hull of its vertices (N, 3), m, in the same frame; None: the
+    outline's prism. The solid's heights are scaled to thickness (a trial's drawn thickness error,
+    a variant's thickness), its outline on the table unchanged.
     """
 
     outline: NDArray[np.float64]
     thickness: float  #: m
     density: float  #: kg/m^3
+    solid: NDArray[np.float64] | None = None  #: (N, 3) m, the curved solid's vertices; None: the prism
 
 
 @dataclass(frozen=True)
@@ -123,6 +135,17 @@ class SimModelSpec:
     contact_time: float = SOLREF[0]  #: s, the contacts' reference time constant (MuJoCo's solref)
     cone: str = "elliptic"  #: the contacts' friction cone: elliptic or pyramidal (MuJoCo's option)
 
+
+
+def curved_solid(section: Section | None, length: float, width: float, turned: bool) -> NDArray[np.float64] | None:
+    """The vertices (N, 3) of the solid the planner collides with (geometry.collision.object_solid,
+    SOLID_SAMPLES), m, in the object's body frame (x along GB from G, y across, z up from GB): the
+    section (over length, m) turned about the vertical through its centre (turned: a round object)
+    or carried across width (m). None for a slab or no section: the simulator builds the outline's
+    prism. sim.world_description scales its heights to the SimObject's thickness."""
+    if section is None or section.is_slab:
+        return None
+    return object_solid(section, length, width, turned, SOLID_SAMPLES)
 
 
 def prism(outline: NDArray, bottom: float, top: float) -> NDArray[np.float64]:

@@ -73,7 +73,8 @@ class Geom:
 @dataclass(frozen=True)
 class FreeBody:
     """A free body (six degrees of freedom, nothing but contacts holds it): the object, or one
-    already down; its one geometry (a convex prism) and its pose (4x4) where it starts."""
+    already down; its one geometry (a convex prism, or a curved section's solid) and its pose
+    (4x4) where it starts."""
 
     name: str
     geom: Geom
@@ -170,9 +171,18 @@ class WorldDescription:
 
 
 def object_body(name: str, obj: SimObject, pose: NDArray, friction: float | None, rgba: str) -> FreeBody:
-    """A free prism: the convex hull of obj's outline, from z = 0 to its thickness in its body frame."""
-    return FreeBody(name, Geom(name, Mesh(prism(obj.outline, 0.0, obj.thickness)), friction, obj.density,
-                               rgba=rgba), np.asarray(pose, dtype=float))
+    """A free convex body: a curved section's true solid (obj.solid, its heights scaled so that it
+    is obj's thickness from bottom to top), or else the prism of obj's outline from z = 0 to its
+    thickness, in its body frame; its mass from obj's density."""
+    if obj.solid is None:
+        vertices = prism(obj.outline, 0.0, obj.thickness)
+    else:
+        vertices = np.asarray(obj.solid, dtype=float)
+        scale = obj.thickness / np.ptp(vertices[:, 2])
+        if scale != 1.0:
+            vertices = vertices * np.array([1.0, 1.0, scale])
+    return FreeBody(name, Geom(name, Mesh(np.asarray(vertices, dtype=float)), friction, obj.density, rgba=rgba),
+                    np.asarray(pose, dtype=float))
 
 
 def describe(spec: SimModelSpec) -> WorldDescription:
