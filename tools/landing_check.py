@@ -14,8 +14,15 @@ across (the simulated landing across GB), outcome (the no-error trial's), model 
 (over the no-error trial and the drawn ones that placed the object, the model at each draw's
 friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
 thumb tip) when the termination began. A pyramidal world's model is the pyramid's two bounds.
+A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
+drawn trials draw no friction error, and the model at such a draw takes the world's friction alone.
 
-    python tools/landing_check.py [--objects guitar_pick,puzzle_piece] [--draws 4] [--json out.json]
+    python tools/landing_check.py [--objects guitar_pick,puzzle_piece] [--draws 4] [--json out.json] [--results]
+
+--results writes the study into docs/results/landing_check.json (the markdown beside it rendered
+from it; a study's earlier rows replaced, the other studies' kept): "landing", with --forbid-partial
+"landing, no P_dpsi", with --no-spread-bound (the scenes' plans without planning.max_landing_spread,
+which keep their P_dpsi) "landing, no spread bound".
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl.mechanics.release import (  # noqa: E402
+    STEP,
     PyramidReach,
     ReleaseStart,
     fall,
@@ -76,24 +84,41 @@ def termination_pose(setup, record, frame) -> tuple[float, float, float]:
     return float(pose[0, 3]), theta, s_b
 
 
-def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0)
-                 ) -> list[float]:
+def drawn_scale(world: World, params: TrialParams) -> tuple[float, float]:
+    """The factors a draw puts on (mu_G, mu_B) in world: none on a pair whose friction the world
+    sets (decision 0100), as sim.trial.trial_spec builds the trial."""
+    fg, _, fb = params.friction_scale
+    table_fixed, digits_fixed = world.fixed_friction
+    return (1.0 if table_fixed else fg), (1.0 if digits_fixed else fb)
+
+
+def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0),
+                 step: float = STEP) -> list[float]:
     """The model's landings (plane x of G, m) in world, the coefficients also times scale (a draw's
-    factors on mu_G and mu_B): one with Coulomb's cone, the pyramid's two bounds with pyramidal
-    cones."""
-    g, b = world.friction * mu_g * scale[0], world.friction * mu_b * scale[1]
+    factors on mu_G and mu_B, drawn_scale), integrated in steps of step (s): one with Coulomb's cone,
+    the pyramid's two bounds with pyramidal cones."""
+    table, digits = world.friction_factors
+    g, b = table * mu_g * scale[0], digits * mu_b * scale[1]
     if world.cone is Cone.ELLIPTIC:
-        return [fall(setup, g, b).offset]
+        return [fall(setup, g, b, step).offset]
     reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis)
-    return [fall(setup, g * reach.table[k], b * reach.thumb[k]).offset for k in (0, 1)]
+    return [fall(setup, g * reach.table[k], b * reach.thumb[k], step).offset for k in (0, 1)]
 
 
-def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False) -> dict:
-    """The comparison for one object scene (forbid_partial: planned without P_dpsi)."""
+#: The coarser and the finer step against which the model's landings are checked (s).
+STEP_CHECK = (1e-3, 1e-4)
+
+
+def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False,
+          spread_bound: bool = True) -> dict:
+    """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
+    False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi)."""
     scene = Scene.from_file(str(ROOT / "scenes" / f"{name}.yaml"))
     scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)
+    if not spread_bound:
+        scene = scene.with_options(max_landing_spread=None)
     plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1)
     if not plan.solved:
         return {"object": name, "unsolved": plan.reason}
@@ -120,27 +145,30 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
                            hand=replace(base.hand, tip=(bx + sb0 * ex, bz + sb0 * ez)))
         planned = model_worlds(base, mu_g, mu_b, world)
         through = model_worlds(carried, mu_g, mu_b, world)
+        coarse, fine = (model_worlds(carried, mu_g, mu_b, world, step=dt) for dt in STEP_CHECK)
         from_sim = model_worlds(measured, mu_g, mu_b, world)
         rng = np.random.default_rng(seed)
-        drawn, modelled = [], [float(np.mean(through))]
+        drawn, modelled, outcomes = [], [float(np.mean(through))] if nominal.placed else [], []
         for _ in range(draws):
             params = PRESETS["paper"].sample(rng)
             r = run_trial(here, params)
+            outcomes.append(r.outcome.value + ("" if r.phase is None else " in " + r.phase))
             if r.placed:
                 drawn.append(in_plane(frame, landing_offset(here, np.array(r.final_pose))))
-                fg, _, fb = params.friction_scale
-                modelled.append(float(np.mean(model_worlds(carried, mu_g, mu_b, world, (fg, fb)))))
-        everything = [(along, across)] + drawn
+                modelled.append(float(np.mean(model_worlds(carried, mu_g, mu_b, world, drawn_scale(world, params)))))
+        everything = ([(along, across)] if nominal.placed else []) + drawn
+        mean = (lambda values: float(np.mean(values)) * 1e3 if values else None)  # noqa: E731
         rows.append({"world": label, "sim_along_mm": along * 1e3, "sim_across_mm": across * 1e3,
                      "sim_turn_deg": math.degrees(placement_turn(np.array(nominal.final_pose), frame)),
                      "sim_outcome": nominal.outcome.value,
-                     "sim_mean_along_mm": float(np.mean([a for a, _ in everything])) * 1e3,
-                     "sim_mean_across_mm": float(np.mean([c for _, c in everything])) * 1e3,
-                     "sim_draws_placed": len(drawn), "model_mean_mm": float(np.mean(modelled)) * 1e3,
-                     "sim_placed": nominal.placed,
+                     "sim_mean_along_mm": mean([a for a, _ in everything]),
+                     "sim_mean_across_mm": mean([c for _, c in everything]),
+                     "sim_draws_placed": len(drawn), "model_mean_mm": mean(modelled),
+                     "sim_placed": nominal.placed, "draw_outcomes": outcomes,
                      "sim_start_g_mm": g0 * 1e3, "sim_start_theta_deg": math.degrees(th0), "sim_start_sb_mm": sb0 * 1e3,
                      "model_planned_mm": [x * 1e3 for x in planned], "model_mm": [x * 1e3 for x in through],
-                     "model_from_sim_start_mm": [x * 1e3 for x in from_sim]})
+                     "model_from_sim_start_mm": [x * 1e3 for x in from_sim],
+                     "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3})
     return {"object": name, "predict_s": predict_s, "primitives": [str(p.type) for p in plan.primitives],
             "carried_start_g_mm": carried.start.g * 1e3, "carried_start_theta_deg": math.degrees(carried.start.theta),
             "plan_start_theta_deg": math.degrees(base.start.theta),
@@ -153,6 +181,11 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
 def _span(values: list[float]) -> str:
     """One value, or the range of two (mm)."""
     return f"{values[0]:.2f}" if len(values) == 1 else f"{min(values):.2f}..{max(values):.2f}"
+
+
+def _or_dash(value: float | None) -> str:
+    """A value to the hundredth, or "-" for none (mm)."""
+    return "-" if value is None else f"{value:.2f}"
 
 
 def table(results: list[dict]) -> str:
@@ -175,8 +208,8 @@ def table(results: list[dict]) -> str:
             lines.append(f"{res['object']:<13} {row['world']:<14} {_span(row['model_planned_mm']):>8} "
                          f"{_span(row['model_mm']):>13} {_span(row['model_from_sim_start_mm']):>13} "
                          f"{row['sim_along_mm']:>9.2f} {diff} {row['sim_across_mm']:>7.2f} {row['sim_outcome']:<12.12} "
-                         f"{row['model_mean_mm']:>10.2f} {row['sim_mean_along_mm']:>8.2f} "
-                         f"{row['sim_draws_placed'] + 1:>2} {row['sim_start_g_mm']:>7.2f} "
+                         f"{_or_dash(row['model_mean_mm']):>10} {_or_dash(row['sim_mean_along_mm']):>8} "
+                         f"{row['sim_draws_placed'] + row['sim_placed']:>2} {row['sim_start_g_mm']:>7.2f} "
                          f"{row['sim_start_theta_deg']:>6.2f} {row['sim_start_sb_mm']:>7.2f}")
     return "\n".join(lines)
 
@@ -188,11 +221,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1, help="the draws' seed")
     parser.add_argument("--time", type=float, default=1.0, help="RRT*'s planning time (s)")
     parser.add_argument("--forbid-partial", action="store_true", help="plan without P_dpsi (planning.forbid_partial)")
+    parser.add_argument("--no-spread-bound", action="store_true",
+                        help="plan without the scene's planning.max_landing_spread (its plan may keep a P_dpsi)")
     parser.add_argument("--json", help="write the results there")
+    parser.add_argument("--results", action="store_true", help="also write the study into "
+                                                               "docs/results/landing_check.json and .md")
     args = parser.parse_args(argv)
+    command = " ".join(["python tools/landing_check.py", *(sys.argv[1:] if argv is None else argv)])
+    wall = time.perf_counter()
     results = []
     for name in args.objects.split(","):
-        res = check(name, args.draws, args.seed, args.time, args.forbid_partial)
+        res = check(name, args.draws, args.seed, args.time, args.forbid_partial, not args.no_spread_bound)
         results.append(res)
         if "unsolved" in res:
             print(f"{name}: no plan ({res['unsolved']})", flush=True)
@@ -208,7 +247,79 @@ def main(argv: list[str] | None = None) -> int:
     print(table(results))
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
+    if args.results:
+        study = ("landing" + (", no P_dpsi" if args.forbid_partial else "")
+                 + (", no spread bound" if args.no_spread_bound else ""))
+        print(f"wrote {write_results(study, command, time.perf_counter() - wall, study_rows(study, results))}")
     return 0
+
+
+#: How the results file shows each field of its rows (tools/campaign_results.py renders them).
+FORMATS = {**{k: "{:.2f}" for k in ("planned_mm", "model_mm", "from_sim_start_mm", "sim_along_mm", "sim_across_mm",
+                                    "model_mean_mm", "sim_mean_mm", "sim_start_g_mm", "sim_start_theta_deg",
+                                    "sim_start_sb_mm", "sim_turn_deg", "predicted_mm", "nominal_mm", "spread_mm",
+                                    "carried_g_mm", "carried_theta_deg", "plan_theta_deg", "plan_sb_mm",
+                                    "model_span_mm", "sim_span_mm", "sim_across_abs_mm", "carried_mm")},
+           "step_change_mm": "{:.3f}",
+           **{k: "{:+.2f}" for k in ("model_minus_sim_mm", "mean_model_minus_sim_mm", "from_sim_start_minus_sim_mm")},
+           "predict_ms": "{:.0f}", "seconds": "{:.0f}", "minutes": "{:.0f}"}
+#: The worlds over which a plan's landing spreads (the model's Coulomb worlds of the scenes' range).
+SPREAD_WORLDS = ("nominal", "friction x0.7", "friction x1.3")
+
+
+def study_rows(study: str, results: list[dict]) -> list[dict]:
+    """The results file's rows of one study: per object its plan, the model's prediction and
+    start, the spread of model and simulation over the Coulomb worlds; per object and world the
+    landings (mm) and the simulation's pose when the termination began."""
+    rows = []
+    for res in results:
+        name = res["object"]
+        if "unsolved" in res:
+            rows.append({"label": f"{study}: {name}", "study": study, "object": name, "unsolved": res["unsolved"]})
+            continue
+        p, worlds = res["prediction"], {w["world"]: w for w in res["worlds"]}
+        spread = [worlds[w] for w in SPREAD_WORLDS if w in worlds]
+        placed = [w["sim_along_mm"] for w in spread if w["sim_placed"]]
+        model = [float(np.mean(w["model_mm"])) for w in spread]
+        rows.append({"label": f"{study}: {name}", "study": study, "object": name,
+                     "primitives": " ".join(res["primitives"]), "predicted_mm": p["along_m"] * 1e3,
+                     "nominal_mm": p["nominal_m"] * 1e3, "spread_mm": p["spread_m"] * 1e3,
+                     "predict_ms": res["predict_s"] * 1e3, "carried_g_mm": res["carried_start_g_mm"],
+                     "carried_theta_deg": res["carried_start_theta_deg"], "plan_theta_deg": res["plan_start_theta_deg"],
+                     "plan_sb_mm": res["plan_sb_mm"], "carried_mm": p["carried_m"] * 1e3,
+                     "step_change_mm": max(w["step_change_mm"] for w in res["worlds"]),
+                     "model_span_mm": max(model) - min(model),
+                     "sim_span_mm": max(placed) - min(placed) if len(placed) == len(spread) else None})
+        for w in res["worlds"]:
+            rows.append({
+                "label": f"{study}: {name}, {w['world']}", "study": study, "object": name, "world": w["world"],
+                "planned_mm": w["model_planned_mm"], "model_mm": w["model_mm"],
+                "from_sim_start_mm": w["model_from_sim_start_mm"], "sim_outcome": w["sim_outcome"],
+                "sim_placed": w["sim_placed"], "sim_along_mm": w["sim_along_mm"] if w["sim_placed"] else None,
+                "sim_across_mm": w["sim_across_mm"] if w["sim_placed"] else None,
+                "sim_across_abs_mm": abs(w["sim_across_mm"]) if w["sim_placed"] else None,
+                "sim_turn_deg": w["sim_turn_deg"] if w["sim_placed"] else None,
+                "model_minus_sim_mm": [m - w["sim_along_mm"] for m in w["model_mm"]] if w["sim_placed"] else None,
+                "from_sim_start_minus_sim_mm": ([m - w["sim_along_mm"] for m in w["model_from_sim_start_mm"]]
+                                                if w["sim_placed"] else None),
+                "n": w["sim_draws_placed"] + w["sim_placed"], "model_mean_mm": w["model_mean_mm"],
+                "sim_mean_mm": w["sim_mean_along_mm"],
+                "mean_model_minus_sim_mm": (None if w["sim_mean_along_mm"] is None
+                                            else w["model_mean_mm"] - w["sim_mean_along_mm"]),
+                "draw_outcomes": w["draw_outcomes"], "sim_start_g_mm": w["sim_start_g_mm"],
+                "sim_start_theta_deg": w["sim_start_theta_deg"], "sim_start_sb_mm": w["sim_start_sb_mm"]})
+    return rows
+
+
+def write_results(study: str, command: str, seconds: float, rows: list[dict]) -> Path:
+    """Put one study's rows into docs/results/landing_check.json (the other study's rows kept) and
+    render the markdown beside it; both written atomically."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    from campaign_results import merge_study
+
+    return merge_study(ROOT / "docs" / "results" / "landing_check.json", study, command, seconds, rows, FORMATS,
+                       "tools/landing_check.py: the release model's landing against the simulator's "
+                       "(docs/model.md 11.17)")
 
 
 if __name__ == "__main__":

@@ -35,7 +35,11 @@ and where it touches the object (MuJoCo's mj_contactForce in each contact's fram
 digit's contact points); --no-error reads the trial without any error, --impratio runs a copy of its
 model with friction rows that much stiffer than the normal one (the simulator's 10).
 
-Usage (about 4 minutes of one core with 6 trials; --cage about 20; --needed 1; --forces 2):
+--results also writes the study's rows into docs/results/world_failures.json (replacing the study's
+earlier rows, keeping the other studies'), with its command, wall time and day, and renders
+docs/results/world_failures.md from it (tools/campaign_results.py; docs/model.md 11.18 quotes it).
+
+Usage (about 4 minutes of one core with 6 trials; --cage about 10; --needed 1; --forces under 1):
 
     .venv/bin/python tools/world_failures.py --trials 6
     .venv/bin/python tools/world_failures.py --trials 2 --objects guitar_pick --worlds friction=0.7
@@ -54,6 +58,7 @@ import re
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -70,6 +75,37 @@ OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 WORLDS = ("friction=1", "friction=0.7", "friction=1.3", "cone=pyramidal")
 #: Outcomes that are not a failure to hold the object (placed, whether on target or not).
 HELD = (Outcome.SUCCESS, Outcome.OFF_TARGET)
+
+
+ROOT = Path(__file__).resolve().parents[1]
+#: How the results file shows each field of its rows (tools/campaign_results.py renders them).
+FORMATS = {"smallest_n": "{:+.2f}", "margin_min_n": "{:+.2f}", "factor_table": "{:.2f}", "factor_digits": "{:.2f}",
+           "factor_g": "{:.2f}", "factor_a": "{:.2f}", "factor_b": "{:.2f}", "across_mm": "{:+.2f}",
+           "elliptic": "{:.2f}", "pyramidal": "{:.2f}", "closure": "{:.2f}", "min_escape_mj": "{:.3f}",
+           "caged_share": "{:.2f}", "start_mj": "{:.3f}", "margin_friction_n": "{:+.2f}",
+           "margin_pyramidal_n": "{:+.2f}", "rho": "{:+.2f}", "p": "{:.3f}", "t_s": "{:+.2f}",
+           "out_deg": "{:.2f}", "roll_deg": "{:+.2f}", "yaw_deg": "{:+.2f}", "theta_deg": "{:.2f}",
+           "g_across_mm": "{:.3f}", "seconds": "{:.0f}", "minutes": "{:.0f}", "shift_across_mm": "{:+.2f}",
+           **{f"{c}_{f}": fmt for c in "gab" for f, fmt in (("n", "{:.2f}"), ("in_plane", "{:.3f}"),
+                                                           ("across", "{:.3f}"), ("mu", "{:.3f}"),
+                                                           ("at_mm", "{:.1f}"))}}
+
+
+def _finite(x: float) -> float | str:
+    """A number as the results file holds it: "inf" and "-inf" as words (JSON has no infinity)."""
+    return float(x) if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+
+
+def write_results(study: str, command: str, seconds: float, rows: list[dict], path: Path | None = None) -> Path:
+    """Put one study's rows into the results file (docs/results/world_failures.json, the rows of
+    the other studies kept) with the study's own row (its command, wall time in s, day), and render
+    the markdown beside it; both written atomically."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    from campaign_results import merge_study
+
+    return merge_study(path or ROOT / "docs" / "results" / "world_failures.json", study, command, seconds, rows,
+                       FORMATS, "tools/world_failures.py: the out-of-plane margin and the cage against the trials "
+                                "in worlds the plan did not know (docs/model.md 11.18)")
 
 
 def world_of(item: str) -> World:
@@ -98,13 +134,30 @@ def main(argv: list[str] | None = None) -> int:
                         help="--forces runs a copy of the trial's model with this impratio (the simulator's is 10)")
     parser.add_argument("--ticks", type=float, nargs="+", default=[-0.29, -0.25, -0.20, -0.15, -0.10, 0.0, 0.3],
                         help="when --forces reads it (s from the first primitive's start; negative: the settling)")
+    parser.add_argument("--results", action="store_true",
+                        help="also write the study into docs/results/world_failures.json and .md (its rows replace "
+                             "the study's earlier ones)")
     args = parser.parse_args(argv)
+    command = " ".join(["python tools/world_failures.py", *(sys.argv[1:] if argv is None else argv)])
+    wall = time.perf_counter()
+    rows: list[dict] = []
     if args.cage:
-        return cage_study(args.objects, args.trials, args.seed)
-    if args.needed:
-        return friction_needed(args.objects)
-    if args.forces:
-        return contact_forces(args.objects[0], args.trial, args.seed, tuple(args.ticks), args.no_error, args.impratio)
+        study, code = "cage", cage_study(args.objects, args.trials, args.seed, rows)
+    elif args.needed:
+        study, code = "needed", friction_needed(args.objects, rows)
+    elif args.forces:
+        study = forces_run(args.objects[0], args.trial, args.no_error, args.impratio)
+        code = contact_forces(args.objects[0], args.trial, args.seed, tuple(args.ticks), args.no_error, args.impratio,
+                              rows, study)
+    else:
+        study, code = "trials", world_trials(args, rows)
+    if args.results:
+        print(f"wrote {write_results(study, command, time.perf_counter() - wall, rows)}")
+    return code
+
+
+def world_trials(args, rows: list[dict]) -> int:
+    """The margin's predictions against the trials (the default study); its rows into rows."""
     draw_low = 1.0 - PRESETS["paper"].friction
     totals: dict[str, list[int]] = {}
     per_trial_rows = []
@@ -137,6 +190,15 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {world.describe():24s} predicted (draw's worst, x{worst[0]:.2f}/{worst[1]:.2f}): {verdict}; "
                   f"{legs_line(res)}")
             counts = totals.setdefault(f"{name} {world.describe()}", [0, 0, 0, 0, 0])
+            outcomes: dict[str, int] = {}
+            legs = res.of_legs()
+            low_leg = min(legs, key=lambda item: item[1])
+            world_row = {"label": f"trials: {name}, {world.describe()}", "study": "trials", "object": name,
+                         "world": world.describe(), "primitives": " ".join(str(p.type) for p in plan.primitives),
+                         "factor_table": worst[0], "factor_digits": worst[1],
+                         "first_below": "none" if first is None else first[0], "smallest_n": _finite(low_leg[1]),
+                         "smallest_leg": low_leg[0], "legs": [[leg, _finite(v)] for leg, v in legs]}
+            rows.append(world_row)
             for k, p in enumerate(params):
                 drawn = (1.0 if fixed_table else p.friction_scale[0],
                          *((1.0, 1.0) if fixed_digits else p.friction_scale[1:]))
@@ -160,6 +222,24 @@ def main(argv: list[str] | None = None) -> int:
                       f"margin min {own.push.min():+.2f} N; simulated {r.outcome.value}"
                       f"{'' if r.phase is None else ' in ' + r.phase} ({time.perf_counter() - t1:.1f} s)", flush=True)
                 per_trial_rows.append((name, world.describe(), k, predicted, held))
+                what = "held" if held else r.outcome.value + ("" if r.phase is None else " in " + r.phase)
+                outcomes[what] = outcomes.get(what, 0) + 1
+                rows.append({"label": f"trial: {name}, {world.describe()}, {k}", "study": "trials", "object": name,
+                             "world": world.describe(), "trial": k, "factor_g": factors[0], "factor_a": factors[1],
+                             "factor_b": factors[2], "across_mm": p.shift_across_mm,
+                             "predicted": "held" if predicted else leg, "margin_min_n": _finite(own.push.min()),
+                             "outcome": r.outcome.value, "phase": r.phase, "held": held})
+            n, held_n, pred_n, right_n, caught_n = counts
+            world_row.update({"trials": n, "held": held_n, "predicted_held": pred_n, "right": right_n,
+                              "failures": n - held_n, "failures_predicted": caught_n,
+                              "outcomes": sorted(([c, w] for w, c in outcomes.items()), key=lambda x: (-x[0], x[1]))})
+    for label, chosen in (("all worlds", per_trial_rows),
+                          ("the friction worlds", [t for t in per_trial_rows if "pyramidal" not in t[1]])):
+        right = sum(p == h for *_, p, h in chosen)
+        rows.append({"label": f"trials: {label}", "study": "trials", "trials": len(chosen), "right": right,
+                     "failures": sum(not h for *_, h in chosen),
+                     "failures_predicted": sum((not p) and (not h) for *_, p, h in chosen),
+                     "predicted_failures": sum(not p for *_, p, _ in chosen)})
     print("\nper trial: object, world: trials, held, predicted held, predictions right, failures predicted")
     for key, (n, held, pred, right, caught) in totals.items():
         print(f"  {key:42s} {n:3d} {held:5d} {pred:9d} {right:9d} {caught:5d}/{n - held}")
@@ -178,9 +258,11 @@ CAGE_PLANS = (tuple(("RRTstar", seed, "cost") for seed in range(1, 7))
 CAGE_WORLDS = ("friction=0.7", "cone=pyramidal")
 
 
-def cage_study(objects: list[str], trials: int, seed: int) -> int:
+def cage_study(objects: list[str], trials: int, seed: int, out: list[dict] | None = None) -> int:
     """Print, per plan, the cage's measures, the out-of-plane margin at the worst draw of each world
-    and the trials held in each world; then Spearman's rank correlations with the trials held."""
+    (the draw's lowest factor only where the world leaves a pair's friction alone) and the trials
+    held in each world; then Spearman's rank correlations with the trials held. The rows go into out."""
+    out = [] if out is None else out
     from scipy.stats import spearmanr
 
     from ungrasp_ompl.planning.cage_profile import cage_profile
@@ -212,7 +294,9 @@ def cage_study(objects: list[str], trials: int, seed: int) -> int:
             for item in CAGE_WORLDS:
                 world = world_of(item)
                 table, digits = world.friction_factors
-                mu = _plane_mu(scene, (table * draw_low, digits * draw_low, digits * draw_low))
+                fixed_table, fixed_digits = world.fixed_friction  # the world's factor is the pair's error
+                table, digits = table * (1.0 if fixed_table else draw_low), digits * (1.0 if fixed_digits else draw_low)
+                mu = _plane_mu(scene, (table, digits, digits))
                 margins.append(plan_out_of_plane(scene, plan, mu, str(world.cone)).smallest)
                 held.append(sum(run_trial(replace(setup, world=world), p, k, seed).outcome in HELD
                                 for k, p in enumerate(params)))
@@ -221,6 +305,12 @@ def cage_study(objects: list[str], trials: int, seed: int) -> int:
                   f"{caged:.2f}, {fmt(energy[0])} | " + ", ".join(f"{m:+.2f}" for m in margins)
                   + " | " + ", ".join(f"{h}/{trials}" for h in held), flush=True)
             rows.append((name, float(energy.min()), caged, float(energy[0]), margins, held))
+            out.append({"label": f"cage: {name}, {label}", "study": "cage", "object": name, "plan": label,
+                        "primitives": " ".join(str(p.type) for p in plan.primitives),
+                        "min_escape_mj": _finite(1000 * float(energy.min())), "caged_share": caged,
+                        "start_mj": _finite(1000 * float(energy[0])), "margin_friction_n": _finite(margins[0]),
+                        "margin_pyramidal_n": _finite(margins[1]), "trials": trials, "held_friction": held[0],
+                        "held_pyramidal": held[1]})
     print("\nSpearman's rank correlation with the trials held (rho, p; nan: a measure without spread)")
     for group in [None, *objects]:
         mine = [r for r in rows if group is None or r[0] == group]
@@ -234,10 +324,14 @@ def cage_study(objects: list[str], trials: int, seed: int) -> int:
                 rho, p = spearmanr(ranked, held) if spread else (math.nan, math.nan)
                 print(f"  {group or 'all objects':13s} {item:16s} {label:24s} rho {rho:+.2f} p {p:.3f} over "
                       f"{len(mine)} plans, {sum(held)}/{trials * len(mine)} trials held")
+                out.append({"label": f"cage rho: {group or 'all objects'}, {world_of(item).describe()}, {label}",
+                            "study": "cage", "object": group, "world": world_of(item).describe(), "measure": label,
+                            "rho": None if math.isnan(rho) else float(rho), "p": None if math.isnan(p) else float(p),
+                            "plans": len(mine), "held": sum(held), "trials": trials * len(mine)})
     return 0
 
 
-def friction_needed(objects: list[str]) -> int:
+def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
     """Print, per leg of each object's RRT* plan, the least factor on the contacts' coefficients at
     which the out-of-plane margin (1 mm off) is at least 0, elliptic and pyramidal, and at which
     planar force closure holds (bisection to 1e-3 on [0.3, 1.5])."""
@@ -253,6 +347,7 @@ def friction_needed(objects: list[str]) -> int:
             lo, hi = (lo, mid) if holds(mid) else (mid, hi)
         return hi
 
+    out = [] if out is None else out
     print("object: leg needs factor (margin elliptic / pyramidal / planar force closure; 0.30: at most that)")
     for name in objects:
         scene = Scene.from_file(name)
@@ -268,16 +363,27 @@ def friction_needed(objects: list[str]) -> int:
             need.append(least(lambda f: friction_margin(q[:, 0], q[:, 1], q[:, 2], sa, sb, Friction(
                 scene.plane_friction(f), scene.options.sliding_model)).min() > 0.0))
             cells.append(f"{'press' if leg < 0 else st.names[leg]} {need[0]:.2f}/{need[1]:.2f}/{need[2]:.2f}")
+            out.append({"label": f"needed: {name}, {len(cells) - 1}", "study": "needed", "object": name,
+                        "leg": "press" if leg < 0 else st.names[leg], "order": len(cells) - 1, "elliptic": need[0],
+                        "pyramidal": need[1], "closure": need[2]})
         print(f"  {name}: " + ", ".join(cells))
     return 0
 
 
+def forces_run(name: str, trial: int, no_error: bool, impratio: float | None) -> str:
+    """The study's name of one --forces reading ("forces: guitar_pick, trial 0", "forces: guitar_pick,
+    no error, impratio 1")."""
+    return (f"forces: {name}, {'no error' if no_error else f'trial {trial}'}"
+            + ("" if impratio is None else f", impratio {impratio:g}"))
+
+
 def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], no_error: bool = False,
-                   impratio: float | None = None) -> int:
+                   impratio: float | None = None, out: list[dict] | None = None, study: str = "forces") -> int:
     """Print the rigid-body reading of one trial of an object's RRT* plan (see the module docstring),
     and the trial's outcome in each world; no_error: the trial without any error; impratio: run a
     copy of the trial's model with that impratio instead of the simulator's (not a world of
-    sim/world.py: a probe of how stiffly friction holds)."""
+    sim/world.py: a probe of how stiffly friction holds). The rows go into out, labelled by study."""
+    out = [] if out is None else out
     from ungrasp_ompl.scene.perturbation import TrialParams
     from ungrasp_ompl.sim import trial as sim_trial
 
@@ -287,10 +393,14 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
                                                              build(spec, key))
 
 
+    obj = name
     scene = Scene.from_file(name)
     plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
     _, setup = placement(scene, plan)
     params = TrialParams() if no_error else trial_params(preset("paper"), seed, trial + 1)[trial]
+    out.append({"label": study, "study": study, "object": obj, "trial": None if no_error else trial,
+                "shift_across_mm": params.shift_across_mm, "factor_g": params.friction_scale[0],
+                "factor_a": params.friction_scale[1], "factor_b": params.friction_scale[2], "impratio": impratio})
     frame = setup.target_pose[:3, :3]  # the plane's: x toward B, y across, z up
     print(f"{name}, RRT* seed 1, trial {trial}: shift across {params.shift_across_mm:+.2f} mm, friction "
           f"factors {', '.join(f'{f:.2f}' for f in params.friction_scale)}")
@@ -298,14 +408,21 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
         world = world_of(item)
         result = run_trial(replace(setup, world=world), params, trial, seed)
         print(f"== {world.describe()}: {result.outcome.value}{'' if result.phase is None else ' in ' + result.phase}")
+        out.append({"label": f"{study}: {world.describe()}", "study": study, "object": obj,
+                    "world": world.describe(), "outcome": result.outcome.value, "phase": result.phase})
         for t, pose, contacts in _replay(replace(setup, world=world), params, ticks):
             rel = frame.T @ pose[:3, :3]
             yaw = math.degrees(math.atan2(rel[1, 0], rel[0, 0]))
             roll = math.degrees(math.asin(max(-1.0, min(1.0, rel[2, 1]))))
-            out = math.degrees(math.acos(min(1.0, abs(rel[1, 1]))))
+            out_deg = math.degrees(math.acos(min(1.0, abs(rel[1, 1]))))
             theta = math.degrees(math.asin(max(-1.0, min(1.0, rel[2, 0]))))
             cells = []
+            row = {"label": f"{study}: {world.describe()}, t {t:+.2f}", "study": study, "object": obj,
+                   "world": world.describe(), "t_s": t, "out_deg": out_deg, "roll_deg": roll, "yaw_deg": yaw,
+                   "theta_deg": theta, "g_across_mm": contacts["_g_across"] * 1000}
+            out.append(row)
             for name in "GAB":
+                row.update({f"{name.lower()}_{f}": None for f in ("n", "in_plane", "across", "mu", "at_mm")})
                 if name not in contacts:
                     cells.append(f"{name} -")
                     continue
@@ -315,10 +432,14 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
                     cells.append(f"{name} -")
                     continue
                 tang = force - (force @ normal) * normal
+                row.update({f"{name.lower()}_n": float(n_force),
+                            f"{name.lower()}_in_plane": float(math.hypot(tang[0], tang[2]) / n_force),
+                            f"{name.lower()}_across": float(abs(tang[1]) / n_force), f"{name.lower()}_mu": mu,
+                            f"{name.lower()}_at_mm": float(where[0] * 1000)})
                 cells.append(f"{name} N {n_force:.2f} in-plane {math.hypot(tang[0], tang[2]) / n_force:.3f} "
                              f"across {abs(tang[1]) / n_force:.3f} (mu {mu:.3f}) at ({where[0] * 1000:.1f}, "
                              f"{where[1] * 1000:+.2f}) mm")
-            print(f"  t {t:+.2f} s: out {out:.2f} deg (roll {roll:+.2f}, yaw {yaw:+.2f}), theta {theta:.2f}, "
+            print(f"  t {t:+.2f} s: out {out_deg:.2f} deg (roll {roll:+.2f}, yaw {yaw:+.2f}), theta {theta:.2f}, "
                   f"G across {contacts['_g_across'] * 1000:+.3f} mm | " + "; ".join(cells))
     return 0
 
