@@ -15,7 +15,9 @@ from conftest import ROOT, run_cli
 
 PAGES = ("README.md", "docs/results.md")
 #: The campaign tables tools/sim_campaigns.py wrote, each with its JSON beside it.
-TABLES = ("campaigns", "campaigns_previous_grip_rule")
+TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_curved", "campaigns_curved_worlds")
+#: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
+ENGINE_KEYS = ("mujoco", "fisher_p")
 
 
 def _tool():
@@ -41,7 +43,7 @@ def test_a_campaign_s_json_holds_its_table(name):
     assert doc["command"].startswith("python tools/sim_campaigns.py ") and "--table" in doc["command"]
     assert re.fullmatch(r"\d{4}-\d{2}-\d{2}", doc["produced"])
     parsed = results.parse_table(table)
-    assert doc["rows"] == parsed["rows"]
+    assert [{k: v for k, v in r.items() if k not in ENGINE_KEYS} for r in doc["rows"]] == parsed["rows"]
     assert {k: doc[k] for k in parsed if k != "rows"} == {k: v for k, v in parsed.items() if k != "rows"}
     assert [results.row_line(r) for r in doc["rows"]] == _rows(table)
 
@@ -59,13 +61,46 @@ def test_a_campaign_s_intervals_and_totals_follow_from_its_counts(name):
         assert 0 <= r["successes"] <= r["trials"] and 0 <= r["placed"] <= r["trials"], r["label"]
     rows = doc["rows"]
     totals = [k for k, r in enumerate(rows) if r["subject"] == "the three objects"]
-    assert totals
+    assert totals or name.startswith("campaigns_curved")  # the curved rows are other objects, without a total
     for k in totals:
         three = rows[k - 3:k]
         assert [r["object"] for r in three] == list(results.OBJECTS)
         assert rows[k]["successes"] == sum(r["successes"] for r in three)
         assert rows[k]["trials"] == sum(r["trials"] for r in three)
         assert rows[k]["placed"] == sum(r["placed"] for r in three)
+
+
+def _fisher_two_sided(a: int, n: int, b: int, m: int) -> float:
+    """The two-sided Fisher exact test's p of a/n against b/m from the hypergeometric law: the
+    probability of every table with the same margins no likelier than the one seen."""
+    from math import comb
+
+    k, total = a + b, n + m
+    prob = [comb(n, x) * comb(m, k - x) / comb(total, k) for x in range(max(0, k - m), min(n, k) + 1)]
+    seen = comb(n, a) * comb(m, b) / comb(total, k)
+    return min(1.0, sum(q for q in prob if q <= seen * (1 + 1e-7)))
+
+
+def test_the_drake_campaign_sets_each_row_beside_mujoco_s():
+    """Each Drake row holds MuJoCo's row of the same key in docs/results/campaigns.json, figure for
+    figure, and the two-sided Fisher test's p of the two counts (each over its own trials); the
+    tangram, which Drake does not build, has no row."""
+    doc, mujoco = results.load("campaigns_drake"), results.load("campaigns")
+    theirs = {r["key"]: r for r in mujoco["rows"]}
+    assert doc["mujoco_source"] == "docs/results/campaigns.json" and doc["mujoco_command"] == mujoco["command"]
+    assert doc["rows"] and not any(r["campaign"].startswith("tangram") for r in doc["rows"])
+    for r in doc["rows"]:
+        m = theirs[r["key"]]
+        assert r["mujoco"] == {k: m[k] for k in r["mujoco"]} and r["mujoco"]["trials"] == m["trials"], r["key"]
+        expected = _fisher_two_sided(r["successes"], r["trials"], m["successes"], m["trials"])
+        assert r["fisher_p"] == pytest.approx(expected, rel=1e-9), r["key"]
+
+
+def test_the_fisher_oracle_knows_a_textbook_table():
+    """The oracle above on Fisher's tea-tasting table (3 of 4 against 1 of 4: p = 34/70) and on a
+    table of two equal counts (p = 1)."""
+    assert _fisher_two_sided(3, 4, 1, 4) == pytest.approx(34 / 70, rel=1e-12)
+    assert _fisher_two_sided(10, 10, 40, 40) == 1.0
 
 
 @pytest.mark.parametrize("page", PAGES)
@@ -125,3 +160,113 @@ def test_the_readme_quotes_what_its_first_example_prints(tmp_path, monkeypatch):
     assert proc.returncode == 0, proc.stderr
     assert _timeless(proc.stdout.splitlines()) == _timeless(quoted.splitlines())
     assert (tmp_path / "out" / "trajectory.csv").stat().st_size > 0
+
+
+# --- the studies' results files (tools/landing_check.py, tools/world_failures.py --results) ---------
+
+#: The results files of a study tool, and the tool that writes each.
+STUDIES = {"landing_check": "tools/landing_check.py", "world_failures": "tools/world_failures.py"}
+
+
+def _model_sections() -> str:
+    """docs/model.md's sections 11.17 and 11.18, whose figures come from the studies' files."""
+    text = (ROOT / "docs" / "model.md").read_text()
+    return "### 11.17" + text.split("### 11.17", 1)[1].split("### 11.19", 1)[0]
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_a_study_s_markdown_is_rendered_from_its_json(name):
+    """The markdown beside a study's JSON is what the JSON renders; each row's key is made from its
+    label and is the file's only such key; each study names the command that wrote it."""
+    doc = results.load(name)
+    assert (ROOT / "docs" / "results" / f"{name}.md").read_text() == results.study_markdown(doc) + "\n"
+    keys = [r["key"] for r in doc["rows"]]
+    assert keys == [results.row_key(r["label"]) for r in doc["rows"]] and len(set(keys)) == len(keys)
+    studies = [r for r in doc["rows"] if r["label"].startswith("study: ")]
+    assert studies
+    for s in studies:
+        assert s["command"].startswith(f"python {STUDIES[name]} ") and "--results" in s["command"], s["command"]
+        assert re.fullmatch(r"\d{4}-\d{2}-\d{2}", s["produced"]) and s["seconds"] > 0
+        assert any(r.get("study") == s["study"] for r in doc["rows"] if r is not s)
+
+
+def test_the_margin_s_counts_follow_from_its_trials():
+    """world_failures: each world's counts are its trials' own, recounted; the totals sum them; a
+    world that sets the friction runs every trial at exactly its factor (decision 0100) and the
+    nominal world at the trials' own draws."""
+    doc = results.load("world_failures")
+    trials = [r for r in doc["rows"] if r["label"].startswith("trial: ")]
+    worlds = [r for r in doc["rows"] if r.get("study") == "trials" and "first_below" in r]
+    assert trials and worlds
+    for w in worlds:
+        mine = [t for t in trials if (t["object"], t["world"]) == (w["object"], w["world"])]
+        assert len(mine) == w["trials"]
+        assert w["held"] == sum(t["held"] for t in mine)
+        assert w["predicted_held"] == sum(t["predicted"] == "held" for t in mine)
+        assert w["right"] == sum((t["predicted"] == "held") == t["held"] for t in mine)
+        assert w["failures_predicted"] == sum(t["predicted"] != "held" and not t["held"] for t in mine)
+        assert sum(n for n, _ in w["outcomes"]) == w["trials"]
+        if w["world"].startswith("friction x"):
+            factor = float(w["world"].removeprefix("friction x"))
+            assert all([t["factor_g"], t["factor_a"], t["factor_b"]] == [factor] * 3 for t in mine), w["label"]
+        if w["world"] == "as modelled":
+            assert any(t["factor_g"] < 1.0 for t in mine)
+    everything = next(r for r in doc["rows"] if r["label"] == "trials: all worlds")
+    assert everything["trials"] == len(trials) == sum(w["trials"] for w in worlds)
+    assert everything["right"] == sum(w["right"] for w in worlds)
+    assert everything["failures_predicted"] == sum(w["failures_predicted"] for w in worlds)
+
+
+def test_the_landing_differences_follow_from_the_landings():
+    """landing_check: model - simulated is each model landing less the simulated one; a trial that
+    lost the object has no landing; n counts the placed trials of at most five."""
+    doc = results.load("landing_check")
+    rows = [r for r in doc["rows"] if "world" in r]
+    assert rows
+    for r in rows:
+        if r["sim_placed"]:
+            assert r["model_minus_sim_mm"] == pytest.approx([m - r["sim_along_mm"] for m in r["model_mm"]])
+        else:
+            assert r["sim_along_mm"] is None and r["model_minus_sim_mm"] is None
+        placed = sum(o in ("success", "placed off target") for o in r["draw_outcomes"])
+        assert r["n"] == placed + r["sim_placed"] <= 1 + len(r["draw_outcomes"])
+
+
+def test_merging_a_study_keeps_the_others(tmp_path):
+    """A study written again replaces its own rows and keeps the other studies'; two rows with one
+    key are refused."""
+    path = tmp_path / "study.json"
+    results.merge_study(path, "a", "python x --results", 1.0, [{"label": "a: one", "v": 1.0}], {"v": "{:.1f}"}, "t")
+    results.merge_study(path, "b", "python x --results", 2.0, [{"label": "b: one", "v": 2.0}], {}, "t")
+    results.merge_study(path, "a", "python x --results", 3.0, [{"label": "a: two", "v": 3.0}], {}, "t")
+    doc = json.loads(path.read_text())
+    assert [r["key"] for r in doc["rows"]] == ["study-b", "b-one", "study-a", "a-two"]
+    assert path.with_suffix(".md").read_text() == results.study_markdown(doc) + "\n"
+    with pytest.raises(ValueError):
+        results.merge_study(path, "c", "python x --results", 1.0, [{"label": "b: one"}], {}, "t")
+
+
+def test_the_model_s_release_and_world_sections_quote_their_files():
+    """docs/model.md 11.17 and 11.18: every marked figure and table is its file's, the figures and
+    tables come from the two studies' files, and no count (k/n), millimetre to the hundredth,
+    newton to the hundredth or old-rule friction factor stands outside a mark."""
+    text = _model_sections()
+    assert results.differences(text) == []
+    sources = {m.split(":", 1)[0] for m in results.FIG.findall(text) for m in [m[0]]}
+    sources |= {m[1].split(":", 1)[0] for m in results.TABLE.findall(text)}
+    assert sources == set(STUDIES)
+    prose = _prose(text)
+    assert re.findall(r"\b\d+/\d+\b", prose) == []
+    assert re.findall(r"[-+]?\b\d+\.\d{2,} (?:mm|N)\b", prose) == []
+    assert "x0.56" not in prose
+
+
+def test_a_study_figure_that_differs_from_its_file_is_found():
+    """The check finds a changed figure of a study's file and refuses a field its row lacks."""
+    text = _model_sections()
+    figure = results.FIG.search(text)
+    changed = text.replace(figure.group(0), figure.group(0).replace(figure.group(2), figure.group(2) + "9"), 1)
+    assert len(results.differences(changed)) == 1
+    row = next(r for r in results.load("world_failures")["rows"] if r["label"].startswith("trials: "))
+    with pytest.raises(KeyError):
+        results.figure(f"world_failures:{row['key']}:no_such_field")

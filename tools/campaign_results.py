@@ -3,6 +3,7 @@
     python tools/campaign_results.py --from-markdown docs/results/campaigns.md [--command CMD] [--produced DATE]
     python tools/campaign_results.py --render README.md docs/results.md
     python tools/campaign_results.py --check README.md docs/results.md
+    python tools/campaign_results.py --study-markdown landing_check world_failures
 
 `tools/sim_campaigns.py --table FILE.md` writes its markdown table and, beside it, FILE.json: the
 same rows as numbers (success count, trials, the Wilson 95 % interval, the count placed by the
@@ -19,6 +20,13 @@ tests/test_doc_figures.py) compares:
   `simulate` (one row) and the whole file's own fields (`produced`, `command`) take no ROW;
 * `<!-- table SOURCE:NAME -->` ... `<!-- /table -->` a table built from the file (TABLES;
   `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`).
+
+A study's results file (`tools/landing_check.py --results`, `tools/world_failures.py --results`)
+holds rows of its own fields, with the key of their label, and `formats`: how each field is shown
+(a Python format; a list shows its least and largest, "a..b"). Each study it holds has a row
+"study: NAME" with its command, its wall time (`seconds`, `minutes`) and its day; a tool writes one
+study's rows into the file with `merge_study`, keeping the others', and the markdown beside it is
+rendered from the JSON (`study_markdown`). FIELD is then any field of the row.
 
 So a page cannot state a figure its results file does not hold, and a new campaign changes the
 pages by `--render`.
@@ -213,10 +221,35 @@ FIELDS = {
     "failures": lambda r: _failures(r["failures"]),
     "paper": lambda r: r["paper"],
     "aim": lambda r: _mm(r["aim_mm"]),
+    # a row of the engines' comparison (sim_campaigns.py --engine drake): MuJoCo's row of the same key
+    "mujoco_strict_interval": lambda r: FIELDS["strict_interval"](r["mujoco"]),
+    "mujoco_error_mean": lambda r: _mm(r["mujoco"]["error_mean_mm"]),
+    "fisher_p": lambda r: _p(r["fisher_p"]),
 }
 #: What a figure shows of a whole file.
 FILE_FIELDS = {"produced": lambda d: d["produced"], "command": lambda d: f"`{d['command']}`",
                "seconds": lambda d: f"{d['seconds']} s", "trials_per_row": lambda d: str(d["trials_per_row"])}
+
+
+def show(value, form: str = "{}") -> str:
+    """A study row's value as its file's format shows it: "-" for none, a word as it is, a list of
+    numbers as its least and largest ("a..b", one where they agree); a zero never signed "-"."""
+    def number(x: float) -> str:
+        text = form.format(x)
+        return form.format(0.0) if text.startswith("-") and float(text) == 0 else text
+
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, list):
+        if value and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            lo, hi = number(min(value)), number(max(value))
+            return lo if lo == hi else f"{lo}..{hi}"
+        return "; ".join(" ".join(str(x) for x in v) if isinstance(v, list) else show(v, form) for v in value)
+    return number(value)
 
 
 def figure(spec: str, cache: dict | None = None) -> str:
@@ -237,6 +270,10 @@ def figure(spec: str, cache: dict | None = None) -> str:
     rows = {r["key"]: r for r in doc["rows"]}
     if parts[1] not in rows:
         raise KeyError(f"figure {spec!r}: no row {parts[1]!r} in {source}")
+    if "formats" in doc:  # a study's file: any field of the row, as the file shows it
+        if parts[2] not in rows[parts[1]]:
+            raise KeyError(f"figure {spec!r}: row {parts[1]!r} of {source} has no field {parts[2]!r}")
+        return show(rows[parts[1]][parts[2]], doc["formats"].get(parts[2], "{}"))
     return FIELDS[parts[2]](rows[parts[1]])
 
 
@@ -372,9 +409,164 @@ def table_grip_rule(doc: dict, previous: dict) -> str:
     return "\n".join(lines)
 
 
+def _study(doc: dict, study: str) -> list[dict]:
+    """A study's rows of a study's results file, its own row aside."""
+    return [r for r in doc["rows"] if r.get("study") == study and not r["label"].startswith("study: ")]
+
+
+def _f(doc: dict, row: dict, field: str) -> str:
+    """One field of a study's row as its file shows it."""
+    return show(row.get(field), doc["formats"].get(field, "{}"))
+
+
+#: The release model's target: its landing within this of the simulated one (mm).
+LANDING_TARGET_MM = 0.5
+
+
+def table_landing(doc: dict) -> str:
+    """The release model's landings against the simulated ones (tools/landing_check.py), per plan
+    and world (mm along GB; bold: a model - simulated beyond LANDING_TARGET_MM): the scenes' RRT*
+    plans, then those planned without the scenes' landing spread bound, then those without P_dpsi,
+    where the file has them."""
+    lines = ["| plan | world | planned | model | simulated (along / across) | model - simulated "
+             "| model mean / simulated mean (n) |", "|---|---|---|---|---|---|---|"]
+    for study, plan in (("landing", "RRT*"), ("landing, no spread bound", "RRT*, no spread bound"),
+                        ("landing, no P_dpsi", "no P_dpsi")):
+        first = None
+        for r in _study(doc, study):
+            if "world" not in r:
+                continue
+            name = f"{OBJECT_NAMES[r['object']]}, {plan}"
+            if r["sim_placed"]:
+                simulated = f"{_f(doc, r, 'sim_along_mm')} / {_f(doc, r, 'sim_across_mm')}"
+                diff = _f(doc, r, "model_minus_sim_mm")
+                if min(abs(d) for d in r["model_minus_sim_mm"]) > LANDING_TARGET_MM:
+                    diff = f"**{diff}**"
+            else:
+                simulated, diff = r["sim_outcome"].replace("_", " "), ""
+            means = "" if r["n"] == 0 else f"{_f(doc, r, 'model_mean_mm')} / {_f(doc, r, 'sim_mean_mm')} ({r['n']})"
+            lines.append(f"| {'' if name == first else name} | {r['world']} | {_f(doc, r, 'planned_mm')} | "
+                         f"{_f(doc, r, 'model_mm')} | {simulated} | {diff} | {means} |")
+            first = name
+    return "\n".join(lines)
+
+
+def _leg(name: str) -> str:
+    return "the press" if name == "press" else name
+
+
+def table_wf_trials(doc: dict) -> str:
+    """The out-of-plane margin's predictions against the trials (tools/world_failures.py)."""
+    lines = ["| object (plan) | world | from the world: first leg below 0 (smallest margin) | trials held "
+             "| per trial: right, failures predicted |", "|---|---|---|---|---|"]
+    first = None
+    for r in _study(doc, "trials"):
+        if "first_below" not in r:
+            continue
+        name = f"{OBJECT_NAMES[r['object']]} ({r['primitives']})"
+        form = doc["formats"]["smallest_n"]
+        if r["first_below"] == "none":
+            world_cell = f"none ({show(r['smallest_n'], form)} N, {_leg(r['smallest_leg'])})"
+        else:  # the first leg of that name below 0 (a plan may have two legs of one primitive)
+            below = next(v for leg, v in r["legs"] if leg == r["first_below"] and (v == "-inf" or float(v) < 0))
+            world_cell = f"{_leg(r['first_below'])} ({show(below, form)})"
+        lost = ", ".join(f"{what} {n}" for n, what in r["outcomes"] if what != "held")
+        held = f"{r['held']}/{r['trials']}" + (f": {lost}" if lost else "")
+        caught = f"{r['failures_predicted']}/{r['failures']}" if r["failures"] else "-"
+        lines.append(f"| {'' if name == first else name} | {r['world']} | {world_cell} | {held} | "
+                     f"{r['right']}/{r['trials']}, {caught} |")
+        first = name
+    return "\n".join(lines)
+
+
+def table_wf_needed(doc: dict) -> str:
+    """The friction factor each leg of the RRT* plans needs (tools/world_failures.py --needed):
+    margin elliptic / pyramidal / planar force closure."""
+    lines = ["| object (RRT* seed 1) | press | legs in order |", "|---|---|---|"]
+    for o in OBJECTS:
+        legs = sorted((r for r in _study(doc, "needed") if r["object"] == o), key=lambda r: r["order"])
+        if not legs:
+            continue
+        cell = lambda r: " / ".join(_f(doc, r, k) for k in ("elliptic", "pyramidal", "closure"))  # noqa: E731
+        press = [cell(r) for r in legs if r["leg"] == "press"]
+        rest = ", ".join(f"{r['leg']} {cell(r)}" for r in legs if r["leg"] != "press")
+        lines.append(f"| {OBJECT_NAMES[o]} | {press[0] if press else '-'} | {rest} |")
+    return "\n".join(lines)
+
+
+def table_wf_cage(doc: dict) -> str:
+    """The cage and the out-of-plane margin of several plans per object against the trials they
+    hold (tools/world_failures.py --cage); plans whose cells agree share a row."""
+    lines = ["| object | plans | primitives | cage: fully caged share | margin at the world's worst draw, friction "
+             "x0.7 / pyramidal (N) | held, friction x0.7 | held, pyramidal |", "|---|---|---|---|---|---|---|"]
+    merged: dict[tuple, list[str]] = {}
+    for r in _study(doc, "cage"):
+        if "plan" not in r:
+            continue
+        cells = (OBJECT_NAMES[r["object"]], r["primitives"], _f(doc, r, "caged_share"),
+                 f"{_f(doc, r, 'margin_friction_n')} / {_f(doc, r, 'margin_pyramidal_n')}",
+                 f"{r['held_friction']}/{r['trials']}", f"{r['held_pyramidal']}/{r['trials']}")
+        plan = re.sub(r"RRTstar seed (\d+) cost", r"RRT* \1", r["plan"])
+        merged.setdefault(cells, []).append(re.sub(r"lattice (\w+)", r"lattice `\1`", plan))
+    for (obj, primitives, *rest), plans in merged.items():
+        lines.append(f"| {obj} | {', '.join(plans)} | {primitives} | " + " | ".join(rest) + " |")
+    return "\n".join(lines)
+
+
+#: The --forces reading model.md's table shows.
+FORCES_STUDY = "forces: guitar_pick, trial 0"
+
+
+def table_wf_forces(doc: dict) -> str:
+    """The contact forces of one trial at ticks of its settling and after (tools/world_failures.py
+    --forces; bold: a contact at its friction limit, sliding)."""
+    lines = ["| world | t (s) | out of the plane: total (roll, yaw), deg | theta (deg) | G across (mm) "
+             "| G: N (N), in plane / N, mu | A: N, in plane / N (across / N), mu, mm from G "
+             "| B: N, in plane / N, mu, mm from G |", "|---|---|---|---|---|---|---|---|"]
+    for r in _study(doc, FORCES_STUDY):
+        if "t_s" not in r:
+            continue
+        cells = []
+        for c in "gab":
+            if r[f"{c}_n"] is None:
+                cells.append("none")
+                continue
+            ratio = _f(doc, r, f"{c}_in_plane")
+            if r[f"{c}_in_plane"] >= 0.99 * r[f"{c}_mu"]:
+                ratio = f"**{ratio}**"
+            across = f" ({_f(doc, r, 'a_across')})" if c == "a" else ""
+            at = "" if c == "g" else f", {_f(doc, r, f'{c}_at_mm')}"
+            cells.append(f"{_f(doc, r, f'{c}_n')}, {ratio}{across}, {_f(doc, r, f'{c}_mu')}{at}")
+        lines.append(f"| {r['world']} | {_f(doc, r, 't_s')} | {_f(doc, r, 'out_deg')} ({_f(doc, r, 'roll_deg')}, "
+                     f"{_f(doc, r, 'yaw_deg')}) | {_f(doc, r, 'theta_deg')} | {_f(doc, r, 'g_across_mm')} | "
+                     + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 #: NAME -> the table built from its results files (one, or for grip_rule two).
+def _p(p: float | None) -> str:
+    """A test's p as the pages show it: two significant figures ("-" where there is none)."""
+    return "-" if p is None else f"{p:.2g}"
+
+
+def table_engines(doc: dict) -> str:
+    """The Drake campaign's rows beside MuJoCo's of the same label (sim_campaigns.py --engine drake):
+    strict successes with their intervals, the mean errors, the two-sided Fisher test's p."""
+    lines = ["| row | MuJoCo (95 % interval) | Drake (95 % interval) | mean error, MuJoCo / Drake | Fisher p "
+             "| Drake's failures |", "|---|---|---|---|---|---|"]
+    for r in doc["rows"]:
+        m = r["mujoco"]
+        mujoco = "-" if m is None else FIELDS["strict_interval"](m)
+        errors = f"{'-' if m is None else _mm(m['error_mean_mm'])} / {_mm(r['error_mean_mm'])}"
+        lines.append(f"| {r['label']} | {mujoco} | {FIELDS['strict_interval'](r)} | {errors} | {_p(r['fisher_p'])} | "
+                     f"{FIELDS['failures'](r)} |")
+    return "\n".join(lines)
+
+
 TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worlds, "readme": table_readme,
-          "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule}
+          "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule, "landing": table_landing,
+          "wf_trials": table_wf_trials, "wf_needed": table_wf_needed, "wf_cage": table_wf_cage,
+          "wf_forces": table_wf_forces, "engines": table_engines}
 
 
 def table(spec: str) -> str:
@@ -383,6 +575,53 @@ def table(spec: str) -> str:
     if name not in TABLES:
         raise KeyError(f"table {spec!r}: no table {name!r}")
     return TABLES[name](*(load(source) for source in sources.split("+")))
+
+
+# --- a study's results file ----------------------------------------------------------------------
+
+def study_markdown(doc: dict) -> str:
+    """The markdown of a study's results file: its title, then per study its command, day and wall
+    time and a table of its rows (every field, as the file's formats show it)."""
+    lines = [f"# {doc['title']}", "", "Rendered from the JSON beside this file (tools/campaign_results.py); "
+             "the JSON is the source.", ""]
+    for meta in (r for r in doc["rows"] if r["label"].startswith("study: ")):
+        name = meta["label"].removeprefix("study: ")
+        rows = [r for r in doc["rows"] if r.get("study") == name and r is not meta]
+        lines += [f"## {name}", "",
+                  f"`{meta['command']}`, {meta['produced']}, {meta['seconds']:.0f} s of wall time.", ""]
+        kinds: dict[tuple, list[dict]] = {}  # the rows with the same fields make one table
+        for r in rows:
+            kinds.setdefault(tuple(k for k in r if k not in ("key", "study", "label")), []).append(r)
+        for columns, group in kinds.items():
+            lines.append("| row | " + " | ".join(columns) + " |")
+            lines.append("|---" * (len(columns) + 1) + "|")
+            for r in group:
+                cells = [show(r[c], doc["formats"].get(c, "{}")) for c in columns]
+                lines.append(f"| {r['key']} | " + " | ".join(cells) + " |")
+            lines.append("")
+    return "\n".join(lines)
+
+
+def merge_study(path: Path, study: str, command: str, seconds: float, rows: list[dict], formats: dict[str, str],
+                title: str, produced: str | None = None) -> Path:
+    """Write one study's rows into the results file at path (JSON; the rows of its other studies
+    kept, this study's earlier ones replaced), with its row "study: NAME" (command, wall time, day),
+    and the markdown rendered from it beside it; both atomically. Each row needs a label; its key is
+    made from it and must be new in the file."""
+    from ungrasp_ompl.io import write_text_atomic
+
+    doc = json.loads(path.read_text()) if path.exists() else {"title": title, "formats": {}, "rows": []}
+    kept = [r for r in doc["rows"] if r.get("study") != study and r["label"] != f"study: {study}"]
+    meta = {"label": f"study: {study}", "study": study, "command": command, "seconds": round(seconds, 1),
+            "minutes": round(seconds / 60), "produced": produced or date.today().isoformat()}
+    new = [{"key": row_key(r["label"]), **r, "study": study} for r in (meta, *rows)]
+    keys = [r["key"] for r in kept + new]
+    if len(set(keys)) != len(keys):
+        raise ValueError(f"{path}: two rows share a key: {sorted(k for k in keys if keys.count(k) > 1)}")
+    doc = {**doc, "title": title, "formats": {**doc["formats"], **formats}, "rows": kept + new}
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+    write_text_atomic(path.with_suffix(".md"), study_markdown(doc) + "\n")
+    return path
 
 
 # --- the pages ---------------------------------------------------------------------------------
@@ -415,12 +654,19 @@ def main() -> int:
     ap.add_argument("--command", default=None, help="the command that wrote the table (default: sim_campaigns.py "
                                                     "--table with the table's path)")
     ap.add_argument("--produced", default=None, help="the day the table was produced (default: its last commit's)")
+    ap.add_argument("--study-markdown", nargs="*", default=[], metavar="SOURCE",
+                    help="render docs/results/SOURCE.md again from SOURCE.json (a study's results file)")
     ap.add_argument("--render", type=Path, nargs="*", default=[], help="pages whose marks to fill in")
     ap.add_argument("--check", type=Path, nargs="*", default=[], help="pages whose marks to compare")
     args = ap.parse_args()
     for table in args.from_markdown:
         command = args.command or f"python tools/sim_campaigns.py --table {table}"
         print(f"wrote {write_json(table, command, args.produced or last_commit_day(table))}")
+    for source in args.study_markdown:
+        from ungrasp_ompl.io import write_text_atomic
+
+        write_text_atomic(RESULTS / f"{source}.md", study_markdown(load(source)) + "\n")
+        print(f"rendered {RESULTS / source}.md")
     for page in args.render:
         page.write_text(render(page.read_text()))
         print(f"rendered {page}")

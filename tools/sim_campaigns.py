@@ -2,6 +2,7 @@
 
     python tools/sim_campaigns.py [--trials N] [--jobs N] [--seed S] [--only base,edge,...]
                                   [--timestep S] [--previous-grip-rule] [--compounded-friction]
+                                  [--engine mujoco|drake]
                                   [--table docs/results/campaigns.md] [--figure docs/figures/campaigns.png]
 
 Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the seed):
@@ -32,6 +33,10 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   shipped scenes OBJECT_designed.yaml) and the exact lattice plan it judged them by, run with the
   next seed, so that none of the row's trials is one the design was chosen on; beside them the
   scenes' own digits planned to the same free goal, to tell the digits' part from the goal's.
+* curved (not among the default groups): the scenes whose object is a curved solid or whose
+  gripper is a pincer, each as shipped (its own digits, landing rule and touch-off), its RRT* plan
+  seeded with CURVED_PLAN_SEED; curved_worlds (nor this): the Go stone and the coin with the same
+  plans in the worlds of CURVED_WORLDS.
 
 `--previous-grip-rule` judges every trial by the lost-grip rule that let one contact of the pinch
 part for any time (docs/model.md 11.4) instead of the bound of 11.4, to report rows under both.
@@ -51,6 +56,21 @@ before the termination, then flat: placed, any error, with its mean error) is gi
 one markdown table, writes it to --table, the same rows as numbers beside it (the table's name with
 .json: tools/campaign_results.py, which the documentation's figures are read from) and draws ours
 beside the paper's into the figure.
+
+`--engine drake` runs the rows in Drake (sim.drake_trial; docs/model.md 11.19) instead of MuJoCo,
+20 trials a row unless --trials says otherwise, and sets each row beside MuJoCo's row of the same
+label in docs/results/campaigns.json (not rerun): both counts with their Wilson intervals and a
+two-sided Fisher exact test of the two engines' strict successes, each over its own trials. The
+rows are merged into docs/results/campaigns_drake.md and .json (the rows of other row groups already
+there are kept, so that `--only base`, then `--only controls`, ... fill the file group by group) and
+both engines are drawn into docs/figures/campaigns_drake.png. Drake builds no layout, so the
+tangram rows are left out in Drake.
+
+`--engine drake --contacts guitar_pick:1,...` runs trial 1 (and so on) of an object's base row in
+both engines, logs the forces on the object at every control tick, and writes what they show per
+engine into docs/results/campaigns_drake_contacts.json (.md beside): while both digits and the
+table hold the object, the table's friction use (its tangential over its normal force) against the
+trial's mu at G, the mean size of each digit's force on the object and the table's normal force.
 
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
@@ -87,8 +107,22 @@ from ungrasp_ompl.sim.world import World  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+#: The `curved` rows' scenes: the curved solids (docs/model.md 2.7) and the pincer (7).
+CURVED = ("go_stone", "coin", "pincer_puzzle_piece")
+#: The seed of the `curved` rows' RRT* plans, one with which RRT* solves all three scenes.
+CURVED_PLAN_SEED = 3
+#: The worlds the Go stone and the coin are run in besides their own (docs/model.md 11.16).
+CURVED_WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
+                 ("pyramidal cones", World(cone="pyramidal")))
 #: MuJoCo's step (s) for every row, or None for the scenes' own (--timestep).
 TIMESTEP: float | None = None
+#: The physics engine every row runs in (sim.campaign.ENGINES; --engine).
+ENGINE: str = "mujoco"
+#: MuJoCo's rows the Drake rows are set beside, and the order of the row groups in Drake's file.
+MUJOCO_RESULTS = ROOT / "docs" / "results" / "campaigns.json"
+GROUP_ORDER = ("base", "edge", "control", "tangram")
+#: The --only name of each row group.
+GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram": "tangram"}
 #: The longest one contact may be absent before the termination (s): the verdict's own, or inf
 #: for the rule of docs/model.md 11.4 (--previous-grip-rule).
 MAX_GAP: float = MAX_CONTACT_GAP
@@ -167,7 +201,8 @@ def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, pap
     problems = plan_problems(scene, result)
     setup = replace(placement(scene, result, variant)[1], max_contact_gap=MAX_GAP,
                     friction_draw_in_world=COMPOUNDED_FRICTION)
-    report = simulate(setup, PRESETS["paper"], trials, seed, jobs, scene=scene.name, variant=variant, world=world)
+    report = simulate(setup, PRESETS["paper"], trials, seed, jobs, scene=scene.name, variant=variant, world=world,
+                      engine=ENGINE)
     s = report.to_dict()
     err, placed = s["position_error_mm"], s["placed_position_error_mm"]
     errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"
@@ -259,7 +294,7 @@ def draw(rows: list[Row], path: Path) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--trials", type=int, default=40, help="trials per row (default 40)")
+    ap.add_argument("--trials", type=int, default=None, help="trials per row (default 40; 20 with --engine drake)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only", default="base,worlds,unaimed,open,smooth,handed,edge,subset,caging,controls,tangram,designed")
@@ -272,9 +307,25 @@ def main() -> None:
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
                     help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
-    ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "campaigns.png")
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
+    ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
+                                                     "their contact forces logged in both engines")
+    ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
+                    help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE
+    ENGINE = args.engine
+    drake = ENGINE == "drake"
+    if args.trials is None:
+        args.trials = 20 if drake else 40
+    if args.figure is None:
+        args.figure = ROOT / "docs" / "figures" / ("campaigns_drake.png" if drake else "campaigns.png")
+    if drake and args.table is None:
+        args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
+    if drake and args.contacts:
+        contact_forces(args.contacts, args.seed)
+        return
     TIMESTEP = args.timestep
     COMPOUNDED_FRICTION = args.compounded_friction
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
@@ -287,6 +338,17 @@ def main() -> None:
     def show(row: Row) -> None:
         rows.append(row)
         print(row.line(), flush=True)
+
+    def attempt(label: str, make) -> None:
+        """show(make()); in Drake, a row whose trials Drake cannot step (a RuntimeError) is left
+        out with the error named, and the others run."""
+        try:
+            show(make())
+        except RuntimeError as exc:
+            if not drake:
+                raise
+            print(f"  {label}: left out, Drake could not run it: {str(exc).splitlines()[0]}", file=sys.stderr,
+                  flush=True)
 
     header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
               "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
@@ -355,11 +417,14 @@ def main() -> None:
                      planner="lattice")
         verdict = f"planned with equal digits: {equal.reason}" if not equal.solved else "equal digits: solved"
         print(f"  control, equal digits planned: {verdict}", file=sys.stderr)
-        show(run("control: pick, the asymmetric plan run with equal digits", scene, _plan(scene, s), n, j, s,
-                 "not placeable", variant=Variant(equal_digits=True), model=verdict))
+        attempt("control: pick, the asymmetric plan run with equal digits", lambda: run(
+            "control: pick, the asymmetric plan run with equal digits", scene, _plan(scene, s), n, j, s,
+            "not placeable", variant=Variant(equal_digits=True), model=verdict))
         show(run("control: pick, a fifth of the friction", scene, _plan(scene, s), n, j, s, "(must fail)",
                  world=World(friction=0.2)))
-    if "tangram" in only:
+    if "tangram" in only and drake:
+        print("  tangram: Drake builds no layout (the pieces already down are MuJoCo's); left out", file=sys.stderr)
+    if "tangram" in only and not drake:
         for rank in ("first", "tolerance"):
             for tip in ("rounded", "flat"):
                 show(tangram(args.attempts, j, s, tip, rank))
@@ -382,13 +447,30 @@ def main() -> None:
         ok = sum(r.successes for r in rows[first:])
         show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
                  "109/120", (109, 120), "secure", "-"))
+    if "curved" in only:  # curved solids and the pincer, as shipped (docs/model.md 2.7, 7)
+        for name in CURVED:
+            scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
+            show(run(f"curved: {name}, plan seed {CURVED_PLAN_SEED}", scene, _plan(scene, CURVED_PLAN_SEED), n, j, s,
+                     "-"))
+    if "curved_worlds" in only:  # the same plans in worlds they never saw (docs/model.md 11.16)
+        for name in ("go_stone", "coin"):
+            scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
+            result = _plan(scene, CURVED_PLAN_SEED)
+            for label, world in CURVED_WORLDS:
+                show(run(f"curved world: {name}, {label}", scene, result, n, j, s, "-", world=world))
     step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
+    if drake:
+        step = f"Drake (SAP) at {step}"
     rule = "the previous lost-grip rule (11.4)" if args.previous_grip_rule else "the lost-grip bound (11.4)"
     friction = ("a world's friction compounded with the drawn friction error" if COMPOUNDED_FRICTION
                 else "a world's friction fixes its pairs (decision 0100)")
     footer = (f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}, "
               f"{friction}")
     print(f"\n{footer}")
+    if drake:
+        if rows:
+            engines_compared(rows, footer, args, only)
+        return
     if args.table is not None:
         from ungrasp_ompl.io import write_text_atomic
 
@@ -402,6 +484,203 @@ def main() -> None:
     if rows:
         draw(rows, args.figure)
         print(f"wrote {args.figure}")
+
+
+# --- the engines side by side (--engine drake) ---------------------------------------------------
+
+def fisher_p(a: tuple[int, int], b: tuple[int, int]) -> float:
+    """The two-sided Fisher exact test's p of two counts (successes, trials): whether the two
+    success rates, each over its own trials, differ beyond chance."""
+    from scipy.stats import fisher_exact
+
+    return float(fisher_exact([[a[0], a[1] - a[0]], [b[0], b[1] - b[0]]], alternative="two-sided")[1])
+
+
+def _group(record: dict) -> str:
+    return next((g for g in GROUP_ORDER if record["campaign"].startswith(g)), record["campaign"])
+
+
+def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
+    """Merge the Drake rows into args.table (.md and .json, the rows of other groups kept), each
+    with MuJoCo's row of the same key and the Fisher test's p, and draw both engines."""
+    import json
+    import shlex
+    from datetime import date
+
+    from campaign_results import parse_footer, parse_row, row_line, table_json
+
+    from ungrasp_ompl.io import write_text_atomic
+
+    table: Path = args.table
+    path = table.with_suffix(".json")
+    new = [parse_row(r.line()) for r in rows]
+    old = json.loads(path.read_text()) if path.exists() else {"rows": [], "runs": {}}
+    keys = {r["key"] for r in new}
+    merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
+    merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
+    runs = {**old.get("runs", {}), ",".join(sorted(only)): {
+        "command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
+        "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}}
+    head, tail = footer.split(" s in all; ", 1)
+    footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
+    header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
+              "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
+    write_text_atomic(table, "\n".join([header, *(row_line(r) for r in merged), "", footer, ""]))
+    groups = ",".join(GROUP_OPTION[g] for g in GROUP_ORDER if any(_group(r) == g for r in merged))
+    rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
+    command = (f"python tools/sim_campaigns.py --engine drake --trials {args.trials} --jobs {args.jobs} "
+               f"--seed {args.seed} --table {rel} --only {groups}")
+    doc = table_json(table, command, date.today().isoformat())
+    mujoco = json.loads(MUJOCO_RESULTS.read_text())
+    theirs = {r["key"]: r for r in mujoco["rows"]}
+    for r in doc["rows"]:
+        m = theirs.get(r["key"])
+        r["mujoco"] = None if m is None else {k: m[k] for k in (
+            "successes", "trials", "interval_percent", "placed", "error_mean_mm", "error_max_mm", "sinking_max_mm",
+            "failures")}
+        r["fisher_p"] = None if m is None else fisher_p((r["successes"], r["trials"]), (m["successes"], m["trials"]))
+    doc.update(runs=runs, mujoco_source=str(MUJOCO_RESULTS.relative_to(ROOT)), mujoco_command=mujoco["command"],
+               mujoco_produced=mujoco["produced"])
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+    print(f"wrote {table}\nwrote {path}")
+    draw_engines(doc["rows"], args.figure)
+    print(f"wrote {args.figure}")
+
+
+#: The ticks (2 ms each) over which the table's friction use sums its forces: SAP's force on a
+#: face varies from step to step (docs/model.md 11.19).
+WINDOW = 5
+
+
+def _mujoco_forces(log: list):
+    """sim.trial._Watch, logging the forces (N, world, 3) on the object by kind at each look into log."""
+    import mujoco
+
+    from ungrasp_ompl.sim import trial as mj_trial
+
+    class Logged(mj_trial._Watch):
+        def __init__(self, model, ids):
+            super().__init__(model, ids)
+            self.model, self.body, self.named = model, {}, {ids.table_geom: "table"}
+            for g in ids.thumb_geoms:
+                self.named[g] = "thumb"
+            for g in ids.finger_geoms:
+                self.named[g] = "finger"
+
+        def look(self, data, *args):
+            tick = super().look(data, *args)
+            out, f6 = {}, np.zeros(6)
+            for i in range(data.ncon):
+                g1, g2 = int(data.contact.geom1[i]), int(data.contact.geom2[i])
+                if self.object not in (g1, g2):
+                    continue
+                mujoco.mj_contactForce(self.model, data, i, f6)
+                world = data.contact.frame[i].reshape(3, 3).T @ f6[:3]  # on geom2, along the normal geom1 -> geom2
+                other, on_object = (g2, -world) if g1 == self.object else (g1, world)
+                kind = self.named.get(other)
+                if kind is not None:
+                    out[kind] = out.get(kind, np.zeros(3)) + on_object
+            if not log or log[-1][0] != data.time:
+                log.append((float(data.time), out))
+            return tick
+
+    return Logged
+
+
+def _summary(log: list, mu_g: float, result) -> dict:
+    """What a trial's log of contact forces shows: while both digits press the object and the table
+    holds it up, the table's friction use (its tangential over its normal force, each summed over
+    WINDOW ticks) against mu_G, the mean size of the force each digit exerts and the table's mean
+    normal force."""
+    log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
+           for t, f in log]  # Drake names the finger's dome apart; MuJoCo's finger is one
+    held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
+    g = np.array([f["table"] for _, f in held]) if held else np.zeros((1, 3))
+    kernel = np.ones(min(WINDOW, len(g)))
+    use = (np.convolve(np.hypot(g[:, 0], g[:, 1]), kernel, "valid")
+           / np.maximum(np.convolve(g[:, 2], kernel, "valid"), 1e-12))
+    return {"outcome": result.outcome.value.replace("_", " "), "error_mm": result.position_error_mm,
+            "mu_g": mu_g, "g_use_max": float(use.max()), "g_use_p95": float(np.percentile(use, 95)),
+            "g_use_over_mu": float(use.max() / mu_g), "ticks_at_mu": int(np.sum(use >= 0.98 * mu_g)),
+            "ticks_above_mu": int(np.sum(use > 1.02 * mu_g)), "held_ticks": len(held),
+            "held_until_s": float(held[-1][0]) if held else None,
+            "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
+            "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
+            "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None}
+
+
+def contact_forces(which: str, seed: int) -> None:
+    """Trials of the base rows (OBJECT:TRIAL,...) in both engines with their contact forces logged;
+    their summaries into docs/results/campaigns_drake_contacts.json."""
+    import shlex
+
+    from campaign_results import merge_study
+
+    from ungrasp_ompl.scene.perturbation import trial_params
+    from ungrasp_ompl.sim import trial as mj_trial
+    from ungrasp_ompl.sim.drake_trial import run_drake_trial
+
+    started = time.perf_counter()
+    rows = []
+    for item in which.split(","):
+        name, k = item.split(":")
+        scene = _scene(name, "rounded")
+        setup = replace(placement(scene, _plan(scene, seed))[1], max_contact_gap=MAX_GAP)
+        params = trial_params(PRESETS["paper"], seed, int(k) + 1)[int(k)]
+        mu_g = mj_trial.trial_spec(setup, params).friction.table
+        logs: dict[str, list] = {"mujoco": [], "drake": []}
+        watch = mj_trial._Watch
+        mj_trial._Watch = _mujoco_forces(logs["mujoco"])
+        try:
+            results = {"mujoco": mj_trial.run_trial(setup, params, int(k), seed)}
+        finally:
+            mj_trial._Watch = watch
+        results["drake"] = run_drake_trial(setup, params, int(k), seed, contact_log=logs["drake"])
+        for engine in ("mujoco", "drake"):
+            row = _summary(logs[engine], mu_g, results[engine])
+            rows.append({"label": f"{name} trial {k}, {engine}", "object": name, "trial": int(k), "engine": engine,
+                         **row})
+            print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
+    formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
+               "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
+               "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}"}
+    path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", "contacts",
+                       shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
+                       rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials")
+    print(f"wrote {path}")
+
+
+def draw_engines(records: list[dict], path: Path) -> None:
+    """Each row's strict success rate in MuJoCo and in Drake, with their Wilson 95 % intervals and
+    the Fisher test's p."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(11, 0.5 * len(records) + 1.6))
+    y = np.arange(len(records))[::-1].astype(float)
+    for shift, name, colour, get in ((0.18, "MuJoCo", "#4c72b0", lambda r: r["mujoco"]),
+                                     (-0.18, "Drake", "#dd8452", lambda r: r)):
+        counts = [(get(r)["successes"], get(r)["trials"]) if get(r) else (0, 0) for r in records]
+        rate = np.array([k / n if n else np.nan for k, n in counts])
+        ci = np.array([wilson_interval(k, n) if n else (np.nan, np.nan) for k, n in counts])
+        ax.barh(y + shift, rate * 100, height=0.34, color=colour, label=f"{name} (strict: placed within max_error)")
+        ax.errorbar(rate * 100, y + shift, xerr=[(rate - ci[:, 0]) * 100, (ci[:, 1] - rate) * 100], fmt="none",
+                    ecolor="black", capsize=2)
+    for yy, r in zip(y, records):
+        if r["fisher_p"] is not None:
+            ax.text(101, yy, f"p = {r['fisher_p']:.2g}", va="center", fontsize=7,
+                    color="#c44e52" if r["fisher_p"] < 0.05 else "black")
+    ax.set_yticks(y, [r["label"] for r in records], fontsize=7)
+    ax.set_xlim(0, 112)
+    ax.set_xlabel("success rate (%), with Wilson 95 % intervals; p: two-sided Fisher exact test")
+    fig.suptitle("The same trials in MuJoCo and in Drake", fontsize=10)
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, 0.5 / fig.get_figheight(), 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -76,9 +76,13 @@ def _schedule(setup: TrialSetup, palm: NDArray, offset: NDArray, dt: float):
 
 
 def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
-                    record: list | None = None, stop_at_failure: bool = True) -> DrakeTrialResult:
+                    record: list | None = None, stop_at_failure: bool = True,
+                    contact_log: list | None = None) -> DrakeTrialResult:
     """Simulate one trial of a placement in Drake and judge it as sim.trial.run_trial judges
-    MuJoCo's (its arguments the same)."""
+    MuJoCo's (its arguments the same). contact_log: when a list is given, (time s, the forces on
+    the object by kind, _DrakeWatch.forces, averaged over the steps of the control period that
+    ends then) at every control tick of the drive: the mean over a period, because SAP's forces on
+    a flat face of the object vary from step to step (docs/model.md 11.19)."""
     from .drake_world import build, palm_angles, require_drake
 
     drake = require_drake()
@@ -128,7 +132,10 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     for k in range(1, len(drive.times)):
         if judge.lost is not None and record is None and stop_at_failure:
             break
-        simulator.AdvanceTo(ticks[k])
+        if contact_log is None:
+            simulator.AdvanceTo(ticks[k])
+        else:
+            contact_log.append((float(drive.times[k]), _period_forces(simulator, watch, ticks[k], dt)))
         t = float(drive.times[k])
         rot, origin = frame("palm")
         track_m = max(track_m, float(np.linalg.norm(origin - palm[k][:3, 3])))
@@ -151,6 +158,19 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
                           probed)
     return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
                             palm_tracking_deg=math.degrees(track_rad))
+
+
+def _period_forces(simulator, watch: "_DrakeWatch", until: float, dt: float) -> dict[str, NDArray[np.float64]]:
+    """Advance to until (s) step by step (dt s), and the forces on the object by kind averaged
+    over the steps (N, world frame)."""
+    now = simulator.get_context().get_time()
+    steps = max(1, round((until - now) / dt))
+    total: dict[str, NDArray[np.float64]] = {}
+    for j in range(1, steps + 1):
+        simulator.AdvanceTo(until if j == steps else now + (until - now) * j / steps)
+        for kind, force in watch.forces().items():
+            total[kind] = total.get(kind, np.zeros(3)) + force
+    return {kind: force / steps for kind, force in total.items()}
 
 
 def _angle(a: NDArray, b: NDArray) -> float:
@@ -178,6 +198,8 @@ class _DrakeWatch:
         self.table_height = dw.world.table_height
         self._results = None
         self._time = None
+        self._forces: dict[str, NDArray[np.float64]] = {}
+        self._forces_time: float | None = None
 
     def _contacts(self):
         """(kind of the other geometry, normal force N, points (n, 3) world, depth m or None) of
@@ -217,6 +239,30 @@ class _DrakeWatch:
                 table.append(force)
         self._time, self._results = t, (mine, table)
         return mine, table
+
+    def forces(self) -> dict[str, NDArray[np.float64]]:
+        """The force (N, world frame, 3) each kind of geometry (table, thumb, finger, finger_tip,
+        palm, solid) exerts on the object now, summed over its contacts."""
+        t = self.ctx.get_time()
+        if self._forces_time == t:
+            return self._forces
+        results = self.plant.get_contact_results_output_port().Eval(self.ctx)
+        out: dict[str, NDArray[np.float64]] = {}
+        pairs = []  # (geometry A, geometry B, the force on B's body)
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            pairs.append((info.point_pair().id_A, info.point_pair().id_B, np.asarray(info.contact_force())))
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)  # F_Ac_W: the force on M's body
+            surface = info.contact_surface()
+            pairs.append((surface.id_M(), surface.id_N(), -np.asarray(info.F_Ac_W().translational())))
+        for a, b, on_b in pairs:
+            if self.object_id not in (a, b):
+                continue
+            other, on_object = (self.kind.get(b), -on_b) if a == self.object_id else (self.kind.get(a), on_b)
+            out[other] = out.get(other, np.zeros(3)) + on_object
+        self._forces_time, self._forces = t, out
+        return out
 
     def digit_touches_object(self) -> bool:
         return any(kind in self.DIGITS for kind, *_ in self._contacts()[0])
@@ -277,10 +323,12 @@ class _DrakeWatch:
 
 
 def settle_object(spec, pose: NDArray, duration: float, time_step: float | None = None,
-                  record: list | None = None) -> NDArray[np.float64]:
+                  record: list | None = None, contact_log: list | None = None) -> NDArray[np.float64]:
     """The object of spec put at pose (4x4) and left to gravity and the table for duration (s) in
     Drake, the hand parked a metre above, still: its pose at the end (4x4). record: when a list is
-    given, (time s, pose) every control period (2 ms). The drop test of tests/test_drake.py."""
+    given, (time s, pose) every control period (2 ms); contact_log: (time s, the forces on the
+    object by kind, averaged over the period's steps: _period_forces), as often. The drop test of
+    tests/test_drake.py."""
     from .drake_world import build, require_drake
 
     drake = require_drake()
@@ -294,10 +342,15 @@ def settle_object(spec, pose: NDArray, duration: float, time_step: float | None 
     obj = dw.bodies["object"]
     plant.SetFreeBodyPose(ctx, obj, drake.RigidTransform(drake.RotationMatrix(pose[:3, :3]), pose[:3, 3]))
     dw.simulator.Initialize()
-    if record is None:
+    if record is None and contact_log is None:
         dw.simulator.AdvanceTo(duration)
     else:
+        watch = _DrakeWatch(dw)
         for t in np.arange(1, int(round(duration / 0.002)) + 1) * 0.002:
-            dw.simulator.AdvanceTo(float(t))
-            record.append((float(t), _body_pose(plant, ctx, obj)))
+            if contact_log is None:
+                dw.simulator.AdvanceTo(float(t))
+            else:
+                contact_log.append((float(t), _period_forces(dw.simulator, watch, float(t), dt)))
+            if record is not None:
+                record.append((float(t), _body_pose(plant, ctx, obj)))
     return _body_pose(plant, ctx, obj)

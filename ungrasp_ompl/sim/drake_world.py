@@ -2,10 +2,11 @@
 (sim.world_description) built as a MultibodyPlant, solved by SAP at the scene's step (0.1 ms), with
 each contact pair's model chosen by what it is (docs/model.md 11.19).
 
-* The object is a free body: the convex prism of the description, its mass from the density.
-  Against the table it makes hydroelastic contact (a rigid hydroelastic prism on a compliant
-  table), which spreads the force over the patch where the two lie on each other; a point contact
-  there carries a resting object on one point that jumps from corner to corner.
+* The object is a free body: the description's convex prism or curved solid, its mass from the
+  density over its hull. Against the table it makes hydroelastic contact (a rigid hydroelastic
+  body on a compliant table), which spreads the force over the patch where the two lie on each
+  other; a point contact there carries a resting object on one point that jumps from corner to
+  corner.
 * The digits (the thumb, the finger, a rounded finger's dome) make point contact with the object:
   they carry no hydroelastic representation, and Drake falls back to point contact for their
   pairs. A 1 mm dome pressed by a few newtons into a thin prism needs the contact's stiffness from
