@@ -191,7 +191,10 @@ def _sweep(atlas: SecurityAtlas, goal_box: NDArray[np.float64]) -> float | None:
 
 def _search(atlas: SecurityAtlas, edges: LatticeEdges, goal_box: NDArray[np.float64], objective: Objective,
             margins: LatticeMargins | None) -> LatticeResult:
-    """lattice_search over a graph's edges (its legs one lattice step each, Y steps included)."""
+    """lattice_search over a graph's edges (its legs one lattice step each, Y steps included).
+
+    Size: Dijkstra's loop over (lattice state, primitive under way) with its heap, labels and the
+    objective's tie-breaks, which its steps share as they go."""
     scene = atlas.scene
     opts = scene.options
     shape = atlas.shape

@@ -143,7 +143,10 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: i
     seed gives the same trials wherever they run), jobs at a time in worker processes
     (ungrasp_ompl.runner), or on the Ray cluster at the address cluster. A trial that raises, or whose worker dies, ends the campaign with
     that error (TaskLost for a worker that died).
-    progress is called with each result as it arrives. engine: the physics engine (ENGINES)."""
+    progress is called with each result as it arrives. engine: the physics engine (ENGINES).
+
+    Size: the campaign's parts, as the workflows and tools hold them: the setup, the errors, the
+    count and seed, the workers or cluster, the world and the engine."""
     if trials < 1:
         raise InputError("trials", f"must be at least 1, got {trials}")
     if jobs < 1:

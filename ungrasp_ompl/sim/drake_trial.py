@@ -83,35 +83,10 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     the object by kind, _DrakeWatch.forces, averaged over the steps of the control period that
     ends then) at every control tick of the drive: the mean over a period, because SAP's forces on
     a flat face of the object vary from step to step (docs/model.md 11.19)."""
-    from .drake_world import build, palm_angles, require_drake
-
-    drake = require_drake()
     wall = time.perf_counter()
     probed: list = []
-    spec, model, data, ids, palm, offset = _start(setup, params, probed)  # MuJoCo's start, the probe's shift
-    start_pose = _pose(data, ids.object_body)
-    opening0 = float(data.qpos[model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]]) * 2
-    world = describe(spec)
-    dt = DRAKE_TIME_STEP if DRAKE_TIME_STEP else spec.timestep
-    times, poses, servo_times, servo, ticks, t0 = _schedule(setup, palm, offset, dt)
-    base = palm[0][:3, :3]
-    angles = np.unwrap(np.array([palm_angles(base, p[:3, :3]) for p in poses]), axis=0)
-    q = np.column_stack([poses[:, :3, 3], angles])
-    palm_trajectory = drake.PiecewisePolynomial.FirstOrderHold(times, q.T)
-    jaw_trajectory = drake.PiecewisePolynomial.ZeroOrderHold(servo_times, (servo / world.servo.gear)[None, :])
-    dw = build(world, palm_trajectory, jaw_trajectory, base, dt)
-    plant, ctx = dw.plant, dw.plant_context
-    simulator = dw.simulator
-
-    # the first state: MuJoCo's trial's
-    for joint, value in zip(dw.palm_joints, q[0]):
-        joint.set_translation(ctx, value) if hasattr(joint, "set_translation") else joint.set_angle(ctx, value)
-    dw.jaw_joints["thumb"].set_translation(ctx, -opening0 / 2)
-    dw.jaw_joints["finger"].set_translation(ctx, opening0 / 2)
-    obj = dw.bodies["object"]
-    plant.SetFreeBodyPose(ctx, obj, drake.RigidTransform(drake.RotationMatrix(start_pose[:3, :3]), start_pose[:3, 3]))
-    simulator.Initialize()
-    simulator.AdvanceTo(t0)
+    dw, palm, ticks, dt = _started(setup, params, probed)
+    plant, ctx, simulator, obj = dw.plant, dw.plant_context, dw.simulator, dw.bodies["object"]
     if record is not None:
         record.append((0.0, _body_pose(plant, ctx, obj)))
 
@@ -158,6 +133,37 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
                           probed)
     return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
                             palm_tracking_deg=math.degrees(track_rad))
+
+
+def _started(setup: TrialSetup, params: TrialParams, probed: list):
+    """The trial's Drake world advanced to the drive's start from MuJoCo's trial's first state (its
+    settling, the probe's shift into probed): the world (DrakeWorld), the palm's poses at the
+    drive's ticks, the ticks' times in Drake (s) and Drake's step (s)."""
+    from .drake_world import build, palm_angles, require_drake
+
+    drake = require_drake()
+    spec, model, data, ids, palm, offset = _start(setup, params, probed)  # MuJoCo's start, the probe's shift
+    start_pose = _pose(data, ids.object_body)
+    opening0 = float(data.qpos[model.jnt_qposadr[model.body_jntadr[ids.finger_jaw]]]) * 2
+    world = describe(spec)
+    dt = DRAKE_TIME_STEP if DRAKE_TIME_STEP else spec.timestep
+    times, poses, servo_times, servo, ticks, t0 = _schedule(setup, palm, offset, dt)
+    base = palm[0][:3, :3]
+    angles = np.unwrap(np.array([palm_angles(base, p[:3, :3]) for p in poses]), axis=0)
+    q = np.column_stack([poses[:, :3, 3], angles])
+    palm_trajectory = drake.PiecewisePolynomial.FirstOrderHold(times, q.T)
+    jaw_trajectory = drake.PiecewisePolynomial.ZeroOrderHold(servo_times, (servo / world.servo.gear)[None, :])
+    dw = build(world, palm_trajectory, jaw_trajectory, base, dt)
+    plant, ctx = dw.plant, dw.plant_context
+    for joint, value in zip(dw.palm_joints, q[0]):  # the first state: MuJoCo's trial's
+        joint.set_translation(ctx, value) if hasattr(joint, "set_translation") else joint.set_angle(ctx, value)
+    dw.jaw_joints["thumb"].set_translation(ctx, -opening0 / 2)
+    dw.jaw_joints["finger"].set_translation(ctx, opening0 / 2)
+    plant.SetFreeBodyPose(ctx, dw.bodies["object"],
+                          drake.RigidTransform(drake.RotationMatrix(start_pose[:3, :3]), start_pose[:3, 3]))
+    dw.simulator.Initialize()
+    dw.simulator.AdvanceTo(t0)
+    return dw, palm, ticks, dt
 
 
 def _period_forces(simulator, watch: "_DrakeWatch", until: float, dt: float) -> dict[str, NDArray[np.float64]]:

@@ -201,6 +201,8 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     drake = require_drake()
     if world.thumb.joint != "slide":
         raise ToolError("the Drake world builds the parallel gripper only (a pincer's hinged jaws are MuJoCo's)")
+    if world.placed:
+        raise ToolError("the Drake world has no objects already down (a layout's pieces are MuJoCo's)")
     dt = world.spec.timestep if time_step is None else time_step
     builder = drake.DiagramBuilder()
     plant, scene_graph = drake.AddMultibodyPlant(drake.MultibodyPlantConfig(
@@ -208,24 +210,48 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
         sap_near_rigid_threshold=NEAR_RIGID), builder)
     plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -9.81])
     geoms: dict = {}
-    X = drake.RigidTransform
+    _add_table(drake, plant, world, geoms)
+    hand, palm, joints = _add_palm(drake, plant, world, palm_base, geoms)
+    gripper, bodies, jaw_joints = _add_jaws(drake, plant, world, palm, geoms)
+    bodies["object"] = _add_object(drake, plant, world, geoms)
+    _add_actuators(drake, plant, world, joints, jaw_joints)
+    # the hand does not touch itself (MuJoCo's model excludes the same pairs)
+    hand_set = plant.CollectRegisteredGeometries([palm, bodies["thumb"], bodies["finger"], bodies["thumb_jaw"],
+                                                  bodies["finger_jaw"]])
+    plant.Finalize()
+    scene_graph.collision_filter_manager().Apply(drake.CollisionFilterDeclaration().ExcludeWithin(hand_set))
 
-    # the table: a compliant half space at its height
+    palm_source = builder.AddSystem(drake.TrajectorySource(palm_trajectory, 1))
+    builder.Connect(palm_source.get_output_port(), plant.get_desired_state_input_port(hand))
+    jaw_source = builder.AddSystem(drake.TrajectorySource(jaw_trajectory, 1))
+    builder.Connect(jaw_source.get_output_port(), plant.get_desired_state_input_port(gripper))
+    diagram = builder.Build()
+    simulator = drake.Simulator(diagram)
+    return DrakeWorld(world, diagram, plant, scene_graph, simulator, np.asarray(palm_base, dtype=float), palm_source,
+                      jaw_source, bodies, joints, jaw_joints, geoms)
+
+
+def _add_table(drake, plant, world: WorldDescription, geoms: dict) -> None:
+    """The table, a compliant half space at its height, and the fixed solids (point contact)."""
     table = drake.ProximityProperties()
     mu_table = pair_friction(world.table_friction)
     drake.AddContactMaterial(None, 2 * POINT_STIFFNESS, drake.CoulombFriction(mu_table, mu_table), table)
     table.AddProperty("material", "relaxation_time", TABLE_RELAXATION_TIME)
     drake.AddCompliantHydroelasticPropertiesForHalfSpace(TABLE_SLAB, TABLE_MODULUS, table)
-    gid = plant.RegisterCollisionGeometry(plant.world_body(), X([0.0, 0.0, world.table_height]), drake.HalfSpace(),
-                                          "table", table)
+    gid = plant.RegisterCollisionGeometry(plant.world_body(), drake.RigidTransform([0.0, 0.0, world.table_height]),
+                                          drake.HalfSpace(), "table", table)
     geoms[gid] = "table"
-    for solid in world.solids:  # fixed convex bodies: point contact
+    for solid in world.solids:
         shape, pose = _shape(drake, solid)
         gid = plant.RegisterCollisionGeometry(plant.world_body(), pose, shape, solid.name,
                                               _properties(drake, solid, pair_friction(solid.friction), None))
         geoms[gid] = "solid"
 
-    # the palm on six PD-driven joints
+
+def _add_palm(drake, plant, world: WorldDescription, palm_base: NDArray, geoms: dict):
+    """The palm on six joints (three slides, three turns after palm_base), the housing on it: the
+    hand's model instance, the palm's body and the joints."""
+    X = drake.RigidTransform
     hand = plant.AddModelInstance("hand")
     previous, joints = plant.world_body(), []
     for k, name in enumerate(("palm_x", "palm_y", "palm_z", "palm_a", "palm_b")):
@@ -246,8 +272,13 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     gid = plant.RegisterCollisionGeometry(palm, pose, shape, "palm", _properties(drake, world.palm, 0.0, "compliant",
                                                                                   HOUSING_MODULUS))
     geoms[gid] = "palm"
+    return hand, palm, joints
 
-    # the jaws, the digits on their bends
+
+def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
+    """The two jaws sliding on the palm, coupled, each digit on its bend spring: the gripper's
+    model instance, the bodies by name (the palm's too) and the jaws' joints by jaw."""
+    X = drake.RigidTransform
     gripper = plant.AddModelInstance("gripper")
     bodies = {"palm": palm}
     jaw_joints = {}
@@ -272,19 +303,22 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
             geoms[gid] = geom.name
         bodies[jaw.name + "_jaw"], bodies[digit.name] = carriage, body
     plant.AddCouplerConstraint(jaw_joints["thumb"], jaw_joints["finger"], -1.0, 0.0)
+    return gripper, bodies, jaw_joints
 
-    # the object
+
+def _add_object(drake, plant, world: WorldDescription, geoms: dict):
+    """The object, a free rigid body with its friction set per pair (OBJECT_FRICTION); its body."""
     objects = plant.AddModelInstance("object")
     obj = plant.AddRigidBody("object", objects, _inertia(drake, (world.object.geom,)))
     shape, pose = _shape(drake, world.object.geom)
     gid = plant.RegisterCollisionGeometry(obj, pose, shape, "object", _properties(
         drake, world.object.geom, OBJECT_FRICTION, "rigid", relaxation=OBJECT_RELAXATION_TIME))
     geoms[gid] = "object"
-    bodies["object"] = obj
-    if world.placed:
-        raise ToolError("the Drake world has no objects already down (a layout's pieces are MuJoCo's)")
+    return obj
 
-    # actuators: the palm's six joints and the servo, each a PD controller SAP applies implicitly
+
+def _add_actuators(drake, plant, world: WorldDescription, joints: list, jaw_joints: dict) -> None:
+    """The palm's six joints and the servo, each a PD controller SAP applies implicitly."""
     hand_mass = world.palm.mass + sum(j.mass for j in world.jaws) + 0.05
     for k, joint in enumerate(joints):
         inertia = hand_mass if k < 3 else HAND_TURN_INERTIA
@@ -296,17 +330,3 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     actuator = plant.AddJointActuator("opening", jaw_joints["finger"], servo.gear * servo.force_limit)
     actuator.set_controller_gains(drake.PdControllerGains(p=servo.gear ** 2 * servo.stiffness,
                                                           d=servo.gear ** 2 * servo.damping))
-    # the hand does not touch itself (MuJoCo's model excludes the same pairs)
-    hand_set = plant.CollectRegisteredGeometries([palm, bodies["thumb"], bodies["finger"], bodies["thumb_jaw"],
-                                                  bodies["finger_jaw"]])
-    plant.Finalize()
-    scene_graph.collision_filter_manager().Apply(drake.CollisionFilterDeclaration().ExcludeWithin(hand_set))
-
-    palm_source = builder.AddSystem(drake.TrajectorySource(palm_trajectory, 1))
-    builder.Connect(palm_source.get_output_port(), plant.get_desired_state_input_port(hand))
-    jaw_source = builder.AddSystem(drake.TrajectorySource(jaw_trajectory, 1))
-    builder.Connect(jaw_source.get_output_port(), plant.get_desired_state_input_port(gripper))
-    diagram = builder.Build()
-    simulator = drake.Simulator(diagram)
-    return DrakeWorld(world, diagram, plant, scene_graph, simulator, np.asarray(palm_base, dtype=float), palm_source,
-                      jaw_source, bodies, joints, jaw_joints, geoms)

@@ -161,29 +161,8 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
                    f'damping="{finger.digit.bend.damping:.9g}"/>')
     if thumb.joint == "hinge":
         jaws, coupling, actuator = _pincer_jaws(world, thumb_bend, finger_bend, tip)
-    else:  # two carriages sliding on the palm, coupled, one force-limited servo on the opening
-        tg, fg, servo = thumb.digit.geoms[0], finger.digit.geoms[0], world.servo
-        jaws = f"""<body name="thumb_jaw">
-        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{thumb.lower:.9g} {thumb.upper:.9g}" damping="0"/>
-        <inertial pos="0 0 0" mass="{thumb.mass}" diaginertia="{_exponent(thumb.inertia)}"/>
-        <body name="thumb">
-          {thumb_bend}
-          <geom name="thumb" type="mesh" mesh="thumb" density="{tg.density:g}" friction="{tg.friction} 0 0" rgba="{tg.rgba}"/>
-        </body>
-      </body>
-      <body name="finger_jaw">
-        <joint name="finger_slide" type="slide" axis="1 0 0" range="{finger.lower:.9g} {finger.upper:.9g}" damping="0"/>
-        <inertial pos="0 0 0" mass="{finger.mass}" diaginertia="{_exponent(finger.inertia)}"/>
-        <body name="finger">
-          {finger_bend}
-          <geom name="finger" type="mesh" mesh="finger" density="{fg.density:g}" friction="{fg.friction} 0 0" rgba="{fg.rgba}"/>
-          {tip}
-        </body>
-      </body>"""
-        coupling = '<joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
-        actuator = f"""<position name="opening" joint="{servo.joint}" gear="{servo.gear:g}" kp="{servo.stiffness:.9g}"
-              kv="{servo.damping:.9g}" forcelimited="true"
-              forcerange="{-servo.force_limit:.9g} {servo.force_limit:.9g}" ctrllimited="true" ctrlrange="0 {servo.command_max:.9g}"/>"""
+    else:
+        jaws, coupling, actuator = _parallel_jaws(world, thumb_bend, finger_bend, tip)
     palm = world.palm
     return f"""<mujoco model="ungrasp">
   <compiler angle="radian" autolimits="true"/>
@@ -228,6 +207,36 @@ def build_mjcf(spec: SimModelSpec, key: Keyframe | None = None) -> str:
   </actuator>{_keyframe(key)}
 </mujoco>
 """
+
+
+def _parallel_jaws(world: WorldDescription, thumb_bend: str, finger_bend: str, tip: str) -> tuple[str, str, str]:
+    """The parallel gripper's MJCF: two carriages sliding on the palm, each with its digit on its
+    bend, coupled, one force-limited servo on the opening: (the jaws' bodies, the coupling, the
+    actuator)."""
+    thumb, finger = world.jaws
+    tg, fg, servo = thumb.digit.geoms[0], finger.digit.geoms[0], world.servo
+    jaws = f"""<body name="thumb_jaw">
+        <joint name="thumb_slide" type="slide" axis="1 0 0" range="{thumb.lower:.9g} {thumb.upper:.9g}" damping="0"/>
+        <inertial pos="0 0 0" mass="{thumb.mass}" diaginertia="{_exponent(thumb.inertia)}"/>
+        <body name="thumb">
+          {thumb_bend}
+          <geom name="thumb" type="mesh" mesh="thumb" density="{tg.density:g}" friction="{tg.friction} 0 0" rgba="{tg.rgba}"/>
+        </body>
+      </body>
+      <body name="finger_jaw">
+        <joint name="finger_slide" type="slide" axis="1 0 0" range="{finger.lower:.9g} {finger.upper:.9g}" damping="0"/>
+        <inertial pos="0 0 0" mass="{finger.mass}" diaginertia="{_exponent(finger.inertia)}"/>
+        <body name="finger">
+          {finger_bend}
+          <geom name="finger" type="mesh" mesh="finger" density="{fg.density:g}" friction="{fg.friction} 0 0" rgba="{fg.rgba}"/>
+          {tip}
+        </body>
+      </body>"""
+    coupling = '<joint joint1="thumb_slide" joint2="finger_slide" polycoef="0 -1 0 0 0" solref="0.002 1"/>'
+    actuator = f"""<position name="opening" joint="{servo.joint}" gear="{servo.gear:g}" kp="{servo.stiffness:.9g}"
+              kv="{servo.damping:.9g}" forcelimited="true"
+              forcerange="{-servo.force_limit:.9g} {servo.force_limit:.9g}" ctrllimited="true" ctrlrange="0 {servo.command_max:.9g}"/>"""
+    return jaws, coupling, actuator
 
 
 def _keyframe(key: Keyframe | None) -> str:

@@ -779,7 +779,10 @@ class Judge:
         """The trial's result with the object at pose final (4x4) at its end: the checks after the
         retreat, which both verdicts make (look() the object's contacts then), where no grip was lost.
         sim_time: the simulated time (s); wall: time.perf_counter() at the trial's start; others: the
-        poses of the objects already down; probed: the touch-off's probe, if any, in a list."""
+        poses of the objects already down; probed: the touch-off's probe, if any, in a list.
+
+        Size: each engine's trial loop calls it once with what that loop holds at its end (the pose,
+        the contacts' reader, the draw, the clocks, the other objects, the probe)."""
         setup, drive = self.setup, self.setup.drive
         failure, lost = self.failure, self.lost
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
