@@ -38,13 +38,13 @@ def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     limits and clear of the table and obstacles, the hand aimed by the model of its fall
     (robot.landing: modelled). RRT* gets 3 s: at its friction's +-30 % (docs/model.md 4.7) the
     1.5 mm pick's seed 2 finds no path within 2 s (12,000 iterations). The pincer, whose fall is
-    not modelled, aims by its simulated landing (robot.landing: simulated); the curved objects,
+    not modelled, aims by its expected landing (robot.landing: expected); the curved objects,
     whose fall is modelled as a slab's, as planned."""
     scene = Scene.from_file(name)
     pincer = scene.robot.gripper_kind is GripperKind.PINCER
     curved = scene.digits.section is not None  # the fall is modelled for a slab only
     modelled = not (pincer or curved)
-    assert scene.robot.landing is (Landing.SIMULATED if pincer else Landing.PLANNED if curved else Landing.MODELLED)
+    assert scene.robot.landing is (Landing.EXPECTED if pincer else Landing.PLANNED if curved else Landing.MODELLED)
     out = tmp_path / "out"
     proc = run_cli("plan", name, "--planner", planner, "--seed", "2", "--time", "3", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr
