@@ -46,7 +46,7 @@ def _oracle(scene: Scene, atlas: SecurityAtlas, kind: str, direction: int, idx: 
     return ok
 
 
-@pytest.mark.parametrize("kind", ["T", "P", "D"])
+@pytest.mark.parametrize("kind", [pytest.param("T", marks=pytest.mark.slow), "P", "D"])
 def test_steps_the_lattice_accepts_hold_all_the_way(go_stone, kind):
     """Every lattice step the atlas finds secure holds force closure at 1/64 of a step throughout;
     the steps whose two states hold but which lose the grip between them are refused."""
@@ -98,6 +98,7 @@ def test_first_loss_along_matches_fine_sampling(go_stone):
     assert not force_closure(at[:, 0], at[:, 1], at[:, 2], 0, -1, scene.friction).any()
 
 
+@pytest.mark.slow
 def test_legs_that_the_validator_accepts_re_validate(go_stone):
     """Motions the planner's validator accepts between seeded random holdable lattice states of
     go_stone are realised by legs that the re-validation passes."""
