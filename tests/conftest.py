@@ -189,3 +189,27 @@ def assert_picture(path: Path, colours: tuple[tuple[float, float, float], ...] =
     for c in colours:
         near = np.all(np.abs(img - np.asarray(c)) < 0.08, axis=-1)
         assert near.any(), f"{path}: no pixel of colour {c}"
+
+
+def mujoco_drop(spec, pose, duration: float):
+    """The object of a SimModelSpec put at pose (4x4, world) and left to gravity and the table in
+    MuJoCo for duration (s), the hand parked a metre above: its pose (4x4) at the end."""
+    import mujoco
+    import numpy as np
+
+    from ungrasp_ompl.sim.model import build_mjcf, model_ids
+
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    data = mujoco.MjData(model)
+    ids = model_ids(model)
+    palm = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+    data.qpos[palm:palm + 7] = [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
+    data.mocap_pos[ids.palm_mocap] = [0.0, 0.0, 1.0]
+    obj = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
+    data.qpos[obj:obj + 3], data.qpos[obj + 3:obj + 7] = pose[:3, 3], quat
+    mujoco.mj_step(model, data, nstep=round(duration / model.opt.timestep))
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
+    return out

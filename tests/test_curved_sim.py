@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from conftest import SCENES
+from conftest import SCENES, mujoco_drop
 from ungrasp_ompl import Scene
 from ungrasp_ompl.geometry.collision import object_solid
 from ungrasp_ompl.robot.model import load_ur5e
@@ -117,32 +117,13 @@ def test_a_drawn_or_variant_thickness_scales_the_solids_heights_alone_and_keeps_
                                                                       rel=1e-9)
 
 
-def _mujoco_drop(spec: SimModelSpec, pose: np.ndarray, duration: float) -> np.ndarray:
-    """The object of spec put at pose and left to gravity and the table in MuJoCo, the hand parked
-    a metre above: its pose (4x4) at the end."""
-    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
-    data = mujoco.MjData(model)
-    ids = model_ids(model)
-    palm = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
-    data.qpos[palm:palm + 7] = [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
-    data.mocap_pos[ids.palm_mocap] = [0.0, 0.0, 1.0]
-    obj = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
-    data.qpos[obj:obj + 3], data.qpos[obj + 3:obj + 7] = pose[:3, 3], quat
-    mujoco.mj_step(model, data, nstep=round(duration / model.opt.timestep))
-    out = np.eye(4)
-    out[:3, :3], out[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
-    return out
-
-
 def test_the_go_stone_dropped_on_its_flat_face_from_a_millimetre_rests_where_it_fell():
     """Flat face down, 1 mm above the table, let go: after 0.3 s it lies within 0.05 mm of below
     its drop point, flat (the positive control of tests/test_drake.py, on the curved solid)."""
     spec = _spec("go_stone")
     pose = np.eye(4)
     pose[:3, 3] = [0.45, 0.10, 0.001]
-    final = _mujoco_drop(spec, pose, 0.3)
+    final = mujoco_drop(spec, pose, 0.3)
     assert np.linalg.norm(final[:2, 3] - pose[:2, 3]) < 5e-5
     assert abs(final[2, 3]) < 5e-5
     assert math.degrees(math.acos(min(1.0, final[2, 2]))) < 0.05

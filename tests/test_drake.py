@@ -17,7 +17,7 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from conftest import ROOT, SCENES  # noqa: E402
+from conftest import ROOT, SCENES, mujoco_drop  # noqa: E402
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.robot.model import load_ur5e  # noqa: E402
 from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec  # noqa: E402
@@ -61,27 +61,6 @@ def _flat_pose(spec: SimModelSpec, height: float) -> np.ndarray:
     pose = np.eye(4)
     pose[:3, 3] = [0.45, 0.10, height]
     return pose
-
-
-def _mujoco_drop(spec: SimModelSpec, pose: np.ndarray, duration: float) -> np.ndarray:
-    """The object of spec put at pose and left to gravity and the table in MuJoCo, the hand parked
-    a metre above: its pose at the end."""
-    import mujoco
-
-    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
-    data = mujoco.MjData(model)
-    ids = model_ids(model)
-    palm = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
-    data.qpos[palm:palm + 7] = [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
-    data.mocap_pos[ids.palm_mocap] = [0.0, 0.0, 1.0]
-    obj = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(pose[:3, :3]).ravel())
-    data.qpos[obj:obj + 3], data.qpos[obj + 3:obj + 7] = pose[:3, 3], quat
-    mujoco.mj_step(model, data, nstep=round(duration / model.opt.timestep))
-    out = np.eye(4)
-    out[:3, :3], out[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
-    return out
 
 
 def test_the_world_description_is_what_both_engines_build():
@@ -161,7 +140,7 @@ def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_en
     The Go stone is its curved solid (on its flat face; Drake takes 15-20 s of one core over it)."""
     spec = _spec(name)
     pose = _flat_pose(spec, 0.001)
-    for engine, final in (("mujoco", _mujoco_drop(spec, pose, 0.3)), ("drake", settle_object(spec, pose, 0.3))):
+    for engine, final in (("mujoco", mujoco_drop(spec, pose, 0.3)), ("drake", settle_object(spec, pose, 0.3))):
         moved = np.linalg.norm(final[:2, 3] - pose[:2, 3])
         assert moved < 5e-5, f"{engine}: moved {moved * 1000:.4f} mm"
         assert abs(final[2, 3]) < 5e-5, f"{engine}: rests {final[2, 3] * 1000:.4f} mm off the table's top"

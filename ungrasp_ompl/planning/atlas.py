@@ -231,15 +231,9 @@ class SecurityAtlas:
             both[tuple(src)] = ok[tuple(src)] & ok[tuple(dst)]
             idx = np.nonzero(both)
             q0 = np.column_stack([ax[i] for ax, i in zip(self.axes, idx)])
-            if kind == "T":
-                sa, sb = 0, 0
-            elif kind == "P":
-                sa, sb = primitive_sliding_signs("P_psi", 1.0, 0.0, 0.0, direction)
-            else:
-                sa, sb = primitive_sliding_signs("P_dpsi", q0[:, D], q0[:, PSI], direction, 0.0)
             move = np.zeros(3)
             move[axis] = direction * self.res[axis] / SAMPLES_PER_STEP
-            sa, sb = (np.broadcast_to(x, len(q0)) for x in (sa, sb))
+            sa, sb = primitive_sliding_signs(LEG_PRIMITIVE[kind], q0[:, D], q0[:, PSI], move[D], move[PSI])
             secure = np.ones(len(q0), dtype=bool)
             turns = self._contact_turns(axis, direction)
             for j in range(SAMPLES_PER_STEP):

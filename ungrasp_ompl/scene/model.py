@@ -187,7 +187,6 @@ class Scene:
             raise InputError("squeeze", f"must be a force in newtons >= 0, got {squeeze!r}")
         l = self.object_length
         centre_x, centre_z, area = l / 2, None, l * self.digits.width * l
-        section = self.collision_model().section
         curved = self.digits.section is not None and not self.digits.section.is_slab
         if curved:  # the solid the planner collides with: its volume and centre of mass
             volume, centroid = solid_mass_properties(object_solid(self.digits.section, l, self.digits.width * l,
@@ -195,6 +194,7 @@ class Scene:
             weight = weight_of(self.sim.density * volume)
             centre_x, centre_z = float(centroid[0]), float(centroid[2])
         else:
+            section = self.collision_model().section
             if section is not None:
                 x, y = section[:, 0], section[:, 1]
                 cross = x * np.roll(y, -1) - np.roll(x, -1) * y
