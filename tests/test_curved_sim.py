@@ -20,7 +20,7 @@ from ungrasp_ompl.robot.model import load_ur5e
 from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec
 from ungrasp_ompl.sim.model import build_mjcf, model_ids
 from ungrasp_ompl.sim.setup import OUTLINE_SAGITTA, gripper_geometry, object_outline
-from ungrasp_ompl.sim.spec import Friction, SimModelSpec, SimObject, curved_solid
+from ungrasp_ompl.sim.spec import PairFriction, SimModelSpec, SimObject, curved_solid
 from ungrasp_ompl.sim.world_description import describe
 
 mujoco = pytest.importorskip("mujoco")
@@ -37,9 +37,8 @@ def _spec(name: str) -> SimModelSpec:
     """The simulated world of a shipped scene, its object built as sim.setup.trial_setup builds it."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base), pincer=gripper_links(scene))
-    mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
     return SimModelSpec(obj=SimObject(object_outline(scene), scene.object_thickness, scene.sim.density, _solid(scene)),
-                        gripper=gripper_geometry(scene, robot), friction=Friction(mu_g, mu_a, mu_b, mu_g),
+                        gripper=gripper_geometry(scene, robot), friction=PairFriction.from_contacts(scene.mu_contacts),
                         timestep=scene.sim.timestep, grip_force=scene.sim.grip_force,
                         servo_stiffness=2 * scene.sim.grip_force / scene.sim.squeeze)
 

@@ -25,7 +25,7 @@ from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim import drake_world  # noqa: E402
 from ungrasp_ompl.sim.drake_trial import run_drake_trial, settle_object  # noqa: E402
 from ungrasp_ompl.sim.model import build_mjcf, model_ids  # noqa: E402
-from ungrasp_ompl.sim.spec import Friction, SimModelSpec, SimObject, curved_solid  # noqa: E402
+from ungrasp_ompl.sim.spec import PairFriction, SimModelSpec, SimObject, curved_solid  # noqa: E402
 from ungrasp_ompl.sim.setup import gripper_geometry, object_outline  # noqa: E402
 from ungrasp_ompl.sim.world import World  # noqa: E402
 from ungrasp_ompl.sim.world_description import describe  # noqa: E402
@@ -37,11 +37,10 @@ def _spec(name: str) -> SimModelSpec:
     """The simulated world of a shipped scene, as sim.setup.trial_setup builds it (no plan needed)."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base), pincer=gripper_links(scene))
-    mu_g, mu_a, mu_b = scene.mu_contacts or scene.mu
     l = scene.object_length
     solid = curved_solid(scene.digits.section, l, scene.digits.width * l, scene.object3d is not None)
     return SimModelSpec(obj=SimObject(object_outline(scene), scene.object_thickness, scene.sim.density, solid),
-                        gripper=gripper_geometry(scene, robot), friction=Friction(mu_g, mu_a, mu_b, mu_g),
+                        gripper=gripper_geometry(scene, robot), friction=PairFriction.from_contacts(scene.mu_contacts),
                         timestep=scene.sim.timestep, grip_force=scene.sim.grip_force,
                         servo_stiffness=2 * scene.sim.grip_force / scene.sim.squeeze)
 
@@ -124,10 +123,10 @@ def test_the_world_description_is_what_both_engines_build():
 
 @pytest.mark.parametrize("mu", [0.05, 0.25, 0.35, 0.45, 0.7, 1.3])
 def test_a_geometrys_friction_combines_with_the_objects_to_the_pairs(mu):
-    """Drake's 2 a b / (a + b) of the object's coefficient and the one pair_friction gives is the pair's."""
+    """Drake's 2 a b / (a + b) of the object's coefficient and the one geometry_friction gives is the pair's."""
     from pydrake.multibody.plant import CalcContactFrictionFromSurfaceProperties, CoulombFriction
 
-    a, b = drake_world.OBJECT_FRICTION, drake_world.pair_friction(mu)
+    a, b = drake_world.OBJECT_FRICTION, drake_world.geometry_friction(mu)
     combined = CalcContactFrictionFromSurfaceProperties(CoulombFriction(a, a), CoulombFriction(b, b))
     assert combined.dynamic_friction() == pytest.approx(mu, rel=1e-12)
     assert drake_world.combined_friction(a, b) == pytest.approx(mu, rel=1e-12)

@@ -174,6 +174,24 @@ def test_a_placement_beyond_max_error_is_placed_off_target(pick, pick_nominal):
     assert f"{good.position_error_mm:.1f} mm" in strict.cause()
 
 
+def test_a_trial_setup_holds_the_scenes_sim_options_whole(pick):
+    """TrialSetup carries the scene's SimOptions as they are (m, s); the servo's squeeze is derived
+    from them: sim.squeeze (m) for sliding jaws, sim.squeeze over the hinge's radius (rad) for a
+    pincer; the pairs' friction is the scene's physical coefficients, mu_G for the table and the solids."""
+    from ungrasp_ompl.robot.pipeline import gripper_links
+    from ungrasp_ompl.sim.spec import PairFriction
+
+    scene = pick[0]
+    setup = _setup(pick, squeeze=0.0015, max_error=0.002)
+    assert setup.sim == replace(scene.sim, squeeze=0.0015, max_error=0.002)
+    assert setup.servo_squeeze == 0.0015
+    links = gripper_links(Scene.from_file(SCENES / "pincer_puzzle_piece.yaml"))
+    hinged = replace(setup, spec=replace(setup.spec, gripper=replace(setup.spec.gripper, hinge=links)))
+    assert hinged.servo_squeeze == pytest.approx(0.0015 / links.radius)
+    mu_g, mu_a, mu_b = scene.mu_contacts
+    assert setup.spec.friction == PairFriction(table=mu_g, finger=mu_a, thumb=mu_b, solids=mu_g)
+
+
 def test_a_calibration_error_offsets_the_whole_commanded_trajectory(pick):
     """A palm error is one rigid transform applied to every commanded pose (and to the object the
     hand holds at the start); the table's height error moves the table."""
@@ -238,7 +256,7 @@ def test_a_hand_started_too_low_sets_the_object_down_without_pushing_it_through_
         assert min((data.contact[i].dist for i in range(data.ncon)), default=0.0) > -1e-6  # nothing inside anything
         ids = model_ids(model)
         touch_down(model, data, ids, calibration_offset(setup.drive, params) @ setup.drive.palm[0],
-                   np.array([0.0, 0.0, lowering]), setup.settle_time)
+                   np.array([0.0, 0.0, lowering]), setup.sim.settle_time)
         assert min((data.contact[i].dist for i in range(data.ncon)), default=0.0) > -2e-4  # a fraction of a millimetre
         table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
         on_table = any(table in (data.contact[i].geom1, data.contact[i].geom2) for i in range(data.ncon))
@@ -258,7 +276,7 @@ def test_the_digits_move_with_the_velocity_the_contacts_see(pick):
     setup = _setup(pick)
     spec, model, data, ids, palm, offset = _start(setup, TrialParams())
     drive = setup.drive
-    touch_down(model, data, ids, palm[0], offset, setup.settle_time)
+    touch_down(model, data, ids, palm[0], offset, setup.sim.settle_time)
     quats = _palm_quats(palm)
     period = float(drive.times[1] - drive.times[0])
     substeps = round(period / spec.timestep)
@@ -267,7 +285,7 @@ def test_the_digits_move_with_the_velocity_the_contacts_see(pick):
     velocity = np.zeros(6)
     for k in range(1, len(drive.times)):
         before = data.xipos[ids.finger_body].copy()  # MuJoCo gives a body's velocity at its centre of mass
-        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
+        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.servo_squeeze, 0.0)
         halfway = (palm[k - 1][:3, 3] + palm[k][:3, 3]) / 2, quats[k - 1] + (quats[k] - quats[k - 1]) / 2
         _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), halfway, substeps // 2)
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, ids.finger_body, velocity, 0)
@@ -344,7 +362,7 @@ def test_model_xml_loads_with_its_start_keyframe_and_replays_the_trial(pick, tmp
     palm = error @ setup.drive.palm[0]
     offset = np.array([0.0, 0.0, lowering]) + (error @ setup.drive.press_from)[:3, 3] - palm[:3, 3]  # the press's depth
     assert np.allclose(data.mocap_pos[ids.palm_mocap], palm[:3, 3] + offset, atol=1e-12)
-    touch_down(model, data, ids, palm, offset, setup.settle_time)
+    touch_down(model, data, ids, palm, offset, setup.sim.settle_time)
     record: list = []
     run_trial(setup, params, record=record)
     assert np.allclose(data.xpos[obj], record[0][1][:3, 3], atol=1e-9)
@@ -513,7 +531,7 @@ def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pi
     early = pick_nominal
     full = run_trial(setup, TrialParams(), record=[])  # a recorded trial runs every phase
     assert early.success and full.success
-    assert early.sim_time_s < full.sim_time_s - setup.rest_time  # it stopped during the retreat
+    assert early.sim_time_s < full.sim_time_s - setup.sim.rest_time  # it stopped during the retreat
     assert early.position_error_mm == pytest.approx(full.position_error_mm, abs=1e-6)
     assert early.tilt_deg == pytest.approx(full.tilt_deg, abs=1e-6)
 

@@ -402,3 +402,41 @@ def test_the_stability_report_says_how_far_a_lies_inside_the_supports(name):
     assert roll.to_dict()["across_support_m"] == roll.across
     flat = scene.with_digits(finger_tip="flat")
     assert analyse(flat, [("start", q)]).rolls[0].across is None
+
+
+def _has_shape(value, kind) -> list[str]:
+    """Where value (a plan.json mapping) strays from kind, a TypedDict of planning.result: its keys
+    and, for the nested TypedDicts and lists of them, theirs; [] where it has the shape."""
+    import typing
+
+    from ungrasp_ompl.planning import result
+
+    hints = typing.get_type_hints(kind, vars(result))
+    if set(value) != set(hints):
+        return [f"{kind.__name__}: {sorted(value)} != {sorted(hints)}"]
+    wrong = []
+    for key, hint in hints.items():
+        if typing.is_typeddict(hint):
+            wrong += _has_shape(value[key], hint)
+        elif typing.get_origin(hint) is list and typing.is_typeddict(typing.get_args(hint)[0]):
+            for item in value[key]:
+                wrong += _has_shape(item, typing.get_args(hint)[0])
+    return wrong
+
+
+@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
+def test_the_3d_reports_parts_have_the_shapes_plan_json_documents(name):
+    """Report3D's four mappings, as with_3d_report builds them from the scene, have the keys of
+    their TypedDicts (planning.result), nested ones included, and nothing else."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.planning.result import AtGAB, ObjectRecord, PlaneRecord, Report3D, StabilityRecord
+    from ungrasp_ompl.scene.stability import analyse
+
+    scene = Scene.from_file(name)
+    stability = analyse(scene, [("start", scene.start), ("end", scene.start)]).to_dict()
+    assert _has_shape(scene.object3d.to_dict(), ObjectRecord) == []
+    assert _has_shape(scene.plane.to_dict(), PlaneRecord) == []
+    assert _has_shape(dict(zip("GAB", scene.mu)), AtGAB) == []
+    assert _has_shape(stability, StabilityRecord) == []
+    assert len(stability["roll_simulation"]) == 2
+    assert list(Report3D.__dataclass_fields__) == ["object", "manipulation_plane", "mu_eff", "stability_report"]

@@ -482,10 +482,10 @@ def _replay(setup, params, times):
             found[name] = (frame.T @ force, frame.T @ normal, np.mean(points, axis=0), mu)
         return t, pose, found
 
-    steps = max(1, round(setup.settle_time / model.opt.timestep))
+    steps = max(1, round(setup.sim.settle_time / model.opt.timestep))
     moving = steps // 2 if np.any(offset) else 0
     quat = T._palm_quats(palm[0][None])[0]
-    target = np.round((np.array([w for w in wanted if w < 0]) + setup.settle_time) / model.opt.timestep).astype(int)
+    target = np.round((np.array([w for w in wanted if w < 0]) + setup.sim.settle_time) / model.opt.timestep).astype(int)
     for i in range(steps):
         if i < moving:
             frac = (i + 1) / moving
@@ -493,14 +493,14 @@ def _replay(setup, params, times):
             data.mocap_pos[ids.palm_mocap], data.mocap_quat[ids.palm_mocap] = pos, quat
         mujoco.mj_step(model, data)
         if i + 1 in target:
-            yield look((i + 1) * model.opt.timestep - setup.settle_time)
+            yield look((i + 1) * model.opt.timestep - setup.sim.settle_time)
     period = float(drive.times[1] - drive.times[0])
     substeps = max(1, round(period / spec.timestep))
     later = [w for w in wanted if w >= 0]
     for k in range(1, len(drive.times)):
         if not later:
             return
-        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
+        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.servo_squeeze, 0.0)
         T._move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         t = float(drive.times[k])
         if t >= later[0] - 1e-9:

@@ -295,17 +295,139 @@ class Diagnostics:
     """The start's friction margin with every contact sticking, deg."""
 
 
+class TargetRecord(TypedDict):
+    """Where the object is to lie (scene.options.Object3D's target)."""
+
+    position: list[float]  #: (x, y) of the object's frame on the table, world, m
+    yaw_rad: float  #: its turn about the vertical, rad
+
+
+class ObjectRecord(TypedDict):
+    """Report3D.object: the object with an outline (scene.options.Object3D.to_dict)."""
+
+    outline: list[list[float]]  #: the outline's vertices (N, 2), the object's frame, m
+    thickness_m: float  #: m
+    target: TargetRecord
+
+
+class AtGB(TypedDict):
+    """A figure at G and at B (its unit is the field's that holds it)."""
+
+    G: float
+    B: float
+
+
+class AtGAB(TypedDict):
+    """A figure at G, A and B (its unit is the field's that holds it)."""
+
+    G: float
+    A: float
+    B: float
+
+
+class TouchedFrom(TypedDict):
+    """How far from a contact the table or the thumb's face first touches the outline (m)."""
+
+    along: float  #: along the face's push, m
+    across: float  #: across it, m
+
+
+class OutlineContact(TypedDict):
+    """G or B on the outline (geometry.plane.ContactPoint.to_dict)."""
+
+    kind: str  #: 'corner', 'edge' or 'smooth'
+    radius_m: float | None  #: the outline's radius of curvature there (m); None on a straight side
+    edge_contact: bool  #: a straight side square to GB: a segment contact that holds x-moments
+    point: list[float]  #: (x, y) in the object's frame, m
+    touched_from_m: TouchedFrom
+    span_m: list[float]  #: how far a straight side reaches across GB each way (right, left of the push), m
+
+
+class FingerContact(TypedDict):
+    """A, the finger's tip on the object (scene.stability.analyse)."""
+
+    kind: str  #: 'flat finger tip' or 'rounded finger tip'
+    radius_m: None  #: the outline's radius is G's and B's only
+    edge_contact: bool  #: a flat tip: an edge across the object
+    point: None  #: A moves along GB: no one point
+
+
+class PlaneContacts(TypedDict):
+    """The manipulation plane's contacts on the outline."""
+
+    G: OutlineContact
+    B: OutlineContact
+
+
+class PlaneRecord(TypedDict):
+    """Report3D.manipulation_plane (geometry.plane.ManipulationPlane.to_dict)."""
+
+    G: list[float]  #: G, where the object touches the table, (x, y) in the object's frame, m
+    B: list[float]  #: B, where the thumb holds it, the same
+    length_m: float  #: l = |GB|, m
+    margin_rad: float  #: how far GB lies inside the friction cones at G and B, rad
+    mu_eff: AtGB  #: the plane's friction coefficients at G and B (dimensionless)
+    beta_rad: AtGB  #: the angle between GB and the outline's inward normal at G and B, rad
+    contacts: PlaneContacts
+    frame: list[list[float]]  #: 4x4, the plane's frame in the world with the object at its target (m)
+    fixed_by_user: bool  #: the scene's contacts chose G and B
+
+
+class StabilityContacts(TypedDict):
+    """The grasp's three contacts (scene.stability.StabilityReport.contacts)."""
+
+    G: OutlineContact
+    B: OutlineContact
+    A: FingerContact
+
+
+class XMoments(TypedDict):
+    """How the grasp holds the object against rolling about GB."""
+
+    mechanism: str  #: the mechanism in words
+    ok: bool  #: it holds
+
+
+class RestoringTilt(TypedDict):
+    """The tilts about GB (deg) from which the prism rolls back, each way: (low, high), or None."""
+
+    positive: list[float] | tuple[float, float] | None
+    negative: list[float] | tuple[float, float] | None
+
+
+class RollRecord(TypedDict):
+    """The prism's roll about GB simulated at one state (scene.stability.RollReport.to_dict)."""
+
+    label: str  #: 'start' or 'end'
+    state: list[float]  #: (theta rad, d over l, psi rad)
+    self_restoring: bool  #: it rolls back from any tilt up to max_tilt_deg
+    restoring_tilt_deg: RestoringTilt
+    max_tilt_deg: float  #: the largest tilt simulated, deg
+    across_support_m: float | None  #: A's distance inside the supports across the plane (m); None: no such support
+
+
+class StabilityRecord(TypedDict):
+    """Report3D.stability_report (scene.stability.StabilityReport.to_dict)."""
+
+    contacts: StabilityContacts
+    edge_contacts: list[str]  #: the contacts ('G', 'A', 'B') that are edge contacts
+    x_moments: XMoments
+    roll_simulation: list[RollRecord]
+    self_restoring: bool  #: the prism rolls back at every state simulated
+
+
 @dataclass(frozen=True)
 class Report3D:
-    """What a plan of a scene with an outline says in 3D (JSON types, as plan.json holds them)."""
+    """What a plan of a scene with an outline says in 3D (JSON types, as plan.json holds them;
+    docs/plan-json.md). Each field's keys and units are its TypedDict's."""
 
-    object: dict
+    object: ObjectRecord
     """The outline, thickness and target pose."""
-    manipulation_plane: dict
+    manipulation_plane: PlaneRecord
     """G, B, the friction margin, the effective friction, the frame in the world."""
-    mu_eff: dict
-    """The friction used in the plane at G, A and B."""
-    stability_report: dict
+    mu_eff: AtGAB
+    """The friction coefficients used in the plane at G, A and B (dimensionless)."""
+    stability_report: StabilityRecord
     """The contacts, how x-moments are held, the prism roll at the start and the end."""
 
 

@@ -20,7 +20,7 @@ from time import perf_counter
 from dataclasses import dataclass, replace
 from functools import cached_property
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 from enum import Enum
 
 import numpy as np
@@ -43,8 +43,8 @@ from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
 from .predicted_landing import predict_landing
-from .result import (Diagnostics, GoalEmpty, HoldableMap, Plan, PlanOutcome, Report3D, Solution, StartNotHeld,
-                     StoppedBy, friction_record, merge_legs, sequence_cost)
+from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, Plan, PlanOutcome, PlaneRecord, Report3D,
+                     Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record, merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -648,9 +648,12 @@ def with_3d_report(scene: Scene, result: Plan) -> Plan:
         states.append(("end", np.array(result.states[-1])))
     report = analyse(scene, states)
     steps = [replace(p, x_moments=report.x_mechanism) for p in result.primitives]
+    mu_g, mu_a, mu_b = scene.mu
+    # the lower floors' to_dict give plan.json's mappings; their shapes are planning.result's TypedDicts
     return replace(result, solution=replace(result.solution, primitives=steps),
-                   report=Report3D(scene.object3d.to_dict(), scene.plane.to_dict(), dict(zip("GAB", scene.mu)),
-                                   report.to_dict()))
+                   report=Report3D(cast(ObjectRecord, scene.object3d.to_dict()),
+                                   cast(PlaneRecord, scene.plane.to_dict()), AtGAB(G=mu_g, A=mu_a, B=mu_b),
+                                   cast(StabilityRecord, report.to_dict())))
 
 
 def _plan_in_child(scene: Scene, opts: PlannerOptions, deadline: float | None = None) -> Plan:

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from ..scene.perturbation import TrialParams
 from .outcome import TrialResult
-from .trial import Judge, StillWindow, TrialSetup, _pose, _start, _Tick, moving
+from .trial import DIGIT_KINDS, Judge, StillWindow, Touch, TrialSetup, _pose, _start, _Tick, moving, read_contacts
 from .world_description import describe
 
 
@@ -52,7 +52,7 @@ def _schedule(setup: TrialSetup, palm: NDArray, offset: NDArray, dt: float):
     times (M,), palm poses (M, 4, 4), servo times (N,), servo commands (N,) m of opening, the
     drive's tick times (K,), the settling's end)."""
     drive = setup.drive
-    settle = max(1, round(setup.settle_time / dt))
+    settle = max(1, round(setup.sim.settle_time / dt))
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / dt))
     raised = palm[0].copy()
@@ -65,10 +65,10 @@ def _schedule(setup: TrialSetup, palm: NDArray, offset: NDArray, dt: float):
     ticks = t0 + np.arange(len(drive.times)) * substeps * dt
     times += list(ticks[1:])
     poses += list(palm[1:])
-    end = ticks[-1] + setup.rest_time
+    end = ticks[-1] + setup.sim.rest_time
     times.append(end + 1.0)
     poses.append(palm[-1])
-    command = np.clip(drive.opening - setup.squeeze, 0.0, setup.spec.gripper.max_opening)
+    command = np.clip(drive.opening - setup.servo_squeeze, 0.0, setup.spec.gripper.max_opening)
     # the servo's command over a tick is the tick's (MuJoCo's trial sets it as the tick begins)
     servo_times = np.concatenate([[0.0], ticks[:-1], [end + 1.0]])
     servo = np.concatenate([[command[0]], command[1:], [command[-1]]])
@@ -125,10 +125,10 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
                 break
         judge.tick(k, t, look, frame)
     if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
-        simulator.AdvanceTo(simulator.get_context().get_time() + setup.rest_time)
+        simulator.AdvanceTo(simulator.get_context().get_time() + setup.sim.rest_time)
     final = _body_pose(plant, ctx, obj)
     if record is not None:
-        record.append((float(drive.times[-1]) + setup.rest_time, final))
+        record.append((float(drive.times[-1]) + setup.sim.rest_time, final))
     result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall, [],
                           probed)
     return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
@@ -190,10 +190,8 @@ def _body_pose(plant, ctx, body) -> NDArray[np.float64]:
 
 class _DrakeWatch:
     """The object's contacts at a control tick, from Drake's contact results, as the verdict reads
-    them (sim.trial._Tick; MuJoCo's trial reads its own with sim.trial._Watch): who touches the
+    them (sim.trial.read_contacts, which MuJoCo's sim.trial._Watch feeds too): who touches the
     object, with what normal force, where, and how deep; whether a digit touches the table."""
-
-    DIGITS = ("thumb", "finger", "finger_tip")
 
     def __init__(self, dw):
         self.dw = dw
@@ -207,9 +205,9 @@ class _DrakeWatch:
         self._forces: dict[str, NDArray[np.float64]] = {}
         self._forces_time: float | None = None
 
-    def _contacts(self):
-        """(kind of the other geometry, normal force N, points (n, 3) world, depth m or None) of
-        each contact of the object now, and the digits' contacts with the table (kind, force)."""
+    def _contacts(self) -> tuple[list[Touch], list[float]]:
+        """The object's contacts now (Touches: their depth None where a hydroelastic patch leaves it
+        to _depth), and the normal force (N) of each contact of a digit with the table."""
         t = self.ctx.get_time()
         if self._time == t:
             return self._results
@@ -222,8 +220,8 @@ class _DrakeWatch:
             force = abs(float(info.contact_force() @ pair.nhat_BA_W))
             if "object" in (a, b):
                 other = b if a == "object" else a
-                mine.append((other, force, np.asarray(info.contact_point())[None, :], float(pair.depth)))
-            elif "table" in (a, b) and (b if a == "table" else a) in self.DIGITS:
+                mine.append(Touch(other, force, np.asarray(info.contact_point())[None, :], float(pair.depth)))
+            elif "table" in (a, b) and (b if a == "table" else a) in DIGIT_KINDS:
                 table.append(force)
         for i in range(results.num_hydroelastic_contacts()):
             info = results.hydroelastic_contact_info(i)
@@ -240,8 +238,8 @@ class _DrakeWatch:
                 points = np.array([mesh.vertex(v) for v in range(mesh.num_vertices())])
             if "object" in (a, b):
                 other = b if a == "object" else a
-                mine.append((other, force, points, None))
-            elif "table" in (a, b) and (b if a == "table" else a) in self.DIGITS:
+                mine.append(Touch(other, force, points, None))
+            elif "table" in (a, b) and (b if a == "table" else a) in DIGIT_KINDS:
                 table.append(force)
         self._time, self._results = t, (mine, table)
         return mine, table
@@ -271,61 +269,29 @@ class _DrakeWatch:
         return out
 
     def digit_touches_object(self) -> bool:
-        return any(kind in self.DIGITS for kind, *_ in self._contacts()[0])
+        return any(touch.kind in DIGIT_KINDS for touch in self._contacts()[0])
 
-    def _depth(self, kind: str, depth: float | None) -> float:
-        """How deep the object reaches into the other geometry (m): a point contact's depth; into
-        the table, its lowest vertex's; into a digit's face, their signed distance."""
-        if depth is not None:
-            return depth
-        if kind == "table":
+    def _depth(self, touch: Touch) -> float:
+        """How deep the object reaches into the other geometry of a hydroelastic contact (m): into
+        the table, its lowest vertex's depth; into a digit's face, their signed distance."""
+        if touch.kind == "table":
             pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["object"]).GetAsMatrix4()
             low = float(np.min(self.vertices @ pose[:3, :3].T[:, 2] + pose[2, 3]))
             return max(0.0, self.table_height - low)
         query = self.dw.scene_graph.get_query_output_port().Eval(self.dw.scene_graph.GetMyContextFromRoot(
             self.dw.simulator.get_context()))
-        gid = next(g for g, k in self.kind.items() if k == kind)
+        gid = next(g for g, k in self.kind.items() if k == touch.kind)
         return max(0.0, -query.ComputeSignedDistancePairClosestPoints(self.object_id, gid).distance)
 
+    def _frame(self, name: str) -> tuple[NDArray, NDArray]:
+        """A body's orientation (3, 3) and origin (3,) now (world)."""
+        pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies[name])
+        return pose.rotation().matrix(), pose.translation()
+
     def look(self, b_point: NDArray) -> _Tick:
-        tick = _Tick()
-        mine, table = self._contacts()
-        if table:
-            tick.digit_on_table = True
-            tick.table_push = max(table)
-        if not mine:
-            return tick
-        tick.touched = True
-        pressing_a, pressing_b = [], []
-        for kind, force, points, depth in mine:
-            if kind == "solid":
-                tick.solid = True
-            if kind not in ("table", "thumb", "finger", "finger_tip"):
-                continue
-            tick.sinking = max(tick.sinking, self._depth(kind, depth))
-            if kind == "table":
-                continue
-            if kind == "thumb":
-                tick.b = True
-                if force > 0:
-                    pressing_b.append(points)
-                continue
-            tick.a = True
-            if kind == "finger_tip":
-                tick.on_dome += force
-            else:
-                tick.off_dome += force
-            if force > 0:
-                pressing_a.append(points)
-        if pressing_a and pressing_b:
-            finger = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["finger"])
-            axis, origin = finger.rotation().matrix()[:, 2], finger.translation()
-            points = np.vstack(pressing_a)
-            tick.a_point = points[int(np.argmax((points - origin) @ axis))].copy()
-            tick.b_points = np.vstack(pressing_b)
-            pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["object"])
-            tick.b_end = pose.rotation().matrix() @ b_point + pose.translation()
-        return tick
+        """What the object's contacts are now, and whether a digit touches the table (read_contacts)."""
+        touches, table = self._contacts()
+        return read_contacts(touches, table, self._frame, b_point, self._depth)
 
 
 def settle_object(spec, pose: NDArray, duration: float, time_step: float | None = None,

@@ -27,7 +27,7 @@ each contact pair's model chosen by what it is (docs/model.md 11.19).
 Friction: Drake combines a pair's two coefficients as 2 mu1 mu2 / (mu1 + mu2) (for point and
 hydroelastic contact alike), where MuJoCo takes the larger. The object's geometry gets
 OBJECT_FRICTION and every other geometry the coefficient that makes the combination its pair's
-coefficient with the object (pair_friction): mu OBJECT_FRICTION / (2 OBJECT_FRICTION - mu). SAP uses
+coefficient with the object (geometry_friction): mu OBJECT_FRICTION / (2 OBJECT_FRICTION - mu). SAP uses
 the dynamic coefficient; the static one is set equal. A digit on the table (a failure whatever its
 friction) then has 2 a b / (a + b) of the two geometries' values, not MuJoCo's larger coefficient.
 """
@@ -44,7 +44,7 @@ from ..errors import ToolError
 from .world_description import Box, Geom, Mesh, Sphere, WorldDescription
 
 #: The coefficient the object's own geometry carries (any value above half the largest pair's
-#: coefficient serves: every other geometry's is solved from it, pair_friction).
+#: coefficient serves: every other geometry's is solved from it, geometry_friction).
 OBJECT_FRICTION = 1.0
 #: Point contact (the finger's dome on the object; a digit on the table): the pair's stiffness
 #: (N/m), the Hertz secant stiffness of a 1 mm PLA dome on celluloid at 5 N (docs/model.md 11.2:
@@ -83,7 +83,7 @@ PALM_DAMPING_RATIO = 1.0
 HAND_TURN_INERTIA = 0.6 * 0.1 ** 2
 
 
-def pair_friction(mu: float) -> float:
+def geometry_friction(mu: float) -> float:
     """The coefficient a geometry carries so that Drake's combination with the object's
     OBJECT_FRICTION, 2 a b / (a + b), gives the pair's mu."""
     return mu * OBJECT_FRICTION / (2.0 * OBJECT_FRICTION - mu)
@@ -234,7 +234,7 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
 def _add_table(drake, plant, world: WorldDescription, geoms: dict) -> None:
     """The table, a compliant half space at its height, and the fixed solids (point contact)."""
     table = drake.ProximityProperties()
-    mu_table = pair_friction(world.table_friction)
+    mu_table = geometry_friction(world.table_friction)
     drake.AddContactMaterial(None, 2 * POINT_STIFFNESS, drake.CoulombFriction(mu_table, mu_table), table)
     table.AddProperty("material", "relaxation_time", TABLE_RELAXATION_TIME)
     drake.AddCompliantHydroelasticPropertiesForHalfSpace(TABLE_SLAB, TABLE_MODULUS, table)
@@ -244,7 +244,7 @@ def _add_table(drake, plant, world: WorldDescription, geoms: dict) -> None:
     for solid in world.solids:
         shape, pose = _shape(drake, solid)
         gid = plant.RegisterCollisionGeometry(plant.world_body(), pose, shape, solid.name,
-                                              _properties(drake, solid, pair_friction(solid.friction), None))
+                                              _properties(drake, solid, geometry_friction(solid.friction), None))
         geoms[gid] = "solid"
 
 
@@ -299,7 +299,7 @@ def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
         for geom in digit.geoms:
             shape, pose = _shape(drake, geom)
             gid = plant.RegisterCollisionGeometry(body, pose, shape, geom.name, _properties(
-                drake, geom, pair_friction(geom.friction), None))
+                drake, geom, geometry_friction(geom.friction), None))
             geoms[gid] = geom.name
         bodies[jaw.name + "_jaw"], bodies[digit.name] = carriage, body
     plant.AddCouplerConstraint(jaw_joints["thumb"], jaw_joints["finger"], -1.0, 0.0)

@@ -28,8 +28,8 @@ What is dynamic and what is kinematic:
   object without dragging it, its friction only braking the object's own motion (docs/model.md
   section 11.13);
 
-Friction: each contact pair has the scene's physical coefficient (table-object mu_G,
-finger-object mu_A, thumb-object mu_B; walls and pieces already down mu_G), never more. The
+Friction: each contact pair has the scene's physical coefficient (sim.spec.PairFriction: table-object
+mu_G, finger-object mu_A, thumb-object mu_B; walls and pieces already down mu_G), never more. The
 object's own geom has friction 0, so MuJoCo's rule (the larger of the two geoms' values)
 gives each pair the value of the other geom. Contacts use elliptic (Coulomb) cones with
 sliding friction only (condim 3).

@@ -67,7 +67,7 @@ def record_trial(setup: TrialSetup, params: TrialParams, start_time: float, tria
     if campaign is not None:
         same_time = np.asarray(result.final_pose)
         if campaign.sim_time_s < result.sim_time_s:  # the campaign stopped at the failure: its pose then
-            drive_time = campaign.sim_time_s - setup.settle_time  # the record's times start after the settling
+            drive_time = campaign.sim_time_s - setup.sim.settle_time  # the record's times start after the settling
             same_time = poses[int(np.argmin(np.abs(times - start_time - drive_time)))]
         diff = float(np.max(np.abs(np.asarray(campaign.final_pose, dtype=float)[:3, 3] - same_time[:3, 3])))
     return TrialPoses(times[keep], poses[keep], np.asarray(spec.obj.outline, dtype=float), float(spec.obj.thickness),

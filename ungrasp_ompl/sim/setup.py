@@ -19,7 +19,7 @@ from ..robot.placement import plane_points
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from .drive import drive_from_trajectory
-from .spec import Friction, GripperGeometry, SimModelSpec, SimObject, curved_solid
+from .spec import GripperGeometry, PairFriction, SimModelSpec, SimObject, curved_solid
 from .trial import PlannedTravel, TrialSetup
 
 
@@ -109,18 +109,17 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     opts = scene.sim
     frame = scene.plane_frame()
     l = scene.object_length
-    mu_g, mu_a, mu_b = scene.mu_contacts
     thickness = variant.thickness if variant.thickness is not None else scene.object_thickness
     turned = scene.object3d is not None and scene.plane is not None  # a round object's section turns about its axis
     obj = SimObject(object_outline(scene), thickness, opts.density,
                     curved_solid(scene.digits.section, l, scene.digits.width * l, turned))
-    # a pincer's servo is on its joint: its torque limit gives the pinch at the joint radius, and the
-    # squeeze (m at the fingertip) is commanded as the angle that turns the fingertip that far
+    # a pincer's servo is on its joint: its torque limit gives the pinch at the joint radius (the
+    # squeeze, m at the fingertip, is commanded as the angle that turns the fingertip that far:
+    # TrialSetup.servo_squeeze)
     links = robot.pincer
     grip_force = opts.grip_force if links is None else links.pinch_force
-    squeeze = opts.squeeze if links is None else opts.squeeze / links.radius
     spec = SimModelSpec(obj=obj, gripper=gripper_geometry(scene, robot, variant.equal_digits),
-                        friction=Friction(table=mu_g, finger=mu_a, thumb=mu_b, solids=mu_g),
+                        friction=PairFriction.from_contacts(scene.mu_contacts),
                         solids=tuple((s.name, np.asarray(s.vertices)) for s in scene.solids),
                         placed=placed, timestep=opts.timestep, grip_force=grip_force,
                         servo_stiffness=2 * grip_force / opts.squeeze)
@@ -128,6 +127,5 @@ def trial_setup(scene: Scene, plan: Plan, trajectory: JointTrajectory, robot: Ro
     return TrialSetup(spec=spec, drive=drive_from_trajectory(trajectory, robot, prefix),
                       start_pose=tilted(aimed_frame(scene, aim), theta0), target_pose=frame.copy(),
                       grasp_point=np.array([(1.0 - d0) * l, 0.0, thickness]), b_point=np.array([l, 0.0, 0.0]),
-                      squeeze=squeeze, settle_time=opts.settle_time, rest_time=opts.rest_time,
-                      max_error=opts.max_error, planned=planned_travel(scene, plan), handed_over=opts.handed_over,
-                      touch_off=scene.robot.touch_off, aim=Aim(*map(float, aim)))
+                      sim=opts, planned=planned_travel(scene, plan), touch_off=scene.robot.touch_off,
+                      aim=Aim(*map(float, aim)))

@@ -110,13 +110,28 @@ class SimObject:
 
 
 @dataclass(frozen=True)
-class Friction:
-    """Coulomb coefficients per contact pair, as the simulator uses them."""
+class PairFriction:
+    """The Coulomb coefficient of each pair of bodies the object makes, as the simulator uses them
+    (dimensionless).
+
+    From the scene's friction: its physical coefficients at G, A and B (Scene.mu_contacts, the
+    YAML's friction before the manipulation plane reduces G and B), one per pair: the table's is
+    mu_G, the finger's mu_A, the thumb's mu_B, and the walls' and pieces' already down mu_G, as the
+    table's (from_contacts). The planner's value of the same friction is
+    mechanics.force_closure.Friction: the plane's coefficients (G and B reduced where GB meets the
+    outline off its normal) with their range; the simulator has no plane and uses the physical ones.
+    A trial scales them by its drawn errors and its world's factors (sim.trial.trial_spec)."""
 
     table: float  #: object on the table (the scene's mu_G)
     finger: float  #: object on the finger (mu_A)
     thumb: float  #: object on the thumb (mu_B)
     solids: float  #: object on walls and pieces already down (mu_G)
+
+    @classmethod
+    def from_contacts(cls, mu_contacts: tuple[float, float, float]) -> "PairFriction":
+        """The pairs' coefficients from the physical coefficients at G, A and B (Scene.mu_contacts)."""
+        mu_g, mu_a, mu_b = (float(m) for m in mu_contacts)
+        return cls(table=mu_g, finger=mu_a, thumb=mu_b, solids=mu_g)
 
 
 @dataclass(frozen=True)
@@ -125,7 +140,7 @@ class SimModelSpec:
 
     obj: SimObject
     gripper: GripperGeometry
-    friction: Friction
+    friction: PairFriction  #: the Coulomb coefficient of each pair the object makes
     solids: tuple[tuple[str, NDArray[np.float64]], ...] = ()  #: (name, world vertices (N, 3)) convex bodies
     placed: tuple[tuple[str, SimObject, NDArray[np.float64]], ...] = ()  #: free objects already down: name, object, 4x4 pose
     timestep: float = 0.0001  #: s

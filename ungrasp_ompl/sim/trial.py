@@ -25,6 +25,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +37,7 @@ from .world import World
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from .probe import TouchOffProbe, calibrate, noise_sequence, periods_within, probing
 from ..mechanics.kinematics import GRAVITY
+from ..scene.options import SimOptions
 from ..scene.perturbation import TrialParams
 from ..robot.pipeline import Aim
 from ..robot.touch_off import TouchOffOptions
@@ -79,39 +81,47 @@ class TrialSetup:
     start_pose: 4x4 world pose of the object's body frame at the plan's start state;
     target_pose: the same when the object lies at its target; grasp_point: the body-frame point
     (m) about which a perturbed grasp turns (A at the start); b_point: B in the body frame (m);
-    squeeze: how far inside the planned opening the servo is commanded (m); settle_time and
-    rest_time: s of stillness before the drive and after it; max_error: the largest placement
-    error (m) that counts as placed; planned: per primitive, how far the plan moves A and B;
-    handed_over: the object was set into the gripper at the start pose with its end on the table
-    (perturbed_start slides it down to the table instead of leaving it hanging); touch_off: the
-    set-up measured the table's height under the start pinch (robot.touch_off, touch_off_shift) and
-    runs the plan from what it found; aim: how the hand's motion is moved from the plan's frame
-    (robot.pipeline.Aim), by which the robot corrects the landing (sim.landing), the target staying
-    where it is; world: how the world the trials run in differs from the scene's (sim.world), which
-    neither the plan nor its aim sees; max_contact_gap: the longest A or B may be absent before
-    the termination (s, Grip), inf for the rule that let one contact part for any time;
-    friction_draw_in_world: a pair's drawn friction error applies on top of the world's factor for
-    that pair (the compounding rule, for comparison; by default a world that sets a pair's
-    friction fixes it, docs/decisions/0100-a-world-fixes-its-friction.md).
+    sim: the scene's simulation options, whole (scene.options.SimOptions: sim.squeeze, m at the
+    fingertip; sim.settle_time and sim.rest_time, s of stillness before the drive and after it;
+    sim.max_error, m, the largest placement error that counts as placed; sim.handed_over: the
+    object was set into the gripper at the start pose with its end on the table, so that
+    perturbed_start slides it down to the table instead of leaving it hanging); the servo's own
+    command is servo_squeeze, derived from sim.squeeze and the gripper (a pincer's is an angle);
+    the world built from sim (its timestep, density and grip force) is spec's, which the engines read;
+    planned: per primitive, how far the plan moves A and B; touch_off: the set-up measured the
+    table's height under the start pinch (robot.touch_off, touch_off_shift) and runs the plan from
+    what it found; aim: how the hand's motion is moved from the plan's frame (robot.pipeline.Aim),
+    by which the robot corrects the landing (sim.landing), the target staying where it is; world:
+    how the world the trials run in differs from the scene's (sim.world), which neither the plan
+    nor its aim sees; max_contact_gap: the longest A or B may be absent before the termination (s,
+    Grip), inf for the rule that let one contact part for any time; friction_draw_in_world: a
+    pair's drawn friction error applies on top of the world's factor for that pair (the
+    compounding rule, for comparison; by default a world that sets a pair's friction fixes it,
+    docs/decisions/0100-a-world-fixes-its-friction.md).
     """
 
-    spec: SimModelSpec
-    drive: GripperDrive
-    start_pose: NDArray[np.float64]
-    target_pose: NDArray[np.float64]
-    grasp_point: NDArray[np.float64]
-    b_point: NDArray[np.float64]
-    squeeze: float = 0.001
-    settle_time: float = 0.3
-    rest_time: float = 0.5
-    max_error: float = 0.003
-    planned: tuple[PlannedTravel, ...] = ()
-    handed_over: bool = False
-    touch_off: bool = False
-    aim: Aim = Aim()
-    world: World = World()
-    max_contact_gap: float = MAX_CONTACT_GAP
-    friction_draw_in_world: bool = False
+    spec: SimModelSpec  #: the trial's world as the engines build it (m, kg, s)
+    drive: GripperDrive  #: the palm's poses and the openings at the control ticks (s, m)
+    start_pose: NDArray[np.float64]  #: 4x4, the object's world pose at the plan's start (m)
+    target_pose: NDArray[np.float64]  #: 4x4, the same at its target (m)
+    grasp_point: NDArray[np.float64]  #: (3,), where a perturbed grasp turns, body frame (m)
+    b_point: NDArray[np.float64]  #: (3,), B in the body frame (m)
+    sim: SimOptions = SimOptions()  #: the scene's simulation options (m, s; see the class's docstring)
+    planned: tuple[PlannedTravel, ...] = ()  #: per primitive, how far the plan moves A and B (m)
+    touch_off: bool = False  #: the set-up touches the table off under the start pinch first
+    aim: Aim = Aim()  #: how the hand's motion is moved from the plan's frame (m, rad)
+    world: World = World()  #: how the trials' world differs from the scene's
+    max_contact_gap: float = MAX_CONTACT_GAP  #: the longest A or B may be absent before the termination (s)
+    friction_draw_in_world: bool = False  #: a drawn friction error compounds with the world's factor
+
+    @property
+    def servo_squeeze(self) -> float:
+        """How far inside the planned opening the servo is commanded, in the drive's opening's unit:
+        sim.squeeze (m) for jaws that slide; for a pincer (spec.gripper.hinge) the joint angle (rad)
+        that turns the fingertip that far, sim.squeeze over the hinge's radius. Derived, not stored,
+        so that it always matches sim and the gripper."""
+        hinge = self.spec.gripper.hinge
+        return self.sim.squeeze if hinge is None else self.sim.squeeze / hinge.radius
 
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
@@ -197,7 +207,7 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float,
     reach into the table, the pose is raised straight up until it touches it, and the depth it
     reached is the lowering: the hand starts as much higher, holding the object as it was told to
     (touch_down lowers both). Where the prism would stay above the table, it hangs there, unless
-    the object was handed over (setup.handed_over): it is then slid along GB toward G in the pinch
+    the object was handed over (setup.sim.handed_over): it is then slid along GB toward G in the pinch
     until its lowest corner touches the table (docs/model.md 11.3), if it is tilted enough to reach
     it so; the lowering is then 0."""
     local = np.eye(4)
@@ -210,7 +220,7 @@ def perturbed_start(setup: TrialSetup, params: TrialParams, thickness: float,
     corners = np.vstack([np.column_stack([outline, np.full(len(outline), z)]) for z in (0.0, thickness)])
     gap = float(np.min((corners @ pose[:3, :3].T + pose[:3, 3])[:, 2])) - params.table_height_mm / 1000
     rise = float(pose[2, 0])  # the height gained per metre along GB (body x, from G to B): sin of the tilt
-    if setup.handed_over and gap > 0.0 and rise >= SLIDE_MIN_RISE:
+    if setup.sim.handed_over and gap > 0.0 and rise >= SLIDE_MIN_RISE:
         pose[:3, 3] -= pose[:3, 0] * (gap / rise)
     lowering = max(-gap, 0.0)
     pose[2, 3] += lowering
@@ -304,29 +314,97 @@ class Stillness(StillWindow):
         return self.note(t, moving(data.qvel[self.dofs].reshape(-1, 6)), touched)
 
 
-#: What a geom is to the watch: nothing it follows, the finger's body, its dome, the thumb, a wall or piece, the table.
-_OTHER, _FINGER, _DOME, _THUMB, _SOLID, _TABLE = range(6)
+#: The digits' bodies as both engines' contact readers name them (Touch.kind): a rounded finger's
+#: dome ('finger_tip') apart from the rest of the finger.
+DIGIT_KINDS = ("thumb", "finger", "finger_tip")
+
+
+class Touch(NamedTuple):
+    """One contact of the object as an engine reports it (read_contacts reads it)."""
+
+    #: what touches the object: 'table', 'solid' (a wall or a piece down) or one of DIGIT_KINDS; any other is not followed
+    kind: str | None
+    force: float  #: its normal force (N)
+    points: NDArray  #: where it touches (n, 3), world frame, m
+    #: how deep the object reaches into the other body (m); None: read_contacts' depth_of tells it
+    depth: float | None
+
+
+def read_contacts(touches: list[Touch], table_pushes: list[float], frame: Callable[[str], tuple[NDArray, NDArray]],
+                  b_point: NDArray, depth_of: Callable[[Touch], float] | None = None) -> _Tick:
+    """The object's contacts at one control tick (a _Tick) from what an engine reports: touches,
+    the object's contacts; table_pushes, the normal force (N) of each contact of a digit with the
+    table; frame(name), the orientation (3, 3) and origin (3,) of the body 'object' or 'finger'
+    now (world); b_point, B in the object's body frame (m); depth_of(touch), a contact's depth (m)
+    where the engine left it None. A is the finger's pressing contact point nearest its tip (the
+    farthest along the finger's axis); B is recorded as the thumb's pressing contact points and
+    the object's end (where a face lies along the object, psi near 0, an engine spreads the
+    contact over the corners of the overlap, and the plan's B is the end: _Travel reduces them).
+    Engine-free: MuJoCo's trial (_Watch) and Drake's (sim.drake_trial._DrakeWatch) read their
+    engines' contacts into Touches, and the rule that sorts them is this one."""
+    tick = _Tick()
+    if table_pushes:
+        tick.digit_on_table = True
+        tick.table_push = max([0.0, *table_pushes])
+    if not touches:
+        return tick
+    tick.touched = True
+    pressing_a, pressing_b = [], []
+    for touch in touches:
+        kind, force = touch.kind, touch.force
+        if kind == "solid":
+            tick.solid = True
+            continue
+        if kind != "table" and kind not in DIGIT_KINDS:
+            continue
+        tick.sinking = max(tick.sinking, touch.depth if touch.depth is not None else depth_of(touch))
+        if kind == "table":
+            continue
+        if kind == "thumb":
+            tick.b = True
+            if force > 0:
+                pressing_b.append(touch.points)
+            continue
+        tick.a = True
+        if kind == "finger_tip":
+            tick.on_dome += force
+        else:
+            tick.off_dome += force
+        if force > 0:
+            pressing_a.append(touch.points)
+    if pressing_a and pressing_b:
+        rot, origin = frame("finger")
+        axis, far = rot[:, 2], -math.inf
+        for points in pressing_a:
+            for p in points:
+                if (along := float((p - origin) @ axis)) > far:
+                    tick.a_point, far = p, along
+        tick.a_point = tick.a_point.copy()
+        tick.b_points = np.vstack(pressing_b)
+        rot, origin = frame("object")
+        tick.b_end = rot @ b_point + origin
+    return tick
 
 
 class _Watch:
-    """The object's contacts per control tick: who touches it, how deep, with what force, where.
-    One pass over MuJoCo's contact list as plain Python values: with a handful of contacts a
-    tick, numpy's per-call overhead would cost more than the arithmetic (a trial looks at
-    over a thousand ticks)."""
+    """The object's contacts per control tick from MuJoCo's contact list (read_contacts judges
+    them). One pass over the list as plain Python values: with a handful of contacts a tick,
+    numpy's per-call overhead would cost more than the arithmetic (a trial looks at over a
+    thousand ticks)."""
 
     def __init__(self, model, ids: ModelIds):
         import mujoco
 
         self.object = ids.object_geom
         self.table = ids.table_geom
-        kind = [_OTHER] * model.ngeom
+        kind: list[str | None] = [None] * model.ngeom
         for g in ids.finger_geoms:
-            kind[g] = _DOME if g == ids.finger_dome else _FINGER
+            kind[g] = "finger_tip" if g == ids.finger_dome else "finger"
         for g in ids.thumb_geoms:
-            kind[g] = _THUMB
+            kind[g] = "thumb"
         for g in ids.solid_geoms:
-            kind[g] = _SOLID
-        kind[ids.table_geom] = _TABLE
+            kind[g] = "solid"
+        kind[ids.table_geom] = "table"
         self.kind = kind
         # a contact's normal force: its first constraint row under elliptic cones; under pyramidal
         # ones the sum of its 2 (condim - 1) edge forces (each edge is the normal plus mu times a
@@ -340,56 +418,23 @@ class _Watch:
         return float(force[adr]) if self.rows == 1 else float(force[adr:adr + self.rows].sum())
 
     def look(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick:
-        """What the object's contacts are now, and whether a digit touches the table. A is the
-        finger's contact nearest its tip; B is where the thumb's contact region (the hull of its
-        contact points) comes nearest the object's end: where a face lies along the object (psi
-        near 0) MuJoCo spreads the contact over the corners of the overlap, and the plan's B is
-        the end."""
-        tick = _Tick()
+        """What the object's contacts are now, and whether a digit touches the table (read_contacts)."""
         if data.ncon == 0:
-            return tick
+            return _Tick()
         con, kind, obj, table = data.contact, self.kind, self.object, self.table
-        mine = []
+        dist, adr, force, pos = con.dist.tolist(), con.efc_address.tolist(), data.efc_force, con.pos
+        touches, pushes = [], []
         for i, (g1, g2) in enumerate(con.geom.tolist()):
             if g1 == obj or g2 == obj:
-                mine.append((i, kind[g2 if g1 == obj else g1]))
-            elif (g1 == table or g2 == table) and _FINGER <= kind[g2 if g1 == table else g1] <= _THUMB:
-                tick.digit_on_table = True
-                tick.table_push = max(tick.table_push, self._normal(data.efc_force, int(con.efc_address[i])))
-        if not mine:
-            return tick
-        tick.touched = True
-        dist, adr, force = con.dist.tolist(), con.efc_address.tolist(), data.efc_force
-        pressing_a, pressing_b = [], []
-        for i, k in mine:
-            if k == _SOLID:
-                tick.solid = True
-            if k in (_OTHER, _SOLID):
-                continue
-            tick.sinking = max(tick.sinking, -dist[i])
-            if k == _TABLE:
-                continue
-            f = self._normal(force, adr[i])
-            if k == _THUMB:
-                tick.b = True
-                if f > 0:
-                    pressing_b.append(i)
-                continue
-            tick.a = True
-            if k == _DOME:
-                tick.on_dome += f
-            else:
-                tick.off_dome += f
-            if f > 0:
-                pressing_a.append(i)
-        if pressing_a and pressing_b:
-            pos = con.pos
-            axis, origin = data.xmat[finger_body].reshape(3, 3)[:, 2], data.xpos[finger_body]
-            along = [float((pos[i] - origin) @ axis) for i in pressing_a]
-            tick.a_point = pos[pressing_a[along.index(max(along))]].copy()
-            tick.b_points = pos[pressing_b]
-            tick.b_end = data.xmat[object_body].reshape(3, 3) @ b_point + data.xpos[object_body]
-        return tick
+                touches.append(Touch(kind[g2 if g1 == obj else g1], self._normal(force, adr[i]), pos[i:i + 1], -dist[i]))
+            elif (g1 == table or g2 == table) and kind[g2 if g1 == table else g1] in DIGIT_KINDS:
+                pushes.append(self._normal(force, adr[i]))
+        bodies = {"object": object_body, "finger": finger_body}
+
+        def frame(name: str) -> tuple[NDArray, NDArray]:
+            return data.xmat[bodies[name]].reshape(3, 3), data.xpos[bodies[name]]
+
+        return read_contacts(touches, pushes, frame, b_point)
 
 
 @dataclass
@@ -623,7 +668,7 @@ def _start(setup: TrialSetup, params: TrialParams, probed: list | None = None):
         offset += (drive.press_from if exact else error @ drive.press_from)[:3, 3] - palm[0][:3, 3]
     quat = np.zeros(4)
     obj_q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
-    data.ctrl[ids.actuator] = max(drive.opening[0] - setup.squeeze, 0.0)
+    data.ctrl[ids.actuator] = max(drive.opening[0] - setup.servo_squeeze, 0.0)
     while True:  # raised straight up, hand and object, until clear of the walls and pieces down
         raised = palm[0].copy()
         raised[:3, 3] += offset
@@ -678,7 +723,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     quats = _palm_quats(palm)
     period = float(drive.times[1] - drive.times[0]) if len(drive.times) > 1 else 0.002
     substeps = max(1, round(period / spec.timestep))
-    touch_down(model, data, ids, palm[0], offset, setup.settle_time)
+    touch_down(model, data, ids, palm[0], offset, setup.sim.settle_time)
     if record is not None:
         record.append((0.0, _pose(data, ids.object_body)))
 
@@ -698,7 +743,7 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     for k in range(1, len(drive.times)):
         if judge.lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
             break
-        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.squeeze, 0.0)
+        data.ctrl[ids.actuator] = max(drive.opening[k] - setup.servo_squeeze, 0.0)
         _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         t = float(drive.times[k])
         if record is not None:
@@ -708,11 +753,11 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
             break
         judge.tick(k, t, look, frame)
     if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
-        mujoco.mj_step(model, data, nstep=max(1, round(setup.rest_time / spec.timestep)))
+        mujoco.mj_step(model, data, nstep=max(1, round(setup.sim.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
     if record is not None:
-        record.append((float(drive.times[-1]) + setup.rest_time, final))
+        record.append((float(drive.times[-1]) + setup.sim.rest_time, final))
     others = [_pose(data, body).tolist() for body in ids.placed_bodies]
     return judge.result(final, look, params, trial, seed, float(data.time), wall, others, probed)
 
@@ -786,14 +831,14 @@ class Judge:
         setup, drive = self.setup, self.setup.drive
         failure, lost = self.failure, self.lost
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
-        pos_err, yaw_err = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
+        off_m, yaw_err = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
         if lost is None:  # the checks after the retreat, which both verdicts make
             now = look()
             if tilt > FLAT_TILT_DEG:
                 lost = (Outcome.HIT_SOLID if now.solid else Outcome.NOT_FLAT, float(drive.times[-1]))
             elif now.a or now.b:
                 lost = (Outcome.DIGIT_TOUCHING, float(drive.times[-1]))
-            elif pos_err > setup.max_error * 1000:
+            elif off_m > setup.sim.max_error:
                 lost = (Outcome.OFF_TARGET, None)
             failure = failure or lost
         outcome, when = failure if failure is not None else (Outcome.SUCCESS, None)
@@ -801,7 +846,7 @@ class Judge:
         phase_index, phase = drive.phase_at(when) if when is not None else (None, None)
         dome, off_dome = self.dome, self.off_dome
         share = off_dome / (dome + off_dome) if setup.spec.gripper.finger_tip_radius > 0.0 and dome + off_dome > 0 else None
-        return TrialResult(outcome, paper, phase, phase_index, when, pos_err, yaw_err, tilt, self.roll, params.to_dict(),
+        return TrialResult(outcome, paper, phase, phase_index, when, off_m * 1000, yaw_err, tilt, self.roll, params.to_dict(),
                            trial, seed, sim_time, time.perf_counter() - wall, final.tolist(), others,
                            self.sinking * 1000, share, self.travel.travels(setup.planned), self.table_push,
                            self.grip.a_gap, self.grip.b_gap, **(probed[0].result_fields() if probed else {}))
@@ -856,7 +901,7 @@ def placement_turn(final: NDArray, target: NDArray) -> float:
 
 
 def _placement_error(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
-    """(mm, deg): the outline centroid's distance in the table's plane from its target's, and
+    """(m, deg): the outline centroid's distance in the table's plane from its target's, and
     the turn of the object's x axis about the vertical against the target's."""
-    err = float(np.linalg.norm(placement_offset(final, target, outline))) * 1000
+    err = float(np.linalg.norm(placement_offset(final, target, outline)))
     return err, abs(math.degrees(placement_turn(final, target)))

@@ -10,10 +10,10 @@ Palm frame: z from the palm toward the digits' tips, x across the gap (from the 
 finger), y along the digits' width (the manipulation plane's normal). Every geometry is given in
 its body's frame.
 
-Friction: ``friction`` of a geometry is the coefficient of its pair with the object (the scene's
-mu per pair); the object's own geometry carries none (MuJoCo takes the larger of a pair's two
-values, so a pair then has the other geometry's; Drake combines two values otherwise, which its
-builder accounts for).
+Friction: ``friction`` of a geometry is the coefficient of its pair with the object (the spec's
+sim.spec.PairFriction, the scene's mu per pair); the object's own geometry carries none (MuJoCo
+takes the larger of a pair's two values, so a pair then has the other geometry's; Drake combines
+two values otherwise, which its builder accounts for).
 """
 
 from __future__ import annotations
