@@ -16,7 +16,9 @@ from ungrasp_ompl.benchmark import BenchmarkOptions, SweepOptions, run_benchmark
 from ungrasp_ompl.benchmark.ranges import parse_alpha_range
 from ungrasp_ompl.benchmark.tasks import LATTICE, RunStatus, Task, run_task, run_tasks
 from ungrasp_ompl.errors import InputError
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.parallel.runner import LocalRunner
+from ungrasp_ompl.planning.setup import PlannerOptions
 from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.scene import Scene
 
@@ -28,7 +30,8 @@ PLANNERS = ["RRTstar", "RRTConnect", LATTICE]
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    result = run_benchmark([SCENE], BenchmarkOptions(planners=tuple(PLANNERS), runs=2, time=0.3, jobs=2, out=out))
+    result = run_benchmark([SCENE], BenchmarkOptions(planners=tuple(PLANNERS), runs=2, planner=PlannerOptions(time=0.3),
+                                                     run=RunOptions(jobs=2), out=out))
     return out, result
 
 
@@ -82,8 +85,9 @@ def test_margin_objective_bench_keeps_no_planner_above_the_lattice_bottleneck(tm
     """bench --objective margin: the lattice yardstick finds the widest path, and no planner's run,
     every one re-validated on the same lattice, keeps a larger smallest margin than it."""
     guitar = SCENES / "guitar_pick.yaml"
-    options = BenchmarkOptions(planners=("RRTstar", LATTICE), runs=2, time=0.3, jobs=2, iterations=6000,
-                               objective="margin", out=tmp_path / "b")
+    options = BenchmarkOptions(planners=("RRTstar", LATTICE), runs=2,
+                               planner=PlannerOptions(time=0.3, iterations=6000, objective="margin"),
+                               run=RunOptions(jobs=2), out=tmp_path / "b")
     result = run_benchmark([guitar], options)
     rows = {r.planner: r for r in result.summary}
     widest = rows[LATTICE].lattice_margin
@@ -106,8 +110,9 @@ def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
     from ungrasp_ompl.planning.setup import lattice_plan
 
     guitar = SCENES / "guitar_pick.yaml"
-    options = BenchmarkOptions(planners=("RRTstar",), runs=1, time=0.3, jobs=2, iterations=6000,
-                               objective="tolerance", out=tmp_path / "b")
+    options = BenchmarkOptions(planners=("RRTstar",), runs=1,
+                               planner=PlannerOptions(time=0.3, iterations=6000, objective="tolerance"),
+                               run=RunOptions(jobs=2), out=tmp_path / "b")
     result = run_benchmark([guitar], options)
     scene = Scene.from_file(guitar)
     (row,) = result.summary
@@ -121,7 +126,8 @@ def test_tolerance_objective_bench_reports_each_run_s_tolerance(tmp_path):
 
 
 def test_a_cost_only_planner_is_refused_a_robust_objective(tmp_path):
-    options = BenchmarkOptions(planners=("PRM",), runs=1, time=0.3, jobs=2, objective="margin", out=tmp_path / "o")
+    options = BenchmarkOptions(planners=("PRM",), runs=1, planner=PlannerOptions(time=0.3, objective="margin"),
+                               run=RunOptions(jobs=2), out=tmp_path / "o")
     with pytest.raises(InputError) as err:
         run_benchmark([SCENE], options)
     assert err.value.field == "objective" and "PRM" in err.value.reason
@@ -140,17 +146,20 @@ def test_plots_are_png(bench):
 def test_bad_planner_is_refused_before_running(tmp_path, planners, named):
     out = tmp_path / "out"
     with pytest.raises(InputError) as err:
-        run_benchmark([SCENE], BenchmarkOptions(planners=tuple(planners), runs=1, time=0.3, jobs=2, out=out))
+        run_benchmark([SCENE], BenchmarkOptions(planners=tuple(planners), runs=1, planner=PlannerOptions(time=0.3),
+                                                 run=RunOptions(jobs=2), out=out))
     assert err.value.field == "planners"
     assert named is None or named in err.value.reason  # the planner refused is named
     assert not out.exists()
 
 
-@pytest.mark.parametrize("kwargs, field", [(dict(runs=0), "runs"), (dict(time=-1.0), "time"),
-                                           (dict(jobs=0), "jobs"), (dict(iterations=0), "iterations"),
-                                           (dict(seed=-1), "seed")])
+@pytest.mark.parametrize("kwargs, field", [(dict(runs=0), "runs"), (dict(planner=PlannerOptions(time=-1.0)), "time"),
+                                           (dict(run=RunOptions(jobs=0)), "jobs"),
+                                           (dict(planner=PlannerOptions(time=0.3, iterations=0)), "iterations"),
+                                           (dict(run=RunOptions(seed=-1, jobs=2)), "seed")])
 def test_bad_options_are_refused(tmp_path, kwargs, field):
-    options = BenchmarkOptions(**(dict(planners=("RRTstar",), runs=1, time=0.3, jobs=2, out=tmp_path / "o") | kwargs))
+    good = dict(planners=("RRTstar",), runs=1, planner=PlannerOptions(time=0.3), run=RunOptions(jobs=2), out=tmp_path / "o")
+    options = BenchmarkOptions(**(good | kwargs))
     with pytest.raises(InputError) as err:
         run_benchmark([SCENE], options)
     assert err.value.field == field
@@ -184,7 +193,8 @@ def test_parse_alpha_range_errors(text):
 
 @pytest.mark.slow
 def test_sweep_over_alpha(tmp_path):
-    result = run_sweep(SCENE, SweepOptions(alphas=(0.0, 0.47), runs=1, time=0.3, jobs=2, out=tmp_path))
+    result = run_sweep(SCENE, SweepOptions(alphas=(0.0, 0.47), runs=1, planner=PlannerOptions(time=0.3),
+                                          run=RunOptions(jobs=2), out=tmp_path))
     equal, reference = result.points
     assert equal.alpha == 0.0 and not equal.lattice_reachable and equal.lattice_optimum is None
     assert equal.success_rate == 0.0 and equal.median_cost is None
@@ -200,7 +210,8 @@ def test_sweep_over_alpha(tmp_path):
 
 def test_sweep_refuses_a_bad_alpha(tmp_path):
     with pytest.raises(InputError) as err:
-        run_sweep(SCENE, SweepOptions(alphas=(1.5,), runs=1, time=0.3, jobs=2, out=tmp_path))
+        run_sweep(SCENE, SweepOptions(alphas=(1.5,), runs=1, planner=PlannerOptions(time=0.3), run=RunOptions(jobs=2),
+                                      out=tmp_path))
     assert err.value.field == "alphas"
 
 

@@ -406,11 +406,12 @@ def test_the_cage_workflow_returns_its_profile_as_values(tmp_path):
     escape energy, its smallest margin the plan's own, and write() puts both into cage.json."""
     import json
 
+    from ungrasp_ompl.planning import PlannerOptions
     from ungrasp_ompl.workflows.cage import CageOptions, cage_report
     from ungrasp_ompl.planning.path_margin import path_friction_margin
 
     scene = Scene.from_file("guitar_pick")
-    report = cage_report(scene, CageOptions(planner="lattice"))
+    report = cage_report(scene, CageOptions(planner=PlannerOptions(planner="lattice")))
     assert report.planned and report.plan.solved and not report.problems
     energies = [c.escape_energy for c in report.profile.cages]
     assert report.weakest.escape_energy == min(energies)
@@ -418,7 +419,7 @@ def test_the_cage_workflow_returns_its_profile_as_values(tmp_path):
     doc = json.loads(report.write(tmp_path)[0].read_text())
     assert doc["min_friction_margin_deg"] == pytest.approx(math.degrees(report.smallest_margin))
     with pytest.raises(InputError) as err:
-        cage_report(scene, CageOptions(planner="lattice", refine=0.0))
+        cage_report(scene, CageOptions(planner=PlannerOptions(planner="lattice"), refine=0.0))
     assert err.value.field == "refine"
 
 

@@ -19,7 +19,8 @@ from scipy.stats import binomtest
 from conftest import SCENES, run_cli, small_landing_file
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.planning import plan
+from ungrasp_ompl.parallel import RunOptions
+from ungrasp_ompl.planning import PlannerOptions, plan
 from ungrasp_ompl.sim.certify import (CandidateSource, CandidateStatus, CertifyOptions, best_candidate,
                                       candidate_sources, certify)
 
@@ -102,7 +103,8 @@ def test_certify_refuses_a_scene_the_simulator_cannot_take():
     assert err.value.field == "trials" and "thickness" in err.value.reason
 
 
-OPTIONS = CertifyOptions(trials=2, candidates=2, seed=1, time=1.0, jobs=1)  # RRT* finds the pick's path within 6,000 iterations
+OPTIONS = CertifyOptions(trials=2, candidates=2, planner=PlannerOptions(seed=1, time=1.0),
+                         run=RunOptions(seed=1, jobs=1))  # RRT* finds the pick's path within 6,000 iterations
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +134,7 @@ def test_certify_keeps_the_highest_wilson_lower_bound_among_its_candidates(certi
     assert kept.interval[0] == pytest.approx(best, abs=1e-12)
     assert result.plan is kept.plan and kept.plan.solved
     # candidate 0 is the plan `plan --seed 1` gives; every candidate met the same seeded errors
-    alone = plan(scene, planner="RRTstar", time=OPTIONS.time, seed=1)
+    alone = plan(scene, planner="RRTstar", time=OPTIONS.planner.time, seed=1)
     assert result.candidates[0].plan.states == alone.states
     assert all([t.params for t in c.results] == [t.params for t in simulated[0].results] for c in simulated)
 
@@ -184,7 +186,8 @@ def test_a_candidate_with_the_path_of_an_earlier_one_shares_its_trials(tmp_path)
     the cost or the margin optimum (over its friction's +-30 %, docs/model.md 4.7, it is a third path):
     it is not simulated again but counted with that one's trials."""
     scene = replace(Scene.from_file(small_landing_file("fabric_chalk", tmp_path)), friction_uncertainty=0.0)
-    result = certify(scene, CertifyOptions(trials=1, candidates=3, planner="lattice", jobs=1))
+    result = certify(scene, CertifyOptions(trials=1, candidates=3, planner=PlannerOptions(planner="lattice", seed=1),
+                                           run=RunOptions(jobs=1)))
     cost, margin, balanced = result.candidates
     assert [c.source.objective for c in result.candidates] == ["cost", "margin", "balanced"]
     assert cost.status is margin.status is CandidateStatus.SIMULATED

@@ -11,6 +11,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,8 @@ from conftest import SCENES, run_cli, run_process
 from ungrasp_ompl.benchmark import BenchmarkOptions, run_benchmark
 from ungrasp_ompl.benchmark.map import MapOptions, run_map
 from ungrasp_ompl.benchmark.tasks import RUN_COLUMNS
+from ungrasp_ompl.planning.setup import PlannerOptions
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.parallel.runner import RayRunner, TaskStatus
 from ungrasp_ompl.parallel.stream import RowStream
 
@@ -26,7 +29,9 @@ ray = pytest.importorskip("ray")
 
 SCENE = SCENES / "reference_asymmetric.yaml"
 #: A 2 x 2 map around the scene's own alpha 0.47: secure paths at friction x1, none at x0.8.
-SMALL_MAP = dict(alphas=(0.3, 0.47), friction_scales=(0.8, 1.0), time=0.3, seed=3, jobs=2)
+SMALL_MAP = dict(alphas=(0.3, 0.47), friction_scales=(0.8, 1.0), planner=PlannerOptions(time=0.3, seed=3))
+#: Where SMALL_MAP runs: two workers here, or on the cluster given.
+SMALL_RUN = RunOptions(seed=3, jobs=2)
 #: runs.csv's columns that hold no time measurement: equal wherever a seeded run ran.
 UNTIMED = ("group", "planner", "run", "seed", "status", "cost", "mode_switches", "iterations")
 
@@ -49,8 +54,8 @@ def _rows(path: Path, columns=None) -> list[dict[str, str]]:
 
 @pytest.mark.slow
 def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
-    here = run_map(SCENE, MapOptions(**SMALL_MAP, out=tmp_path / "here"))
-    there = run_map(SCENE, MapOptions(**SMALL_MAP, out=tmp_path / "ray", cluster=cluster))
+    here = run_map(SCENE, MapOptions(**SMALL_MAP, run=SMALL_RUN, out=tmp_path / "here"))
+    there = run_map(SCENE, MapOptions(**SMALL_MAP, run=replace(SMALL_RUN, cluster=cluster), out=tmp_path / "ray"))
     assert (tmp_path / "ray" / "map.csv").read_bytes() == (tmp_path / "here" / "map.csv").read_bytes()
     assert here.cells == there.cells and there.ran == 4
     cells = {(c.alpha, c.friction_scale): c for c in there.cells}
@@ -63,9 +68,10 @@ def test_a_map_on_ray_matches_the_local_pool_cell_by_cell(cluster, tmp_path):
 
 @pytest.mark.slow
 def test_a_bench_on_ray_matches_the_local_pool_run_by_run(cluster, tmp_path):
-    options = dict(planners=("RRTConnect", "lattice"), runs=2, time=0.3, iterations=1500, jobs=2, seed=5)
-    run_benchmark([SCENE], BenchmarkOptions(**options, out=tmp_path / "here"))
-    result = run_benchmark([SCENE], BenchmarkOptions(**options, out=tmp_path / "ray", cluster=cluster))
+    options = dict(planners=("RRTConnect", "lattice"), runs=2, planner=PlannerOptions(time=0.3, iterations=1500))
+    run = RunOptions(seed=5, jobs=2)
+    run_benchmark([SCENE], BenchmarkOptions(**options, run=run, out=tmp_path / "here"))
+    result = run_benchmark([SCENE], BenchmarkOptions(**options, run=replace(run, cluster=cluster), out=tmp_path / "ray"))
     here = _rows(tmp_path / "here" / "runs.csv", UNTIMED)
     assert _rows(tmp_path / "ray" / "runs.csv", UNTIMED) == here
     assert len(here) == 4 and all(r["status"] == "exact" for r in here)
@@ -139,15 +145,15 @@ def test_an_interrupted_map_resumes_without_redoing_what_is_done(cluster, tmp_pa
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        run_map(SCENE, MapOptions(**SMALL_MAP, out=out, cluster=cluster), progress=interrupt_after_two)
+        run_map(SCENE, MapOptions(**SMALL_MAP, run=replace(SMALL_RUN, cluster=cluster), out=out), progress=interrupt_after_two)
     assert len(_rows(out / "map.csv")) == 2  # streamed as they arrived
     seen = []
-    resumed = run_map(SCENE, MapOptions(**SMALL_MAP, out=out, cluster=cluster, resume=True), progress=seen.append)
+    resumed = run_map(SCENE, MapOptions(**SMALL_MAP, run=replace(SMALL_RUN, cluster=cluster), out=out, resume=True), progress=seen.append)
     assert resumed.ran == 2 and seen[0].resumed == 2 and seen[-1].done == 4
-    whole = run_map(SCENE, MapOptions(**SMALL_MAP, out=tmp_path / "whole"))
+    whole = run_map(SCENE, MapOptions(**SMALL_MAP, run=SMALL_RUN, out=tmp_path / "whole"))
     assert (out / "map.csv").read_bytes() == (tmp_path / "whole" / "map.csv").read_bytes()
     assert whole.cells == resumed.cells
-    again = run_map(SCENE, MapOptions(**SMALL_MAP, out=out, resume=True))
+    again = run_map(SCENE, MapOptions(**SMALL_MAP, run=SMALL_RUN, out=out, resume=True))
     assert again.ran == 0
 
 
@@ -199,7 +205,8 @@ def test_a_map_with_a_planner_that_does_not_optimise_gives_the_optimum_beside_it
     from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
     from ungrasp_ompl.planning.lattice import lattice_search
 
-    result = run_map(SCENE, MapOptions(alphas=(0.47,), planner="RRTConnect", time=0.3, jobs=1, out=tmp_path / "m"))
+    result = run_map(SCENE, MapOptions(alphas=(0.47,), planner=PlannerOptions(planner="RRTConnect", time=0.3, seed=1),
+                                       run=RunOptions(jobs=1), out=tmp_path / "m"))
     (cell,) = result.cells
     assert cell.task_status is TaskStatus.DONE, cell.error
     scene = Scene.from_file(SCENE)

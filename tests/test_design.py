@@ -10,12 +10,13 @@ from conftest import assert_picture, run_cli
 from figure_marks import unexplained_marks
 from ungrasp_ompl.benchmark.design import DesignOptions, design_figure, run_design
 from ungrasp_ompl.cli.exits import EXIT_BAD_INPUT
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.planning.setup import lattice_plan
 from ungrasp_ompl.scene import Scene
 from test_cli import assert_one_line_error
 
-GRID = DesignOptions(alphas=(0.42, 0.47), tip_radii=(0.0005, 0.001), jobs=2)
+GRID = DesignOptions(alphas=(0.42, 0.47), tip_radii=(0.0005, 0.001), run=RunOptions(jobs=2))
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +81,8 @@ def test_the_design_picture_explains_every_mark(designed):
 
 
 def test_digits_that_cannot_be_built_are_a_designs_verdict_not_an_error():
-    result = run_design("guitar_pick", DesignOptions(alphas=(1.0, 0.47), tip_radii=(0.001,), goal="scene", jobs=1))
+    result = run_design("guitar_pick", DesignOptions(alphas=(1.0, 0.47), tip_radii=(0.001,), goal="scene",
+                                                     run=RunOptions(jobs=1)))
     bad, good = result.designs
     assert bad.outcome is None and not bad.digits_valid and "digits.alpha" in bad.error
     assert good.cost is not None and result.chosen == 1

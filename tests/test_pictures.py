@@ -419,6 +419,8 @@ def test_bench_writes_pictures_of_what_it_recorded_and_a_table_that_fits(monkeyp
 
     from ungrasp_ompl.benchmark import BenchmarkOptions, bench, run_benchmark
     from ungrasp_ompl.benchmark.statistics import SUMMARY_COLUMNS
+    from ungrasp_ompl.parallel import RunOptions
+    from ungrasp_ompl.planning import PlannerOptions
     from ungrasp_ompl.benchmark.table import format_table
 
     def made_up(tasks, runner, progress=None, stream=None):
@@ -429,7 +431,8 @@ def test_bench_writes_pictures_of_what_it_recorded_and_a_table_that_fits(monkeyp
     figures = _captured(monkeypatch)
     planners = ("RRTstar", "InformedRRTstar", "BITstar", "RRTConnect")
     result = run_benchmark([SCENES / "reference_asymmetric.yaml"],
-                           BenchmarkOptions(planners=planners, runs=3, time=0.5, jobs=1, out=tmp_path / "b"))
+                           BenchmarkOptions(planners=planners, runs=3, planner=PlannerOptions(time=0.5),
+                                            run=RunOptions(jobs=1), out=tmp_path / "b"))
     try:
         assert figures
         for fig in figures:
@@ -492,9 +495,10 @@ def _square_layout(clearance: float):
 def test_layout_picture_names_every_mark(clearance, placed):
     from ungrasp_ompl.plots.layout import layout_figure
     from ungrasp_ompl.layout.tiler import TilingOptions, tile
+    from ungrasp_ompl.planning import PlannerOptions
 
     layout = _square_layout(clearance)
-    tiling = tile(layout, TilingOptions(planner="lattice", seed=1))
+    tiling = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)))
     assert tiling.solved is placed
     fig = layout_figure(layout, tiling)
     try:

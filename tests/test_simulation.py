@@ -30,6 +30,7 @@ from ungrasp_ompl.robot.placement import plane_points
 from ungrasp_ompl.planning.deviate import deviated_plan, plan_problems, steeper_start
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.scene.options import Landing
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval
 from ungrasp_ompl.sim.landing import landing_offset
 from ungrasp_ompl.sim.plan_trials import placement
@@ -539,8 +540,8 @@ def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pi
 @pytest.mark.slow
 def test_simulate_runs_seeded_trials_on_workers_like_inline(pick):
     setup = _setup(pick)
-    inline = simulate(setup, PRESETS["grasp"], trials=2, seed=5, jobs=1)
-    pooled = simulate(setup, PRESETS["grasp"], trials=2, seed=5, jobs=2)
+    inline = simulate(setup, PRESETS["grasp"], trials=2, run=RunOptions(seed=5, jobs=1))
+    pooled = simulate(setup, PRESETS["grasp"], trials=2, run=RunOptions(seed=5, jobs=2))
     assert [t.final_pose for t in inline.trials] == [t.final_pose for t in pooled.trials]
     assert [t.params for t in inline.trials] == [t.params for t in pooled.trials]
 
@@ -814,7 +815,7 @@ def test_a_kept_landing_answers_the_same_placement_and_no_other(pick, pick_nomin
     assert robot_landing(setup, replace(simulated, landing=Landing.PLANNED)) is None
     expected = robot_landing(setup, replace(simulated, landing=Landing.EXPECTED, landing_pairs=1))
     assert expected.pairs == 1 and expected.turn != computed.turn
-    assert expected_landing(setup, 1, jobs=2) == expected
+    assert expected_landing(setup, 1, RunOptions(jobs=2)) == expected
     assert len(list((tmp_path / "landing").glob("*.json"))) == 2
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from conftest import SCENES
 from ungrasp_ompl import Scene
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.scene.perturbation import PRESETS
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.sim.campaign import simulate
@@ -27,7 +28,7 @@ def test_sinking_stays_within_its_measured_bound(name):
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     assert result.solved
-    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, seed=3, jobs=1, scene=name)
+    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, RunOptions(seed=3, jobs=1), scene=name)
     depths = [t.max_penetration_mm for t in report.trials]
     assert max(depths) <= SINKING_BOUND_MM, sorted(depths)[-5:]
     assert sum(d > 0.0 for d in depths) >= 30

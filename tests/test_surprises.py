@@ -196,6 +196,7 @@ def test_jobs_on_every_parallel_command_defaults_to_all_cores(monkeypatch):
     from ungrasp_ompl.benchmark import BenchmarkOptions, SweepOptions
     from ungrasp_ompl.benchmark.design import DesignOptions
     from ungrasp_ompl.benchmark.map import MapOptions
+    from ungrasp_ompl.parallel import RunOptions
     from ungrasp_ompl.shipped import resolve
 
     parsers = command_parsers()
@@ -203,11 +204,12 @@ def test_jobs_on_every_parallel_command_defaults_to_all_cores(monkeypatch):
     assert {"plan", "simulate", "bench", "sweep", "map", "design", "cage"} <= {n for n, a in jobs.items() if a}
     assert all(a.default is None for a in jobs.values() if a is not None)
     monkeypatch.setattr(os, "cpu_count", lambda: 7)
-    assert BenchmarkOptions().validated().jobs == 7
-    assert SweepOptions(alphas=(0.4,)).validated().jobs == 7
-    assert MapOptions(alphas=(0.4,)).validated().jobs == 7
-    assert DesignOptions().validated(Scene.from_file(resolve("guitar_pick", "scene"))).jobs == 7
-    assert BenchmarkOptions(jobs=3).validated().jobs == 3
+    assert BenchmarkOptions().validated().run.jobs == 7
+    assert SweepOptions(alphas=(0.4,)).validated().run.jobs == 7
+    assert MapOptions(alphas=(0.4,)).validated().run.jobs == 7
+    assert DesignOptions().validated(Scene.from_file(resolve("guitar_pick", "scene"))).run.jobs == 7
+    assert BenchmarkOptions(run=RunOptions(jobs=3)).validated().run.jobs == 3
+    assert RunOptions().workers == 7
 
 
 @pytest.mark.slow

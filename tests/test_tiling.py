@@ -20,6 +20,7 @@ from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.geometry.plane import flush
 from ungrasp_ompl.layout.model import Layout
 from ungrasp_ompl.planning.plan_tolerance import tolerance
+from ungrasp_ompl.planning.setup import PlannerOptions
 from ungrasp_ompl.planning.result import Plan, PlanOutcome, PrimitiveStep, Solution
 from ungrasp_ompl.robot.export import read_json
 from ungrasp_ompl.robot.model import configuration, load_ur5e
@@ -239,7 +240,8 @@ def test_a_tiling_that_fails_gives_its_reasons_as_values(tmp_path):
     from ungrasp_ompl.planning.setup import EndsProblem
     from ungrasp_ompl.layout.tiler import Rejection
 
-    result = tile(Layout.from_file(_square_in_frame(tmp_path, 0.0005)), TilingOptions(planner="lattice"))
+    result = tile(Layout.from_file(_square_in_frame(tmp_path, 0.0005)),
+                  TilingOptions(planner=PlannerOptions(planner="lattice")))
     assert not result.solved and result.failed_piece == "square" and result.down_before == []
     ends = [r for r in result.reasons if r.kind is Rejection.ENDS]
     assert ends and all(isinstance(r.evidence, EndsProblem) and r.approach is not None for r in ends)
@@ -274,7 +276,7 @@ def test_a_piece_unprovable_after_two_others_goes_before_them(monkeypatch):
         return real(scene)
 
     monkeypatch.setattr(tiling, "prove", prove)
-    result = tile(Layout.from_file(TANGRAM), TilingOptions(planner="lattice", approaches=1))
+    result = tile(Layout.from_file(TANGRAM), TilingOptions(planner=PlannerOptions(planner="lattice"), approaches=1))
     order = [p.name for p in result.placements]
     assert result.solved and sorted(order) == sorted(PIECES)
     assert order.index("large_triangle_2") < max(order.index("square"), order.index("large_triangle_1"))
@@ -297,8 +299,8 @@ def test_each_piece_takes_the_approach_whose_plan_tolerates_most(tmp_path):
         if isinstance(scene, DigitsDoNotFit) or screen(scene) is not None or prove(scene)[0] is not None:
             continue
         best = max(best, tolerance(scene, plan(scene, planner="lattice")).scale)
-    ranked = tile(layout, TilingOptions(planner="lattice", rank="tolerance"))
-    first = tile(layout, TilingOptions(planner="lattice"))  # the default: the search's choice
+    ranked = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice"), rank="tolerance"))
+    first = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice")))  # the default: the search's choice
     (chosen,), (searched,) = ranked.placements, first.placements
     assert chosen.tolerance == pytest.approx(best, rel=1e-12) and chosen.ranked > 1
     assert chosen.tolerance == tolerance(chosen.scene, chosen.plan).scale
@@ -471,7 +473,7 @@ def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
 
     two = {**AS_CUT, "pieces": AS_CUT["pieces"][:2]}
     layout = Layout.from_dict(two)
-    options = TilingOptions(planner="lattice", seed=1)
+    options = TilingOptions(planner=PlannerOptions(planner="lattice", seed=1))
     memo = TilingMemo()
     first = tile(layout, options, memo=memo)
     kept = {name: dict(getattr(memo, name)) for name in ("scenes", "screens", "proofs", "plans")}
@@ -574,7 +576,7 @@ def aimed():
 
     layout = Layout.from_dict(AS_CUT)
     memo = AimingMemo()
-    tiling = tile(layout, TilingOptions(planner="lattice", seed=1), memo=memo.search)
+    tiling = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)), memo=memo.search)
     assert tiling.solved
     return layout, tiling, aim_tiling(layout, tiling, memo.landings, memo.kept), memo
 
@@ -691,7 +693,8 @@ def test_a_piece_whose_aim_does_not_fit_is_tiled_again_by_another_approach(aimed
 
     layout, tiling, first, memo = aimed
     assert "large_triangle_1" in {name for name, _, _ in first.short}
-    again, result = tile_aimed(layout, TilingOptions(planner="lattice", seed=1), memo=memo)  # layout: AS_CUT
+    again, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)),
+                               memo=memo)  # layout: AS_CUT
     assert again.solved and "large_triangle_1" not in {name for name, _, _ in result.short}
     untaken = [sum(asked - taken for _, taken, asked in r.short) for r in (first, result)]
     assert untaken[1] < untaken[0]
@@ -767,7 +770,7 @@ def test_curved_pieces_are_tiled_each_on_its_own_section():
     from ungrasp_ompl.planning.verify import verify_leg
 
     layout = Layout.from_file("go_stones")
-    result = tile(layout, TilingOptions(planner="lattice"))
+    result = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice")))
     assert [p.name for p in result.placements] == ["stone_1", "stone_2"] or \
         [p.name for p in result.placements] == ["stone_2", "stone_1"]
     stone = Scene.from_file("go_stone")

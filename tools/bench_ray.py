@@ -20,12 +20,15 @@ import os
 import tempfile
 import time
 from contextlib import closing
+from dataclasses import replace
 from pathlib import Path
 
 import ray
 
 from ungrasp_ompl.benchmark.map import MapOptions, run_map
+from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.parallel.runner import RayRunner
+from ungrasp_ompl.planning.setup import PlannerOptions
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "reference_asymmetric.yaml"
 
@@ -61,12 +64,12 @@ def timed_map(cpus: int, alphas: int, frictions: int, time_s: float) -> float:
     """Wall time (s) of the map on a local cluster of cpus CPUs (started first, not timed)."""
     options = MapOptions(alphas=tuple(round(0.005 + 0.03 * k, 10) for k in range(alphas)),
                          friction_scales=tuple(round(0.6 + 0.1 * k, 10) for k in range(frictions)),
-                         time=time_s, seed=1, cluster="local")
+                         planner=PlannerOptions(time=time_s, seed=1), run=RunOptions(seed=1, cluster="local"))
     _start(cpus)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            result = run_map(SCENE, MapOptions(**{**options.__dict__, "out": tmp}))
+            result = run_map(SCENE, replace(options, out=tmp))
             wall = time.perf_counter() - t0
     finally:
         ray.shutdown()

@@ -28,7 +28,7 @@ PAGE = ROOT / "docs" / "api.md"
 #: The packages in the page's order: the package itself, then from the workflows down to the
 #: model's floors, then the command line; any package not named here follows, by name.
 ORDER = ("ungrasp_ompl", "ungrasp_ompl.workflows", "ungrasp_ompl.scene", "ungrasp_ompl.planning",
-         "ungrasp_ompl.layout", "ungrasp_ompl.benchmark", "ungrasp_ompl.view", "ungrasp_ompl.sim",
+         "ungrasp_ompl.layout", "ungrasp_ompl.benchmark", "ungrasp_ompl.parallel", "ungrasp_ompl.view", "ungrasp_ompl.sim",
          "ungrasp_ompl.geometry", "ungrasp_ompl.mechanics", "ungrasp_ompl.cli")
 
 HEADER = """# The public API
@@ -129,7 +129,7 @@ def page() -> str:
             out += describe(name, obj)
     out += ["## Packages without public names", "",
             ", ".join(f"`{p}`" for p in empty) + ": their `__all__` is empty. The workflows, the benchmark "
-            "and the view reach them (runners, pictures, the arm, the robot's files).", ""]
+            "and the view reach them (pictures, the arm, the robot's files).", ""]
     out.insert(1, f"{total} names in {len(packages()) - len(empty)} packages.\n")
     return "\n".join(out).rstrip("\n") + "\n"
 

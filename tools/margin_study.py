@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.parallel import RunOptions  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.robot.pipeline import execute  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate  # noqa: E402
@@ -78,7 +79,7 @@ def main() -> int:
                 f = features(scene, result)
                 ex = execute(scene, result)
                 report = simulate(trial_setup(scene, result, ex.trajectory, ex.robot), PRESETS["paper"],
-                                  args.trials, 1, jobs, scene=name)
+                                  args.trials, RunOptions(seed=1, jobs=jobs), scene=name)
                 rows.setdefault(name, []).append((f, report.successes))
                 print(f"| {name} | {planner} | {seed if seed is not None else '-'} | {objective} | {result.cost:.1f} | "
                       + " | ".join(f"{f[k]:.2f}" for k in FEATURES) + f" | {report.successes}/{args.trials} |",

@@ -94,7 +94,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ungrasp_ompl import Scene  # noqa: E402
-from ungrasp_ompl.planning import plan  # noqa: E402
+from ungrasp_ompl.parallel import RunOptions  # noqa: E402
+from ungrasp_ompl.planning import PlannerOptions, plan  # noqa: E402
 from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
@@ -201,8 +202,8 @@ def run(label: str, scene: Scene, result, trials: int, jobs: int, seed: int, pap
     problems = plan_problems(scene, result)
     setup = replace(placement(scene, result, variant)[1], max_contact_gap=MAX_GAP,
                     friction_draw_in_world=COMPOUNDED_FRICTION)
-    report = simulate(setup, PRESETS["paper"], trials, seed, jobs, scene=scene.name, variant=variant, world=world,
-                      engine=ENGINE)
+    report = simulate(setup, PRESETS["paper"], trials, RunOptions(seed=seed, jobs=jobs), scene=scene.name,
+                      variant=variant, world=world, engine=ENGINE)
     s = report.to_dict()
     err, placed = s["position_error_mm"], s["placed_position_error_mm"]
     errs = f"{err['mean']:.2f} / {err['max']:.2f}" if err["mean"] is not None else "-"

@@ -77,11 +77,13 @@ def load_scene(name: str, setup: str) -> Scene:
 
 def simulate_plan(scene: Scene, result: Plan, trials: int, jobs: int):
     """The trials of one plan under the paper perturbation, seed 1."""
+    from ungrasp_ompl.parallel import RunOptions
     from ungrasp_ompl.scene.perturbation import PRESETS
     from ungrasp_ompl.sim.campaign import simulate
     from ungrasp_ompl.sim.plan_trials import placement
 
-    return simulate(placement(scene, result)[1], PRESETS["paper"], trials, 1, jobs, scene=scene.name)
+    return simulate(placement(scene, result)[1], PRESETS["paper"], trials, RunOptions(seed=1, jobs=jobs),
+                    scene=scene.name)
 
 
 def thumb_tip_mm(scene: Scene, result: Plan) -> float:

@@ -81,8 +81,8 @@ def scene_key(name: str, taken: set[str]) -> str:
 def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: BenchmarkOptions,
                   progress: Progress | None = None) -> BenchmarkResult:
     """Benchmark the options' planners on the scenes: ``runs`` runs each per scene and planner,
-    each with OMPL seeded with seed + run index, ``jobs`` at a time here or
-    on the options' Ray cluster. Each run's row is appended to ``runs.csv`` as it arrives;
+    each with OMPL seeded with run.seed + run index, run.jobs at a time here or
+    on the Ray cluster at run.cluster. Each run's row is appended to ``runs.csv`` as it arrives;
     with ``resume`` the runs already there are kept, not run again.
 
     ``lattice`` among the planners is the exact search; the optimum it finds (reference cost
@@ -102,14 +102,14 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
         scene = Scene.from_file(p)
         scenes[scene_key(scene.name, taken)] = scene
     names = list(options.planners)
-    limit, its = float(options.time), options.iterations
-    objective = options.objective
-    tasks = [Task(key, scene, name, k, options.seed + k, limit, its, objective)
+    limit, its, objective = float(options.planner.time), options.planner.iterations, options.planner.objective
+    run = options.run
+    tasks = [Task(key, scene, name, k, run.seed + k, limit, its, objective)
              for key, scene in scenes.items() for name in names for k in range(options.runs)]
     if LATTICE not in names:
-        tasks += [Task(key, scene, LATTICE, -1, options.seed, limit, objective=objective) for key, scene in scenes.items()]
+        tasks += [Task(key, scene, LATTICE, -1, run.seed, limit, objective=objective) for key, scene in scenes.items()]
     started = datetime.now()
-    with open_runner(options.jobs, options.cluster, fresh=False) as runner, \
+    with open_runner(run.jobs, run.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])
@@ -121,8 +121,8 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
         tolerances[key] = lattice.tolerance
         by_planner = {name: [r for r in results if r.group == key and r.planner == name and r.run >= 0]
                       for name in names}
-        experiments.append(Experiment(key, scene, names, by_planner, lattice.cost, lattice.status, options.seed,
-                                      limit, options.runs, started, options.jobs))
+        experiments.append(Experiment(key, scene, names, by_planner, lattice.cost, lattice.status, run.seed,
+                                      limit, options.runs, started, run.jobs))
     files: dict[str, Path] = {"runs": stream.path}
     for exp in experiments:
         files[f"log:{exp.key}"] = out / f"{exp.key}.log"

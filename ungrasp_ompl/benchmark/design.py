@@ -35,7 +35,8 @@ import yaml
 
 from ..errors import InputError
 from ..io import write_text_atomic
-from ..parallel.runner import TaskStatus, open_runner, resolve_jobs
+from ..parallel.options import RunOptions
+from ..parallel.runner import TaskStatus, open_runner
 from ..planning.plan_tolerance import tolerance
 from ..planning.result import PlanOutcome
 from ..planning.setup import lattice_plan
@@ -75,12 +76,10 @@ class DesignOptions:
     """Simulated trials per design with a plan (count); 0: ranked by tolerance alone."""
     perturb: str = "paper"
     """The simulated trials' error preset (see ``simulate --perturb``)."""
-    seed: int = 1
-    """Seed of the simulated trials' errors (the lattice plans need none)."""
-    jobs: int | None = None
-    """Designs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
-    cluster: str | None = None
-    """Ray cluster address ("local" starts one here); None: child processes on this machine."""
+    run: RunOptions = RunOptions()
+    """How the designs run: run.seed seeds the simulated trials' errors (the lattice plans need none);
+    run.jobs designs at a time on this machine (child processes; None: all cores; unused on a
+    cluster); run.cluster a Ray cluster's address ("local" starts one here; None: this machine)."""
     out: str | os.PathLike[str] = "design"
     """Output directory for design.csv, design.png and design_scene.yaml."""
 
@@ -91,11 +90,9 @@ class DesignOptions:
             raise InputError("finger_tip", f"must be rounded or flat, got {self.finger_tip!r}")
         if self.goal not in ("free", "scene"):
             raise InputError("goal", f"must be free or scene, got {self.goal!r}")
-        jobs = resolve_jobs(self.jobs)
-        check_jobs(jobs)
+        check_jobs(self.run.workers)
         check_out(self.out)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        run = replace(self.run.validated(), jobs=self.run.workers)
         if isinstance(self.simulate, bool) or not isinstance(self.simulate, int) or not 0 <= self.simulate <= 10000:
             raise InputError("simulate", f"must be a number of trials in [0, 10000], got {self.simulate!r}")
         if self.simulate:
@@ -120,7 +117,7 @@ class DesignOptions:
                 raise InputError("tip_radii", f"must be lengths >= 0 m, got {r!r}")
         if len(alphas) * len(radii) > MAX_DESIGNS:
             raise InputError("alphas", f"and tip_radii give more than {MAX_DESIGNS} designs")
-        return replace(self, alphas=tuple(map(float, alphas)), tip_radii=tuple(map(float, radii)), jobs=jobs)
+        return replace(self, alphas=tuple(map(float, alphas)), tip_radii=tuple(map(float, radii)), run=run)
 
 
 @dataclass(frozen=True)
@@ -321,7 +318,7 @@ class DesignResult:
                 + (f", dome radius {d.tip_radius * 1000:.2f}" if self.options.finger_tip == "rounded" else "")
                 + f"); tolerance {d.tolerance:.3f} of the paper error box, cost {d.cost:.2f}"
                 + (f"; {d.successes}/{d.trials} simulated trials placed ({self.options.perturb} errors, seed "
-                   f"{self.options.seed})." if d.successes is not None else ".")]
+                   f"{self.options.run.seed})." if d.successes is not None else ".")]
         return "\n".join(head) + "\n" + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
     def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
@@ -373,10 +370,10 @@ def run_design(scene_path: str | os.PathLike[str], options: DesignOptions = Desi
                 why = ""
             except InputError as exc:
                 scene, why = None, f"invalid digits: {exc.field}: {exc.reason}"
-            tasks.append(DesignTask(len(tasks), a, r, scene, why, opts.simulate, opts.perturb, opts.seed))
+            tasks.append(DesignTask(len(tasks), a, r, scene, why, opts.simulate, opts.perturb, opts.run.seed))
     designs: dict[int, Design] = {}
     deadline = CELL_DEADLINE_S + TRIAL_GRACE_S * opts.simulate
-    with open_runner(opts.jobs, opts.cluster, fresh=False) as runner:
+    with open_runner(opts.run.jobs, opts.run.cluster, fresh=False) as runner:
         if progress:
             progress(DesignProgress(0, len(tasks), None))
         for outcome in runner.run(design_cell, tasks, deadline):

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..parallel.runner import TaskStatus, open_runner, resolve_jobs
+from ..parallel.options import RunOptions
+from ..parallel.runner import TaskStatus, open_runner
 from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
 from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan
@@ -59,33 +60,35 @@ class MapOptions:
     """Factors on every friction coefficient of the scene (dimensionless, > 0): the grid's rows."""
     start_theta_deg: float | None = None
     """The start pinch's theta (deg) in every cell; None: the scene's."""
-    planner: str = "RRTstar"
-    """The planner run in each cell (an OMPL geometric planner, or ``lattice``)."""
-    time: float = 0.5
-    """Planning time per cell (s): a seeded run's iteration budget, as for ``plan --seed``."""
-    seed: int = 1
-    """Seed of the planner (OMPL's RNG, goal samples) and of the simulated perturbations."""
+    planner: PlannerOptions = PlannerOptions(time=0.5, seed=1)
+    """The planner run in each cell (planning.setup.PlannerOptions): an OMPL geometric planner by name,
+    or ``lattice``; its time per cell (s: a seeded run's iteration budget, as for ``plan --seed``) and
+    its seed (OMPL's RNG, goal samples; an integer: every cell is reproducible)."""
     simulate: int = 0
     """Simulated trials per cell with a plan (count); 0: none."""
     perturb: str = "paper"
     """The simulated trials' perturbation preset (see ``simulate --perturb``)."""
-    jobs: int | None = None
-    """Cells at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
-    cluster: str | None = None
-    """Ray cluster address ("local" starts one here); None: child processes on this machine."""
+    run: RunOptions = RunOptions()
+    """How the cells run: run.seed seeds the simulated perturbations; run.jobs cells at a time on this
+    machine (child processes; None: all cores; unused on a cluster); run.cluster a Ray cluster's
+    address ("local" starts one here; None: child processes on this machine)."""
     resume: bool = False
     """Keep the cells already done in out/map.csv and run only the others."""
     out: str | os.PathLike[str] = "map"
     """Output directory for map.csv and map.png."""
 
     def validated(self) -> "MapOptions":
-        """These options checked, jobs None as all cores; InputError naming the option otherwise."""
-        (planner,) = validate_planners([self.planner], "planner")
-        check_time(self.time)
-        jobs = resolve_jobs(self.jobs)
-        check_jobs(jobs)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        """These options checked, run.jobs None as all cores; InputError naming the option otherwise."""
+        p = self.planner
+        (planner,) = validate_planners([p.planner], "planner")
+        check_time(p.time)
+        run = self.run
+        check_jobs(run.workers)
+        if isinstance(p.seed, bool) or not isinstance(p.seed, int) or not 0 <= p.seed < 2**32:
+            raise InputError("seed", f"must be an integer in [0, 2^32), got {p.seed!r}")
+        run = replace(run.validated(), jobs=run.workers)
+        if planner != LATTICE:
+            p = p.validated()
         if isinstance(self.simulate, bool) or not isinstance(self.simulate, int) or not 0 <= self.simulate <= 10000:
             raise InputError("simulate", f"must be a number of trials in [0, 10000], got {self.simulate!r}")
         if self.start_theta_deg is not None and not (math.isfinite(self.start_theta_deg)
@@ -103,7 +106,7 @@ class MapOptions:
         check_out(self.out)
         if self.simulate:
             preset(self.perturb)  # InputError("perturb") for an unknown preset
-        return replace(self, planner=planner, jobs=jobs, alphas=tuple(map(float, self.alphas)),
+        return replace(self, planner=p, run=run, alphas=tuple(map(float, self.alphas)),
                        friction_scales=tuple(map(float, self.friction_scales)))
 
 
@@ -151,12 +154,11 @@ class MapTask:
     """Factor on the scene's friction coefficients."""
     scene: Scene
     """The cell's scene."""
-    planner: str
-    """The planner's name (or ``lattice``)."""
-    time: float
-    """Planning time (s): the seeded iteration budget's size."""
+    planner: PlannerOptions
+    """How the cell's planner runs: its name (or ``lattice``), time (s: the seeded iteration budget's
+    size) and seed."""
     seed: int
-    """The planner's and the trials' seed."""
+    """The trials' seed."""
     trials: int = 0
     """Simulated trials (count)."""
     perturb: str = "paper"
@@ -220,9 +222,9 @@ def cell_row(cell: MapCell, task: MapTask) -> list[object]:
 
     rate = None if cell.sim_successes is None or not task.trials else cell.sim_successes / task.trials
     return [*cell_key(cell.alpha, cell.friction_scale), cell.task_status.value, flag(cell.secure_path),
-            cell.lattice_outcome.value if cell.lattice_outcome else None, cell.lattice_optimum, task.planner,
+            cell.lattice_outcome.value if cell.lattice_outcome else None, cell.lattice_optimum, task.planner.planner,
             cell.planner_outcome.value if cell.planner_outcome else None, flag(cell.planner_solved),
-            cell.planner_cost, task.trials, cell.sim_successes, rate, task.seed, repr(float(task.time)),
+            cell.planner_cost, task.trials, cell.sim_successes, rate, task.planner.seed, repr(float(task.planner.time)),
             flag(cell.executable), cell.error.replace("\n", " ")]
 
 
@@ -246,14 +248,14 @@ def run_cell(task: MapTask) -> MapCell:
     """Compute one cell (UngraspSetup seeds OMPL's random numbers with the task's seed)."""
     scene = task.scene
     done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
-    if task.planner == LATTICE:
-        plan = lattice_plan(scene, task.seed)
+    if task.planner.planner == LATTICE:
+        plan = lattice_plan(scene, task.planner.seed, objective=task.planner.objective)
         exists = plan.lattice_optimum is not None
         verdict = PlanOutcome.SOLVED if exists else plan.outcome
         cell = MapCell(**done, lattice_outcome=verdict, lattice_optimum=plan.lattice_optimum,
                        planner_outcome=plan.outcome, planner_cost=plan.cost)
     else:
-        setup = UngraspSetup(scene, PlannerOptions(planner=task.planner, time=task.time, seed=task.seed))
+        setup = UngraspSetup(scene, task.planner)
         problem = setup.ends_problem()
         if problem:
             return MapCell(**done, lattice_outcome=problem.outcome)
@@ -331,7 +333,8 @@ class MapResult:
         solved = sum(bool(c.planner_solved) for c in cells)
         lines = [f"{self.scene}: {len(o.alphas)} x {len(o.friction_scales)} cells (alpha x friction scale), "
                  f"{self.ran} computed now, {len(cells) - self.ran} kept from {self.files['csv']}",
-                 f"  a secure path exists in {exists}; {o.planner} ({o.time:g} s, seed {o.seed}) solved {solved}"
+                 f"  a secure path exists in {exists}; {o.planner.planner} ({o.planner.time:g} s, "
+                 f"seed {o.planner.seed}) solved {solved}"
                  + (f"; simulated {o.simulate} trials per solved cell ({o.perturb}): {self.simulated[0]}/"
                     f"{self.simulated[1]} placed, {self.simulated[2]} cells not executable" if o.simulate else "")]
         if self.failed:
@@ -355,7 +358,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
         raise InputError("simulate", "the simulator needs a scene with an object thickness (m)")
     grid = [(a, f) for f in options.friction_scales for a in options.alphas]
     tasks = [MapTask(i, a, f, scene_variant(doc, a, f, options.start_theta_deg, source, base.name), options.planner,
-                     options.time, options.seed, options.simulate, options.perturb) for i, (a, f) in enumerate(grid)]
+                     options.run.seed, options.simulate, options.perturb) for i, (a, f) in enumerate(grid)]
     out = Path(options.out)
     stream = RowStream(out / "map.csv", MAP_COLUMNS, key_columns=2, resume=options.resume)
     by_key = {cell_key(t.alpha, t.friction_scale): t for t in tasks}
@@ -364,7 +367,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     for key, row in kept.items():
         task, named = by_key[key], dict(zip(MAP_COLUMNS, row))
         if (named["planner"], named["sim_trials"], named["seed"], named["time_s"]) != (
-                task.planner, str(task.trials), str(task.seed), repr(float(task.time))):
+                task.planner.planner, str(task.trials), str(task.planner.seed), repr(float(task.planner.time))):
             raise InputError("resume", f"{stream.path} was made with other options (planner, --time, --seed or "
                              "--simulate); use another --out or leave out --resume")
     stream.rows = dict(kept)
@@ -372,8 +375,8 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     todo = [t for t in tasks if cell_key(t.alpha, t.friction_scale) not in kept]
     cells: dict[int, MapCell] = {}
     failed = 0
-    deadline = 5.0 * options.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
-    with open_runner(options.jobs, options.cluster, fresh=False) as runner, stream:
+    deadline = 5.0 * options.planner.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
+    with open_runner(options.run.jobs, options.run.cluster, fresh=False) as runner, stream:
         if progress:
             progress(MapProgress(resumed, len(tasks), resumed, 0, None))
         for outcome in runner.run(run_cell, todo, deadline):
@@ -465,7 +468,7 @@ def map_figure(result: MapResult):
     optimum = grid(lambda c: c.lattice_optimum)
     cost = grid(lambda c: c.planner_cost if c.planner_outcome is PlanOutcome.SOLVED else None)
     panels = [("exact lattice: optimum where a secure path exists", optimum, "viridis", f"cost ({result.units})"),
-              (f"{o.planner} ({o.time:g} s, seed {o.seed}): cost where solved", cost, "viridis",
+              (f"{o.planner.planner} ({o.planner.time:g} s, seed {o.planner.seed}): cost where solved", cost, "viridis",
                f"cost ({result.units})")]
     if o.simulate:
         rate = grid(lambda c: None if c.sim_successes is None else c.sim_successes / o.simulate)

@@ -14,8 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
-from ..parallel.runner import resolve_jobs
-from ..planning.margins import Objective
+from ..parallel.options import RunOptions
 from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
 
 
@@ -26,37 +25,34 @@ class BenchmarkOptions:
     planners: tuple[str, ...] = ("RRTstar", "RRTConnect", LATTICE)
     """Planner names (OMPL geometric planners, or ``lattice`` for the exact search), in table order."""
     runs: int = 10
-    """Runs per scene and planner (count); run k is seeded with seed + k."""
-    time: float = 1.0
-    """Planning time per run (s): wall time, or with iterations the hard cap is 5 times it."""
-    jobs: int | None = None
-    """Runs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
-    seed: int = 1
-    """Seed of OMPL's RNG for run 0 (run k gets seed + k), seeded afresh per run."""
+    """Runs per scene and planner (count); run k is seeded with run.seed + k."""
+    planner: PlannerOptions = PlannerOptions()
+    """How every planner runs (planning.setup.PlannerOptions): its time per run (s: wall time, or with
+    iterations the hard cap is 5 times it); its iterations per run (count: runs become reproducible like
+    ``plan --seed``; None: a run stops on wall time, like OMPL's Benchmark); its objective, what every
+    planner optimises, the lattice yardstick included (docs/model.md, section 6). Its planner name and
+    seed are unused: planners names them, run.seed seeds them."""
+    run: RunOptions = RunOptions()
+    """How the runs run: run.seed seeds OMPL's RNG for run 0 (run k gets seed + k), seeded afresh per
+    run; run.jobs runs at a time on this machine (child processes; None: all cores; unused on a
+    cluster); run.cluster a Ray cluster's address ("local" starts one here; None: this machine)."""
     out: str | os.PathLike[str] = "benchmark"
     """Output directory for the logs, the database, summary.csv and the plots."""
-    iterations: int | None = None
-    """Planner iterations per run (count): runs become reproducible like ``plan --seed``;
-    None: a run stops on wall time, like OMPL's Benchmark."""
-    cluster: str | None = None
-    """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     resume: bool = False
     """Keep the runs already in out/runs.csv (an interrupted benchmark) and run only the others."""
-    objective: Objective = Objective.COST
-    """What every planner optimises, the lattice yardstick included (docs/model.md, section 6):
-    cost, margin, balanced or tolerance."""
 
     def validated(self) -> "BenchmarkOptions":
-        """These options with the planner names checked and duplicates dropped, jobs None as all cores;
-        InputError otherwise."""
-        jobs = resolve_jobs(self.jobs)
-        check_runs(self.runs, self.time, jobs, self.seed, self.out)
-        check_iterations(self.iterations)
+        """These options with the planner names checked and duplicates dropped, run.jobs None as all
+        cores; InputError otherwise."""
+        p, run = self.planner, self.run
+        check_runs(self.runs, p.time, run.workers, run.seed, self.out)
+        check_iterations(p.iterations)
         planners = tuple(validate_planners(self.planners))
-        objective = check_objective(self.objective, LATTICE)
+        objective = check_objective(p.objective, LATTICE)
         for planner in planners:
             check_objective(objective, planner)
-        return replace(self, planners=planners, objective=objective, jobs=jobs)
+        return replace(self, planners=planners, planner=replace(p, objective=objective),
+                       run=replace(run.validated(), jobs=run.workers))
 
 
 @dataclass(frozen=True)
@@ -65,35 +61,34 @@ class SweepOptions:
 
     alphas: tuple[float, ...] = ()
     """Digit asymmetry values (finger minus thumb length, over the object length)."""
-    planner: str = "RRTstar"
-    """The planner (an OMPL geometric planner, or ``lattice``)."""
+    planner: PlannerOptions = PlannerOptions()
+    """How the planner runs (planning.setup.PlannerOptions): an OMPL geometric planner by name, or
+    ``lattice``; its time per run (s, wall time, or the cap of 5 times it with iterations); its
+    iterations per run (count, making runs reproducible; None: stop on wall time); its objective.
+    Its seed is unused: run.seed seeds the runs."""
     runs: int = 5
-    """Runs per alpha (count); run k is seeded with seed + k."""
-    time: float = 1.0
-    """Planning time per run (s), wall time (or the cap of 5 times it with iterations)."""
-    jobs: int | None = None
-    """Runs at a time on this machine (count of child processes); None: all cores; unused on a cluster."""
-    seed: int = 1
-    """Seed of OMPL's RNG for run 0 (run k gets seed + k)."""
+    """Runs per alpha (count); run k is seeded with run.seed + k."""
+    run: RunOptions = RunOptions()
+    """How the runs run: run.seed seeds OMPL's RNG for run 0 (run k gets seed + k); run.jobs runs at a
+    time on this machine (child processes; None: all cores; unused on a cluster); run.cluster a Ray
+    cluster's address ("local" starts one here; None: this machine)."""
     out: str | os.PathLike[str] = "sweep"
     """Output directory for sweep.csv and sweep.png."""
-    iterations: int | None = None
-    """Planner iterations per run (count), making runs reproducible; None: stop on wall time."""
-    cluster: str | None = None
-    """Ray cluster address ("local" starts one here); None: child processes on this machine."""
     resume: bool = False
     """Keep the runs already in out/runs.csv and run only the others."""
 
     def validated(self) -> "SweepOptions":
-        """These options checked, jobs None as all cores; InputError naming the option otherwise."""
-        (planner,) = validate_planners([self.planner], "planner")
-        jobs = resolve_jobs(self.jobs)
-        check_runs(self.runs, self.time, jobs, self.seed, self.out)
-        check_iterations(self.iterations)
+        """These options checked, run.jobs None as all cores; InputError naming the option otherwise."""
+        p, run = self.planner, self.run
+        (planner,) = validate_planners([p.planner], "planner")
+        check_runs(self.runs, p.time, run.workers, run.seed, self.out)
+        check_iterations(p.iterations)
+        objective = check_objective(p.objective, planner)
         alphas = tuple(float(a) for a in self.alphas)
         if not alphas:
             raise InputError("alpha", "gives no value")
-        return replace(self, planner=planner, alphas=alphas, jobs=jobs)
+        return replace(self, planner=replace(p, planner=planner, objective=objective), alphas=alphas,
+                       run=replace(run.validated(), jobs=run.workers))
 
 
 def validate_planners(planners: Iterable[str], option: str = "planners") -> list[str]:

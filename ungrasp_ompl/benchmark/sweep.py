@@ -92,32 +92,34 @@ class SweepResult:
     def summary(self) -> str:
         """What was swept, and the table."""
         o = self.options
-        return (f"{self.scene}: {o.planner}, {o.runs} run(s) of {o.time:g} s per alpha; costs in {self.units}\n"
+        return (f"{self.scene}: {o.planner.planner}, {o.runs} run(s) of {o.planner.time:g} s per alpha; costs in "
+                f"{self.units}\n"
                 + self.table)
 
 
 def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progress: Progress | None = None
               ) -> SweepResult:
     """For each alpha of the options: ``runs`` runs of the planner (OMPL seeded
-    with seed + run index; here or on the options' Ray cluster) and the exact lattice search
+    with run.seed + run index; here or on the Ray cluster at run.cluster) and the exact lattice search
     once. Streams every run to ``runs.csv`` (``resume`` keeps those already there); writes
     ``sweep.csv`` and ``sweep.png`` and returns the result. Raises InputError naming the option or the scene."""
     options = options.validated()
     out = Path(options.out)
     base = Scene.from_file(scene_path)
     scenes = [_with_alpha(base, a) for a in options.alphas]
-    limit = float(options.time)
+    p, run = options.planner, options.run
+    limit = float(p.time)
     groups = [repr(a) for a in options.alphas]
-    tasks = [Task(g, scene, LATTICE, -1, options.seed, limit) for g, scene in zip(groups, scenes)]
-    tasks += [Task(g, scene, options.planner, k, options.seed + k, limit, options.iterations)
+    tasks = [Task(g, scene, LATTICE, -1, run.seed, limit, objective=p.objective) for g, scene in zip(groups, scenes)]
+    tasks += [Task(g, scene, p.planner, k, run.seed + k, limit, p.iterations, p.objective)
               for g, scene in zip(groups, scenes) for k in range(options.runs)]
-    with open_runner(options.jobs, options.cluster, fresh=False) as runner, \
+    with open_runner(run.jobs, run.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)
     stream.finish([task_key(t) for t in tasks])
     points = [SweepPoint(a, [r for r in results if r.group == g and r.run >= 0], lattice_yardstick(results, g))
               for g, a in zip(groups, options.alphas)]
-    result = SweepResult(base.name, options.planner, points, cost_units(base), options)
+    result = SweepResult(base.name, p.planner, points, cost_units(base), options)
     result.files["runs"] = stream.path
     result.files["csv"] = out / "sweep.csv"
     write_csv(result.files["csv"], SWEEP_COLUMNS, points)

@@ -12,6 +12,7 @@ import secrets
 from pathlib import Path
 
 from ..errors import InputError
+from ..parallel.options import RunOptions
 from ..parallel.runner import default_jobs
 from ..shipped import resolve, shipped_scenes
 from ..sim.world import World
@@ -25,6 +26,7 @@ from .progress import Progress, Steps, Ticker, map_status, tile_progress, trial_
 
 def plan_command(args: argparse.Namespace) -> int:
     path = resolve(args.scene, "scene")  # before the imports: a wrong name is answered at once
+    from ..planning.setup import PlannerOptions
     from ..scene import Scene
     from ..workflows.plan import PlanOptions, plan_scene
 
@@ -43,17 +45,18 @@ def plan_command(args: argparse.Namespace) -> int:
         raise InputError("--jobs", f"must be at least 1, got {args.jobs}")
     jobs = _all_cores() if args.jobs is None else args.jobs
 
+    planner = PlannerOptions(planner=args.planner, time=args.time, iterations=args.iterations, objective=args.objective)
     certify = None
     if args.certify is not None:
         from ..sim.certify import CertifyOptions
 
-        certify = CertifyOptions(
-            trials=args.certify, candidates=4 if args.candidates is None else args.candidates, planner=args.planner,
-            objective=args.objective, time=args.time, iterations=args.iterations, jobs=jobs)
-    options = PlanOptions(planner=args.planner, time=args.time, iterations=args.iterations,
-                          objective=args.objective, cage=args.cage, certify=certify).validated(scene)
+        certify = CertifyOptions(trials=args.certify, candidates=4 if args.candidates is None else args.candidates,
+                                 planner=planner, run=RunOptions(jobs=jobs))
+    options = PlanOptions(planner=planner, cage=args.cage, certify=certify).validated(scene)
     seed = _seed(args.seed)  # drawn (and printed) only for options that can run
-    options = dataclasses.replace(options, seed=seed, certify=certify and dataclasses.replace(certify, seed=seed))
+    planner = dataclasses.replace(planner, seed=seed)
+    options = dataclasses.replace(options, planner=planner, certify=certify and dataclasses.replace(
+        certify, planner=planner, run=dataclasses.replace(certify.run, seed=seed)))
     bars = {"planning": Progress("candidates", "planning"), "simulating": Progress("trials", "simulate")}
     with Ticker("planning", 0.0 if certify or args.planner == "lattice" else args.time):
         result = plan_scene(scene, options, lambda p: bars[p.stage].show(p.done, p.total))
@@ -139,6 +142,7 @@ def stability_command(args: argparse.Namespace) -> int:
 
 
 def cage_command(args: argparse.Namespace) -> int:
+    from ..planning.setup import PlannerOptions
     from ..scene import Scene
     from ..workflows.cage import CageOptions, cage_report
 
@@ -147,9 +151,9 @@ def cage_command(args: argparse.Namespace) -> int:
     if out is not None and out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
-    options = CageOptions(plan=args.plan, planner=args.planner, time=args.time, seed=args.seed, squeeze=args.squeeze,
-                          refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset, force=args.force,
-                          jobs=args.jobs)
+    options = CageOptions(plan=args.plan, planner=PlannerOptions(planner=args.planner, time=args.time, seed=args.seed),
+                          squeeze=args.squeeze, refine=args.refine, finger_tip=args.finger_tip, start_psi_offset=offset,
+                          force=args.force, run=RunOptions(jobs=args.jobs))
     bar = Progress("states", "cage")
     with Ticker("planning", 0.0 if args.plan or args.planner == "lattice" else args.time) as ticker:
         def progress(p) -> None:
@@ -169,12 +173,13 @@ def cage_command(args: argparse.Namespace) -> int:
 
 def bench_command(args: argparse.Namespace) -> int:
     from ..benchmark import BenchmarkOptions, run_benchmark
+    from ..planning.setup import PlannerOptions
 
     planners = tuple(p.strip() for p in args.planners.split(",") if p.strip())
     scenes = [resolve(s, "scene") for s in args.scenes]
-    options = BenchmarkOptions(planners=planners, runs=args.runs, time=args.time, jobs=args.jobs, seed=args.seed,
-                               out=args.out, iterations=args.iterations, cluster=_cluster(args), resume=args.resume,
-                               objective=args.objective)
+    planner = PlannerOptions(time=args.time, iterations=args.iterations, objective=args.objective)
+    options = BenchmarkOptions(planners=planners, runs=args.runs, planner=planner, run=_run(args), out=args.out,
+                               resume=args.resume)
     result = run_benchmark(scenes, options, progress=Progress("runs", "bench").show)
     print(result.table)
     print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.out}")
@@ -184,10 +189,11 @@ def bench_command(args: argparse.Namespace) -> int:
 def sweep_command(args: argparse.Namespace) -> int:
     from ..benchmark import SweepOptions, run_sweep
     from ..benchmark.ranges import parse_alpha_range
+    from ..planning.setup import PlannerOptions
 
-    options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)), planner=args.planner, runs=args.runs,
-                           time=args.time, jobs=args.jobs, seed=args.seed, out=args.out, iterations=args.iterations,
-                           cluster=_cluster(args), resume=args.resume)
+    options = SweepOptions(alphas=tuple(parse_alpha_range(args.alpha)),
+                           planner=PlannerOptions(planner=args.planner, time=args.time, iterations=args.iterations),
+                           runs=args.runs, run=_run(args), out=args.out, resume=args.resume)
     result = run_sweep(resolve(args.scene, "scene"), options, progress=Progress("runs", "sweep").show)
     print(result.summary())
     print(f"wrote {', '.join(p.name for p in result.files.values())} to {result.options.out}")
@@ -197,12 +203,13 @@ def sweep_command(args: argparse.Namespace) -> int:
 def map_command(args: argparse.Namespace) -> int:
     from ..benchmark.map import MapOptions, run_map
     from ..benchmark.ranges import parse_range
+    from ..planning.setup import PlannerOptions
 
     options = MapOptions(alphas=tuple(parse_range(args.alpha, "--alpha")),
                          friction_scales=tuple(parse_range(args.friction_scale, "--friction-scale")),
-                         start_theta_deg=args.start_theta, planner=args.planner, time=args.time, seed=args.seed,
-                         simulate=args.simulate, perturb=args.perturb, jobs=args.jobs, cluster=_cluster(args),
-                         resume=args.resume, out=args.out)
+                         start_theta_deg=args.start_theta,
+                         planner=PlannerOptions(planner=args.planner, time=args.time, seed=args.seed),
+                         simulate=args.simulate, perturb=args.perturb, run=_run(args), resume=args.resume, out=args.out)
     bar = Progress("cells", "map")
     result = run_map(resolve(args.scene, "scene"), options,
                      progress=lambda p: bar.show(p.done, p.total, map_status(p)))
@@ -217,8 +224,8 @@ def design_command(args: argparse.Namespace) -> int:
 
     radii = tuple(r / 1000 for r in parse_range(args.tip_radius, "--tip-radius")) if args.tip_radius else ()
     options = DesignOptions(alphas=tuple(parse_range(args.alpha, "--alpha")) if args.alpha else (), tip_radii=radii,
-                            finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb, seed=args.seed,
-                            jobs=args.jobs, cluster=_cluster(args), out=args.out)
+                            finger_tip=args.finger_tip, goal=args.goal, simulate=args.simulate, perturb=args.perturb,
+                            run=_run(args), out=args.out)
     bar = Progress("designs", "design")
     result = run_design(args.scene, options, progress=lambda p: bar.show(p.done, p.total))
     files = result.write(result.options.out)
@@ -232,19 +239,26 @@ def _cluster(args: argparse.Namespace) -> str | None:
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
 
 
+def _run(args: argparse.Namespace) -> RunOptions:
+    """How a campaign runs: --seed, --jobs and the cluster (_cluster)."""
+    return RunOptions(seed=args.seed, jobs=args.jobs, cluster=_cluster(args))
+
+
 def tile_command(args: argparse.Namespace) -> int:
     from ..layout.model import Layout
     from ..layout.tiler import TilingOptions
+    from ..planning.setup import PlannerOptions
     from ..workflows.tile import check_tiling_options, tile_layout
 
     layout = Layout.from_file(resolve(args.layout, "layout"))
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError("--out", f"{out} exists and is not a directory")
-    options = check_tiling_options(TilingOptions(planner=args.planner, time=args.time, seed=args.seed,
-                                                 range=args.range, approaches=args.approaches, rank=args.rank))
+    planner = PlannerOptions(planner=args.planner, time=args.time, seed=args.seed, range=args.range)
+    options = check_tiling_options(TilingOptions(planner=planner, approaches=args.approaches, rank=args.rank))
     seed = _seed(args.seed)
-    result = tile_layout(layout, dataclasses.replace(options, seed=seed), tile_progress(Progress("pieces")))
+    options = dataclasses.replace(options, planner=dataclasses.replace(planner, seed=seed))
+    result = tile_layout(layout, options, tile_progress(Progress("pieces")))
     print(result.summary())
     cleared = _Cleared()
     doc, picture, cspaces = result.write(cleared(out))
@@ -260,6 +274,7 @@ def tile_command(args: argparse.Namespace) -> int:
 
 def simulate_command(args: argparse.Namespace) -> int:
     from ..layout.model import Layout
+    from ..planning.setup import PlannerOptions
     from ..scene import Scene
     from ..scene.loader import read_yaml
     from ..workflows.simulate import SimulateOptions, simulate_layout, simulate_scene
@@ -276,9 +291,11 @@ def simulate_command(args: argparse.Namespace) -> int:
     shipped = next((s for s in shipped_scenes() if s.name == args.scene), None)
     path = resolve(args.scene, shipped.kind if shipped and not Path(args.scene).exists() else "scene")
     offset = None if args.start_psi_offset_deg is None else math.radians(args.start_psi_offset_deg)
-    options = SimulateOptions(trials=args.trials, perturb=args.perturb, seed=args.seed, jobs=args.jobs,
-                              cluster=_cluster(args), plan=args.plan, planner=args.planner, time=args.time,
-                              objective=args.objective, finger_tip=args.finger_tip, start_psi_offset=offset,
+    # one --seed: the plan's (planner.seed) and the trials' errors' (run.seed)
+    options = SimulateOptions(trials=args.trials, perturb=args.perturb, run=_run(args), plan=args.plan,
+                              planner=PlannerOptions(planner=args.planner, time=args.time, seed=args.seed,
+                                                     objective=args.objective),
+                              finger_tip=args.finger_tip, start_psi_offset=offset,
                               world=World.parse(args.world or ()), thickness=args.thickness, equal_digits=args.equal_digits,
                               force=args.force, engine=args.engine)
     doc = read_yaml(path, "scene")

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, StrEnum
 from typing import Callable, Iterator
 
@@ -67,7 +67,7 @@ from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from ..planning.lattice import optimum_cost
 from ..planning.plan_tolerance import tolerance
 from ..planning.result import Plan, PlanOutcome, describe_outcome
-from ..planning.setup import LATTICE, EndsProblem
+from ..planning.setup import LATTICE, EndsProblem, PlannerOptions
 from ..scene import Scene
 from .model import Layout
 
@@ -92,15 +92,11 @@ PIECE_RANGE = 1.0
 class TilingOptions:
     """How to tile a layout."""
 
-    planner: str = "RRTstar"
-    """The planner per piece: an OMPL planner by name, or lattice."""
-    time: float = 1.0
-    """Planning time per piece (s)."""
-    seed: int | None = None
-    """Seed: piece k of the order is planned with seed + k. None: not reproducible."""
-    range: float | None = None
-    """The planner's longest motion (state units); None: the layout's planning.range, else
-    PIECE_RANGE."""
+    planner: PlannerOptions = PlannerOptions()
+    """How each piece is planned (planning.setup.PlannerOptions): an OMPL planner by name, or
+    lattice; its time per piece (s); its seed: piece k of the order is planned with seed + k (None:
+    not reproducible); its range, the longest motion (state units; None: the layout's
+    planning.range, else PIECE_RANGE)."""
     approaches: int = 6
     """Manipulation planes (G, B pairs) tried per piece."""
     max_checks: int = 400
@@ -116,8 +112,9 @@ class TilingOptions:
     def validated(self) -> "TilingOptions":
         if not isinstance(self.approaches, int) or self.approaches < 1:
             raise InputError("approaches", f"must be a positive integer, got {self.approaches!r}")
-        if self.range is not None and not (isinstance(self.range, (int, float)) and self.range > 0):
-            raise InputError("range", f"must be positive, got {self.range!r}")
+        longest = self.planner.range
+        if longest is not None and not (isinstance(longest, (int, float)) and longest > 0):
+            raise InputError("range", f"must be positive, got {longest!r}")
         if not isinstance(self.max_checks, int) or self.max_checks < 1:
             raise InputError("max_checks", f"must be a positive integer, got {self.max_checks!r}")
         if self.rank not in tuple(Rank):
@@ -529,7 +526,8 @@ class TilingMemo:
     goals: dict = field(default_factory=dict)
     """(piece, G bytes, B bytes) -> GoalStates: what screens learnt, over any pieces down."""
     plans: dict = field(default_factory=dict)
-    """(the same keys, planner, time s, seed, range) -> (Plan, its tolerance's scale)."""
+    """(the same keys, the piece's PlannerOptions: planner, time s, seed, range ...) -> (Plan, its
+    tolerance's scale)."""
 
     def claim(self, layout: Layout) -> "TilingMemo":
         """This memo, bound to layout on first use; ValueError for another layout."""
@@ -627,12 +625,13 @@ class _Tiler:
                 seed: int | None = None) -> tuple[Plan, float | None]:
         """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
         unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
-        opts = self.opts
-        longest = opts.range if opts.range is not None else (scene.options.range or PIECE_RANGE)
-        key = (_at(placed, i, a), planner, opts.time, seed, longest)
+        own = self.opts.planner
+        longest = own.range if own.range is not None else (scene.options.range or PIECE_RANGE)
+        piece = replace(own, planner=planner, seed=seed, range=longest)
+        key = (_at(placed, i, a), piece)
         if key in self.memo.plans:
             return self.memo.plans[key]
-        p = planning.plan(scene, planner=planner, time=opts.time, seed=seed, range=longest, atlas=atlas)
+        p = planning.plan(scene, atlas=atlas, **asdict(piece))
         found = p, tolerance(scene, p).scale if p.solved else None
         if planner == LATTICE or seed is not None:
             self.memo.plans[key] = found
@@ -725,11 +724,11 @@ class _Tiler:
                 a, scene, atlas, ranked = self.most_tolerant(i, placed_before, (a, scene, atlas))
             down = list(placed_before)
             placed_before.append(i)
-            seed = None if opts.seed is None else opts.seed + k
-            p, tol = self.planned(down, i, a, scene, atlas, opts.planner, seed)  # on the lattice the proof searched
+            planner, seed = opts.planner.planner, None if opts.planner.seed is None else opts.planner.seed + k
+            p, tol = self.planned(down, i, a, scene, atlas, planner, seed)  # on the lattice the proof searched
             note = None
-            if not p.solved and opts.planner != LATTICE:  # the search proved a path: take the lattice's
-                note = f"{opts.planner} found no path ({p.reason}); the exact lattice plan is used"
+            if not p.solved and planner != LATTICE:  # the search proved a path: take the lattice's
+                note = f"{planner} found no path ({p.reason}); the exact lattice plan is used"
                 p, tol = self.planned(down, i, a, scene, atlas, LATTICE)  # the proof's lattice again
             if not p.solved:
                 result.failed_piece = pieces[i].name

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import collections
 import math
-import os
 from collections.abc import Callable, Iterator
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field, replace
@@ -18,6 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..planning.deviate import PlanProblem
+from ..parallel.options import RunOptions
 from ..parallel.runner import InlineRunner, LocalRunner, Runner, open_runner
 from .outcome import TrialResult
 from ..scene.perturbation import Perturbation, TrialParams, trial_params
@@ -134,43 +134,44 @@ def _one(args: tuple) -> TrialResult:
     return run_engine_trial(*args)
 
 
-def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
-             progress: Callable[[TrialResult], None] | None = None, scene: str = "",
-             variant: Variant = Variant(), cluster: str | None = None, world: World = World(),
-             engine: str = "mujoco") -> SimulationReport:
+def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, run: RunOptions, *,
+             progress: Callable[[TrialResult], None] | None = None, scene: str = "", variant: Variant = Variant(),
+             world: World = World(), engine: str = "mujoco") -> SimulationReport:
     """Run trials 0 .. trials-1 of a placement in world (sim.world: the world the setup, its plan
-    and its aim were made without), each with its own seeded perturbation (the same
-    seed gives the same trials wherever they run), jobs at a time in worker processes
-    (ungrasp_ompl.runner), or on the Ray cluster at the address cluster. A trial that raises, or whose worker dies, ends the campaign with
-    that error (TaskLost for a worker that died).
-    progress is called with each result as it arrives. engine: the physics engine (ENGINES).
+    and its aim were made without), each with its own perturbation seeded by run.seed (the same
+    seed gives the same trials wherever they run), run.workers at a time in worker processes
+    (ungrasp_ompl.parallel.runner), or on the Ray cluster at run.cluster. A trial that raises, or
+    whose worker dies, ends the campaign with that error (TaskLost for a worker that died).
+    progress is called with each result as it arrives; scene and variant name what the report
+    holds. engine: the physics engine (ENGINES).
 
     Size: the campaign's parts, as the workflows and tools hold them: the setup, the errors, the
-    count and seed, the workers or cluster, the world and the engine."""
+    count, the run (seed, workers, cluster), the progress, the report's scene and variant, the world
+    and the engine."""
     if trials < 1:
         raise InputError("trials", f"must be at least 1, got {trials}")
-    if jobs < 1:
-        raise InputError("jobs", f"must be at least 1, got {jobs}")
-    results = run_trials([replace(setup, world=world)], perturbation, trials, seed, jobs, progress, cluster,
-                         engine)[0]
-    return SimulationReport(scene, perturbation, variant, seed, results,
+    run = run.validated()
+    results = run_trials([replace(setup, world=world)], perturbation, trials, run, progress=progress,
+                         engine=engine)[0]
+    return SimulationReport(scene, perturbation, variant, run.seed, results,
                             trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim, world=world,
                             engine=engine)
 
 
-def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, seed: int, jobs: int = 1,
+def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, run: RunOptions, *,
                progress: Callable[[TrialResult], None] | None = None,
-               cluster: str | None = None, engine: str = "mujoco") -> list[list[TrialResult]]:
+               engine: str = "mujoco") -> list[list[TrialResult]]:
     """Trials 0 .. trials-1 of each setup, in trial order per setup, in the engine named (ENGINES).
-    Trial k of every setup meets the same seeded perturbation (so that placements are compared on
-    the same errors); all the trials share one pool of jobs worker processes (or the Ray cluster at
-    the address cluster).
+    Trial k of every setup meets the same perturbation seeded by run.seed (so that placements are
+    compared on the same errors); all the trials share one pool of run.workers worker processes
+    (or the Ray cluster at run.cluster).
     A trial that raises, or whose worker dies, raises here (TaskLost for a worker that died);
     progress is called with each result as it arrives."""
+    seed = run.seed
     params = trial_params(perturbation, seed, trials)
     work = [(setup, p, k, seed) if engine == "mujoco" else (setup, p, k, seed, engine)
             for setup in setups for k, p in enumerate(params)]
-    results = run_each(work, jobs, progress, cluster)
+    results = run_each(work, run.workers, progress, run.cluster)
     return [results[i * trials:(i + 1) * trials] for i in range(len(setups))]
 
 
@@ -201,8 +202,3 @@ def trial_runner(jobs: int, trials: int, cluster: str | None = None) -> Iterator
         yield InlineRunner()
     else:
         yield LocalRunner(min(jobs, trials), fresh=False)
-
-
-def default_jobs() -> int:
-    """All cores."""
-    return max(1, os.cpu_count() or 1)

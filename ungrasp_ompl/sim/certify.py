@@ -23,7 +23,7 @@ import enum
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 
 from ..errors import InputError, UngraspError
 from ..planning import plan
@@ -31,7 +31,8 @@ from ..planning.atlas import SecurityAtlas, planning_box
 from ..planning.margins import OBJECTIVES, Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
-from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, check_objective
+from ..parallel.options import RunOptions
+from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
 from ..scene import Scene
 from ..scene.perturbation import preset
 from .campaign import failure_causes, run_trials, wilson_interval
@@ -47,44 +48,42 @@ class CertifyOptions:
     """Simulated trials per candidate (count)."""
     candidates: int = 4
     """Candidate plans (count)."""
-    planner: str = "RRTstar"
-    """The OMPL planner of the seeded candidates (by name), or ``lattice`` (one candidate per objective)."""
-    objective: Objective = Objective.COST
-    """The objective taken first (cost, margin, balanced, tolerance); the others follow in turn."""
-    time: float = 1.0
-    """Planning time per planner candidate (s): a seeded run's iteration budget, as for ``plan --seed``."""
-    iterations: int | None = None
-    """Planner iterations per planner candidate (count); None: from time."""
-    seed: int = 1
-    """Seed s: the planner's candidates use s, s + 1, ...; every candidate's trials use s."""
+    planner: PlannerOptions = PlannerOptions(seed=1)
+    """The planner of the seeded candidates (an OMPL planner by name, or ``lattice``: one candidate per
+    objective), its time per candidate (s: a seeded run's iteration budget, as for ``plan --seed``) and
+    iterations; its objective is taken first, the others follow in turn; its seed s: the planner's
+    candidates use s, s + 1, ... (None: 1)."""
     perturb: str = "paper"
     """The trials' perturbation preset (see ``simulate --perturb``)."""
-    jobs: int = 1
-    """Trials at a time (worker processes, count); unused on a cluster."""
-    cluster: str | None = None
-    """Ray cluster address for the trials ("local" starts one here); None: this machine."""
+    run: RunOptions = RunOptions(jobs=1)
+    """How the trials run: every candidate's trials use run.seed; run.jobs trials at a time (worker
+    processes; None: all cores; unused on a cluster); on the Ray cluster at run.cluster ("local"
+    starts one here; None: this machine)."""
 
     def validated(self) -> "CertifyOptions":
-        """These options checked; InputError naming the field otherwise."""
-        for name, value in (("trials", self.trials), ("candidates", self.candidates), ("jobs", self.jobs)):
+        """These options checked (jobs None as all cores, the planner's seed None as 1); InputError
+        naming the field otherwise."""
+        for name, value in (("trials", self.trials), ("candidates", self.candidates)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(name, f"must be at least 1, got {value!r}")
-        if self.planner != LATTICE and self.planner not in PLANNERS:
-            raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS)}, "
+        run = self.run.validated()
+        p = self.planner if self.planner.seed is not None else replace(self.planner, seed=1)
+        if p.planner != LATTICE and p.planner not in PLANNERS:
+            raise InputError("planner", f"unknown planner {p.planner!r} (known: {', '.join(PLANNERS)}, "
                              f"{LATTICE})")
-        why = UNUSABLE_PLANNERS.get(self.planner) or (
-            KNOWN_LIMITATIONS[self.planner].value if self.planner in KNOWN_LIMITATIONS else "")
+        why = UNUSABLE_PLANNERS.get(p.planner) or (
+            KNOWN_LIMITATIONS[p.planner].value if p.planner in KNOWN_LIMITATIONS else "")
         if why:
-            raise InputError("planner", f"{self.planner} cannot produce candidates: {why.split(';')[0]}")
+            raise InputError("planner", f"{p.planner} cannot produce candidates: {why.split(';')[0]}")
         try:
-            objective = check_objective(self.objective, self.planner)
+            objective = check_objective(p.objective, p.planner)
         except InputError as exc:
             raise InputError("objective", exc.reason) from None
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        if isinstance(p.seed, bool) or not isinstance(p.seed, int) or not 0 <= p.seed < 2**32:
+            raise InputError("seed", f"must be an integer in [0, 2^32), got {p.seed!r}")
         preset(self.perturb)  # InputError("perturb") for an unknown preset
-        candidate_sources(self.planner, objective, self.seed, self.candidates)  # candidates beyond the rule
-        return replace(self, objective=objective)
+        candidate_sources(p.planner, objective, p.seed, self.candidates)  # candidates beyond the rule
+        return replace(self, planner=replace(p, objective=objective), run=replace(run, jobs=run.workers))
 
 
 @dataclass(frozen=True)
@@ -224,7 +223,7 @@ class CertifyResult:
         return {"kept": self.kept, "source": kept.source.label() if kept else None,
                 "successes": kept.successes if kept else None, "trials": self.options.trials,
                 "wilson_low": kept.interval[0] if kept else None, "wilson_high": kept.interval[1] if kept else None,
-                "perturbation": self.options.perturb, "seed": self.options.seed, "wall_time_s": self.wall_time_s,
+                "perturbation": self.options.perturb, "seed": self.options.run.seed, "wall_time_s": self.wall_time_s,
                 "candidates": [c.to_dict() for c in self.candidates]}
 
 
@@ -250,14 +249,15 @@ def certify(scene: Scene, options: CertifyOptions,
     if scene.object_thickness <= 0.0:
         raise InputError("trials", "the simulator needs an object with a thickness (object.thickness)")
     t0 = time.perf_counter()
-    sources = candidate_sources(options.planner, options.objective, options.seed, options.candidates)
+    planner = options.planner
+    sources = candidate_sources(planner.planner, planner.objective, planner.seed, options.candidates)
     atlas = SecurityAtlas(scene, planning_box(scene))  # one secure lattice for every candidate
     candidates: list[Candidate] = []
     setups = []  # (candidate index, trial setup) of the candidates to simulate
     for k, source in enumerate(sources):
         t1 = time.perf_counter()
-        result = plan(scene, planner=source.planner, time=options.time, seed=options.seed if source.seed is None
-                      else source.seed, iterations=options.iterations, atlas=atlas, objective=source.objective)
+        result = plan(scene, atlas=atlas, **asdict(replace(planner, planner=source.planner, objective=source.objective,
+                                                           seed=planner.seed if source.seed is None else source.seed)))
         cand = Candidate(k, source, result, CandidateStatus.NOT_SOLVED, why=result.reason or "")
         if result.solved:
             same = next((c for c in candidates if c.status is CandidateStatus.SIMULATED
@@ -284,8 +284,7 @@ def certify(scene: Scene, options: CertifyOptions,
             if progress:
                 progress(CertifyProgress("simulating", done[0], total))
 
-        runs = run_trials([s for _, s in setups], preset(options.perturb), options.trials, options.seed,
-                          options.jobs, step, options.cluster)
+        runs = run_trials([s for _, s in setups], preset(options.perturb), options.trials, options.run, progress=step)
         for (k, _), results in zip(setups, runs):
             candidates[k].results = results
         for c in candidates:

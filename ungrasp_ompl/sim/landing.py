@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..io import write_text_atomic
+from ..parallel import RunOptions
 from ..robot.pipeline import Aim
 from ..scene.options import Landing, RobotOptions
 from ..scene.perturbation import PRESETS, TrialParams
@@ -140,12 +141,12 @@ def landing_draw(k: int) -> tuple[tuple[TrialParams, World], tuple[TrialParams, 
     return (params, World(friction=f, cone=cone)), (box.mirrored(params), World(friction=2.0 - f, cone=cone))
 
 
-def expected_landing(setup: TrialSetup, pairs: int, jobs: int = 1, cluster: str | None = None) -> LandingPrediction:
+def expected_landing(setup: TrialSetup, pairs: int, run: RunOptions = RunOptions(jobs=1)) -> LandingPrediction:
     """Where the placement, as setup has it unaimed, lands the object on average under the `paper`
     errors and over the worlds of landing_draw: the release simulated with no error first (an
     object that does not land so gets no aim, as in predict_landing), then pairs antithetic pairs
-    of drawn releases (landing_draw), jobs at a time (sim.campaign.run_each: worker processes, or
-    the Ray cluster at the address cluster). The mean landing (mean position of the body frame,
+    of drawn releases (landing_draw), on run's workers or cluster (sim.campaign.run_each; the draws
+    are landing_draw's, not seeded by run.seed). The mean landing (mean position of the body frame,
     mean turn) of the pairs whose both releases placed the object by the paper's criterion (let
     go flat, wherever: where it lands is what is measured) gives the offset, turn and correction;
     with fewer than half the pairs so, the no-error landing does."""
@@ -154,7 +155,7 @@ def expected_landing(setup: TrialSetup, pairs: int, jobs: int = 1, cluster: str 
         return _prediction(setup, np.array(nominal.final_pose), nominal.outcome)
     draws = [draw for k in range(pairs) for draw in landing_draw(k)]
     landed = run_each([(replace(setup, world=world), params, k, None) for k, (params, world) in enumerate(draws)],
-                      jobs, cluster=cluster)
+                      run.workers, cluster=run.cluster)
     finals = [np.array(r.final_pose) for pair in zip(landed[::2], landed[1::2])
               if all(r.placed for r in pair) for r in pair]
     if len(finals) < pairs:  # fewer than half the pairs placed both
@@ -212,11 +213,10 @@ def _keep(path: Path, landing: LandingPrediction) -> None:
         pass
 
 
-def robot_landing(setup: TrialSetup, robot: RobotOptions, jobs: int = 1,
-                  cluster: str | None = None) -> LandingPrediction | None:
+def robot_landing(setup: TrialSetup, robot: RobotOptions, run: RunOptions = RunOptions(jobs=1)) -> LandingPrediction | None:
     """The landing the scene's robot.landing aims the hand by: None where it is planned, the
     release with no error where simulated, the expected landing of robot.landing_pairs pairs where
-    expected (its pairs jobs at a time, or on the Ray cluster at the address cluster). With
+    expected (its pairs on run's workers or cluster). With
     UNGRASP_OMPL_CACHE set, a landing kept there for the same setup and settings is returned as
     it was computed, and one computed is kept."""
     if robot.landing is Landing.PLANNED:
@@ -227,7 +227,7 @@ def robot_landing(setup: TrialSetup, robot: RobotOptions, jobs: int = 1,
     if robot.landing is Landing.SIMULATED:
         landing = predict_landing(setup)
     else:
-        landing = expected_landing(setup, robot.landing_pairs, jobs, cluster)
+        landing = expected_landing(setup, robot.landing_pairs, run)
     if path is not None:
         _keep(path, landing)
     return landing

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import UngraspError
+from ..parallel import RunOptions
 from ..planning.result import Plan
 from ..planning.setup import with_3d_report
 from ..robot.pipeline import Execution, execute, modelled_aim
@@ -47,14 +48,14 @@ class PlanTrials:
         return sum(r.success for r in self.results)
 
 
-def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int = 1,
-              cluster: str | None = None) -> tuple["Execution", TrialSetup]:
+def placement(scene: Scene, plan: Plan, variant: Variant = Variant(),
+              run: RunOptions = RunOptions(jobs=1)) -> tuple["Execution", TrialSetup]:
     """A solved plan executed on the robot (placement, IK, timing) and what its trials share, with
     the variant's changes to the simulated world. With robot.landing simulated or expected, the
     hand is aimed by where the release, simulated in the scene's own world (no variant) with no
     error or on average over drawn ones, lands the object (sim.landing; left as planned when the
-    release with no error does not put it down; the drawn ones jobs at a time, or on the Ray
-    cluster at the address cluster; with robot.landing modelled, by where the model of the fall lands
+    release with no error does not put it down; the drawn ones on run's workers or cluster; with
+    robot.landing modelled, by where the model of the fall lands
     it, robot.pipeline.modelled_aim, no release simulated). Raises the
     robot's UngraspError when it cannot execute the plan (out of reach, an arm collision, beyond
     the joint limits)."""
@@ -64,8 +65,7 @@ def placement(scene: Scene, plan: Plan, variant: Variant = Variant(), jobs: int 
         execution = execute(scene, plan, modelled_aim(scene, plan))
     else:
         execution = execute(scene, plan)
-        landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot, jobs,
-                                cluster)
+        landing = robot_landing(trial_setup(scene, plan, execution.trajectory, execution.robot), scene.robot, run)
         if landing is not None and any(landing.aim):
             execution = execute(scene, plan, landing.aim)
     aim = execution.aims[0]

@@ -28,6 +28,7 @@ from ..errors import InputError
 from ..geometry.collision import CollisionChecker
 from ..geometry.solids import Solid
 from ..layout.model import Layout
+from ..parallel import RunOptions
 from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from ..planning.result import Plan
 from ..robot.model import RobotModel
@@ -277,16 +278,15 @@ def _attempt(args: tuple) -> TilingAttempt:
 
 
 def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation,
-                    attempts: int, seed: int, jobs: int = 1,
-                    progress: Callable[[TilingAttempt], None] | None = None,
-                    cluster: str | None = None) -> list[TilingAttempt]:
-    """Run attempts 0 .. attempts-1 of the whole layout, jobs at a time in worker processes
-    (ungrasp_ompl.parallel.runner), or on the Ray cluster at the address cluster."""
+                    attempts: int, run: RunOptions = RunOptions(jobs=1),
+                    progress: Callable[[TilingAttempt], None] | None = None) -> list[TilingAttempt]:
+    """Run attempts 0 .. attempts-1 of the whole layout, each with the errors of run.seed's
+    stream, on run's worker processes (ungrasp_ompl.parallel.runner) or its Ray cluster."""
     if attempts < 1:
         raise InputError("trials", f"must be at least 1, got {attempts}")
-    work = [(layout, setups, perturbation, seed, k) for k in range(attempts)]
+    work = [(layout, setups, perturbation, run.seed, k) for k in range(attempts)]
     results: list[TilingAttempt] = []
-    with trial_runner(jobs, attempts, cluster) as runner, closing(runner.run(_attempt, work)) as outcomes:
+    with trial_runner(run.workers, attempts, run.cluster) as runner, closing(runner.run(_attempt, work)) as outcomes:
         for outcome in outcomes:
             results.append(outcome.unwrap())
             if progress:

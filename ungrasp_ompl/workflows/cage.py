@@ -15,7 +15,7 @@ import math
 import os
 from collections.abc import Callable
 from contextlib import closing
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,11 +25,13 @@ from ..errors import InputError
 from ..io import write_text_atomic
 from ..mechanics.cage import Cage, CageGrid
 from ..mechanics.path import plan_samples
-from ..parallel.runner import InlineRunner, LocalRunner, resolve_jobs
+from ..parallel.options import RunOptions
+from ..parallel.runner import InlineRunner, LocalRunner
 from ..planning.cage_profile import CageMinimum, CageProfile
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.path_margin import path_friction_margin, plan_friction_margins
 from ..planning.result import Plan
+from ..planning.setup import LATTICE, PlannerOptions
 from .. import planning
 from ..scene import Scene
 from .plan_files import read_plan_for
@@ -41,12 +43,9 @@ class CageOptions:
 
     plan: str | os.PathLike[str] | None = None
     """plan.json to examine, or a directory holding one; None: plan the scene."""
-    planner: str = "RRTstar"
-    """The planner when planning here (an OMPL planner, or lattice)."""
-    time: float = 1.0
-    """Planning time (s) when planning here."""
-    seed: int = 1
-    """The planner's seed when planning here."""
+    planner: PlannerOptions = PlannerOptions(seed=1)
+    """How the planner runs when planning here (planning.setup.PlannerOptions): an OMPL planner by
+    name, or lattice; its time (s), seed, iterations and objective."""
     squeeze: float = 0.0
     """A constant force (N) pressing the object where the finger does; 0: gravity only."""
     refine: float = 1.0
@@ -57,8 +56,9 @@ class CageOptions:
     """Start the plan with psi larger by this (rad; the paper's deviated start); None: as planned."""
     force: bool = False
     """Examine a plan made for another scene (plan.json names its scene); False: refuse it (InputError)."""
-    jobs: int | None = None
-    """Worker processes computing the states' cages (count); None: all cores."""
+    run: RunOptions = RunOptions()
+    """Where the states' cages are computed: run.jobs worker processes on this machine (count;
+    None: all cores); no cluster (run.cluster must be None), no random draws (run.seed unused)."""
 
     def validated(self, scene: Scene) -> "CageOptions":
         """These options checked against the scene; InputError naming the field otherwise."""
@@ -73,9 +73,11 @@ class CageOptions:
             check_psi_offset(self.start_psi_offset)
         if self.force and self.plan is None:
             raise InputError("force", "applies only with plan (a plan.json to examine)")
-        jobs = resolve_jobs(self.jobs)
-        if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-            raise InputError("jobs", f"must be a positive integer, got {jobs!r}")
+        self.run.validated()
+        if self.run.cluster is not None:
+            raise InputError("cluster", "the cage's states are computed on this machine")
+        if self.plan is None and self.planner.planner != LATTICE:
+            self.planner.validated()
         return self
 
 
@@ -213,7 +215,7 @@ def profile_cages(scene: Scene, plan: Plan, grid: CageGrid, squeeze: float = 0.0
 def cage_report(scene: Scene, options: CageOptions = CageOptions(),
                 progress: Callable[[CageProgress], None] | None = None) -> CageReport:
     """Plan the scene (or read options.plan: one made for another scene only with options.force),
-    deviate its start if asked, and profile its cage (options.jobs worker processes; progress
+    deviate its start if asked, and profile its cage (options.run's worker processes; progress
     called as states are done) and friction margins; a report without a profile when planning
     finds no plan. Raises InputError naming the option or the scene field before any work."""
     o = options.validated(scene)
@@ -221,7 +223,7 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
         result = read_plan_for(scene, o.plan, o.force)
         report = CageReport(scene, result, o, problems=plan_problems(scene, result))
     else:
-        result = planning.plan(scene, planner=o.planner, time=o.time, seed=o.seed)
+        result = planning.plan(scene, **asdict(o.planner))
         report = CageReport(scene, result, o, planned=True)
         if not result.solved:
             return report
@@ -230,7 +232,7 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
     if o.start_psi_offset is not None:
         report.plan = result = deviated_plan(result, o.start_psi_offset)
     try:
-        report.profile = profile_cages(scene, result, CageGrid().refined(o.refine), o.squeeze, resolve_jobs(o.jobs),
+        report.profile = profile_cages(scene, result, CageGrid().refined(o.refine), o.squeeze, o.run.workers,
                                        progress)
     except InputError as exc:
         if exc.field != "grid":

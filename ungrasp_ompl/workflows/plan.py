@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..mechanics.release import ReleaseModelError
-from ..planning.margins import Objective
+from ..parallel import RunOptions
 from ..planning.plan_tolerance import tolerance
 from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan
@@ -42,16 +42,9 @@ if TYPE_CHECKING:  # pragma: no cover
 class PlanOptions:
     """What ``plan`` plans with and what it adds to the plan."""
 
-    planner: str = "RRTstar"
-    """An OMPL geometric planner by name, or lattice (the exact search)."""
-    time: float = 1.0
-    """Planning time (s)."""
-    seed: int = 1
-    """The planner's seed."""
-    iterations: int | None = None
-    """Planner iterations (count); None: from time."""
-    objective: Objective = Objective.COST
-    """What the planner optimises: cost, margin, balanced or tolerance."""
+    planner: PlannerOptions = PlannerOptions(seed=1)
+    """How the planner runs (planning.setup.PlannerOptions): an OMPL geometric planner by name, or
+    lattice (the exact search); its time (s), seed, iterations and objective."""
     cage: bool = False
     """Also find the plan's weakest cage (the object needs a thickness)."""
     certify: CertifyOptions | None = None
@@ -59,9 +52,8 @@ class PlanOptions:
 
     def validated(self, scene: Scene) -> "PlanOptions":
         """These options checked against the scene; InputError naming the field otherwise."""
-        if self.planner != LATTICE:  # the OMPL planner's options, before a seed is drawn for them
-            PlannerOptions(planner=self.planner, time=self.time, iterations=self.iterations,
-                           objective=self.objective).validated()
+        if self.planner.planner != LATTICE:  # the OMPL planner's options, before a seed is drawn for them
+            self.planner.validated()
         if self.cage and scene.object_thickness <= 0.0:
             raise InputError("cage", "the cage's potential energy needs an object with a thickness (object.thickness)")
         if self.certify is not None:
@@ -156,7 +148,7 @@ class ScenePlan:
             # the simulator (MuJoCo and the trials' modules): loaded when a landing is simulated
             from ..sim.plan_trials import placement
 
-            return placement(self.scene, self.plan, jobs=jobs)[0]
+            return placement(self.scene, self.plan, run=RunOptions(jobs=jobs))[0]
         return execute(self.scene, self.plan)
 
     def export(self, out: str | os.PathLike[str], execution: Execution | None = None) -> dict[str, Path]:
@@ -183,8 +175,7 @@ def plan_scene(scene: Scene, options: PlanOptions,
     options.validated(scene)
     certification = None
     if options.certify is None:
-        result = plan_planar(scene, planner=options.planner, time=options.time, seed=options.seed,
-                             iterations=options.iterations, objective=options.objective)
+        result = plan_planar(scene, **dataclasses.asdict(options.planner))
     else:
         from ..sim.certify import certify  # the simulator (MuJoCo and the trials' modules): loaded to certify
 
@@ -212,7 +203,7 @@ def certification_table(scene: Scene, result: CertifyResult) -> str:
     """The candidates of plan --certify, one line each: source, cost, success and interval."""
     o = result.options
     lines = [f"{len(result.candidates)} candidate plans of {scene.name}, {o.trials} trials each (perturbation "
-             f"'{o.perturb}', seed {o.seed}: trial k meets the same errors in every candidate), {o.jobs} jobs:",
+             f"'{o.perturb}', seed {o.run.seed}: trial k meets the same errors in every candidate), {o.run.jobs} jobs:",
              f"  {'#':>2}  {'source':<26} {'cost':>8}  {'success':>8}  Wilson 95 %"]
     for c in result.candidates:
         cost = "" if c.plan.cost is None else f"{c.plan.cost:.2f}"

@@ -13,24 +13,26 @@ import io
 import json
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from ..errors import InputError
 from ..io import write_text_atomic
 from ..layout.model import Layout
+from ..parallel.options import RunOptions
 from ..scene.perturbation import Perturbation, preset, trial_params
 from .. import planning
 from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, plan_problems
 from ..planning.margins import Objective
 from ..planning.result import Plan
+from ..planning.setup import LATTICE, PlannerOptions
 from ..plots.trials import draw_trials
 from ..robot.export import export_all
 from ..robot.touch_off import touch_off
 from ..robot.pipeline import Execution
 from ..scene import Scene
 from ..scene.options import Landing
-from ..sim.campaign import ENGINES, SimulationReport, default_jobs, engine_name, simulate
+from ..sim.campaign import ENGINES, SimulationReport, engine_name, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
@@ -51,20 +53,15 @@ class SimulateOptions:
     """Trials of the placement (attempts of a layout), >= 1."""
     perturb: str = "paper"
     """The errors' preset (perturbation.PRESETS): paper, none, grasp, friction, mass, thickness."""
-    seed: int = 1
-    """Seed of the plan and of the trials' errors."""
-    jobs: int | None = None
-    """Worker processes (>= 1); None: all cores."""
-    cluster: str | None = None
-    """Address of a Ray cluster to run the trials on; None: this machine."""
+    run: RunOptions = RunOptions()
+    """How the trials run: run.seed seeds their errors; run.jobs worker processes (>= 1; None: all
+    cores), or the Ray cluster at run.cluster (None: this machine)."""
     plan: str | os.PathLike[str] | None = None
     """plan.json (or a directory holding one) to execute; None: plan the scene."""
-    planner: str = "RRTstar"
-    """The planner when planning here (an OMPL planner, or lattice)."""
-    time: float = 1.0
-    """Planning time (s) when planning here."""
-    objective: Objective = Objective.COST
-    """What the plan optimises when planning here (docs/model.md, section 6; a scene only)."""
+    planner: PlannerOptions = PlannerOptions(seed=1)
+    """How the planner runs when planning here (planning.setup.PlannerOptions): an OMPL planner by
+    name, or lattice; its time (s), seed, iterations and objective (docs/model.md, section 6; a
+    layout plans with the cost); a layout's piece k is planned with seed + k."""
     finger_tip: str | None = None
     """rounded or flat instead of the scene's finger tip; None: the scene's."""
     start_psi_offset: float | None = None
@@ -82,11 +79,6 @@ class SimulateOptions:
     """The physics engine the trials run in (sim.campaign.ENGINES): mujoco, or drake (the optional
     extra [drake]; docs/model.md 11.19); ToolError (exit 1) when Drake is not installed."""
 
-    @property
-    def workers(self) -> int:
-        """The worker processes the trials run on."""
-        return default_jobs() if self.jobs is None else self.jobs
-
     def perturbation(self) -> Perturbation:
         """The errors' preset; InputError naming `perturb` for an unknown one."""
         return preset(self.perturb)
@@ -94,8 +86,9 @@ class SimulateOptions:
     def validated(self, scene: Scene | None = None) -> "SimulateOptions":
         """These options checked (against the scene, or for a layout when scene is None);
         InputError naming the field otherwise."""
-        if self.trials < 1 or self.workers < 1:
-            raise InputError("trials" if self.trials < 1 else "jobs", "must be at least 1")
+        if self.trials < 1:
+            raise InputError("trials", "must be at least 1")
+        self.run.validated()
         self.perturbation()
         if self.force and self.plan is None:
             raise InputError("force", "applies only with plan (a plan.json to execute)")
@@ -104,7 +97,7 @@ class SimulateOptions:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
                     raise InputError(name, "applies to a single scene, not to a layout")
-            if self.equal_digits or self.objective != Objective.COST:
+            if self.equal_digits or self.planner.objective != Objective.COST:
                 raise InputError("equal_digits" if self.equal_digits else "objective",
                                  "applies to a single scene, not to a layout")
             return self
@@ -114,6 +107,8 @@ class SimulateOptions:
             raise InputError("object.thickness", "the simulator needs an object with a thickness (m)", scene.source)
         if self.start_psi_offset is not None:
             check_psi_offset(self.start_psi_offset)
+        if self.plan is None and self.planner.planner != LATTICE:
+            self.planner.validated()
         return self
 
     def _check_engine(self, scene: Scene | None) -> None:
@@ -301,16 +296,15 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.plan is not None:
         result = read_plan_for(scene, options.plan, options.force)
     else:
-        result = planning.plan(scene, planner=options.planner, time=options.time, seed=options.seed,
-                            objective=options.objective)
+        result = planning.plan(scene, **asdict(options.planner))
         if not result.solved:
             return SceneSimulation(scene, result, options)
     if options.start_psi_offset is not None:
         result = deviated_plan(result, options.start_psi_offset)
     problems = plan_problems(scene, result) if options.plan is not None or options.start_psi_offset else []
-    execution, setup = placement(scene, result, variant, options.workers, options.cluster)
-    report = simulate(setup, perturbation, options.trials, options.seed, options.workers, progress, scene.name, variant,
-                      cluster=options.cluster, world=options.world, engine=options.engine)
+    execution, setup = placement(scene, result, variant, options.run)
+    report = simulate(setup, perturbation, options.trials, options.run, progress=progress, scene=scene.name,
+                      variant=variant, world=options.world, engine=options.engine)
     report.plan_problems = problems
     return SceneSimulation(scene, result, options, execution, replace(setup, world=options.world), report)
 
@@ -376,13 +370,13 @@ class LayoutSimulation:
 
 def simulate_layout(layout: Layout, options: SimulateOptions,
                     progress: Callable[[object], None] | None = None) -> LayoutSimulation:
-    """Tile the layout (seed options.seed) and run options.trials attempts of the whole tiling,
-    every piece in turn; an unsolved tiling comes back without attempts."""
+    """Tile the layout (with options.planner) and run options.trials attempts of the whole tiling,
+    every piece in turn (their errors seeded by options.run.seed); an unsolved tiling comes back
+    without attempts."""
     options.validated(None)
-    tiling, aimed = tile_aimed(layout, TilingOptions(planner=options.planner, time=options.time, seed=options.seed))
+    tiling, aimed = tile_aimed(layout, TilingOptions(planner=options.planner))
     if aimed is None:
         return LayoutSimulation(layout, tiling, options)
     setups = [(name, replace(setup, world=options.world)) for name, setup in aimed.setups]
-    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.seed,
-                               options.workers, progress, cluster=options.cluster)
+    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.run, progress)
     return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.short)

@@ -17,7 +17,7 @@ from pathlib import Path
 from ..io import write_text_atomic
 from ..layout.model import Layout
 from ..layout.tiler import Tiling, TilingOptions, TilingProgress
-from ..planning.setup import PlannerOptions
+from ..planning.setup import LATTICE
 from ..plots.cspace import draw_plan
 from ..plots.layout import draw_layout
 from ..robot.export import export_all
@@ -94,8 +94,8 @@ def first_touch_off(tiling: Tiling, execution: Execution) -> TouchOff | None:
 
 def check_tiling_options(options: TilingOptions) -> TilingOptions:
     """The options, their planner's checked as plan checks them; InputError naming the field otherwise."""
-    if options.planner != "lattice":
-        PlannerOptions(planner=options.planner, time=options.time, seed=options.seed, range=options.range).validated()
+    if options.planner.planner != LATTICE:
+        options.planner.validated()
     return options
 
 
