@@ -563,9 +563,11 @@ def test_bad_tile_options_exit_2(tmp_path, args, word):
 
 # -- aiming each piece by its landing -------------------------------------------------------
 
-#: The shipped tangram as cut, its pieces not spread (2 mm between neighbours): tight enough that
-#: some aims do not fit and a piece held off in its grasp starts inside its neighbour.
-AS_CUT = {**yaml.safe_load(TANGRAM.read_text()), "spread": False}
+#: The shipped tangram as cut, its pieces not spread (2 mm between neighbours), each piece aimed by
+#: its own simulated release (robot.landing simulated, the aim that carries a turn): tight enough
+#: that some aims do not fit and a piece held off in its grasp starts inside its neighbour.
+_SHIPPED = yaml.safe_load(TANGRAM.read_text())
+AS_CUT = {**_SHIPPED, "spread": False, "robot": {**_SHIPPED["robot"], "landing": "simulated"}}
 
 
 @pytest.fixture(scope="module")
@@ -642,6 +644,28 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
         moved = landing_offset(setup, aim.transform(setup.target_pose[:3, 3]) @ unaimed)
         assert np.hypot(*(offset - moved)) < 3e-4, name  # the same release, moved by the aim
 
+
+
+@pytest.mark.slow
+def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
+    """The shipped tangram (robot.landing modelled, planning.max_landing_spread 4 mm): every piece's
+    plan keeps its predicted landing within the bound over the friction range and both cones, and
+    every piece takes its whole modelled aim (the hand moved back by the mean predicted landing, no
+    turn), which fits between the walls and the pieces down, with lattice plans and with RRT*."""
+    from ungrasp_ompl.planning.predicted_landing import predict_landing
+    from ungrasp_ompl.robot.pipeline import modelled_aim
+    from ungrasp_ompl.sim.tiling import tile_aimed
+
+    layout = Layout.from_file(TANGRAM)
+    for planner in ("lattice", "RRTstar"):
+        tiling, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=1)))
+        assert tiling.solved and result.short == (), planner
+        for k, p in enumerate(tiling.placements):
+            assert p.scene.options.max_landing_spread == pytest.approx(0.004)
+            assert predict_landing(p.scene, p.plan).spread <= 0.004 + 1e-12, (planner, p.name)
+            aim, want = result.execution.aims[k], modelled_aim(p.scene, p.plan)
+            assert np.allclose(tuple(aim), tuple(want), atol=1e-12) and aim.turn == 0.0, (planner, p.name)
+            assert 0.0 < aim.shift < 0.003, (planner, p.name)
 
 def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:
     """Whether the piece's object at its plan's start, moved by aim (robot.pipeline.Aim: turned

@@ -228,7 +228,9 @@ FIELDS = {
 }
 #: What a figure shows of a whole file.
 FILE_FIELDS = {"produced": lambda d: d["produced"], "command": lambda d: f"`{d['command']}`",
-               "seconds": lambda d: f"{d['seconds']} s", "trials_per_row": lambda d: str(d["trials_per_row"])}
+               "seconds": lambda d: f"{d['seconds']} s", "trials_per_row": lambda d: str(d["trials_per_row"]),
+               "reruns": lambda d: "; ".join(f"`{r['command']}` ({r['seconds']} s, {len(r['rows'])} rows)"
+                                             for r in d.get("runs", {}).values() if r["command"] != d["command"])}
 
 
 def show(value, form: str = "{}") -> str:

@@ -28,7 +28,10 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
   that thumb, and what stops it), and a fifth of the friction;
 * tangram: the shipped layout tiled with lattice plans and simulated attempt by attempt, each
-  piece's approach the search's first, then (two more rows) the one whose plan tolerates most;
+  piece's approach the search's first, then (two more rows) the one whose plan tolerates most,
+  then with RRT* plans (the default planner), rounded tip, approaches the search's first, and
+  the lattice plans aimed by their simulated releases with the landing's spread unbounded, as
+  before decision 0102;
 * designed: each object with the digits `ungrasp-ompl design OBJECT --simulate 10` chose (the
   shipped scenes OBJECT_designed.yaml) and the exact lattice plan it judged them by, run with the
   next seed, so that none of the row's trials is one the design was chosen on; beside them the
@@ -82,6 +85,7 @@ import argparse
 import collections
 import math
 import os
+import re
 import sys
 import tempfile
 import time
@@ -150,6 +154,18 @@ class Row:
     model: str  #: what the model says of the plan that ran
     causes: str
     sinking: str = "-"  #: the deepest any trial sank into a digit or the table (mm), or "-"
+
+    @classmethod
+    def from_record(cls, r: dict) -> "Row":
+        """The row of a results file's record (campaign_results.parse_row), for drawing: the
+        paper's rate is the fraction its figure begins with, where it begins with one."""
+        from campaign_results import row_line
+
+        cells = [c.strip() for c in row_line(r).strip().strip("|").split(" | ")]
+        placed_error = "-" if r["placed_error_mean_mm"] is None else f"mean {r['placed_error_mean_mm']:.2f} mm"
+        rate = re.match(r"(\d+)/(\d+)", r["paper"])
+        return cls(r["label"], r["successes"], r["trials"], r["placed"], placed_error, cells[3], r["paper"],
+                   (int(rate.group(1)), int(rate.group(2))) if rate else None, r["model"], cells[6], cells[7])
 
     def line(self) -> str:
         low, high = wilson_interval(self.successes, self.trials)
@@ -229,9 +245,12 @@ def caging_deviation(scene: Scene, result) -> tuple[float, float]:
     raise SystemExit(f"{scene.name}: no steeper start within 60 deg leaves force closure")
 
 
-def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first") -> Row:
-    """The shipped tangram tiled (exact lattice plans, each piece's approach chosen by rank), then
-    simulated attempt by attempt."""
+def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first", planner: str = "lattice",
+            simulated_aim: bool = False) -> Row:
+    """The shipped tangram tiled (each piece planned by planner, the exact lattice by default, and
+    its approach chosen by rank), then simulated attempt by attempt. simulated_aim: each piece aimed
+    by its own release simulated with no error drawn (robot.landing simulated, decision 0013) and
+    its landing's spread left unbounded, the layout's set-up before decision 0102, for comparison."""
     import yaml
 
     from ungrasp_ompl.layout.model import Layout
@@ -240,16 +259,20 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first") 
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     doc["digits"]["finger_tip"] = tip
+    if simulated_aim:
+        doc["robot"]["landing"] = "simulated"
+        del doc["planning"]["max_landing_spread"]
     if TIMESTEP is not None:
         doc.setdefault("sim", {})["timestep"] = TIMESTEP
     layout = Layout.from_dict(doc, source="tangram.yaml")
-    tiling, aimed = tile_aimed(layout, TilingOptions(planner="lattice", seed=seed, rank=rank))
-    ranked = "" if rank == "first" else ", approaches ranked by tolerance"
-    name = f"tangram, {tip} tip (lattice plans{ranked})"
+    tiling, aimed = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=seed), rank=rank))
+    ranked = ("" if rank == "first" else ", approaches ranked by tolerance") + (
+        ", aimed by the simulated release, spread unbounded" if simulated_aim else "")
+    name = f"tangram, {tip} tip ({planner.replace('star', '*')} plans{ranked})"
     if aimed is None:
         return Row(name, 0, attempts, 0, "-", "-", "9/10", (9, 10), "no tiling",
                    f"no tiling: {tiling.failed_piece} cannot be placed ({tiling.reasons[0].kind.value if tiling.reasons else '?'})")
-    results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, seed, jobs)
+    results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, RunOptions(seed=seed, jobs=jobs))
     causes = collections.Counter(a.cause().split(" at ")[0] for a in results if not a.success)
     ok, placed = sum(a.success for a in results), sum(a.placed for a in results)
     return Row(name, ok, attempts, placed, "-", "-", "9/10", (9, 10), "secure",
@@ -429,6 +452,8 @@ def main() -> None:
         for rank in ("first", "tolerance"):
             for tip in ("rounded", "flat"):
                 show(tangram(args.attempts, j, s, tip, rank))
+        show(tangram(args.attempts, j, s, "rounded", planner="RRTstar"))  # the default planner
+        show(tangram(args.attempts, j, s, "rounded", simulated_aim=True))  # decision 0102's comparison
     if "designed" in only:
         first = len(rows)
         for name in OBJECTS:
@@ -472,6 +497,12 @@ def main() -> None:
         if rows:
             engines_compared(rows, footer, args, only)
         return
+    if args.table is not None and args.merge:
+        doc = merged_table(args.table, rows, footer, only)
+        print(f"wrote {args.table}\nwrote {args.table.with_suffix('.json')}")
+        draw([Row.from_record(r) for r in doc["rows"]], args.figure)
+        print(f"wrote {args.figure}")
+        return
     if args.table is not None:
         from ungrasp_ompl.io import write_text_atomic
 
@@ -501,32 +532,84 @@ def _group(record: dict) -> str:
     return next((g for g in GROUP_ORDER if record["campaign"].startswith(g)), record["campaign"])
 
 
-def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
-    """Merge the Drake rows into args.table (.md and .json, the rows of other groups kept), each
-    with MuJoCo's row of the same key and the Fisher test's p, and draw both engines."""
+def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tuple[list[dict], dict, str]:
+    """The records of table's results file (TABLE.json) with this run's rows in place of theirs
+    (the rows of other groups kept, in GROUP_ORDER), the runs that made them (each: its command,
+    seconds and rows' keys; the file's first run kept as it was) and the merged table's footer."""
     import json
     import shlex
-    from datetime import date
 
-    from campaign_results import parse_footer, parse_row, row_line, table_json
+    from campaign_results import parse_footer, parse_row, row_line
 
-    from ungrasp_ompl.io import write_text_atomic
-
-    table: Path = args.table
     path = table.with_suffix(".json")
     new = [parse_row(r.line()) for r in rows]
     old = json.loads(path.read_text()) if path.exists() else {"rows": [], "runs": {}}
     keys = {r["key"] for r in new}
     merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
-    runs = {**old.get("runs", {}), ",".join(sorted(only)): {
-        "command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
-        "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}}
-    head, tail = footer.split(" s in all; ", 1)
+    if not old.get("runs") and old["rows"]:  # a table one run wrote whole: that run, named by its groups
+        words = shlex.split(old["command"])
+        groups = words[words.index("--only") + 1] if "--only" in words else "default"
+        old["runs"] = {",".join(sorted(groups.split(","))): {"command": old["command"], "seconds": old["seconds"],
+                                                              "rows": [r["key"] for r in old["rows"]]}}
+    runs = old.get("runs", {})
+    runs = {name: {**run, "rows": [k for k in run["rows"] if k not in keys]} for name, run in runs.items()}
+    runs = {name: run for name, run in runs.items() if run["rows"]}
+    runs[",".join(sorted(only))] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
+                                    "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
+    _, tail = footer.split(" s in all; ", 1)
     footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
+    return merged, runs, footer
+
+
+def _write_merged(table: Path, merged: list[dict], footer: str) -> None:
+    """The merged table's markdown."""
+    from campaign_results import row_line
+
+    from ungrasp_ompl.io import write_text_atomic
+
     header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
               "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
     write_text_atomic(table, "\n".join([header, *(row_line(r) for r in merged), "", footer, ""]))
+
+
+def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> dict:
+    """Merge this run's rows into table (.md and .json, merge_rows): the file keeps the command,
+    day of its first run, its seconds the runs' sum, and lists every run under `runs`. Returns the file's content."""
+    import json
+    from datetime import date
+
+    from campaign_results import table_json
+
+    from ungrasp_ompl.io import write_text_atomic
+
+    path = table.with_suffix(".json")
+    first = json.loads(path.read_text()) if path.exists() else None
+    merged, runs, footer = merge_rows(table, rows, footer, only)
+    _write_merged(table, merged, footer)
+    latest = runs[",".join(sorted(only))]
+    doc = table_json(table, latest["command"] if first is None else first["command"], date.today().isoformat())
+    if first is not None:
+        doc.update(produced=first["produced"])
+    doc["runs"] = runs
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+    return doc
+
+
+def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
+    """Merge the Drake rows into args.table (.md and .json, the rows of other groups kept), each
+    with MuJoCo's row of the same key and the Fisher test's p, and draw both engines."""
+    import json
+    from datetime import date
+
+    from campaign_results import table_json
+
+    from ungrasp_ompl.io import write_text_atomic
+
+    table: Path = args.table
+    path = table.with_suffix(".json")
+    merged, runs, footer = merge_rows(table, rows, footer, only)
+    _write_merged(table, merged, footer)
     groups = ",".join(GROUP_OPTION[g] for g in GROUP_ORDER if any(_group(r) == g for r in merged))
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
     command = (f"python tools/sim_campaigns.py --engine drake --trials {args.trials} --jobs {args.jobs} "
