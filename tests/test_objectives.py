@@ -162,3 +162,28 @@ def test_margin_plans_reproduce_with_a_seed():
     a = plan(scene, seed=3, objective="margin")
     b = plan(scene, seed=3, objective="margin")
     assert a.solved and a.states == b.states and a.margin_profile_deg == b.margin_profile_deg
+
+
+def test_a_scene_names_the_objective_its_plans_optimise_where_the_caller_names_none():
+    """planning.objective: a plan with no objective named optimises the scene's (the same plan as
+    naming it), one named overrides it, the roadmap planners (which optimise the cost only) take
+    the cost, and a name that is no objective is refused naming the field."""
+    import yaml
+
+    from ungrasp_ompl.planning.setup import PlannerOptions, scene_objective
+
+    doc = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
+    doc["planning"] = {**doc.get("planning", {}), "objective": "margin"}
+    scene = Scene.from_dict(doc)
+    assert scene.options.objective is Objective.MARGIN
+    own = plan(scene, planner="lattice")
+    named = plan(scene, planner="lattice", objective="margin")
+    assert own.objective == Objective.MARGIN and own.states == named.states
+    cost = plan(scene, planner="lattice", objective="cost")
+    assert cost.objective == Objective.COST and cost.states != own.states
+    assert scene_objective(None, scene, "PRM") is Objective.COST
+    assert PlannerOptions().for_scene(scene).objective is Objective.MARGIN
+    assert PlannerOptions().for_scene(Scene.from_file(SCENES / "reference_asymmetric.yaml")).objective is Objective.COST
+    with pytest.raises(InputError) as err:
+        Scene.from_dict({**doc, "planning": {"objective": "widest"}})
+    assert err.value.field == "planning.objective"

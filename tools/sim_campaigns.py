@@ -133,6 +133,8 @@ GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram"
 MAX_GAP: float = MAX_CONTACT_GAP
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
 COMPOUNDED_FRICTION: bool = False
+#: What the rows' RRT* plans optimise (--objective): None, each scene's planning.objective.
+OBJECTIVE: str | None = None
 #: The worlds of the `worlds` rows: label, world (docs/model.md 11.16).
 WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
           ("pyramidal cones", World(cone="pyramidal")), ("density x0.5", World(density=0.5)),
@@ -205,7 +207,7 @@ OLD_PAIRS = {"guitar_pick": ("G near the tip, B on a shoulder", {"G": [0.000718,
 
 
 def _plan(scene: Scene, seed: int):
-    result = plan(scene, planner="RRTstar", time=1.0, seed=seed)
+    result = plan(scene, planner="RRTstar", time=1.0, seed=seed, objective=OBJECTIVE)
     if not result.solved:
         raise SystemExit(f"{scene.name}: {result.reason}")
     return result
@@ -328,6 +330,11 @@ def main() -> None:
                     help="draw the `paper` friction error on top of a world's friction factor "
                          "(docs/decisions/0100-a-world-fixes-its-friction.md)")
     ap.add_argument("--table", type=Path, default=None, help="also write the table (markdown) to this file")
+    ap.add_argument("--objective", choices=("cost", "margin", "balanced", "tolerance"), default=None,
+                    help="what the rows' RRT* plans optimise (default: each scene's planning.objective)")
+    ap.add_argument("--merge", action="store_true",
+                    help="with --table: replace only the rows this run makes, keeping the table's others and "
+                         "recording this run's command beside the table's (the figure draws the merged rows)")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
                     help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
@@ -338,7 +345,7 @@ def main() -> None:
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE
     ENGINE = args.engine
     drake = ENGINE == "drake"
     if args.trials is None:
@@ -352,6 +359,7 @@ def main() -> None:
         return
     TIMESTEP = args.timestep
     COMPOUNDED_FRICTION = args.compounded_friction
+    OBJECTIVE = args.objective
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
     os.environ.setdefault(CACHE_VARIABLE, tempfile.mkdtemp(prefix="landings-"))
     only = set(args.only.split(","))

@@ -35,7 +35,7 @@ from ..parallel.options import RunOptions
 from ..parallel.runner import TaskStatus, open_runner
 from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
-from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan
+from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan, scene_objective
 from ..plots.common import cell_edges, pyplot, save_png
 from ..scene import Scene
 from ..scene.loader import read_yaml
@@ -249,7 +249,7 @@ def run_cell(task: MapTask) -> MapCell:
     scene = task.scene
     done = dict(alpha=task.alpha, friction_scale=task.friction_scale, task_status=TaskStatus.DONE)
     if task.planner.planner == LATTICE:
-        plan = lattice_plan(scene, task.planner.seed, objective=task.planner.objective)
+        plan = lattice_plan(scene, task.planner.seed, objective=scene_objective(task.planner.objective, scene, LATTICE))
         exists = plan.lattice_optimum is not None
         verdict = PlanOutcome.SOLVED if exists else plan.outcome
         cell = MapCell(**done, lattice_outcome=verdict, lattice_optimum=plan.lattice_optimum,

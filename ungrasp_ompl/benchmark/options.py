@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..parallel.options import RunOptions
+from ..scene.options import Objective
 from ..planning.setup import LATTICE, PLANNERS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
 
 
@@ -48,7 +49,7 @@ class BenchmarkOptions:
         check_runs(self.runs, p.time, run.workers, run.seed, self.out)
         check_iterations(p.iterations)
         planners = tuple(validate_planners(self.planners))
-        objective = check_objective(p.objective, LATTICE)
+        objective = check_objective(p.objective or Objective.COST, LATTICE)  # None: the cost, on every scene
         for planner in planners:
             check_objective(objective, planner)
         return replace(self, planners=planners, planner=replace(p, objective=objective),
@@ -83,7 +84,7 @@ class SweepOptions:
         (planner,) = validate_planners([p.planner], "planner")
         check_runs(self.runs, p.time, run.workers, run.seed, self.out)
         check_iterations(p.iterations)
-        objective = check_objective(p.objective, planner)
+        objective = check_objective(p.objective or Objective.COST, planner)  # None: the cost
         alphas = tuple(float(a) for a in self.alphas)
         if not alphas:
             raise InputError("alpha", "gives no value")

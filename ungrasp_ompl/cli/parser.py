@@ -72,8 +72,9 @@ def _add_plan(sub: argparse._SubParsersAction) -> None:
     pl = sub.add_parser("plan", help="plan a scene; print a summary, write plan.json and cspace.png")
     pl.add_argument("scene", help="scene file (YAML), or the name of a shipped scene (see `scenes`)")
     pl.add_argument("--planner", default="RRTstar", help=f"OMPL planner ({', '.join(PLANNERS)}) or lattice")
-    pl.add_argument("--objective", default="cost", choices=OBJECTIVE_NAMES,
-                    help="cost (default), margin (the largest smallest friction margin along the path, then fewest "
+    pl.add_argument("--objective", default=None, choices=OBJECTIVE_NAMES,
+                    help="what the plan optimises (default: the scene's planning.objective, else cost): cost, "
+                         "margin (the largest smallest friction margin along the path, then fewest "
                          "primitive changes, then the least length spent near that margin, then cost), balanced "
                          "(cost plus planning.margin_weight times a penalty growing as the margin shrinks) or "
                          "tolerance (as margin, with each state's tolerance of the paper errors, docs/model.md 4.6)")
@@ -258,8 +259,9 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
                     help="execute a --plan made for another scene (a warning names both)")
     sm.add_argument("--planner", default="RRTstar", help="planner when no --plan is given (default RRTstar)")
     sm.add_argument("--time", type=_seconds, default=1.0, help="planning time in seconds (default 1)")
-    sm.add_argument("--objective", default="cost", choices=OBJECTIVE_NAMES,
-                    help="what the plan optimises when no --plan is given, as for plan (default cost)")
+    sm.add_argument("--objective", default=None, choices=OBJECTIVE_NAMES,
+                    help="what the plan optimises when no --plan is given, as for plan (default: the scene's "
+                         "planning.objective, else cost)")
     sm.add_argument("--trials", type=int, default=10, help="trials (default 10)")
     sm.add_argument("--seed", type=int, default=1, help="seed of the plan and of the trials' perturbations (default 1)")
     sm.add_argument("--perturb", default="paper", help="perturbation preset: paper (default), none, grasp, "

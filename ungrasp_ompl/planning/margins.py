@@ -32,11 +32,11 @@ from __future__ import annotations
 
 import bisect
 import math
-from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..scene.options import Objective  # what the scene's planning.objective names
 from ..mechanics import primitive_sliding_signs
 from ..mechanics.margin import friction_margin
 from ..scene.tolerance import ToleranceOptions, state_tolerances
@@ -63,18 +63,6 @@ MOTION_CACHE = 200_000
 #: dimensionless): a state that tolerates the whole `paper` box is as good as any other.
 TOLERANCE_CAP = 1.0
 
-class Objective(StrEnum):
-    """What a plan optimises (docs/model.md, section 6)."""
-
-    COST = "cost"  #: the weighted L1 length plus a penalty per primitive change
-    MARGIN = "margin"  #: the smallest friction margin along the path, the cost breaking ties
-    BALANCED = "balanced"  #: the cost plus planning.margin_weight times a penalty growing as the margin shrinks
-    TOLERANCE = "tolerance"  #: the smallest tolerance of the `paper` errors along the path, the cost breaking ties
-
-    @property
-    def maximin(self) -> bool:
-        """It maximises the path's smallest value (margin or tolerance) first, the cost breaking ties."""
-        return self in (Objective.MARGIN, Objective.TOLERANCE)
 
 
 #: The objectives a plan can optimise, in their order.

@@ -131,10 +131,11 @@ class PlannerOptions:
     """How often a tree-based planner steers to a goal sample (0-1)."""
     simplify: bool = True
     """Shorten the path with OMPL's PathSimplifier (shortcuts in travel direction)."""
-    objective: Objective = Objective.COST
+    objective: Objective | None = None
     """What to optimise (docs/model.md, section 6): cost, margin (the smallest friction margin along
     the path), balanced (cost plus planning.margin_weight times a penalty growing as it shrinks) or
-    tolerance (the smallest tolerance of the `paper` errors along the path, section 4.6)."""
+    tolerance (the smallest tolerance of the `paper` errors along the path, section 4.6); None: the
+    scene's planning.objective (scene_objective)."""
 
     def validated(self) -> "PlannerOptions":
         if self.planner in UNUSABLE_PLANNERS:
@@ -151,14 +152,25 @@ class PlannerOptions:
             raise InputError("range", f"must be positive, got {self.range!r}")
         if not 0 <= self.goal_bias <= 1:
             raise InputError("goal_bias", f"must lie in [0, 1], got {self.goal_bias!r}")
-        return replace(self, objective=check_objective(self.objective, self.planner))
+        return self if self.objective is None else replace(self, objective=check_objective(self.objective, self.planner))
 
     def for_scene(self, scene: Scene) -> "PlannerOptions":
-        """These options with the range resolved for scene: their own, else the scene's
-        planning.range, else the objective's DEFAULT_RANGE."""
-        if self.range is not None:
-            return self
-        return replace(self, range=scene.options.range or DEFAULT_RANGE.get(self.objective, DEFAULT_RANGE["cost"]))
+        """These options resolved for scene: the objective their own, else the scene's
+        (scene_objective); the range their own, else the scene's planning.range, else the
+        objective's DEFAULT_RANGE."""
+        opts = replace(self, objective=scene_objective(self.objective, scene, self.planner))
+        if opts.range is not None:
+            return opts
+        return replace(opts, range=scene.options.range or DEFAULT_RANGE.get(opts.objective, DEFAULT_RANGE["cost"]))
+
+
+def scene_objective(objective: Objective | str | None, scene: Scene, planner: str) -> Objective:
+    """The objective a plan of scene optimises: the one named; None, the scene's planning.objective,
+    except for the roadmap planners (which optimise the cost only), which optimise the cost.
+    InputError naming `objective` for one the planner cannot optimise (check_objective)."""
+    if objective is None:
+        objective = Objective.COST if planner in ROADMAP_PLANNERS else scene.options.objective
+    return check_objective(objective, planner)
 
 
 def check_objective(objective: Objective | str, planner: str) -> Objective:
@@ -512,7 +524,8 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     every check above, and the cost objective's is kept only where it is solved and keeps more
     margin (with_cost_baseline).
     """
-    if options.get("objective", Objective.COST) == Objective.MARGIN:
+    options["objective"] = scene_objective(options.get("objective"), scene, planner)
+    if options["objective"] == Objective.MARGIN:
         check_objective(Objective.MARGIN, planner)
         t0 = perf_counter()
         if atlas is None and planner not in UNRULY_PLANNERS:  # one lattice for both searches

@@ -26,7 +26,7 @@ from ..mechanics import DigitGeometry
 from ..mechanics.force_closure import SLIDING_MODELS, SlidingModel
 from ..mechanics.pincer import PincerSpec, check_pincer
 from ..mechanics.section import SECTION_KINDS, Section, SectionError
-from .options import (GoalSpec, GripperKind, Landing, Object3D, PlanningOptions, RobotOptions, SimOptions,
+from .options import (GoalSpec, GripperKind, Landing, Object3D, Objective, PlanningOptions, RobotOptions, SimOptions,
                       Termination)
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
@@ -318,6 +318,13 @@ class SceneReader:
             if out.get(k, 0.0) > (0.01 if k == "squeeze" else 0.05 if k == "max_error" else 10.0):
                 self.fail(f"sim.{k}", f"is absurdly large ({out[k]:g})")
         return SimOptions(**{**{k: getattr(d, k) for k in d.__dataclass_fields__}, **out})
+
+    def objective(self, planning: dict) -> Objective:
+        """planning.objective: one of the objectives' names (Objective), cost by default."""
+        name = planning.get("objective", Objective.COST.value)
+        if name not in tuple(Objective):
+            self.fail("planning.objective", f"must be one of {', '.join(Objective)}, got {name!r}")
+        return Objective(name)
 
     def margin_weight(self, planning: dict) -> float:
         """planning.margin_weight: the balanced objective's weight (cost x deg), in [0, 1e4]."""
@@ -674,7 +681,8 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
     pl = r.mapping(top.get("planning", {}), "planning")
     r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                              "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
-                             "min_tolerance", "table_clearance", "across_margin", "max_landing_spread", "range"})
+                             "min_tolerance", "table_clearance", "across_margin", "max_landing_spread", "range",
+                             "objective"})
     margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
     if margin >= digits.thumb_length * length:
         raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -714,5 +722,6 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
         mode_change_penalty=r.number(pl, "planning.mode_change_penalty", "mode_change_penalty",
                                      minimum=0.0, maximum=1e4, default=1.0),
         range=r.number(pl, "planning.range", "range", positive=True, maximum=10.0) if "range" in pl else None,
+        objective=r.objective(pl),
     )
     return options, digits, clearance

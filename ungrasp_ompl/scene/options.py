@@ -68,6 +68,20 @@ class Landing(StrEnum):
     MODELLED = "modelled"
 
 
+class Objective(StrEnum):
+    """What a plan optimises (docs/model.md, section 6)."""
+
+    COST = "cost"  #: the weighted L1 length plus a penalty per primitive change
+    MARGIN = "margin"  #: the smallest friction margin along the path, the cost breaking ties
+    BALANCED = "balanced"  #: the cost plus planning.margin_weight times a penalty growing as the margin shrinks
+    TOLERANCE = "tolerance"  #: the smallest tolerance of the `paper` errors along the path, the cost breaking ties
+
+    @property
+    def maximin(self) -> bool:
+        """It maximises the path's smallest value (margin or tolerance) first, the cost breaking ties."""
+        return self in (Objective.MARGIN, Objective.TOLERANCE)
+
+
 @dataclass(frozen=True)
 class PlanningOptions:
     """Options of the planar planner that a scene fixes (the scene's `planning` section). Costs
@@ -97,6 +111,9 @@ class PlanningOptions:
     """The tree planners' longest motion for this scene, in state units (theta and psi in rad, d over
     l): shorter where the secure states lie in thin bands that a long motion leaves; None: the
     objective's default (planning.setup.DEFAULT_RANGE); a planner's own range overrides it."""
+    objective: Objective = Objective.COST
+    """What this scene's plans optimise where the caller names no objective (docs/model.md 6.1);
+    the roadmap planners, which optimise the cost only, optimise the cost."""
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ from ..planning.margins import OBJECTIVES, Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
 from ..parallel.options import RunOptions
-from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, PlannerOptions, check_objective
+from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, PlannerOptions, check_objective, scene_objective
 from ..scene import Scene
 from ..scene.perturbation import preset
 from .campaign import failure_causes, run_trials, wilson_interval
@@ -60,9 +60,9 @@ class CertifyOptions:
     processes; None: all cores; unused on a cluster); on the Ray cluster at run.cluster ("local"
     starts one here; None: this machine)."""
 
-    def validated(self) -> "CertifyOptions":
-        """These options checked (jobs None as all cores, the planner's seed None as 1); InputError
-        naming the field otherwise."""
+    def validated(self, scene: Scene) -> "CertifyOptions":
+        """These options checked for scene (jobs None as all cores, the planner's seed None as 1,
+        its objective None as the scene's); InputError naming the field otherwise."""
         for name, value in (("trials", self.trials), ("candidates", self.candidates)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(name, f"must be at least 1, got {value!r}")
@@ -76,7 +76,7 @@ class CertifyOptions:
         if why:
             raise InputError("planner", f"{p.planner} cannot produce candidates: {why.split(';')[0]}")
         try:
-            objective = check_objective(p.objective, p.planner)
+            objective = scene_objective(p.objective, scene, p.planner)
         except InputError as exc:
             raise InputError("objective", exc.reason) from None
         if isinstance(p.seed, bool) or not isinstance(p.seed, int) or not 0 <= p.seed < 2**32:
@@ -245,7 +245,7 @@ def certify(scene: Scene, options: CertifyOptions,
     simulate N trials of each executable one, and keep the one with the highest Wilson 95 %
     lower bound. Raises InputError naming the flag for bad options or a scene the simulator cannot
     take (no thickness); a candidate that is not solved or not executable is recorded as such."""
-    options = options.validated()
+    options = options.validated(scene)
     if scene.object_thickness <= 0.0:
         raise InputError("trials", "the simulator needs an object with a thickness (object.thickness)")
     t0 = time.perf_counter()

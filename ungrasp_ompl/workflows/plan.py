@@ -57,7 +57,7 @@ class PlanOptions:
         if self.cage and scene.object_thickness <= 0.0:
             raise InputError("cage", "the cage's potential energy needs an object with a thickness (object.thickness)")
         if self.certify is not None:
-            self.certify.validated()
+            self.certify.validated(scene)
         return self
 
 

@@ -97,7 +97,7 @@ class SimulateOptions:
             for name in ("plan", "start_psi_offset", "thickness", "finger_tip"):
                 if getattr(self, name) is not None:
                     raise InputError(name, "applies to a single scene, not to a layout")
-            if self.equal_digits or self.planner.objective != Objective.COST:
+            if self.equal_digits or self.planner.objective not in (None, Objective.COST):
                 raise InputError("equal_digits" if self.equal_digits else "objective",
                                  "applies to a single scene, not to a layout")
             return self
