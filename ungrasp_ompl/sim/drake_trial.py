@@ -197,6 +197,7 @@ class _DrakeWatch:
         self.dw = dw
         self.plant, self.ctx = dw.plant, dw.plant_context
         self.kind = dw.geoms
+        self.pads = dw.pads
         self.object_id = next(g for g, k in dw.geoms.items() if k == "object")
         self.vertices = dw.world.object.geom.shape.vertices
         self.table_height = dw.world.table_height
@@ -207,7 +208,8 @@ class _DrakeWatch:
 
     def _contacts(self) -> tuple[list[Touch], list[float]]:
         """The object's contacts now (Touches: their depth None where a hydroelastic patch leaves it
-        to _depth), and the normal force (N) of each contact of a digit with the table."""
+        to _depth; on a flat finger's pad, the deepest its pressure says the object reaches into
+        it), and the normal force (N) of each contact of a digit with the table."""
         t = self.ctx.get_time()
         if self._time == t:
             return self._results
@@ -227,7 +229,7 @@ class _DrakeWatch:
             info = results.hydroelastic_contact_info(i)
             surface = info.contact_surface()
             a, b = self.kind.get(surface.id_M()), self.kind.get(surface.id_N())
-            force = info.F_Ac_W().translational()
+            force, depth = info.F_Ac_W().translational(), None
             if "table" in (a, b):  # the table's normal is the world's z
                 force = abs(float(force[2]))
                 points = np.asarray(surface.centroid())[None, :]
@@ -236,9 +238,12 @@ class _DrakeWatch:
                 normal = sum(mesh.area(f) * mesh.face_normal(f) for f in range(mesh.num_faces()))
                 force = abs(float(force @ (normal / max(float(np.linalg.norm(normal)), 1e-300))))
                 points = np.array([mesh.vertex(v) for v in range(mesh.num_vertices())])
+                gradient = self.pads.get(surface.id_N()) or self.pads.get(surface.id_M())
+                if gradient:  # a flat finger's pad: its pressure is gradient times the depth
+                    pressure = surface.poly_e_MN()
+                    depth = max(pressure.EvaluateAtVertex(v) for v in range(mesh.num_vertices())) / gradient
             if "object" in (a, b):
-                other = b if a == "object" else a
-                mine.append(Touch(other, force, points, None))
+                mine.append(Touch(b if a == "object" else a, force, points, depth))
             elif "table" in (a, b) and (b if a == "table" else a) in DIGIT_KINDS:
                 table.append(force)
         self._time, self._results = t, (mine, table)

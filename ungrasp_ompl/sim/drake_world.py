@@ -14,6 +14,15 @@ each contact pair's model chosen by what it is (docs/model.md 11.19).
   sinks through; compliant hydroelastic faces (PLA, a pressure field fanned from the digit's
   centroid) threw the pick out of the pinch in the settling, the thumb's force jumping from 1.3 N
   to 16 N within a millisecond as the object's edge crossed between the field's tetrahedra.
+  Drake computes these point contacts with FCL's MPR (Minkowski portal refinement), which finds
+  the penetration along the line between the two shapes' centres, not the least one: right for
+  the dome on the object's face, wrong (normals tens of degrees off, depths several times too
+  deep) for a face lying on the object's face or a dome over its rim.
+* A flat finger (no dome) touches the object with a pad instead (flat_pad): a compliant
+  hydroelastic box behind its face, through its tip edge and leaning back FACE_DRAFT, so that it
+  presses along its edge, a patch on the object's face, as the plan's A. Its contact with the
+  object is computed from the two shapes' volumes, with no portal; the finger's own mesh does not
+  touch the object, and the pad touches nothing else.
 * The palm rides on six joints from the world (three slides along the world's axes, three
   hinges about axes fixed in the palm's first orientation), each driven by a stiff PD controller
   that SAP applies implicitly (an arm that goes where it is told, the weld of MuJoCo's model),
@@ -41,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ToolError
+from .spec import FACE_DRAFT
 from .world_description import Box, Geom, Mesh, Sphere, WorldDescription
 
 #: The coefficient the object's own geometry carries (any value above half the largest pair's
@@ -68,10 +78,13 @@ TABLE_MODULUS = 3.0e9
 TABLE_SLAB = 0.01
 #: The housing's hydroelastic modulus (Pa), a stiff plastic's: it touches only in a failure.
 HOUSING_MODULUS = 3.0e9
+#: A flat finger's pad (flat_pad): how fast its pressure rises with depth (Pa/m, its hydroelastic
+#: modulus over its half depth), the table's: the stiffest SAP keeps a flat object still on.
+PAD_GRADIENT = TABLE_MODULUS / TABLE_SLAB
 #: SAP's near-rigid threshold (its default).
 NEAR_RIGID = 1.0
-#: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes and half
-#: spaces, which are all there are here.
+#: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes, half spaces
+#: and boxes (a flat finger's pad), which are all there are here.
 RESOLUTION = 0.001
 #: The palm's PD joints: natural frequency (rad/s) and damping ratio, those of MuJoCo's weld
 #: (sim.spec.PALM_SOLREF: a 0.2 ms time constant, critically damped), on the whole hand's mass
@@ -140,6 +153,8 @@ class DrakeWorld:
     jaw_joints: dict[str, object] = field(default_factory=dict)  #: thumb, finger
     #: GeometryId -> object, table, thumb, finger, finger_tip, palm, solid
     geoms: dict[object, str] = field(default_factory=dict)
+    #: GeometryId of a flat finger's pad -> how fast its pressure rises with depth (Pa/m)
+    pads: dict[object, float] = field(default_factory=dict)
 
     @property
     def context(self):
@@ -212,14 +227,20 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     geoms: dict = {}
     _add_table(drake, plant, world, geoms)
     hand, palm, joints = _add_palm(drake, plant, world, palm_base, geoms)
-    gripper, bodies, jaw_joints = _add_jaws(drake, plant, world, palm, geoms)
+    gripper, bodies, jaw_joints, pads = _add_jaws(drake, plant, world, palm, geoms)
     bodies["object"] = _add_object(drake, plant, world, geoms)
     _add_actuators(drake, plant, world, joints, jaw_joints)
     # the hand does not touch itself (MuJoCo's model excludes the same pairs)
     hand_set = plant.CollectRegisteredGeometries([palm, bodies["thumb"], bodies["finger"], bodies["thumb_jaw"],
                                                   bodies["finger_jaw"]])
     plant.Finalize()
-    scene_graph.collision_filter_manager().Apply(drake.CollisionFilterDeclaration().ExcludeWithin(hand_set))
+    filters = drake.CollisionFilterDeclaration().ExcludeWithin(hand_set)
+    obj = next(g for g, kind in geoms.items() if kind == "object")
+    for pad in pads:  # a flat finger touches the object with its pad alone, and nothing else with it
+        mesh = [g for g, kind in geoms.items() if kind == geoms[pad] and g != pad]
+        filters.ExcludeBetween(drake.GeometrySet(mesh), drake.GeometrySet([obj]))
+        filters.ExcludeBetween(drake.GeometrySet([pad]), drake.GeometrySet([g for g in geoms if g not in (obj, pad)]))
+    scene_graph.collision_filter_manager().Apply(filters)
 
     palm_source = builder.AddSystem(drake.TrajectorySource(palm_trajectory, 1))
     builder.Connect(palm_source.get_output_port(), plant.get_desired_state_input_port(hand))
@@ -228,7 +249,7 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     diagram = builder.Build()
     simulator = drake.Simulator(diagram)
     return DrakeWorld(world, diagram, plant, scene_graph, simulator, np.asarray(palm_base, dtype=float), palm_source,
-                      jaw_source, bodies, joints, jaw_joints, geoms)
+                      jaw_source, bodies, joints, jaw_joints, geoms, pads)
 
 
 def _add_table(drake, plant, world: WorldDescription, geoms: dict) -> None:
@@ -277,11 +298,12 @@ def _add_palm(drake, plant, world: WorldDescription, palm_base: NDArray, geoms: 
 
 def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
     """The two jaws sliding on the palm, coupled, each digit on its bend spring: the gripper's
-    model instance, the bodies by name (the palm's too) and the jaws' joints by jaw."""
+    model instance, the bodies by name (the palm's too), the jaws' joints by jaw and a flat
+    finger's pad (GeometryId -> PAD_GRADIENT; none for a rounded finger)."""
     X = drake.RigidTransform
     gripper = plant.AddModelInstance("gripper")
     bodies = {"palm": palm}
-    jaw_joints = {}
+    jaw_joints, pads = {}, {}
     for jaw in world.jaws:
         carriage = plant.AddRigidBody(jaw.name + "_jaw", gripper, drake.SpatialInertia.MakeFromCentralInertia(
             jaw.mass, np.zeros(3), drake.RotationalInertia(*jaw.inertia)))
@@ -301,9 +323,35 @@ def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
             gid = plant.RegisterCollisionGeometry(body, pose, shape, geom.name, _properties(
                 drake, geom, geometry_friction(geom.friction), None))
             geoms[gid] = geom.name
+        if jaw is world.finger and world.dome is None:
+            half, pose, modulus = flat_pad(world)
+            geom = digit.geoms[0]
+            props = _properties(drake, geom, geometry_friction(geom.friction), "compliant", modulus,
+                                relaxation=OBJECT_RELAXATION_TIME)
+            gid = plant.RegisterCollisionGeometry(body, drake.RigidTransform(pose), drake.Box(*(2 * half)),
+                                                  "finger_pad", props)
+            geoms[gid], pads[gid] = geom.name, PAD_GRADIENT
         bodies[jaw.name + "_jaw"], bodies[digit.name] = carriage, body
     plant.AddCouplerConstraint(jaw_joints["thumb"], jaw_joints["finger"], -1.0, 0.0)
-    return gripper, bodies, jaw_joints
+    return gripper, bodies, jaw_joints, pads
+
+
+def flat_pad(world: WorldDescription) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """A flat finger's pad, its contact with the object in Drake (docs/model.md 11.19): a box as
+    deep as the finger's tip is thick, as wide as the finger and as long, its face through the
+    finger's tip edge and leaning back from it toward the palm by FACE_DRAFT (as a rounded
+    finger's face leans back behind its dome), so that at psi above -FACE_DRAFT it touches the
+    object along its tip edge alone. Its half sizes (3,), its pose in the finger's frame (4x4, m:
+    x behind the face, z from the palm to the tip) and its hydroelastic modulus (Pa): PAD_GRADIENT
+    over its half depth."""
+    g = world.spec.gripper
+    half = np.array([g.finger_tip_thickness / 2, g.width / 2, g.finger_length / 2])
+    c, s = math.cos(FACE_DRAFT), math.sin(FACE_DRAFT)
+    lean = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]).T  # (0, 0, -1) toward (sin, 0, -cos)
+    pose = np.eye(4)
+    pose[:3, :3] = lean
+    pose[:3, 3] = np.array([0.0, 0.0, g.finger_length]) + lean @ np.array([half[0], 0.0, -half[2]])
+    return half, pose, PAD_GRADIENT * float(half.min())
 
 
 def _add_object(drake, plant, world: WorldDescription, geoms: dict):
