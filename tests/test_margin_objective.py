@@ -26,7 +26,7 @@ def assert_margin_plan_not_narrower(name: str, seed: int) -> None:
     objective plans one too, and its smallest friction margin (as `plan` reports it, the start
     included) is at least the cost plan's and at most the lattice's bottleneck."""
     scene = _scene(name)
-    cost_plan = plan(scene, seed=seed)
+    cost_plan = plan(scene, seed=seed, objective="cost")
     margin_plan = plan(scene, seed=seed, objective="margin")
     assert cost_plan.solved, cost_plan.reason
     assert margin_plan.solved, (f"{name} seed {seed}: the cost objective plans a smallest margin of "

@@ -119,7 +119,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
         scene = scene.with_options(forbid_partial=True)
     if not spread_bound:
         scene = scene.with_options(max_landing_spread=None)
-    plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1)
+    plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1, objective="cost")
     if not plan.solved:
         return {"object": name, "unsolved": plan.reason}
     wall = time.perf_counter()

@@ -163,7 +163,7 @@ def world_trials(args, rows: list[dict]) -> int:
     per_trial_rows = []
     for name in args.objects:
         scene = Scene.from_file(name)
-        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
         if not plan.solved:
             print(f"{name}: RRT* found no plan")
             continue
@@ -277,7 +277,7 @@ def cage_study(objects: list[str], trials: int, seed: int, out: list[dict] | Non
         scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
         params = trial_params(preset("paper"), seed, trials)
         for planner, plan_seed, objective in CAGE_PLANS:
-            options = {"objective": objective} if planner == "lattice" else {}
+            options = {"objective": objective}
             plan = planning.plan(scene, planner=planner, time=1.0, seed=plan_seed, **options)
             label = f"{planner}{'' if planner == 'lattice' else ' seed ' + str(plan_seed)} {objective}"
             if not plan.solved:
@@ -351,7 +351,7 @@ def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
     print("object: leg needs factor (margin elliptic / pyramidal / planar force closure; 0.30: at most that)")
     for name in objects:
         scene = Scene.from_file(name)
-        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
         st = plan_states(scene, plan)
         cells = []
         for leg in sorted(set(st.primitive.tolist())):
@@ -395,7 +395,7 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
 
     obj = name
     scene = Scene.from_file(name)
-    plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1)
+    plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
     _, setup = placement(scene, plan)
     params = TrialParams() if no_error else trial_params(preset("paper"), seed, trial + 1)[trial]
     out.append({"label": study, "study": study, "object": obj, "trial": None if no_error else trial,
