@@ -123,6 +123,9 @@ CURVED_WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World
 TIMESTEP: float | None = None
 #: The physics engine every row runs in (sim.campaign.ENGINES; --engine).
 ENGINE: str = "mujoco"
+#: A campaign table's header (its rows: Row.line).
+HEADER = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
+          "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
 #: MuJoCo's rows the Drake rows are set beside, and the order of the row groups in Drake's file.
 MUJOCO_RESULTS = ROOT / "docs" / "results" / "campaigns.json"
 GROUP_ORDER = ("base", "edge", "control", "tangram")
@@ -382,9 +385,7 @@ def main() -> None:
             print(f"  {label}: left out, Drake could not run it: {str(exc).splitlines()[0]}", file=sys.stderr,
                   flush=True)
 
-    header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
-              "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
-    print(header)
+    print(HEADER)
     base_paper = "109/120 over the objects, mean < 2.6 mm"
 
     def objects(total: str | None, scene_of, paper: str = base_paper) -> None:
@@ -515,7 +516,7 @@ def main() -> None:
     if args.table is not None:
         from ungrasp_ompl.io import write_text_atomic
 
-        write_text_atomic(args.table, "\n".join([header, *(r.line() for r in rows), "", footer, ""]))
+        write_text_atomic(args.table, "\n".join([HEADER, *(r.line() for r in rows), "", footer, ""]))
         print(f"wrote {args.table}")
         import shlex
 
@@ -541,10 +542,11 @@ def _group(record: dict) -> str:
     return next((g for g in GROUP_ORDER if record["campaign"].startswith(g)), record["campaign"])
 
 
-def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tuple[list[dict], dict, str]:
+def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tuple[list[dict], dict, str, dict | None]:
     """The records of table's results file (TABLE.json) with this run's rows in place of theirs
     (the rows of other groups kept, in GROUP_ORDER), the runs that made them (each: its command,
-    seconds and rows' keys; the file's first run kept as it was) and the merged table's footer."""
+    seconds and the keys of the rows it still holds; a run none of whose rows is left dropped), the
+    merged table's footer (its seconds the runs' sum), and the file as it was (None: no file)."""
     import json
     import shlex
 
@@ -552,23 +554,24 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
 
     path = table.with_suffix(".json")
     new = [parse_row(r.line()) for r in rows]
-    old = json.loads(path.read_text()) if path.exists() else {"rows": [], "runs": {}}
+    first = json.loads(path.read_text()) if path.exists() else None
+    old = first if first is not None else {"rows": [], "runs": {}}
     keys = {r["key"] for r in new}
     merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
-    if not old.get("runs") and old["rows"]:  # a table one run wrote whole: that run, named by its groups
+    runs = old.get("runs", {})
+    if not runs and old["rows"]:  # a table one run wrote whole: that run, named by its groups
         words = shlex.split(old["command"])
         groups = words[words.index("--only") + 1] if "--only" in words else "default"
-        old["runs"] = {",".join(sorted(groups.split(","))): {"command": old["command"], "seconds": old["seconds"],
-                                                              "rows": [r["key"] for r in old["rows"]]}}
-    runs = old.get("runs", {})
+        runs = {",".join(sorted(groups.split(","))): {"command": old["command"], "seconds": old["seconds"],
+                                                      "rows": [r["key"] for r in old["rows"]]}}
     runs = {name: {**run, "rows": [k for k in run["rows"] if k not in keys]} for name, run in runs.items()}
     runs = {name: run for name, run in runs.items() if run["rows"]}
     runs[",".join(sorted(only))] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
                                     "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
     _, tail = footer.split(" s in all; ", 1)
     footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
-    return merged, runs, footer
+    return merged, runs, footer, first
 
 
 def _write_merged(table: Path, merged: list[dict], footer: str) -> None:
@@ -577,14 +580,13 @@ def _write_merged(table: Path, merged: list[dict], footer: str) -> None:
 
     from ungrasp_ompl.io import write_text_atomic
 
-    header = ("| campaign | ours: success (95 % interval) | placed by the paper's criterion, any error | error mm (mean / max) "
-              "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
-    write_text_atomic(table, "\n".join([header, *(row_line(r) for r in merged), "", footer, ""]))
+    write_text_atomic(table, "\n".join([HEADER, *(row_line(r) for r in merged), "", footer, ""]))
 
 
 def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> dict:
-    """Merge this run's rows into table (.md and .json, merge_rows): the file keeps the command,
-    day of its first run, its seconds the runs' sum, and lists every run under `runs`. Returns the file's content."""
+    """Merge this run's rows into table (.md and .json, merge_rows): the file keeps the command and
+    day of its first run, its seconds the runs' sum, and lists every run under `runs`. Returns the
+    file's content."""
     import json
     from datetime import date
 
@@ -593,8 +595,7 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
     from ungrasp_ompl.io import write_text_atomic
 
     path = table.with_suffix(".json")
-    first = json.loads(path.read_text()) if path.exists() else None
-    merged, runs, footer = merge_rows(table, rows, footer, only)
+    merged, runs, footer, first = merge_rows(table, rows, footer, only)
     _write_merged(table, merged, footer)
     latest = runs[",".join(sorted(only))]
     doc = table_json(table, latest["command"] if first is None else first["command"], date.today().isoformat())
@@ -617,7 +618,7 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
 
     table: Path = args.table
     path = table.with_suffix(".json")
-    merged, runs, footer = merge_rows(table, rows, footer, only)
+    merged, runs, footer, _ = merge_rows(table, rows, footer, only)
     _write_merged(table, merged, footer)
     groups = ",".join(GROUP_OPTION[g] for g in GROUP_ORDER if any(_group(r) == g for r in merged))
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table

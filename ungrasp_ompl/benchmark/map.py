@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..parallel.options import RunOptions
+from ..parallel.options import RunOptions, check_seed
 from ..parallel.runner import TaskStatus, open_runner
 from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
@@ -84,8 +84,7 @@ class MapOptions:
         check_time(p.time)
         run = self.run
         check_jobs(run.workers)
-        if isinstance(p.seed, bool) or not isinstance(p.seed, int) or not 0 <= p.seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {p.seed!r}")
+        check_seed(p.seed)
         run = replace(run.validated(), jobs=run.workers)
         if planner != LATTICE:
             p = p.validated()

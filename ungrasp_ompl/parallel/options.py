@@ -13,6 +13,13 @@ from ..errors import InputError
 from .runner import default_jobs
 
 
+def check_seed(seed: object) -> int:
+    """seed, an integer in [0, 2^32) (OMPL's and numpy's seeds); InputError naming `seed` otherwise."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise InputError("seed", f"must be an integer in [0, 2^32), got {seed!r}")
+    return seed
+
+
 @dataclass(frozen=True)
 class RunOptions:
     """The seed, the worker processes and the place a campaign runs with."""
@@ -35,7 +42,5 @@ class RunOptions:
         jobs = self.jobs
         if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
             raise InputError("jobs", f"must be a positive integer, got {jobs!r}")
-        seed = self.seed
-        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {seed!r}")
+        check_seed(self.seed)
         return self

@@ -526,7 +526,6 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     """
     options["objective"] = scene_objective(options.get("objective"), scene, planner)
     if options["objective"] == Objective.MARGIN:
-        check_objective(Objective.MARGIN, planner)
         t0 = perf_counter()
         if atlas is None and planner not in UNRULY_PLANNERS:  # one lattice for both searches
             atlas = SecurityAtlas(scene, planning_box(scene))

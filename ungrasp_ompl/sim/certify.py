@@ -31,7 +31,7 @@ from ..planning.atlas import SecurityAtlas, planning_box
 from ..planning.margins import OBJECTIVES, Objective
 from ..planning.names import LATTICE, PLANNERS
 from ..planning.result import Plan
-from ..parallel.options import RunOptions
+from ..parallel.options import RunOptions, check_seed
 from ..planning.setup import KNOWN_LIMITATIONS, UNUSABLE_PLANNERS, PlannerOptions, check_objective, scene_objective
 from ..scene import Scene
 from ..scene.perturbation import preset
@@ -79,8 +79,7 @@ class CertifyOptions:
             objective = scene_objective(p.objective, scene, p.planner)
         except InputError as exc:
             raise InputError("objective", exc.reason) from None
-        if isinstance(p.seed, bool) or not isinstance(p.seed, int) or not 0 <= p.seed < 2**32:
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {p.seed!r}")
+        check_seed(p.seed)
         preset(self.perturb)  # InputError("perturb") for an unknown preset
         candidate_sources(p.planner, objective, p.seed, self.candidates)  # candidates beyond the rule
         return replace(self, planner=replace(p, objective=objective), run=replace(run, jobs=run.workers))
