@@ -41,9 +41,8 @@ def assert_margin_plan_not_narrower(name: str, seed: int) -> None:
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_margin_plan_not_narrower_than_cost_plan_quick(seed):
-    """The quick tier's variant: one object scene, two seeds. On both the margin search's own path is
-    wider than the cost plan's (1.943 and 0.976 deg against 0.522), so the plan is its own, not the
-    cost plan's kept by with_cost_baseline."""
+    """The quick tier's variant: one object scene, two seeds. On both the margin plan is wider than
+    the cost plan's (1.943 deg against 0.522), so it is not the cost plan kept by with_cost_baseline."""
     cost_plan, margin_plan = assert_margin_plan_not_narrower("fabric_chalk", seed)
     assert margin_plan.min_margin_deg > cost_plan.min_margin_deg + 0.1 and margin_plan.states != cost_plan.states
 
@@ -77,6 +76,31 @@ def test_the_cost_plan_is_kept_only_where_it_is_wider():
         assert got.margin_forced is (None if kept == "own" else False)
     unsolved = made(PlanOutcome.NOT_FOUND, None, Objective.COST, 1.0)
     assert with_cost_baseline(made(failed, 3.0, Objective.MARGIN, 4.0), unsolved).outcome is failed
+
+
+def test_a_margin_plan_keeps_the_lattices_widest_margin(chalk_margin_setup):
+    """docs/decisions/0104: RRT*'s own margin path of seed 2 (solved by UngraspSetup alone) keeps less
+    than the lattice's bottleneck, so plan keeps the exact lattice search's widest path instead: its
+    smallest margin, measured along the path, is the bottleneck and the lattice planner's plan's;
+    it re-validated (solved), names the planner and seed asked for, and says where it came from,
+    also through plan.json. Seed 1's tree reaches the bottleneck, and its plan is the planner's own."""
+    from ungrasp_ompl.errors import InputError
+    from ungrasp_ompl.planning.result import PathSource, Plan
+
+    _, own = chalk_margin_setup
+    assert own.solved and own.margin_forced is False
+    kept = plan(_scene("fabric_chalk"), seed=2, objective="margin")
+    widest = plan(_scene("fabric_chalk"), planner="lattice", objective="margin")
+    assert kept.solved and kept.path_from is PathSource.LATTICE and (kept.planner, kept.seed) == ("RRTstar", 2)
+    assert kept.margin_forced and kept.states == widest.states
+    assert kept.min_margin_deg == pytest.approx(widest.min_margin_deg, abs=1e-9) == kept.margin_bottleneck_deg
+    assert kept.min_margin_deg > own.min_margin_deg + 0.5
+    assert Plan.from_dict(kept.to_dict()).path_from is PathSource.LATTICE
+    with pytest.raises(InputError) as bad:
+        Plan.from_dict({**kept.to_dict(), "path_from": "elsewhere"})
+    assert bad.value.field == "path_from"
+    first = plan(_scene("fabric_chalk"), seed=1, objective="margin")
+    assert first.path_from is PathSource.PLANNER and first.margin_forced
 
 
 @pytest.mark.slow

@@ -28,6 +28,25 @@ _A_WORDS = {-1: "toward_B", 1: "toward_G"}  # friction on the object at A, by si
 _B_WORDS = {-1: "toward_palm", 1: "toward_tip"}  # friction on the object at B, by sign of ds_B
 
 
+class PathSource(StrEnum):
+    """Which search found a solved plan's path (Plan.path_from; a StrEnum, so plan.json holds its value)."""
+
+    PLANNER = "planner"  #: the planner asked for, under the objective asked for
+    #: the same planner and seed under the cost objective, whose path kept more friction margin
+    #: than the margin objective's own (docs/model.md 6.1)
+    COST_BASELINE = "cost_baseline"
+    #: the exact lattice search's widest-margin path, where the planner's kept less (docs/decisions/0104)
+    LATTICE = "lattice"
+
+    def describe(self) -> str:
+        """Where the path came from, in words for a person (plan.json keeps the value)."""
+        return {PathSource.PLANNER: "the planner's own search",
+                PathSource.COST_BASELINE: "the cost objective's search of the same planner and seed, which kept more "
+                                          "margin",
+                PathSource.LATTICE: "the exact lattice search's widest-margin path, as the planner's path kept "
+                                    "less"}[self]
+
+
 class StoppedBy(StrEnum):
     """Why a planner stopped (Plan.stopped_by; a StrEnum, so plan.json holds its value)."""
 
@@ -293,6 +312,8 @@ class Diagnostics:
     """min_margin_deg is the bottleneck: no secure lattice path passes more."""
     start_margin_deg: float | None = None
     """The start's friction margin with every contact sticking, deg."""
+    path_from: PathSource | None = None
+    """Which search found the path (PathSource); None: no path."""
 
 
 class TargetRecord(TypedDict):
@@ -575,6 +596,11 @@ class Plan:
                 raise InputError("stopped_by", f"must be one of {', '.join(StoppedBy)} or null, got "
                                  f"{diagnostics['stopped_by']!r:.80}", source)
             diagnostics["stopped_by"] = StoppedBy(diagnostics["stopped_by"])
+        if diagnostics.get("path_from") is not None:
+            if diagnostics["path_from"] not in tuple(PathSource):
+                raise InputError("path_from", f"must be one of {', '.join(PathSource)} or null, got "
+                                 f"{diagnostics['path_from']!r:.80}", source)
+            diagnostics["path_from"] = PathSource(diagnostics["path_from"])
         return cls(outcome=PlanOutcome.SOLVED, solution=solution, diagnostics=Diagnostics(**diagnostics),
                    report=Report3D(**report) if len(report) == len(Report3D.__dataclass_fields__)
                    and None not in report.values() else None, **own)
@@ -621,6 +647,8 @@ class Plan:
             lines.append("  friction margin of each primitive, at its least: "
                          + ", ".join(f"{k}. {p.type} {m:.3f} deg" for k, (p, m)
                                      in enumerate(zip(self.primitives, self.margin_profile_deg), 1)))
+        if self.path_from not in (None, PathSource.PLANNER):
+            lines.append(f"  the path is {self.path_from.describe()}")
         if self.tolerance is not None:
             lines.append("  " + describe_tolerance(self.tolerance).replace("\n", "\n  "))
         if self.predicted_landing is not None:

@@ -43,7 +43,7 @@ from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
 from .predicted_landing import predict_landing
-from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, Plan, PlanOutcome, PlaneRecord, Report3D,
+from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, PathSource, ObjectRecord, Plan, PlanOutcome, PlaneRecord, Report3D,
                      Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record, merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
@@ -457,7 +457,7 @@ def solved_plan(plan: Plan, atlas: SecurityAtlas, legs: list[Leg], margins: Latt
         margin["margin_bottleneck_deg"] = math.degrees(bottleneck)
         if "min_margin_deg" in margin:
             margin["margin_forced"] = margin["min_margin_deg"] >= margin["margin_bottleneck_deg"] - FORCED_TOLERANCE_DEG
-    return plan.with_diagnostics(**margin)
+    return plan.with_diagnostics(**margin, path_from=PathSource.PLANNER)
 
 
 def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | None = None,
@@ -522,7 +522,8 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     With the margin objective the plan is never narrower than the cost objective's of the same
     scene, planner, seed and budget (docs/model.md, section 6.1): both are planned, each through
     every check above, and the cost objective's is kept only where it is solved and keeps more
-    margin (with_cost_baseline).
+    margin (with_cost_baseline); nor narrower than the lattice's widest secure path, where that
+    passes the same checks (with_widest_path, docs/decisions/0104).
     """
     options["objective"] = scene_objective(options.get("objective"), scene, planner)
     if options["objective"] == Objective.MARGIN:
@@ -534,6 +535,8 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
                                    **{**options, "objective": Objective.COST})
         own = _plan_objective(scene, planner, time, seed, iterations, atlas, **options)
         result = with_cost_baseline(own, baseline, atlas)
+        result = with_widest_path(result, lambda: _plan_objective(scene, LATTICE, time, seed, iterations, atlas,
+                                                                  **options))
         return result.with_diagnostics(setup_time_s=result.setup_time_s + built)
     return _plan_objective(scene, planner, time, seed, iterations, atlas, **options)
 
@@ -571,7 +574,8 @@ def with_cost_baseline(own: Plan, baseline: Plan, atlas: SecurityAtlas | None = 
     the cost plan's."""
     keep_own = not baseline.solved or (own.solved and
                                        own.min_margin_deg >= baseline.min_margin_deg - FORCED_TOLERANCE_DEG)
-    kept = own if keep_own else replace(baseline, objective=own.objective)
+    kept = own if keep_own else replace(baseline, objective=own.objective).with_diagnostics(
+        path_from=PathSource.COST_BASELINE)
     bottleneck = own.margin_bottleneck_deg
     if not keep_own and bottleneck is None and atlas is not None:
         found = LatticeMargins(atlas, Objective.MARGIN).bottleneck
@@ -587,6 +591,26 @@ def with_cost_baseline(own: Plan, baseline: Plan, atlas: SecurityAtlas | None = 
         changes["margin_forced"] = (None if bottleneck is None or kept.min_margin_deg is None
                                     else kept.min_margin_deg >= bottleneck - FORCED_TOLERANCE_DEG)
     return kept.with_diagnostics(**changes)
+
+
+def with_widest_path(result: Plan, widest: Callable[[], Plan]) -> Plan:
+    """A margin plan held to the lattice's bottleneck (docs/decisions/0104): kept where it keeps the
+    widest margin any secure lattice path keeps (margin_forced), or where that is not known; else
+    the plan widest() returns (the exact lattice search's widest path, through the checks any plan
+    passes) in its place when that is solved and keeps more margin, its planner and seed the
+    planner's, its times both searches', its path_from PathSource.LATTICE."""
+    if result.planner == LATTICE or not result.solved or result.margin_forced is not False:
+        return result
+    other = widest()
+    if not other.solved or other.min_margin_deg is None or \
+            other.min_margin_deg <= result.min_margin_deg + FORCED_TOLERANCE_DEG:
+        return result
+    kept = replace(other, planner=result.planner, seed=result.seed)
+    return kept.with_diagnostics(path_from=PathSource.LATTICE, iterations=result.iterations,
+                                 stopped_by=result.stopped_by, lattice_optimum=result.lattice_optimum,
+                                 time_to_first_solution_s=result.time_to_first_solution_s,
+                                 setup_time_s=result.setup_time_s + other.setup_time_s,
+                                 planning_time_s=result.planning_time_s + other.planning_time_s)
 
 
 def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene], Plan]) -> Plan:
