@@ -156,7 +156,9 @@ def test_bad_planner_is_refused_before_running(tmp_path, planners, named):
 @pytest.mark.parametrize("kwargs, field", [(dict(runs=0), "runs"), (dict(planner=PlannerOptions(time=-1.0)), "time"),
                                            (dict(run=RunOptions(jobs=0)), "jobs"),
                                            (dict(planner=PlannerOptions(time=0.3, iterations=0)), "iterations"),
-                                           (dict(run=RunOptions(seed=-1, jobs=2)), "seed")])
+                                           (dict(run=RunOptions(seed=-1, jobs=2)), "seed"),
+                                           (dict(planner=PlannerOptions(time=0.3, range=-0.1)), "range"),
+                                           (dict(planner=PlannerOptions(time=0.3, goal_bias=2.0)), "goal_bias")])
 def test_bad_options_are_refused(tmp_path, kwargs, field):
     good = dict(planners=("RRTstar",), runs=1, planner=PlannerOptions(time=0.3), run=RunOptions(jobs=2), out=tmp_path / "o")
     options = BenchmarkOptions(**(good | kwargs))
@@ -222,10 +224,11 @@ def test_a_run_status_comes_from_the_plans_outcome():
     equal = Scene.from_file(SCENES / "reference_equal_digits.yaml")
     unheld = dataclasses.replace(reference, start=np.array([0.1, 0.8, 0.0]))  # the finger in the table
     assert unheld.diagnose(unheld.start).state_class.name == "COLLISION"
-    solved = run_task(Task("r", reference, LATTICE, -1, 1, 0.3))
+    lattice = PlannerOptions(planner=LATTICE, time=0.3, seed=1)
+    solved = run_task(Task("r", reference, lattice, -1))
     assert solved.status is RunStatus.EXACT and solved.cost == pytest.approx(84.5)
-    assert run_task(Task("e", equal, LATTICE, -1, 1, 0.3)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
-    assert run_task(Task("u", unheld, LATTICE, -1, 1, 0.3)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
+    assert run_task(Task("e", equal, lattice, -1)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
+    assert run_task(Task("u", unheld, lattice, -1)).status is RunStatus.UNSOLVABLE_START_OR_GOAL
 
 
 @pytest.mark.slow
@@ -234,7 +237,8 @@ def test_seeded_runs_are_reproducible_in_fresh_and_reused_processes():
     another process, or later in the same worker after other seeds, gives the same path cost,
     iterations and primitive changes."""
     scene = Scene.from_file(SCENE)
-    tasks = [Task("r", scene, "RRTstar", k, seed, 0.5, 1500) for k, seed in enumerate((3, 4, 3, 4))]
+    tasks = [Task("r", scene, PlannerOptions(time=0.5, seed=seed, iterations=1500), k)
+             for k, seed in enumerate((3, 4, 3, 4))]
     fresh = run_tasks(tasks, LocalRunner(2, fresh=True))
     reused = run_tasks(tasks, LocalRunner(1, fresh=False))  # one worker: 3, 4, 3, 4 in a row
     key = [(r.cost, r.iterations, r.mode_switches) for r in fresh]
@@ -263,3 +267,85 @@ def test_scene_with_digits_changes_only_the_digits_asked_and_checks_them():
         with pytest.raises(InputError) as err:
             scene.with_digits(**kwargs)
         assert err.value.field == field
+
+
+class _Stop(Exception):
+    """Raised by a stand-in run_tasks once it has the tasks a campaign built."""
+
+
+def test_each_run_gets_the_planner_options_whole_and_keeps_its_runs_csv_key(monkeypatch, tmp_path):
+    """bench hands every run the options' PlannerOptions whole (range and goal bias included),
+    only the planner's name and the run's seed (run.seed + k) replaced, the lattice yardstick
+    without the iteration budget; runs.csv's key of each task stays as written before."""
+    from ungrasp_ompl.benchmark import bench as bench_module
+    from ungrasp_ompl.benchmark.tasks import task_key
+
+    built = []
+
+    def capture(tasks, runner, progress=None, stream=None):
+        built.extend(tasks)
+        raise _Stop
+
+    monkeypatch.setattr(bench_module, "run_tasks", capture)
+    planner = PlannerOptions(time=0.4, iterations=1500, objective="margin", range=0.2, goal_bias=0.3)
+    with pytest.raises(_Stop):
+        run_benchmark([SCENE], BenchmarkOptions(planners=("RRTstar",), runs=2, planner=planner,
+                                                run=RunOptions(seed=5, jobs=1), out=tmp_path))
+    assert [t.planner for t in built] == [replace(planner, planner="RRTstar", seed=5),
+                                          replace(planner, planner="RRTstar", seed=6),
+                                          replace(planner, planner=LATTICE, seed=5, iterations=None)]
+    assert [task_key(t) for t in built] == [
+        ("reference_asymmetric", "RRTstar", "0", "5", "0.4", "1500", "margin"),
+        ("reference_asymmetric", "RRTstar", "1", "6", "0.4", "1500", "margin"),
+        ("reference_asymmetric", LATTICE, "-1", "5", "0.4", "", "margin")]
+    assert [t.deadline for t in built] == [62.0, 62.0, 60.4]  # 5 x 0.4 s with a budget, else 0.4 s; + 60 s grace
+
+
+def test_a_task_needs_a_seed():
+    with pytest.raises(InputError) as err:
+        Task("r", Scene.from_file(SCENE), PlannerOptions(time=0.3), 0)
+    assert err.value.field == "seed"
+
+
+def test_a_map_row_records_the_seed_its_trials_used(monkeypatch):
+    """map.csv's trial_seed is the seed the cell's simulated trials were handed (the map's
+    run.seed), planner_seed the planner's: given different values, each lands in its column."""
+    from ungrasp_ompl.benchmark import map as feasibility
+    from ungrasp_ompl.sim.plan_trials import PlanTrials
+
+    handed = []
+
+    def trials(scene, plan, n, perturb, seed):  # no simulation: only the seed it is given counts here
+        handed.append(seed)
+        return PlanTrials(results=())
+
+    monkeypatch.setattr(feasibility, "plan_trials", trials)
+    task = feasibility.MapTask(0, 0.47, 1.0, Scene.from_file(SCENE), PlannerOptions(planner=LATTICE, time=0.3, seed=3),
+                               trial_seed=11, trials=2)
+    row = dict(zip(feasibility.MAP_COLUMNS, feasibility.cell_row(feasibility.run_cell(task), task)))
+    assert handed == [11]
+    assert row["trial_seed"] == "11" and row["planner_seed"] == "3"
+    untried = replace(task, trials=0)  # no trials: no trial seed recorded
+    assert dict(zip(feasibility.MAP_COLUMNS, feasibility.cell_row(feasibility.run_cell(untried), untried)))[
+        "trial_seed"] == ""
+
+
+@pytest.mark.slow
+def test_a_map_row_s_trials_rerun_with_its_trial_seed_give_its_successes(tmp_path):
+    """A map with the planner seeded 1 and the trials 7 records both; the cell's plan rerun through
+    the same trials with the recorded trial_seed places as many as the row counts."""
+    from ungrasp_ompl.benchmark.map import MapOptions, run_map, scene_variant
+    from ungrasp_ompl.planning.setup import lattice_plan
+    from ungrasp_ompl.scene.loader import read_yaml
+    from ungrasp_ompl.sim.plan_trials import plan_trials
+
+    guitar = SCENES / "guitar_pick.yaml"
+    run_map(guitar, MapOptions(alphas=(0.47,), planner=PlannerOptions(planner=LATTICE, time=0.3, seed=1), simulate=2,
+                               run=RunOptions(seed=7, jobs=1), out=tmp_path))
+    with open(tmp_path / "map.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert (row["planner_seed"], row["trial_seed"], row["sim_trials"]) == ("1", "7", "2")
+    scene = scene_variant(read_yaml(guitar, "scene"), 0.47, 1.0, None, str(guitar), "guitar_pick")
+    plan = lattice_plan(scene, int(row["planner_seed"]), objective=scene.options.objective)
+    rerun = plan_trials(scene, plan, 2, "paper", int(row["trial_seed"]))
+    assert rerun.successes == int(row["sim_successes"])

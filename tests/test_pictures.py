@@ -424,8 +424,8 @@ def test_bench_writes_pictures_of_what_it_recorded_and_a_table_that_fits(monkeyp
     from ungrasp_ompl.benchmark.table import format_table
 
     def made_up(tasks, runner, progress=None, stream=None):
-        return [dataclasses.replace(_run(t.planner, max(t.run, 0), None if t.run == 1 else 86.0 + t.run),
-                                    group=t.group, seed=t.seed) for t in tasks]
+        return [dataclasses.replace(_run(t.planner.planner, max(t.run, 0), None if t.run == 1 else 86.0 + t.run),
+                                    group=t.group, seed=t.planner.seed) for t in tasks]
 
     monkeypatch.setattr(bench, "run_tasks", made_up)
     figures = _captured(monkeypatch)

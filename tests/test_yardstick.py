@@ -12,7 +12,7 @@ from conftest import BEFORE_CLEARANCES, SCENES
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning.atlas import SecurityAtlas, planning_box
 from ungrasp_ompl.planning.result import StoppedBy
-from ungrasp_ompl.planning.setup import KNOWN_LIMITATIONS, PLANNERS, lattice_plan, plan
+from ungrasp_ompl.planning.setup import KNOWN_LIMITATIONS, PLANNERS, PlannerOptions, lattice_plan, plan
 
 SEEDS = range(1, 6)
 
@@ -92,7 +92,7 @@ def test_plan_bench_and_cage_report_one_friction_margin(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     planned = json.loads((tmp_path / "plan.json").read_text())
     figure = planned["min_margin_deg"]
-    bench = run_task(Task("guitar_pick", Scene.from_file(scene_file), "RRTstar", 0, 1, 0.5, iterations=3000))
+    bench = run_task(Task("guitar_pick", Scene.from_file(scene_file), PlannerOptions(time=0.5, seed=1, iterations=3000), 0))
     assert bench.cost == pytest.approx(planned["cost"], abs=1e-9)
     assert bench.min_margin_deg == pytest.approx(figure, abs=1e-6)
     proc = run_cli("cage", str(scene_file), "--plan", str(tmp_path / "plan.json"), "--out", str(tmp_path / "cage"))

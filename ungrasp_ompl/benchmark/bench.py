@@ -14,7 +14,7 @@ import os
 import re
 import textwrap
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime
 from pathlib import Path
 
@@ -102,12 +102,13 @@ def run_benchmark(scene_paths: Sequence[str | os.PathLike[str]], options: Benchm
         scene = Scene.from_file(p)
         scenes[scene_key(scene.name, taken)] = scene
     names = list(options.planners)
-    limit, its, objective = float(options.planner.time), options.planner.iterations, options.planner.objective
-    run = options.run
-    tasks = [Task(key, scene, name, k, run.seed + k, limit, its, objective)
+    p, run = options.planner, options.run
+    limit = float(p.time)
+    tasks = [Task(key, scene, replace(p, planner=name, seed=run.seed + k), k)
              for key, scene in scenes.items() for name in names for k in range(options.runs)]
     if LATTICE not in names:
-        tasks += [Task(key, scene, LATTICE, -1, run.seed, limit, objective=objective) for key, scene in scenes.items()]
+        yardstick = replace(p, planner=LATTICE, seed=run.seed, iterations=None)
+        tasks += [Task(key, scene, yardstick, -1) for key, scene in scenes.items()]
     started = datetime.now()
     with open_runner(run.jobs, run.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:

@@ -2,7 +2,7 @@
 
 Each cell of the grid (alpha, friction scale) is one task, run by worker processes (OMPL's
 random numbers seeded afresh for each) on this machine or on a Ray cluster. A task carries its cell's
-scene and the seed, so its row does not depend on where it ran. Per cell:
+scene and its seeds (the planner's, the trials'), so its row does not depend on where it ran. Per cell:
 
 * the exact lattice verdict: whether a secure primitive path exists at the scene's resolution
   (:func:`~ungrasp_ompl.planning.lattice.lattice_search`), with its optimum; or why the start
@@ -63,13 +63,14 @@ class MapOptions:
     planner: PlannerOptions = PlannerOptions(time=0.5, seed=1)
     """The planner run in each cell (planning.setup.PlannerOptions): an OMPL geometric planner by name,
     or ``lattice``; its time per cell (s: a seeded run's iteration budget, as for ``plan --seed``) and
-    its seed (OMPL's RNG, goal samples; an integer: every cell is reproducible)."""
+    its seed (OMPL's RNG, goal samples; an integer: every cell is reproducible; map.csv's planner_seed)."""
     simulate: int = 0
     """Simulated trials per cell with a plan (count); 0: none."""
     perturb: str = "paper"
     """The simulated trials' perturbation preset (see ``simulate --perturb``)."""
     run: RunOptions = RunOptions()
-    """How the cells run: run.seed seeds the simulated perturbations; run.jobs cells at a time on this
+    """How the cells run: run.seed seeds the simulated trials' perturbations (map.csv's trial_seed;
+    the planner's is planner.seed); run.jobs cells at a time on this
     machine (child processes; None: all cores; unused on a cluster); run.cluster a Ray cluster's
     address ("local" starts one here; None: child processes on this machine)."""
     resume: bool = False
@@ -155,9 +156,9 @@ class MapTask:
     """The cell's scene."""
     planner: PlannerOptions
     """How the cell's planner runs: its name (or ``lattice``), time (s: the seeded iteration budget's
-    size) and seed."""
-    seed: int
-    """The trials' seed."""
+    size) and seed (OMPL's RNG; map.csv's planner_seed)."""
+    trial_seed: int
+    """The seed of the simulated trials' perturbations (the map's run.seed; map.csv's trial_seed)."""
     trials: int = 0
     """Simulated trials (count)."""
     perturb: str = "paper"
@@ -202,15 +203,24 @@ class MapCell:
         return self.planner_outcome is PlanOutcome.SOLVED
 
 
-#: map.csv's columns; the first two identify a cell.
+#: map.csv's columns; the first two identify a cell. planner_seed: the planner's seed (OMPL's RNG);
+#: trial_seed: the seed the cell's simulated trials drew their perturbations from (empty without trials).
 MAP_COLUMNS = ("alpha", "friction_scale", "task_status", "secure_path", "lattice_outcome", "lattice_optimum",
                "planner", "planner_outcome", "planner_solved", "planner_cost", "sim_trials", "sim_successes",
-               "sim_success_rate", "seed", "time_s", "executable", "error")
+               "sim_success_rate", "planner_seed", "trial_seed", "time_s", "executable", "error")
+#: The columns of map.csv that hold a cell's options: a resumed map keeps a row only if they match.
+OPTION_COLUMNS = ("planner", "sim_trials", "planner_seed", "trial_seed", "time_s")
 
 
 def cell_key(alpha: float, friction_scale: float) -> tuple[str, str]:
     """A cell's key in map.csv: its alpha and friction scale as written."""
     return repr(float(alpha)), repr(float(friction_scale))
+
+
+def task_options(task: MapTask) -> dict[str, str]:
+    """A cell's options as map.csv writes them (OPTION_COLUMNS)."""
+    return dict(planner=task.planner.planner, sim_trials=str(task.trials), planner_seed=str(task.planner.seed),
+                trial_seed=str(task.trial_seed) if task.trials else "", time_s=repr(float(task.planner.time)))
 
 
 def cell_row(cell: MapCell, task: MapTask) -> list[object]:
@@ -220,11 +230,17 @@ def cell_row(cell: MapCell, task: MapTask) -> list[object]:
         return None if b is None else int(b)
 
     rate = None if cell.sim_successes is None or not task.trials else cell.sim_successes / task.trials
-    return [*cell_key(cell.alpha, cell.friction_scale), cell.task_status.value, flag(cell.secure_path),
-            cell.lattice_outcome.value if cell.lattice_outcome else None, cell.lattice_optimum, task.planner.planner,
-            cell.planner_outcome.value if cell.planner_outcome else None, flag(cell.planner_solved),
-            cell.planner_cost, task.trials, cell.sim_successes, rate, task.planner.seed, repr(float(task.planner.time)),
-            flag(cell.executable), cell.error.replace("\n", " ")]
+    alpha, friction_scale = cell_key(cell.alpha, cell.friction_scale)
+    named = task_options(task) | dict(
+        alpha=alpha, friction_scale=friction_scale, task_status=cell.task_status.value,
+        secure_path=flag(cell.secure_path),
+        lattice_outcome=cell.lattice_outcome.value if cell.lattice_outcome else None,
+        lattice_optimum=cell.lattice_optimum,
+        planner_outcome=cell.planner_outcome.value if cell.planner_outcome else None,
+        planner_solved=flag(cell.planner_solved), planner_cost=cell.planner_cost,
+        sim_successes=cell.sim_successes, sim_success_rate=rate, executable=flag(cell.executable),
+        error=cell.error.replace("\n", " "))
+    return [named[c] for c in MAP_COLUMNS]
 
 
 def cell_from_row(row: dict[str, str]) -> MapCell:
@@ -271,7 +287,7 @@ def run_cell(task: MapTask) -> MapCell:
 
 def _simulated(cell: MapCell, task: MapTask, plan) -> MapCell:
     """The cell with the simulated trials of its plan counted (or why the robot cannot execute it)."""
-    run = plan_trials(task.scene, plan, task.trials, task.perturb, task.seed)
+    run = plan_trials(task.scene, plan, task.trials, task.perturb, task.trial_seed)
     if not run.executable:
         return replace(cell, executable=False, error=f"not executable: {run.unexecutable}")
     return replace(cell, executable=True, sim_successes=run.successes)
@@ -334,8 +350,9 @@ class MapResult:
                  f"{self.ran} computed now, {len(cells) - self.ran} kept from {self.files['csv']}",
                  f"  a secure path exists in {exists}; {o.planner.planner} ({o.planner.time:g} s, "
                  f"seed {o.planner.seed}) solved {solved}"
-                 + (f"; simulated {o.simulate} trials per solved cell ({o.perturb}): {self.simulated[0]}/"
-                    f"{self.simulated[1]} placed, {self.simulated[2]} cells not executable" if o.simulate else "")]
+                 + (f"; simulated {o.simulate} trials per solved cell ({o.perturb}, seed {o.run.seed}): "
+                    f"{self.simulated[0]}/{self.simulated[1]} placed, {self.simulated[2]} cells not executable"
+                    if o.simulate else "")]
         if self.failed:
             first = self.failed[0]
             lines.append(f"  {len(self.failed)} cells failed (task_status in map.csv), e.g. alpha {first.alpha:g}, "
@@ -364,9 +381,8 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     kept = {k: row for k, row in stream.rows.items()
             if k in by_key and dict(zip(MAP_COLUMNS, row))["task_status"] == TaskStatus.DONE.value}
     for key, row in kept.items():
-        task, named = by_key[key], dict(zip(MAP_COLUMNS, row))
-        if (named["planner"], named["sim_trials"], named["seed"], named["time_s"]) != (
-                task.planner.planner, str(task.trials), str(task.planner.seed), repr(float(task.planner.time))):
+        named = dict(zip(MAP_COLUMNS, row))
+        if {c: named[c] for c in OPTION_COLUMNS} != task_options(by_key[key]):
             raise InputError("resume", f"{stream.path} was made with other options (planner, --time, --seed or "
                              "--simulate); use another --out or leave out --resume")
     stream.rows = dict(kept)

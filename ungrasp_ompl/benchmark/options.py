@@ -28,11 +28,12 @@ class BenchmarkOptions:
     runs: int = 10
     """Runs per scene and planner (count); run k is seeded with run.seed + k."""
     planner: PlannerOptions = PlannerOptions()
-    """How every planner runs (planning.setup.PlannerOptions): its time per run (s: wall time, or with
-    iterations the hard cap is 5 times it); its iterations per run (count: runs become reproducible like
-    ``plan --seed``; None: a run stops on wall time, like OMPL's Benchmark); its objective, what every
-    planner optimises, the lattice yardstick included (docs/model.md, section 6). Its planner name and
-    seed are unused: planners names them, run.seed seeds them."""
+    """How every planner runs (planning.setup.PlannerOptions), passed whole to each run: its time per
+    run (s: wall time, or with iterations the hard cap is 5 times it); its iterations per run (count:
+    runs become reproducible like ``plan --seed``; None: a run stops on wall time, like OMPL's
+    Benchmark); its objective, what every planner optimises, the lattice yardstick included
+    (docs/model.md, section 6); its range, goal bias and simplification. Its planner name and seed
+    are replaced per run: planners names them, run.seed seeds them."""
     run: RunOptions = RunOptions()
     """How the runs run: run.seed seeds OMPL's RNG for run 0 (run k gets seed + k), seeded afresh per
     run; run.jobs runs at a time on this machine (child processes; None: all cores; unused on a
@@ -52,6 +53,7 @@ class BenchmarkOptions:
         objective = check_objective(p.objective or Objective.COST, LATTICE)  # None: the cost, on every scene
         for planner in planners:
             check_objective(objective, planner)
+        check_passed_whole(p)
         return replace(self, planners=planners, planner=replace(p, objective=objective),
                        run=replace(run.validated(), jobs=run.workers))
 
@@ -63,10 +65,11 @@ class SweepOptions:
     alphas: tuple[float, ...] = ()
     """Digit asymmetry values (finger minus thumb length, over the object length)."""
     planner: PlannerOptions = PlannerOptions()
-    """How the planner runs (planning.setup.PlannerOptions): an OMPL geometric planner by name, or
-    ``lattice``; its time per run (s, wall time, or the cap of 5 times it with iterations); its
-    iterations per run (count, making runs reproducible; None: stop on wall time); its objective.
-    Its seed is unused: run.seed seeds the runs."""
+    """How the planner runs (planning.setup.PlannerOptions), passed whole to each run: an OMPL
+    geometric planner by name, or ``lattice``; its time per run (s, wall time, or the cap of 5 times
+    it with iterations); its iterations per run (count, making runs reproducible; None: stop on wall
+    time); its objective; its range, goal bias and simplification. Its seed is replaced per run:
+    run.seed seeds the runs."""
     runs: int = 5
     """Runs per alpha (count); run k is seeded with run.seed + k."""
     run: RunOptions = RunOptions()
@@ -85,6 +88,7 @@ class SweepOptions:
         check_runs(self.runs, p.time, run.workers, run.seed, self.out)
         check_iterations(p.iterations)
         objective = check_objective(p.objective or Objective.COST, planner)  # None: the cost
+        check_passed_whole(p)
         alphas = tuple(float(a) for a in self.alphas)
         if not alphas:
             raise InputError("alpha", "gives no value")
@@ -107,6 +111,12 @@ def validate_planners(planners: Iterable[str], option: str = "planners") -> list
         except InputError as exc:  # a planner refused with the reason
             raise InputError(option, exc.reason) from None
     return names
+
+
+def check_passed_whole(p: PlannerOptions) -> None:
+    """Check what a campaign passes to every run besides the fields it checks itself: the range and
+    the goal bias (PlannerOptions.validated's checks; InputError naming `range` or `goal_bias`)."""
+    PlannerOptions(range=p.range, goal_bias=p.goal_bias).validated()
 
 
 def check_runs(runs: int, time_limit: float, jobs: int, seed: int, out_dir: str | os.PathLike[str]) -> Path:

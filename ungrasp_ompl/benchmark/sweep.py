@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import textwrap
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import InputError
@@ -110,9 +110,10 @@ def run_sweep(scene_path: str | os.PathLike[str], options: SweepOptions, progres
     p, run = options.planner, options.run
     limit = float(p.time)
     groups = [repr(a) for a in options.alphas]
-    tasks = [Task(g, scene, LATTICE, -1, run.seed, limit, objective=p.objective) for g, scene in zip(groups, scenes)]
-    tasks += [Task(g, scene, p.planner, k, run.seed + k, limit, p.iterations, p.objective)
-              for g, scene in zip(groups, scenes) for k in range(options.runs)]
+    yardstick = replace(p, planner=LATTICE, seed=run.seed, iterations=None)
+    tasks = [Task(g, scene, yardstick, -1) for g, scene in zip(groups, scenes)]
+    tasks += [Task(g, scene, replace(p, seed=run.seed + k), k) for g, scene in zip(groups, scenes)
+              for k in range(options.runs)]
     with open_runner(run.jobs, run.cluster, fresh=False) as runner, \
             RowStream(out / "runs.csv", RUN_COLUMNS, RUN_KEY_COLUMNS, resume=options.resume) as stream:
         results = run_tasks(tasks, runner, progress, stream)

@@ -15,9 +15,9 @@ import enum
 import time
 from collections.abc import Callable, Sequence
 from contextlib import closing
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from ..errors import ToolError, UngraspError
+from ..errors import InputError, ToolError, UngraspError
 from ..parallel.runner import Runner, TaskStatus
 from ..parallel.stream import RowStream
 from ..planning.margins import Objective
@@ -59,29 +59,37 @@ Progress = Callable[[int, int], None]
 @dataclass(frozen=True)
 class Task:
     """One run: a planner on a scene, in its own child process. It carries all it needs
-    (scene, seed), so its result does not depend on where it runs."""
+    (scene, planner options with the run's seed), so its result does not depend on where it runs."""
 
     group: str
     """The scene's key (benchmark) or the alpha's index (sweep)."""
     scene: Scene
     """The scene to plan."""
-    planner: str
-    """An OMPL planner by name, or ``lattice``."""
+    planner: PlannerOptions
+    """How the run plans, whole: planner.planner an OMPL planner by name, or ``lattice``;
+    planner.seed OMPL's RNG seed of this run (an integer, required); planner.time the planning
+    time (s: wall time, or with planner.iterations the cap of 5 times it); planner.iterations the
+    planner iterations (count, making the run reproducible; None: stop on wall time, OMPL still
+    drawing from the seed); planner.objective what it optimises (None: the cost); its range,
+    goal bias and simplification as for ``plan``. The lattice run reads the objective only."""
     run: int
     """The run's index (count); -1: a lattice yardstick run, not reported as a planner run."""
-    seed: int
-    """OMPL's RNG seed of this run."""
-    time_limit: float
-    """Planning time (s): wall time, or with iterations the cap of 5 times it."""
-    iterations: int | None = None
-    """Planner iterations (count), making the run reproducible; None: stop on wall time."""
-    objective: Objective = Objective.COST
-    """What the planner optimises (docs/model.md, section 6): cost, margin, balanced or tolerance."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.planner.seed, bool) or not isinstance(self.planner.seed, int):
+            raise InputError("seed", f"a benchmark run needs an integer seed, got {self.planner.seed!r}")
+
+    @property
+    def objective(self) -> Objective:
+        """What the run optimises (docs/model.md, section 6): planner.objective, None as the cost
+        (a campaign compares its runs on one objective, never each scene's own)."""
+        return Objective(self.planner.objective or Objective.COST)
 
     @property
     def deadline(self) -> float:
         """Seconds after which the run's process is killed and the run counted as hung."""
-        return (5.0 * self.time_limit if self.iterations else self.time_limit) + HANG_GRACE_S
+        p = self.planner
+        return (5.0 * p.time if p.iterations else p.time) + HANG_GRACE_S
 
 
 @dataclass(frozen=True)
@@ -129,11 +137,10 @@ def run_status(plan: Plan) -> RunStatus:
 def _ompl_run(task: Task) -> dict:
     """Solve with an OMPL planner, OMPL seeded with the task's seed: on wall time, or for the
     task's iterations (its goal samples seeded too, so the run is reproducible)."""
-    seeded = task.iterations is not None
-    if not seeded:  # on wall time the run is not reproducible, but OMPL still draws from the task's seed
-        seed_ompl(task.seed)
-    options = PlannerOptions(planner=task.planner, time=task.time_limit, seed=task.seed if seeded else None,
-                             iterations=task.iterations, objective=task.objective)
+    options = replace(task.planner, objective=task.objective)
+    if options.iterations is None:  # on wall time the run is not reproducible, but OMPL still draws from the seed
+        seed_ompl(options.seed)
+        options = replace(options, seed=None)  # a seeded setup would stop on an iteration budget instead
     plan = UngraspSetup(task.scene, options).solve()
     return dict(status=run_status(plan), cost=plan.cost, mode_switches=plan.mode_switches,
                 time_to_first_solution_s=plan.time_to_first_solution_s, planning_time_s=plan.planning_time_s,
@@ -161,8 +168,8 @@ def _lattice_run(scene: Scene, objective: Objective = Objective.COST) -> dict:
 def run_task(task: Task) -> RunResult:
     """Run one task (OMPL's random numbers seeded here for it)."""
     t0 = time.perf_counter()
-    measured = _lattice_run(task.scene, task.objective) if task.planner == LATTICE else _ompl_run(task)
-    return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed,
+    measured = _lattice_run(task.scene, task.objective) if task.planner.planner == LATTICE else _ompl_run(task)
+    return RunResult(group=task.group, planner=task.planner.planner, run=task.run, seed=task.planner.seed,
                      wall_time_s=time.perf_counter() - t0, **measured)
 
 
@@ -196,7 +203,7 @@ def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None =
             if outcome.status is TaskStatus.FAILED:
                 if isinstance(outcome.error, UngraspError):
                     raise outcome.error
-                raise ToolError(f"{task.planner} run {task.run} on {task.group} failed: "
+                raise ToolError(f"{task.planner.planner} run {task.run} on {task.group} failed: "
                                 f"{type(outcome.error).__name__}: {outcome.error}") from outcome.error
             result = outcome.value if outcome.status is TaskStatus.DONE else hung_result(task, outcome.wall_time_s)
             out[todo[outcome.index]] = result
@@ -208,7 +215,7 @@ def run_tasks(tasks: Sequence[Task], runner: Runner, progress: Progress | None =
     return out  # type: ignore[return-value]
 
 
-#: runs.csv's columns: a task's key (the first six), then what it measured.
+#: runs.csv's columns: a task's key (the first RUN_KEY_COLUMNS), then what it measured.
 RUN_COLUMNS = ("group", "planner", "run", "seed", "time_limit_s", "iteration_budget", "objective", "status", "cost",
                "mode_switches", "time_to_first_solution_s", "planning_time_s", "setup_time_s", "iterations",
                "wall_time_s", "min_margin_deg", "tolerance")
@@ -217,9 +224,12 @@ RUN_KEY_COLUMNS = 7
 
 
 def task_key(task: Task) -> tuple[str, ...]:
-    """A task's key in runs.csv: what decides its result."""
-    return (task.group, task.planner, str(task.run), str(task.seed), repr(float(task.time_limit)),
-            "" if task.iterations is None else str(task.iterations), task.objective)
+    """A task's key in runs.csv: what decides its result, but for the planner's range, goal bias
+    and simplification, which runs.csv does not hold (a campaign gives every task the same; one
+    resumed with others keeps the rows made with the earlier)."""
+    p = task.planner
+    return (task.group, p.planner, str(task.run), str(p.seed), repr(float(p.time)),
+            "" if p.iterations is None else str(p.iterations), task.objective)
 
 
 def run_row(task: Task, r: RunResult) -> list[object]:
@@ -245,8 +255,9 @@ def result_from_row(row: Sequence[str]) -> RunResult:
 
 def hung_result(task: Task, wall: float) -> RunResult:
     """The result of a run killed at its deadline or whose process ended without an answer."""
-    return RunResult(group=task.group, planner=task.planner, run=task.run, seed=task.seed, status=RunStatus.HUNG,
-                     cost=None, mode_switches=None, time_to_first_solution_s=None, planning_time_s=task.time_limit,
+    p = task.planner
+    return RunResult(group=task.group, planner=p.planner, run=task.run, seed=p.seed, status=RunStatus.HUNG,
+                     cost=None, mode_switches=None, time_to_first_solution_s=None, planning_time_s=p.time,
                      setup_time_s=0.0, iterations=None, wall_time_s=wall)
 
 
