@@ -288,3 +288,15 @@ def test_strict_model_changes_the_plan(scenes):
     psi_up = np.tile([0.0, 0.0, 0.1], (3, 1))
     assert scene.force_closure(q, psi_up).all() and not strict_scene.force_closure(q, psi_up).any()
 
+
+
+@pytest.mark.parametrize("seed", [True, -1, 2**32, 1.0, "1"])
+def test_planner_options_refuse_a_seed_that_is_not_an_integer_in_range(seed):
+    """PlannerOptions holds its seed to the one rule every seed obeys (parallel.options.check_seed):
+    an integer in [0, 2^32), a bool not counting as one; the error names the field."""
+    from ungrasp_ompl.planning.setup import PlannerOptions
+
+    with pytest.raises(InputError) as err:
+        PlannerOptions(seed=seed).validated()
+    assert err.value.field == "seed"
+    assert PlannerOptions(seed=2**32 - 1).validated().seed == 2**32 - 1

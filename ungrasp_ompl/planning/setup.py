@@ -31,6 +31,7 @@ from ompl import util as ou
 from ..errors import InputError, ToolError
 from ..geometry.collision import CollisionChecker
 from ..mechanics.margin import friction_margin
+from ..parallel.options import check_seed
 from ..parallel.runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
 from ..scene.stability import analyse
@@ -43,8 +44,9 @@ from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
 from .predicted_landing import predict_landing
-from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, PathSource, ObjectRecord, Plan, PlanOutcome, PlaneRecord, Report3D,
-                     Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record, merge_legs, sequence_cost)
+from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, PathSource, Plan, PlanOutcome,
+                     PlaneRecord, Report3D, Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record,
+                     merge_legs, sequence_cost)
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
@@ -144,8 +146,8 @@ class PlannerOptions:
             raise InputError("planner", f"unknown planner {self.planner!r} (known: {', '.join(PLANNERS + (LATTICE,))})")
         if not (isinstance(self.time, (int, float)) and math.isfinite(self.time) and self.time > 0):
             raise InputError("time", f"must be a positive number of seconds, got {self.time!r}")
-        if self.seed is not None and (not isinstance(self.seed, int) or self.seed < 0 or self.seed >= 2**32):
-            raise InputError("seed", f"must be an integer in [0, 2^32), got {self.seed!r}")
+        if self.seed is not None:
+            check_seed(self.seed)
         if self.iterations is not None and (not isinstance(self.iterations, int) or self.iterations < 1):
             raise InputError("iterations", f"must be a positive integer, got {self.iterations!r}")
         if self.range is not None and not self.range > 0:
