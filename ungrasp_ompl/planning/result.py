@@ -581,9 +581,7 @@ class Plan:
         own.setdefault("seed", None)
         own.setdefault("sliding_model", "relaxed")
         if "objective" in own:
-            if own["objective"] not in tuple(Objective):
-                raise InputError("objective", f"must be one of {', '.join(Objective)}, got {own['objective']!r}", source)
-            own["objective"] = Objective(own["objective"])
+            own["objective"] = _member(Objective, own["objective"], "objective", source)
         if not isinstance(own.get("predicted_landing"), (dict, type(None))):
             raise InputError("predicted_landing", f"must be a mapping or null, got {own['predicted_landing']!r:.80}",
                              source)
@@ -591,16 +589,9 @@ class Plan:
         solution = Solution(**{**part(Solution, ("states", "primitives")),
                                "states": [state(s, f"states[{k}]") for k, s in enumerate(states)], "primitives": steps})
         diagnostics = part(Diagnostics)
-        if diagnostics.get("stopped_by") is not None:
-            if diagnostics["stopped_by"] not in tuple(StoppedBy):
-                raise InputError("stopped_by", f"must be one of {', '.join(StoppedBy)} or null, got "
-                                 f"{diagnostics['stopped_by']!r:.80}", source)
-            diagnostics["stopped_by"] = StoppedBy(diagnostics["stopped_by"])
-        if diagnostics.get("path_from") is not None:
-            if diagnostics["path_from"] not in tuple(PathSource):
-                raise InputError("path_from", f"must be one of {', '.join(PathSource)} or null, got "
-                                 f"{diagnostics['path_from']!r:.80}", source)
-            diagnostics["path_from"] = PathSource(diagnostics["path_from"])
+        for key, kind in (("stopped_by", StoppedBy), ("path_from", PathSource)):
+            if diagnostics.get(key) is not None:
+                diagnostics[key] = _member(kind, diagnostics[key], key, source, " or null")
         return cls(outcome=PlanOutcome.SOLVED, solution=solution, diagnostics=Diagnostics(**diagnostics),
                    report=Report3D(**report) if len(report) == len(Report3D.__dataclass_fields__)
                    and None not in report.values() else None, **own)
@@ -755,6 +746,13 @@ def _span(low: float, high: float) -> str:
     if lo >= 0.0:
         return f"{lo:.2f} to {hi:.2f} mm toward B"
     return f"{abs(lo):.2f} mm toward G to {hi:.2f} mm toward B"
+
+
+def _member(kind: type[StrEnum], value: Any, field: str, source: str | None, other: str = "") -> Any:
+    """plan.json's value of an enum field as its member; InputError naming the field otherwise."""
+    if value not in tuple(kind):
+        raise InputError(field, f"must be one of {', '.join(kind)}{other}, got {value!r:.80}", source)
+    return kind(value)
 
 
 def _part_field(part: str, name: str) -> property:
