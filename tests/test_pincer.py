@@ -119,7 +119,7 @@ def test_missing_and_unknown_pincer_fields_and_what_a_pincer_cannot_do_are_refus
     with pytest.raises(UnknownFieldError) as err:
         Scene.from_dict(doc)
     assert err.value.field == "robot.gripper.joint_radius"
-    for key, value in (("termination", "open_lift"), ("landing", "modelled"), ("touch_off", True)):
+    for key, value in (("termination", "open_lift"), ("touch_off", True)):
         doc = _doc(PUZZLE)
         doc["robot"][key] = value
         with pytest.raises(InputError) as err:
@@ -255,3 +255,123 @@ def test_the_pincers_lattice_check_a_slice_at_a_time_is_the_state_by_state_check
     assert np.array_equal(lattice.ravel(), states)
     beyond = CollisionChecker(model).out_of_reach(q)
     assert beyond.any() and (~beyond).any() and states[beyond].all()
+
+
+# --- the release: the model of the fall against the export (docs/model.md 7, 11.17) --------------------
+
+@pytest.mark.parametrize("termination", ["open", "open_symmetric"])
+def test_a_pincer_may_aim_by_the_modelled_landing_with_an_opening_termination(termination):
+    """robot.landing modelled loads with the pincer's opening terminations, and predict_landing
+    models the pincer's own hand (its joint, its turns); with rotate the loader refuses modelled,
+    for the pincer as for the parallel jaws."""
+    from ungrasp_ompl.mechanics.pincer import release_turns
+    from ungrasp_ompl.planning.predicted_landing import release_setup
+
+    doc = _doc(PUZZLE)
+    doc["robot"].update(landing="modelled", termination=termination)
+    scene = Scene.from_dict(doc)
+    assert scene.robot.landing == "modelled" and scene.robot.gripper is not None
+    hand = release_setup(scene, (math.radians(8.0), 0.7, math.radians(40.0))).hand
+    turns = release_turns(termination)
+    assert hand.joint is not None and hand.turns == (turns["palm"], turns["thumb"], turns["finger"])
+    doc["robot"]["termination"] = "rotate"
+    with pytest.raises(InputError) as err:
+        Scene.from_dict(doc)
+    assert err.value.field == "robot.landing"
+
+
+@pytest.mark.parametrize("depth_mm", [0.5, 1.0, -0.3])
+def test_the_pincers_pressed_state_lowers_its_joint_and_keeps_its_palm_turned_the_same(depth_mm):
+    """pincer_pressed_state: the state whose joint lies depth straight below the planned state's (to
+    1e-12 l), the palm's axis turned the same (1e-12 rad), G where it was (the state keeps G at the
+    origin by construction); pressed down, the object turns flatter about G and pushes the digits
+    apart (a larger joint angle), lifted the other way; depth 0 is the state itself."""
+    from ungrasp_ompl.mechanics.pincer import pincer_pressed_state
+
+    scene = Scene.from_file(PUZZLE)
+    dg, l = scene.digits, scene.object_length
+    radius, offset = scene.robot.gripper.scaled(l)
+    q = (math.radians(8.0), 0.675, math.radians(34.5))
+    depth = depth_mm / 1000 / l
+    th, d, ps, found = pincer_pressed_state(*q, depth, dg, radius, offset)
+    assert found
+    before, after = pincer_pose(*q, dg, radius, offset), pincer_pose(th, d, ps, dg, radius, offset)
+    assert np.abs(after.joint - (before.joint - (0.0, depth))).max() < 1e-12
+    assert abs(math.atan2(after.palm_z[1], after.palm_z[0]) - math.atan2(before.palm_z[1], before.palm_z[0])) < 1e-12
+    assert (th < q[0]) == (depth > 0) and (after.angle > before.angle) == (depth > 0)
+    assert pincer_pressed_state(*q, 0.0, dg, radius, offset) == pytest.approx((*q, True), abs=1e-15)
+
+
+@pytest.fixture(scope="module")
+def exported_release():
+    """The pincer's puzzle piece, as planned (no aim), its RRT* plan of seed 1 (with a P_dpsi)
+    executed for the robot, and the model's hand for that plan (release_setup)."""
+    from ungrasp_ompl.planning.setup import plan
+    from ungrasp_ompl.planning.predicted_landing import release_setup
+    from ungrasp_ompl.robot.pipeline import execute
+    from ungrasp_ompl.scene.options import Landing
+
+    scene = Scene.from_file(PUZZLE)
+    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+    result = plan(scene, "RRTstar", time=1.0, seed=1)
+    assert result.solved
+    return scene, result, execute(scene, result), release_setup(scene, tuple(result.states[-1])).hand
+
+
+def _exported_digits(scene, execution, segment):
+    """Per sample of the trajectory's segment: t (s from the segment's start), and in the plane's
+    frame (m) the palm's origin J, the palm's axis, and by forward kinematics of the exported joint
+    angle the thumb's tip and the finger's dome centre."""
+    from ungrasp_ompl.mechanics.pincer import forward
+    from ungrasp_ompl.robot.model import tcp_pose
+
+    traj, robot = execution.trajectory, execution.robot
+    l = scene.object_length
+    radius, offset = scene.robot.gripper.scaled(l)
+    inv = np.linalg.inv(scene.plane_frame())
+    _, i0, i1 = next(s for s in traj.segments if s[0] == segment)
+    _, t0, _ = next(s for s in traj.segments if s[0] == "termination")
+    rows = []
+    for k in range(i0, i1 + 1):
+        pose = inv @ tcp_pose(robot, traj.positions[k, :6])
+        joint, z, x = pose[[0, 2], 3], pose[[0, 2], 2], pose[[0, 2], 0]
+        fk = forward(joint / l, z, x, traj.positions[k, 6], scene.digits, radius, offset)
+        rows.append((traj.times[k] - traj.times[t0], joint, z, fk["thumb_tip"] * l, fk["dome"] * l))
+    return rows
+
+
+def test_the_modelled_release_moves_the_digits_as_the_export_commands(exported_release):
+    """The model's hand (mechanics.release.pincer_hand, the command alone: no squeeze taken up) against
+    the exported trajectory's termination and retreat (forward kinematics of the palm pose and the
+    joint angle, in the plane's frame): the termination starts with J where the export's end press
+    puts it and the palm turned the same (the pincer's own pressed state, 1e-6 m and 1e-6 rad); over
+    the termination J and the thumb's tip stay where they are and the finger's dome turns about J
+    as the model has them at the same time (1e-6 m for J and the thumb: the IK's residual; 0.05 mm
+    for the finger: TOPPRA's timing against the model's trapezoid, whose duration lies within 2 ms
+    of the export's), the dome moving by the termination's 4 mm; over the retreat every one of them
+    within 0.2 mm (the retreat's timing)."""
+    scene, _, execution, hand = exported_release
+    command = replace(hand, held=0.0)
+    term = _exported_digits(scene, execution, "termination")
+    retreat = _exported_digits(scene, execution, "retreat")
+    _, joint0, z0, thumb0, dome0 = term[0]
+    assert np.linalg.norm(joint0 - hand.joint) < 1e-6
+    # the palm's axis bisects the model's thumb's face (e) and its finger's link (J to the dome)
+    link = np.array(hand.finger) - hand.joint
+    bisector = np.array(hand.axis) + link / np.linalg.norm(link)
+    assert abs(math.atan2(*z0[::-1]) - math.atan2(*bisector[::-1])) < 1e-6
+    duration = term[-1][0]
+    assert abs(duration - command.duration) < 0.002
+    for t, joint, _, thumb, dome in term:
+        model_joint = np.array(command.palm_at(t)[:2]) + hand.joint
+        assert np.linalg.norm(joint - model_joint) < 1e-6, t
+        moved = np.array(command.thumb_at(t)[:2]) - command.thumb_at(0.0)[:2]
+        assert np.linalg.norm((thumb - thumb0) - moved) < 1e-6, t
+        turned = np.array(command.finger_at(t)[:2]) - command.finger_at(0.0)[:2]
+        assert np.linalg.norm((dome - dome0) - turned) < 5e-5, t
+    assert np.linalg.norm(term[-1][4] - dome0) == pytest.approx(scene.robot.termination_opening, abs=1e-6)
+    for t, joint, _, thumb, dome in retreat:
+        lifted = np.array(command.palm_at(t)[:2])
+        assert np.linalg.norm(joint - (hand.joint + lifted)) < 2e-4, t
+        assert np.linalg.norm((thumb - thumb0) - (np.array(command.thumb_at(t)[:2]) - command.thumb_at(0.0)[:2])) < 2e-4
+        assert np.linalg.norm((dome - dome0) - (np.array(command.finger_at(t)[:2]) - command.finger_at(0.0)[:2])) < 2e-4

@@ -335,3 +335,117 @@ def test_the_prediction_is_the_simulated_landing(world):
     frame = scene.plane.frame
     assert abs(offset @ frame[:2, 0] - model) < 0.0005
     assert abs(offset @ frame[:2, 1]) < 0.0002
+
+
+# --- a pincer's release (mechanics.release.pincer_hand, docs/model.md 7) ----------------------------------
+
+#: A pincer's last state, like the pincer puzzle piece's plans': theta 8 deg, d 0.675, psi 34.5 deg.
+PINCER_STATE = (math.radians(8.0), 0.675, math.radians(34.5))
+
+
+def pincer_setup(termination: str = "open") -> ReleaseSetup:
+    """The pincer puzzle piece's release from PINCER_STATE, letting go by termination."""
+    from ungrasp_ompl import Scene
+
+    scene = Scene.from_file(ROOT / "scenes" / "pincer_puzzle_piece.yaml")
+    scene = replace(scene, robot=replace(scene.robot, termination=termination))
+    return release_setup(scene, PINCER_STATE)
+
+
+def _face_angle(m: HandMotion, t: float) -> float:
+    ex, ez, _ = m.face_at(t)
+    return math.atan2(ez, ex)
+
+
+@pytest.mark.parametrize("termination", ["open", "open_symmetric"])
+def test_a_pincers_digits_turn_about_its_joint_at_the_rates_they_move(termination):
+    """A pincer's hand: the thumb's tip, the finger's dome and the face's direction have velocities
+    that are their positions' rates (central differences) through the opening's ramps, the pinch's
+    letting go and the retreat; until the retreat both digits keep their distance from J (they turn
+    about it) and J stays; once the pinch has let go, the open termination holds the thumb still
+    (its tip and its face) while the finger turns the rest of the opening, and open_symmetric turns
+    the thumb back by half of it; the finger's dome moves by the chord of its turn."""
+    m = pincer_setup(termination).hand
+    assert m.joint is not None and m.finger is not None
+    h = 1e-6
+    for t in np.linspace(0.001, m.end - 0.001, 60):
+        for at in (m.thumb_at, m.finger_at):
+            a, b = np.array(at(t - h)[:2]), np.array(at(t + h)[:2])
+            assert np.allclose(at(t)[2:], (b - a) / (2 * h), atol=1e-6), (t, at.__name__)
+        rate = (_face_angle(m, t + h) - _face_angle(m, t - h)) / (2 * h)
+        assert m.face_at(t)[2] == pytest.approx(-rate, abs=1e-6)  # + turns e toward n_B: clockwise in (x, z)
+        if t <= m.duration:
+            assert m.palm_at(t)[:4] == (0.0, 0.0, 0.0, 0.0)
+            for at, point in ((m.thumb_at, m.tip), (m.finger_at, m.finger)):
+                assert math.dist(at(t)[:2], m.joint) == pytest.approx(math.dist(point, m.joint), abs=1e-15)
+    after = np.linspace(m.released + 1e-4, m.duration, 20)
+    thumb = np.array([m.thumb_at(t) for t in after])
+    faces = np.array([_face_angle(m, t) for t in after])
+    if termination == "open":
+        assert np.ptp(thumb[:, :2], axis=0).max() < 1e-15 and np.abs(thumb[:, 2:]).max() == 0.0
+        assert np.ptp(faces) < 1e-15
+    else:  # the thumb turns back (counterclockwise in (x, z)) by half of what the joint opens
+        assert faces[-1] - faces[0] == pytest.approx((m.opening - m.palm_at(after[0])[4]) / 2, abs=1e-12)
+    # the finger turns with the palm while the pinch holds, then by its own turn: the chord of it
+    palm, finger = m.turns[0], m.turns[2]
+    turn = palm * m.opening + (finger - palm) * (m.opening - m.held)
+    moved = math.dist(m.finger_at(m.duration)[:2], m.finger)
+    assert moved == pytest.approx(2 * math.dist(m.finger, m.joint) * math.sin(turn / 2), abs=1e-15)
+
+
+def test_without_friction_or_thumb_no_horizontal_force_acts_on_a_pincers_piece():
+    """The pincer's pinch carries the piece (turning it about J with the palm) until the command has
+    taken up the squeeze; after it, with no friction at G and no thumb, no horizontal force acts:
+    the centre of mass keeps the horizontal velocity the carry gave it (not zero) and its place
+    moves along in a straight line, to 1e-12, until the piece lies flat."""
+    s = pincer_setup()
+    assert s.hand.held > 0.0
+    f = fall(s, 0.0, 0.0, thumb=False, trace=True)
+    assert f.landed and f.carried != 0.0
+    t, xg, zg, th, vx, vz, om = f.states[:-1].T  # the last row is the object flat after the landing
+    x = xg + s.body.centre * np.cos(th) - s.body.thickness / 2 * np.sin(th)
+    assert abs(vx[0]) > 1e-3
+    assert np.ptp(vx) < 1e-12
+    assert np.abs(x - (x[0] + vx[0] * (t - t[0]))).max() < 1e-12
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.3, math.inf])
+def test_a_pincers_open_termination_does_no_work_on_the_piece(mu):
+    """The pincer's open termination holds its thumb still (the palm turns half the joint's turn
+    about J): with the squeeze taken up at once and no retreat, nothing but the piece moves where it
+    touches, and its energy never grows along the fall, the thumb's face touching it."""
+    s = pincer_setup()
+    s = replace(s, hand=replace(s.hand, held=0.0, retreat=0.0))
+    f = fall(s, mu, 0.4, trace=True)
+    assert f.thumb_left is not None and f.thumb_left > s.hand.released  # the face held the piece a while
+    e = energy(f.states[:-1], s.body)
+    assert np.max(np.diff(e)) < 1e-9
+    assert f.energy_gain < 1e-9
+
+
+@pytest.mark.parametrize("t", [0.05, 0.3])
+def test_a_turning_faces_contact_rows_are_the_gaps_derivatives(t):
+    """A pincer's thumb face turning about J (open_symmetric, the pinch let go: the thumb turns back
+    half the joint's opening): the face's normal velocity at B is minus the gap's rate at a fixed
+    pose, and its tangential velocity there is that of the face's material point at B (the face's
+    point at B's place along it, carried by the tip's move and the face's turn: central
+    differences), so that the turn counts as well as the tip's move."""
+    s = pincer_setup("open_symmetric")
+    m = replace(s.hand, held=0.0)
+    assert m.face_at(t)[2] != 0.0
+    q = _centre(s.body, (0.0, 2e-6), s.start.theta)
+    contact = next(c for c in contacts_at(s.body, m, *q, t, 0.3, 0.4, 1.0)[0] if c.key == "thumb")
+    rate = (_gap(s.body, m, q, t + 1e-6, "thumb") - _gap(s.body, m, q, t - 1e-6, "thumb")) / 2e-6
+    assert contact.wall_normal == pytest.approx(-rate, abs=1e-7)
+    b = q[:2] + np.array([[math.cos(q[2]), -math.sin(q[2])], [math.sin(q[2]), math.cos(q[2])]]) @ (
+        np.array([s.body.length, 0.0]) - (s.body.centre, s.body.thickness / 2))
+    tip, (ex, ez, _) = np.array(m.thumb_at(t)[:2]), m.face_at(t)
+    along, across = (b - tip) @ (-ex, -ez), (b - tip) @ (ez, -ex)
+
+    def material(tt):
+        fx, fz, _ = m.face_at(tt)
+        return np.array(m.thumb_at(tt)[:2]) + along * np.array([-fx, -fz]) + across * np.array([fz, -fx])
+
+    velocity = (material(t + 1e-6) - material(t - 1e-6)) / 2e-6
+    assert contact.wall_tangent == pytest.approx(float(velocity @ (-ex, -ez)), abs=1e-7)
+    assert contact.wall_normal == pytest.approx(float(velocity @ (ez, -ex)), abs=1e-7)

@@ -15,7 +15,7 @@ from ungrasp_ompl.io import parse_yaml
 from ungrasp_ompl.mechanics import kinematic_validity
 from ungrasp_ompl.planning.atlas import lattice_axes
 from ungrasp_ompl.scene import Scene
-from ungrasp_ompl.scene.options import GripperKind, Landing
+from ungrasp_ompl.scene.options import Landing
 from ungrasp_ompl.shipped import shipped_scenes
 
 SHIPPED = [s for s in shipped_scenes() if s.kind == "scene"]
@@ -37,14 +37,13 @@ def test_robot_ready_scenes_export_without_collision(tmp_path, name, planner):
     """Each robot-ready scene's plan, by either planner, is executed and exported within the arm's
     limits and clear of the table and obstacles, the hand aimed by the model of its fall
     (robot.landing: modelled). RRT* gets 3 s: at its friction's +-30 % (docs/model.md 4.7) the
-    1.5 mm pick's seed 2 finds no path within 2 s (12,000 iterations). The pincer, whose fall is
-    not modelled, aims by its expected landing (robot.landing: expected); the curved objects,
-    whose fall is modelled as a slab's, as planned."""
+    1.5 mm pick's seed 2 finds no path within 2 s (12,000 iterations). The pincer's fall is
+    modelled with its digits turning about the joint; the curved objects, whose fall is modelled
+    as a slab's, aim as planned."""
     scene = Scene.from_file(name)
-    pincer = scene.robot.gripper_kind is GripperKind.PINCER
     curved = scene.digits.section is not None  # the fall is modelled for a slab only
-    modelled = not (pincer or curved)
-    assert scene.robot.landing is (Landing.EXPECTED if pincer else Landing.PLANNED if curved else Landing.MODELLED)
+    modelled = not curved
+    assert scene.robot.landing is (Landing.PLANNED if curved else Landing.MODELLED)
     out = tmp_path / "out"
     proc = run_cli("plan", name, "--planner", planner, "--seed", "2", "--time", "3", "--export", str(out))
     assert proc.returncode == 0, proc.stdout + proc.stderr

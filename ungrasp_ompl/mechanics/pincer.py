@@ -35,6 +35,10 @@ held opening: either is a rigid thumb's face with the dome's centre at a fixed p
 the pressed state is the same and B keeps its margin there a fortiori too. Choose h near the
 opening of the plan's last states: there the pincer's digits are where the parallel model has them.
 
+Letting go (release_turns): the joint opens and the palm turns about J as the termination has it;
+the export (robot.pipeline) and the model of the fall (mechanics.release.pincer_hand) read the
+same turns, and the fall starts from the pincer's own pressed state (pincer_pressed_state).
+
 The module sits with the mechanics (not with the robot) because the planner's collision check
 and the scene's loader use it. Lengths: PincerSpec and PincerLinks are in metres; PincerPose and
 the functions work in the plane over the object length l, as mechanics.kinematics does (pass
@@ -87,7 +91,13 @@ class PincerSpec:
     def opening_angle(self, opening: float) -> float:
         """The turn of the joint (rad) that moves the finger tip's centre by ``opening`` (m), the
         chord of its circle about the joint."""
-        return 2.0 * math.asin(min(1.0, opening / (2.0 * self.joint_radius)))
+        return chord_angle(opening, self.joint_radius)
+
+
+def chord_angle(chord: float, radius: float) -> float:
+    """The turn (rad) about a centre that moves a point ``radius`` from it by ``chord`` (same unit),
+    at most half a turn."""
+    return 2.0 * math.asin(min(1.0, chord / (2.0 * radius)))
 
 
 @dataclass(frozen=True)
@@ -119,6 +129,35 @@ class PincerLinks:
     def pinch_force(self) -> float:
         """The pinch the torque limit gives at the joint radius (N)."""
         return self.joint_torque / self.radius
+
+    @property
+    def levers(self) -> tuple[float, float]:
+        """How far the thumb's tip and the finger's tip corner lie from the joint's axis, m: the points
+        whose travel the export's timing caps at the contact speed (robot.pipeline), each moving that
+        far per radian it turns about the joint."""
+        return math.hypot(self.thumb_reach, self.offset), math.hypot(self.finger_length, self.tip_radius)
+
+
+#: How a pincer lets go, per radian its joint opens: the palm's, the thumb's and the finger's turns
+#: about the joint (rad per rad; + turns the digits' axis e toward n_B, the finger's side). Each
+#: digit turns half the joint's opening from the palm, the thumb one way and the finger the other.
+#: 'open' turns the palm half the opening the finger's way, so that the thumb stays on B and the
+#: finger turns the whole opening; 'open_symmetric' keeps the palm still. The pincer's counterpart of
+#: mechanics.kinematics.release_travel: robot.pipeline turns the palm so in the export, and the model
+#: of the fall (mechanics.release.pincer_hand) moves the thumb so.
+RELEASE_TURNS = {"open": {"palm": 0.5, "thumb": 0.0, "finger": 1.0},
+                 "open_symmetric": {"palm": 0.0, "thumb": -0.5, "finger": 0.5}}
+
+
+def release_turns(termination: str) -> dict[str, float]:
+    """The palm's, the thumb's and the finger's turns about the joint per radian the joint opens as
+    a pincer lets go by termination ('open' or 'open_symmetric'; RELEASE_TURNS). InputError naming
+    robot.termination for any other (a pincer neither lifts its finger off by open_lift nor opens
+    when it lets go by rotate)."""
+    if termination not in RELEASE_TURNS:
+        raise InputError("robot.termination", f"a pincer lets go by opening its joint with "
+                         f"{' or '.join(RELEASE_TURNS)}, got {termination!r}")
+    return dict(RELEASE_TURNS[termination])
 
 
 def pincer_links(spec: PincerSpec, digits: DigitGeometry, length: float) -> PincerLinks:
@@ -214,6 +253,50 @@ def pincer_pose(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeo
                       finger_x=finger_x, angle=turn - closed_angle(digits, radius, offset), turn=turn,
                       thumb_tip=joint + reach * e - offset * n, finger_corner=dome + r * (finger_z - finger_x),
                       dome=dome, reach=reach, radius=radius)
+
+
+def pincer_s_b(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry, radius: float,
+               offset: float) -> NDArray[np.float64]:
+    """How far B lies from the pincer's thumb tip along its face, over l, at states (theta, d, psi):
+    the pincer's s_B, R - k more than the parallel model's (the module docstring)."""
+    theta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (theta, d, psi)))[0]
+    pose = pincer_pose(theta, d, psi, digits, radius, offset)
+    return np.sum((pose.thumb_tip - object_axis(theta)) * pose.thumb_z, axis=-1)
+
+
+def pincer_pressed_state(theta: float, d: float, psi: float, depth: float, digits: DigitGeometry, radius: float,
+                         offset: float, iterations: int = 30) -> tuple[float, float, float, bool]:
+    """Where the object lies when a pincer's palm is held depth (over l; negative: higher) straight
+    below the pose the state (theta rad, d, psi rad) gives it, turned the same, with G where it is:
+    the state whose joint J lies that much lower with the palm's axis kept, the joint angle free (the
+    digits, coupled about the palm, turn apart as the object pushes them: the pincer's counterpart
+    of mechanics.kinematics.pressed_state, which keeps the parallel jaws' palm and lets their opening
+    go). Newton's method on J and the palm's direction from the state itself (central differences);
+    returns theta, d, psi and whether such a state was found with 0 < theta < pi/2 and 0 < d <= 1."""
+
+    def palm(q: NDArray[np.float64]) -> NDArray[np.float64]:
+        pose = pincer_pose(q[0], q[1], q[2], digits, radius, offset)
+        return np.array([pose.joint[0], pose.joint[1], math.atan2(pose.palm_z[1], pose.palm_z[0])])
+
+    q = np.array([theta, d, psi], dtype=float)
+    target = palm(q) - (0.0, depth, 0.0)
+    found = False
+    with np.errstate(invalid="ignore"):
+        for _ in range(iterations):
+            residual = palm(q) - target
+            if not np.isfinite(residual).all():
+                break
+            if np.abs(residual).max() < 1e-13:
+                found = True
+                break
+            h = 1e-7
+            jac = np.column_stack([(palm(q + h * e) - palm(q - h * e)) / (2 * h) for e in np.eye(3)])
+            try:
+                q = q - np.linalg.solve(jac, residual)
+            except np.linalg.LinAlgError:
+                break
+    th, dd, ps = (float(x) for x in q)
+    return th, dd, ps, bool(found and 0.0 < th < math.pi / 2 and 0.0 < dd <= 1.0)
 
 
 def forward(joint: ArrayLike, palm_z: ArrayLike, palm_x: ArrayLike, angle: ArrayLike, digits: DigitGeometry,

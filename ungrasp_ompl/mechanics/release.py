@@ -36,7 +36,12 @@ the table toward B, z up; metres, seconds, radians):
   sliding either way) from the moment the pinch lets go until the object lies flat on the table
   and has stopped sliding;
 * the planned state is pressed first (mechanics.kinematics.pressed_state): at the termination's
-  start the hand runs robot's final press below the plan, which turns the object a little about G.
+  start the hand runs robot's final press below the plan, which turns the object a little about G;
+* a pincer (mechanics.pincer) turns where parallel jaws slide (pincer_hand): its opening is its
+  joint's angle, and the palm, the thumb and the finger turn about the joint J by
+  mechanics.pincer.release_turns per radian of it, the pinch carrying the object about J with the
+  palm until the command has taken up the squeeze; its pressed state is its own
+  (mechanics.pincer.pincer_pressed_state: J lowered, the palm turned the same, the joint free).
 
 What it leaves out: anything across the plane (no turn about the vertical is predicted: a centre of
 mass off GB turns the object a fraction of a degree as it slides, which the model does not say);
@@ -65,8 +70,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import UngraspError
+from ..errors import InputError, UngraspError
 from .kinematics import GRAVITY
+from .pincer import PincerLinks, PincerPose, chord_angle, release_turns
 
 #: The integrator's step (s): landings move by less than 0.03 mm from 1 ms to 0.1 ms on the shipped plans.
 STEP = 5e-4
@@ -134,7 +140,9 @@ class ReleaseBody:
 
 @dataclass(frozen=True)
 class HandMotion:
-    """How the thumb's face moves over the termination and the retreat, in the plane's frame."""
+    """How the thumb's face moves over the termination and the retreat, in the plane's frame: the
+    parallel jaws' palm sliding by palm per unit of opening, or a pincer's turning about its joint
+    (joint, turns; pincer_hand)."""
 
     tip: tuple[float, float]
     """The thumb's tip on its face when the termination begins (m)."""
@@ -158,6 +166,17 @@ class HandMotion:
     """The retreat's speed (m/s)."""
     retreat_acceleration: float = RETREAT_ACCELERATION
     """The palm's acceleration into and out of the retreat (m/s^2)."""
+    joint: tuple[float, float] | None = None
+    """A pincer's joint J when the termination begins (m), or None for jaws that slide. With a joint
+    the opening is the joint's angle: opening, held, rate and acceleration are in rad, rad/s and
+    rad/s^2, the palm (its origin on J) moves only in the retreat (palm (0, 0)), and the hand turns
+    about J as turns has it."""
+    turns: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """A pincer's palm's, thumb's and finger's turns about J per radian of opening (rad/rad; + turns e
+    toward n_B): mechanics.pincer.release_turns."""
+    finger: tuple[float, float] | None = None
+    """The point of the finger finger_at follows, when the termination begins (m): a pincer's dome
+    centre C; None where the set-up does not give it (the fall leaves the finger out)."""
 
     @property
     def normal(self) -> tuple[float, float]:
@@ -193,12 +212,107 @@ class HandMotion:
 
     def thumb_at(self, t: float) -> tuple[float, float, float, float]:
         """The thumb tip's position and velocity at t (s): (x, z, vx, vz) (m, m/s): the palm's, less half
-        the opening beyond held along n_B."""
+        the opening beyond held along n_B; a pincer's turned about J (turned_at)."""
+        if self.joint is not None:
+            return self.turned_at(self.tip, 1, t)[:4]
         x, z, vx, vz, a, da = self.palm_at(t)
         nx, nz = self.normal
         free, dfree = (a - self.held, da) if a > self.held else (0.0, 0.0)
         return (self.tip[0] + x - free / 2 * nx, self.tip[1] + z - free / 2 * nz,
                 vx - dfree / 2 * nx, vz - dfree / 2 * nz)
+
+    def finger_at(self, t: float) -> tuple[float, float, float, float]:
+        """The finger's point (finger) at t (s): (x, z, vx, vz) (m, m/s): the palm's, and half the opening
+        beyond held along n_B; a pincer's turned about J (turned_at). ValueError without finger."""
+        if self.finger is None:
+            raise ValueError("the hand's motion was set up without the finger")
+        if self.joint is not None:
+            return self.turned_at(self.finger, 2, t)[:4]
+        x, z, vx, vz, a, da = self.palm_at(t)
+        nx, nz = self.normal
+        free, dfree = (a - self.held, da) if a > self.held else (0.0, 0.0)
+        return (self.finger[0] + x + free / 2 * nx, self.finger[1] + z + free / 2 * nz,
+                vx + dfree / 2 * nx, vz + dfree / 2 * nz)
+
+    def turned_at(self, point: tuple[float, float], body: int, t: float
+                  ) -> tuple[float, float, float, float, float, float]:
+        """A pincer's point fixed in the palm (body 0), the thumb (1) or the finger (2) at the
+        termination's start, at t (s): (x, z, vx, vz, turn, rate) (m, m/s, rad, rad/s), turn the body's
+        turn about J so far (+ turns e toward n_B) and rate its rate. Until the command has taken up
+        held every body turns with the palm (the pinch holds the digits on the object); beyond it each
+        digit turns its own way (turns). J itself moves only in the retreat."""
+        if self.joint is None:
+            raise ValueError("only a pincer's hand turns about its joint")
+        x, z, vx, vz, a, da = self.palm_at(t)
+        palm, own = self.turns[0], self.turns[body]
+        free, dfree = (a - self.held, da) if a > self.held else (0.0, 0.0)
+        turn, rate = palm * a + (own - palm) * free, palm * da + (own - palm) * dfree
+        jx, jz = self.joint
+        rx, rz = point[0] - jx, point[1] - jz
+        c, s = math.cos(turn), math.sin(turn)
+        rx, rz = c * rx + s * rz, c * rz - s * rx  # turned clockwise in (x, z): e toward n_B
+        return jx + x + rx, jz + z + rz, vx + rate * rz, vz - rate * rx, turn, rate
+
+    def face_at(self, t: float) -> tuple[float, float, float]:
+        """The thumb's face direction e at t (s) and its rate of turn: (ex, ez, rate) (unit, rad/s,
+        + turning e toward n_B): axis and 0 for jaws that slide."""
+        if self.joint is None:
+            return self.axis[0], self.axis[1], 0.0
+        turn, rate = self.turned_at(self.tip, 1, t)[4:]
+        c, s = math.cos(turn), math.sin(turn)
+        ex, ez = self.axis
+        return c * ex + s * ez, c * ez - s * ex, rate
+
+    @property
+    def speed(self) -> float:
+        """A bound on the speed the opening gives any point of the thumb's face (m/s): the rate, or a
+        pincer's rate times the face's farthest reach from J."""
+        if self.joint is None:
+            return self.rate
+        reach = math.hypot(self.tip[0] - self.joint[0], self.tip[1] - self.joint[1]) + self.thumb_length
+        return self.rate * reach * max(abs(x) for x in self.turns)
+
+    def held_at(self, point: tuple[float, float], t: float) -> tuple[float, float, float, float]:
+        """A point held in the pinch (moving with the palm) at t (s): (x, z, vx, vz) (m, m/s)."""
+        if self.joint is not None:
+            return self.turned_at(point, 0, t)[:4]
+        px, pz, pvx, pvz, _, _ = self.palm_at(t)
+        return point[0] + px, point[1] + pz, pvx, pvz
+
+
+def pincer_hand(pose: PincerPose, links: PincerLinks, length: float, termination: str, opening: float,
+                squeeze: float, contact_speed: float, retreat: float) -> HandMotion:
+    """The hand's motion as a pincer lets go from pose (mechanics.pincer.pincer_pose at one state, over
+    the object length ``length``, m) by termination ('open' or 'open_symmetric'), as the export
+    commands it (robot.pipeline): the joint opens by the turn that moves the finger tip's centre by
+    opening (m; at most to the joint's range's end), the palm, the thumb and the finger turning about
+    J as mechanics.pincer.release_turns has it (with 'open' the thumb stays where it is); timed as
+    the export times it, a trapezoid in the joint's angle under the contact-speed cap on the faster
+    of the thumb's tip and the finger's tip corner (links.levers) and the joint's speed and
+    acceleration limits (the gripper's at the joint radius, robot.model) at the timing's share; the
+    command takes up squeeze (m at the joint radius: the simulator's servo_squeeze) before the pinch
+    lets go. Then the retreat lifts the palm by retreat (m). ReleaseModelError for any other
+    termination."""
+    try:
+        turns = release_turns(termination)
+    except InputError as err:
+        raise ReleaseModelError(err.reason, termination) from err
+    angle = min(chord_angle(opening, links.radius), links.max_angle - float(pose.angle))
+    thumb, finger = links.levers
+    fastest = max(abs(turns["thumb"]) * thumb, abs(turns["finger"]) * finger)
+    rate = TIMING_MARGIN * GRIPPER_SPEED / links.radius
+    if fastest > 0.0:
+        rate = min(rate, contact_speed / fastest)
+
+    def point(p: NDArray[np.float64]) -> tuple[float, float]:
+        return float(p[0]) * length, float(p[1]) * length
+
+    return HandMotion(tip=point(pose.thumb_tip), axis=(float(pose.thumb_z[0]), float(pose.thumb_z[1])),
+                      thumb_length=links.thumb_reach, palm=(0.0, 0.0), opening=angle,
+                      held=min(squeeze / links.radius, angle), rate=rate,
+                      acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION / links.radius, retreat=retreat,
+                      joint=point(pose.joint), turns=(turns["palm"], turns["thumb"], turns["finger"]),
+                      finger=point(pose.dome))
 
 
 def _trapezoid_duration(distance: float, speed: float, accel: float) -> float:
@@ -330,13 +444,15 @@ def contacts_at(body: ReleaseBody, hand: HandMotion, X: float, Z: float, th: flo
     if Z + grz < reach:
         out.append(Contact("G", grx, grz, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, Z + grz, mu_g))
     tx, tz, tvx, tvz = hand.thumb_at(t)
-    ex, ez = hand.axis
+    ex, ez, turning = hand.face_at(t)
     nx, nz = ez, -ex
     bx, bz = X + brx, Z + brz
     along = (bx - tx) * -ex + (bz - tz) * -ez
     past = along < 0.0
     if 0.0 <= along <= hand.thumb_length:
         gap = (bx - tx) * nx + (bz - tz) * nz
+        if turning:  # a pincer's face turning about J: its point at B moves as the tip does and turns about it
+            tvx, tvz = tvx + turning * (bz - tz), tvz - turning * (bx - tx)
         if -body.thickness < gap < reach:  # below: B behind the face, gone round the tip
             out.append(Contact("thumb", brx, brz, nx, nz, -ex, -ez, tvx * nx + tvz * nz, -(tvx * ex + tvz * ez),
                                gap, mu_b))
@@ -457,9 +573,8 @@ def fall(setup: ReleaseSetup, mu_g: float, mu_b: float, step: float = STEP, trac
     l, lc, hc = body.length, body.centre, body.thickness / 2.0
     # the carry: B held in the pinch moves with the palm, G stays on the table
     t0 = hand.released
-    px, pz, pvx, pvz, _, _ = hand.palm_at(t0)
     bx0, bz0 = start.g + l * math.cos(start.theta), l * math.sin(start.theta)
-    bx, bz = bx0 + px, bz0 + pz
+    bx, bz, pvx, pvz = hand.held_at((bx0, bz0), t0)
     if not 0.0 <= bz < l:
         raise ReleaseModelError(f"the carry lifts B {bz * 1000:.3f} mm, out of the object's reach")
     gx = bx - math.sqrt(l * l - bz * bz)
@@ -478,7 +593,7 @@ def fall(setup: ReleaseSetup, mu_g: float, mu_b: float, step: float = STEP, trac
     worst = 0.0
     rows = []
     while t < t_end:
-        reach = 2.0 * step * (abs(vx) + abs(vz) + abs(omega) * l + hand.rate + hand.retreat_speed) + 1e-5
+        reach = 2.0 * step * (abs(vx) + abs(vz) + abs(omega) * l + hand.speed + hand.retreat_speed) + 1e-5
         contacts, past = contacts_at(body, hand, X, Z, th, t, mu_g, mu_b, reach)
         if not thumb:
             contacts = [k for k in contacts if k.key != "thumb"]
@@ -661,7 +776,8 @@ def spread_worlds(setup: ReleaseSetup, mu_g: float, mu_b: float, factors: tuple[
     Coulomb's cone (weight 1/2) and the pyramid's two bounds (1/4 each), the weights summing to 1
     over the cones of a factor."""
     out = []
-    reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis) if setup.frame is not None else None
+    face = setup.hand.face_at(setup.hand.released)[:2]  # the thumb's face as the fall meets it
+    reach = PyramidReach.of(np.array(setup.frame), face) if setup.frame is not None else None
     for f in factors:
         out.append((f, "elliptic", 0.5, f * mu_g, f * mu_b))
         if reach is None:

@@ -10,8 +10,10 @@ import math
 import numpy as np
 
 from ..mechanics.kinematics import digit_axis, pressed_state, release_travel, s_b, thumb_tip
+from ..mechanics.pincer import pincer_links, pincer_pose, pincer_pressed_state, pincer_s_b
 from ..mechanics.release import (GRIPPER_ACCELERATION, GRIPPER_SPEED, TIMING_MARGIN, HandMotion, ReleaseBody,
-                                 ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, predict_release)
+                                 ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, pincer_hand,
+                                 predict_release)
 from ..scene import Scene
 from .result import Plan
 
@@ -32,15 +34,27 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
     """The fall's set-up for scene, ending its plan at state (theta rad, d over l, psi rad): the
     state pressed by robot's final press (pressed_state; as it is where no pressed state is found),
     the thumb there (thumb_tip), the termination's travel (release_travel) and timing, the object's
-    body; start: the object's pose when the termination begins, where it is known to differ from
-    the pressed state (the thumb's face stays where the plan puts it). ReleaseModelError for a
-    rotate termination."""
+    body (a pincer's press, thumb, joint and timing its own: mechanics.pincer.pincer_pressed_state,
+    mechanics.release.pincer_hand); start: the object's pose when the termination begins, where it
+    is known to differ from the pressed state (the thumb's face stays where the plan puts it).
+    ReleaseModelError for a rotate termination."""
     robot, digits, l = scene.robot, scene.digits, scene.object_length
     kind = str(robot.termination)
     if kind not in ("open", "open_symmetric", "open_lift"):
         raise ReleaseModelError("only the opening terminations (open, open_symmetric, open_lift) are modelled",
                                 kind)
     theta, d, psi = (float(x) for x in state)
+    frame = tuple(map(tuple, scene.plane_frame().tolist()))
+    if robot.gripper is not None:  # a pincer: its own press, its thumb and joint there, its joint's timing
+        radius, offset = robot.gripper.scaled(l)
+        if robot.final_press > 0.0:
+            th_p, d_p, psi_p, found = pincer_pressed_state(theta, d, psi, robot.final_press / l, digits, radius, offset)
+            if found:
+                theta, d, psi = th_p, d_p, psi_p
+        hand = pincer_hand(pincer_pose(theta, d, psi, digits, radius, offset), pincer_links(robot.gripper, digits, l),
+                           l, kind, robot.termination_opening, scene.sim.squeeze, robot.contact_speed,
+                           robot.retreat_height)
+        return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
     if robot.final_press > 0.0:
         th_p, d_p, psi_p, found = pressed_state(theta, d, psi, robot.final_press / l, digits)
         if bool(found):
@@ -57,7 +71,6 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
                       thumb_length=digits.thumb_length * l, palm=(float(travel["palm"][0]), float(travel["palm"][1])),
                       opening=robot.termination_opening, held=min(scene.sim.squeeze, robot.termination_opening),
                       rate=rate, acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
-    frame = tuple(map(tuple, scene.plane_frame().tolist()))
     return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
 
 
@@ -66,7 +79,8 @@ def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart
     P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.17):
     B keeps its place on the thumb over each P_dpsi (s_B does not shrink as the plan has it, and the
     finger does not slide either), so that G slides on the table with the hand; the other primitives
-    go as planned (B slides in P_psi, nothing slides in P_theta). At the end the thumb is where
+    go as planned (B slides in P_psi, nothing slides in P_theta; a pincer's B by its own s_B,
+    mechanics.pincer.pincer_s_b). At the end the thumb is where
     setup's hand puts it, B lies the kept s_B up its face and G on the table: theta = asin(B_z / l),
     G = B_x - l cos(theta). The plan's own start (setup.start) for a plan without a P_dpsi."""
     kept = [p for p in plan.primitives if str(p.type) == "P_dpsi"]
@@ -75,7 +89,9 @@ def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart
     dg, l = scene.digits, scene.object_length
     t_l, r_l = dg.object_thickness, dg.finger_tip_radius
 
-    def sb(q) -> float:
+    def sb(q) -> float:  # B's distance from the thumb's tip: a pincer's own (mechanics.pincer)
+        if scene.robot.gripper is not None:
+            return float(pincer_s_b(*q, dg, *scene.robot.gripper.scaled(l))) * l
         return float(s_b(q[1], q[2], dg.alpha, t_l, r_l)) * l
 
     hand, body = setup.hand, setup.body

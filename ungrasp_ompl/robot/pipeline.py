@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..errors import NoSolutionError
 from ..mechanics.contact import Primitive
 from ..mechanics.kinematics import release_travel
-from ..mechanics.pincer import PincerLinks, pincer_links
+from ..mechanics.pincer import PincerLinks, pincer_links, release_turns
 from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan
 from ..scene import Scene
@@ -171,14 +171,16 @@ def _pincer_termination(scene: Scene, pose: NDArray, angle: float, links: Pincer
                         ) -> tuple[NDArray, NDArray]:
     """A pincer's palm poses and joint angles as it lets go from its last pose and angle: the joint
     opens by the turn that moves the finger's tip by robot.termination_opening (at most to its
-    range's end), the palm staying ('open_symmetric') or turning about the joint by half that, the
+    range's end), the palm turning about the joint as mechanics.pincer.release_turns has it (the
+    model of the fall reads the same): staying ('open_symmetric') or turning by half the opening, the
     way of the finger, so that the thumb stays on B ('open'); docs/model.md 7, mechanics.pincer."""
     spec = scene.robot.gripper
     angles = np.minimum(angle + np.linspace(0.0, spec.opening_angle(scene.robot.termination_opening), n + 1)[1:],
                         links.max_angle)
     poses = np.repeat(pose[None], n, axis=0)
-    if scene.robot.termination == Termination.OPEN:
-        for k, a in enumerate((angles - angle) / 2):  # about palm y: z toward x
+    turn = release_turns(scene.robot.termination)["palm"]
+    if turn:
+        for k, a in enumerate((angles - angle) * turn):  # about palm y: z toward x
             c, s = math.cos(a), math.sin(a)
             poses[k, :3, :3] = pose[:3, :3] @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     return poses, angles

@@ -234,7 +234,7 @@ class SceneReader:
             obj_yaw = math.radians(self.angle(o, "robot.object.yaw_deg", "yaw_deg", -360.0, 360.0, default=0.0))
         gripper = self.gripper(m.get("gripper"))
         if gripper is not None:
-            self.pincer_limits(m, term, landing)
+            self.pincer_limits(m, term)
         start_press = self.length(m, "robot.start_press", "start_press", zero=True, default=d.start_press)
         end_press = self.length(m, "robot.end_press", "end_press", zero=True) if "end_press" in m else None
         if end_press is not None and end_press > start_press:
@@ -288,16 +288,15 @@ class SceneReader:
         return PincerSpec(joint_radius=radius, joint_offset=offset, joint_torque=torque,
                           max_angle=math.radians(angle))
 
-    def pincer_limits(self, m: dict, termination: str, landing: str) -> None:
-        """What a pincer's robot section may not ask for: the release open_lift and the landing
-        modelled move the digits as parallel jaws part, and the touch-off expects the parallel
-        digits' lowest point; InputError naming the field."""
+    def pincer_limits(self, m: dict, termination: str) -> None:
+        """What a pincer's robot section may not ask for: the release open_lift moves the digits as
+        parallel jaws part, and the touch-off expects the parallel digits' lowest point; InputError
+        naming the field. The landing modelled it may ask for with an opening termination, as the
+        parallel gripper may: the model of the fall turns a pincer's digits about its joint
+        (mechanics.release.pincer_hand)."""
         if termination == Termination.OPEN_LIFT:
             self.fail("robot.termination", "open_lift needs the parallel gripper (kind parallel): a pincer lets go "
                       "by open, open_symmetric or rotate")
-        if landing == Landing.MODELLED:
-            self.fail("robot.landing", "modelled needs the parallel gripper (kind parallel): the model of the fall "
-                      "moves the digits as parallel jaws part")
         if self.flag(m, "robot.touch_off", "touch_off"):
             self.fail("robot.touch_off", "needs the parallel gripper (kind parallel): the probe expects the parallel "
                       "digits' lowest point")
