@@ -629,14 +629,16 @@ def merge_study(path: Path, study: str, command: str, seconds: float, rows: list
 # --- the pages ---------------------------------------------------------------------------------
 
 FIG = re.compile(r"<!-- fig (\S+) -->(.*?)<!-- /fig -->")
-TABLE = re.compile(r"(<!-- table (\S+) -->\n)(.*?)(\n<!-- /table -->)", re.S)
+#: A marked table: its opening mark, its name, its rows (none yet in a page being written) and its
+#: closing mark; the rows never reach past another table's mark.
+TABLE = re.compile(r"(<!-- table (\S+) -->\n)((?:(?!<!-- /?table ).)*?)\n?(<!-- /table -->)", re.S)
 
 
 def render(text: str) -> str:
     """The page with every marked figure and table as its results file has it."""
     cache: dict = {}
     text = FIG.sub(lambda m: f"<!-- fig {m.group(1)} -->{figure(m.group(1), cache)}<!-- /fig -->", text)
-    return TABLE.sub(lambda m: m.group(1) + table(m.group(2)) + m.group(4), text)
+    return TABLE.sub(lambda m: m.group(1) + table(m.group(2)) + "\n" + m.group(4), text)
 
 
 def differences(text: str) -> list[str]:
