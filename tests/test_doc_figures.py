@@ -16,7 +16,8 @@ from conftest import ROOT, run_cli
 PAGES = ("README.md", "docs/results.md")
 #: The campaign tables tools/sim_campaigns.py wrote, each with its JSON beside it.
 TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_curved", "campaigns_curved_worlds",
-          "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2")
+          "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2", "campaigns_margin_seed2_planner_only",
+          "campaigns_curved_previous", "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin")
 #: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
 ENGINE_KEYS = ("mujoco", "fisher_p")
 
@@ -273,3 +274,16 @@ def test_a_study_figure_that_differs_from_its_file_is_found():
     row = next(r for r in results.load("world_failures")["rows"] if r["label"].startswith("trials: "))
     with pytest.raises(KeyError):
         results.figure(f"world_failures:{row['key']}:no_such_field")
+
+
+def test_a_table_mark_with_no_rows_yet_renders_without_taking_the_text_after_it():
+    """A page being written holds a table's marks with no rows between them; rendering fills that
+    table and every other one and keeps the text between them."""
+    tool = _tool()
+    page = ("<!-- table campaigns:objects -->\n<!-- /table -->\nthe text between\n"
+            "<!-- table campaigns:worlds -->\nstale rows\n<!-- /table -->\nthe end\n")
+    rendered = tool.render(page)
+    assert rendered == (f"<!-- table campaigns:objects -->\n{tool.table('campaigns:objects')}\n<!-- /table -->\n"
+                        f"the text between\n<!-- table campaigns:worlds -->\n{tool.table('campaigns:worlds')}\n"
+                        "<!-- /table -->\nthe end\n")
+    assert tool.render(rendered) == rendered
