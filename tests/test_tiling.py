@@ -669,6 +669,54 @@ def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
             assert np.allclose(tuple(aim), tuple(want), atol=1e-12) and aim.turn == 0.0, (planner, p.name)
             assert 0.0 < aim.shift < 0.003, (planner, p.name)
 
+@pytest.fixture(scope="module")
+def two_shipped():
+    """The shipped tangram's first two pieces (robot.landing modelled, planning.max_landing_spread
+    4 mm, so that each plan carries its predicted landing) tiled with lattice plans."""
+    layout = Layout.from_dict({**_SHIPPED, "pieces": _SHIPPED["pieces"][:2]})
+    tiling = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)))
+    assert tiling.solved and len(tiling.placements) == 2
+    return layout, tiling
+
+
+def test_a_placements_tolerance_is_the_scale_its_plans_tolerance_finds(two_shipped):
+    """The tiling keeps each plan's tolerance scale alone (plan_tolerance.tolerance_scale, without the
+    binding component's own scales): to the bit the scale of planning.plan_tolerance.tolerance,
+    on two plans of different pieces whose scales differ."""
+    _, tiling = two_shipped
+    scales = [tolerance(p.scene, p.plan).scale for p in tiling.placements]
+    assert [p.tolerance for p in tiling.placements] == scales
+    assert len(set(scales)) == 2 and min(scales) > 0
+
+
+def test_modelled_aims_are_executed_once_and_as_modelled(two_shipped, monkeypatch):
+    """robot.landing modelled: aim_tiling moves each piece by robot.pipeline.modelled_aim (the
+    model of the fall run again here), whether the plan's record of its predicted landing gives
+    it or, without one, the model is run; the layout is executed once, aimed, as `plan` executes
+    one modelled object, and its trajectory is to the bit the one execute_sequence makes from
+    scratch with those aims."""
+    import ungrasp_ompl.sim.tiling as sim_tiling
+    from ungrasp_ompl.robot.pipeline import execute_sequence, modelled_aim
+
+    layout, tiling = two_shipped
+    assert all(p.plan.predicted_landing is not None for p in tiling.placements)
+    want = [modelled_aim(p.scene, p.plan) for p in tiling.placements]
+    assert all(a.shift > 0 for a in want) and want[0] != want[1]
+    calls = []
+    monkeypatch.setattr(sim_tiling, "execute_sequence", lambda *a, **k: calls.append(k) or execute_sequence(*a, **k))
+    bare = replace(tiling, placements=[replace(p, plan=replace(p.plan, predicted_landing=None))
+                                       for p in tiling.placements])
+    jobs = [(p.scene, p.plan) for p in tiling.placements]
+    fresh = execute_sequence(jobs, labels=[p.name for p in tiling.placements], aims=want)
+    for tiled in (tiling, bare):
+        calls.clear()
+        aimed = sim_tiling.aim_tiling(layout, tiled)
+        assert [tuple(a) for a in aimed.execution.aims] == [tuple(a) for a in want] and aimed.short == ()
+        assert len(calls) == 1 and calls[0]["aims"] is not None
+        for name in ("times", "positions", "velocities", "accelerations"):
+            assert np.array_equal(getattr(aimed.execution.trajectory, name), getattr(fresh.trajectory, name)), name
+
+
 def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:
     """Whether the piece's object at its plan's start, moved by aim (robot.pipeline.Aim: turned
     about the vertical through G, then shifted), overlaps a wall or a piece down (fcl meshes built

@@ -65,7 +65,7 @@ from ..mechanics.antipodal import antipodal_pairs
 from .. import planning
 from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from ..planning.lattice import optimum_cost
-from ..planning.plan_tolerance import tolerance
+from ..planning.plan_tolerance import tolerance_scale
 from ..planning.result import Plan, PlanOutcome, describe_outcome
 from ..planning.setup import LATTICE, EndsProblem, PlannerOptions
 from ..scene import Scene
@@ -632,7 +632,7 @@ class _Tiler:
         if key in self.memo.plans:
             return self.memo.plans[key]
         p = planning.plan(scene, atlas=atlas, **asdict(piece))
-        found = p, tolerance(scene, p).scale if p.solved else None
+        found = p, tolerance_scale(scene, p) if p.solved else None
         if planner == LATTICE or seed is not None:
             self.memo.plans[key] = found
         return found

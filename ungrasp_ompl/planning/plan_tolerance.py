@@ -66,16 +66,31 @@ class Tolerance:
                 "physical": dict(self.physical), "samples": self.samples}
 
 
-def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
-    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
-    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
+def _error_box(scene: Scene, plan: Plan, options: ToleranceOptions) -> ErrorBox:
+    """The error box over every sample of the solved plan's path (both modes at its corners, the
+    last sample terminal); InputError for an unsolved plan, an unknown preset or bad options."""
     if not plan.solved or not plan.primitives:
         raise InputError("plan", "has no path to take the tolerance of (it is not solved)")
     box, res = checked_box(scene, options)
     samples = plan_samples(plan, res, both_modes=True)
     terminal = np.zeros(len(samples.states), dtype=bool)
     terminal[-1] = True
-    ctx = ErrorBox(scene, np.asarray(plan.states[0], dtype=float), box, samples, terminal, res, options.housing)
+    return ErrorBox(scene, np.asarray(plan.states[0], dtype=float), box, samples, terminal, res, options.housing)
+
+
+def tolerance_scale(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> float:
+    """tolerance(scene, plan, options).scale alone: the largest scale of the error box every state
+    of the solved plan survives, without the binding component's search (most of tolerance's time)."""
+    ctx = _error_box(scene, plan, options)
+    return ctx.scale(np.arange(len(ctx.samples.states)), {c: True for c in COMPONENTS}, options.scale_tolerance,
+                     options.max_scale)[0]
+
+
+def tolerance(scene: Scene, plan: Plan, options: ToleranceOptions = ToleranceOptions()) -> Tolerance:
+    """The tolerance of a solved plan of scene (see the module docstring and docs/model.md,
+    section 4.6). InputError for an unsolved plan, an unknown preset or bad options."""
+    ctx = _error_box(scene, plan, options)
+    samples, box = ctx.samples, ctx.box
     every = np.arange(len(samples.states))
     all_on = {c: True for c in COMPONENTS}
     s, codes = ctx.scale(every, all_on, options.scale_tolerance, options.max_scale)

@@ -138,7 +138,9 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     """Execute the solved tiling, and aim each piece whose scene has robot.landing simulated as
     `plan` and `simulate` aim one object (sim.landing: its release simulated with no error, or on
     average over drawn ones, the pieces before it absent, since the table is the same beside
-    them); then execute again.
+    them), each piece whose scene has robot.landing modelled by the model of its fall
+    (modelled_aim); then execute aimed. The unaimed execution is made only where it is needed: for
+    a release to simulate, or when no piece is aimed (as `plan` executes a modelled aim at once).
     Where the whole aim would take the piece, carried along its plan, into a wall or a piece put
     down before, the piece is aimed as far as it stays clear (bisected); where it would take the
     robot there (CollisionError of that piece's part), its aim is halved, up to AIM_HALVINGS
@@ -152,21 +154,27 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     jobs = [(p.scene, p.plan) for p in tiling.placements]
     labels = [p.name for p in tiling.placements]
     kept = {} if kept is None else kept
-    execution = execute_sequence(jobs, labels=labels, kept=kept)
-    setups = tiling_setups(layout, tiling, execution.trajectory, execution.robot)
     landings = {} if landings is None else landings
-    asked = []
-    for p, (_, setup) in zip(tiling.placements, setups):
-        key = (_key(p), np.asarray(p.plan.states, dtype=float).tobytes())
+    keys = [(_key(p), np.asarray(p.plan.states, dtype=float).tobytes()) for p in tiling.placements]
+    for p, key in zip(tiling.placements, keys):  # the model's aims need no execution
+        if key not in landings and p.scene.robot.landing is Landing.MODELLED:
+            landings[key] = _modelled_aim(p.scene, p.plan)
+    plain: tuple[Execution, list[tuple[str, TrialSetup]]] | None = None
+
+    def unaimed() -> tuple[Execution, list[tuple[str, TrialSetup]]]:
+        nonlocal plain
+        if plain is None:
+            execution = execute_sequence(jobs, labels=labels, kept=kept)
+            plain = execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot)
+        return plain
+
+    for k, (p, key) in enumerate(zip(tiling.placements, keys)):  # the releases simulated
         if key not in landings:
-            if p.scene.robot.landing is Landing.MODELLED:
-                landings[key] = modelled_aim(p.scene, p.plan)
-            else:
-                landing = robot_landing(setup, p.scene.robot)
-                landings[key] = Aim() if landing is None else landing.aim
-        asked.append(landings[key])
+            landing = robot_landing(unaimed()[1][k][1], p.scene.robot)
+            landings[key] = Aim() if landing is None else landing.aim
+    asked = [landings[key] for key in keys]
     if not any(any(a) for a in asked):
-        return AimedTiling(execution, setups)
+        return AimedTiling(*unaimed())
     share = [_clear_share(p.scene, p.plan, a) if any(a) else 1.0 for p, a in zip(tiling.placements, asked)]
     halved = [0] * len(jobs)
     while True:
@@ -183,6 +191,19 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     short = tuple((name, aim.shift, want.shift) for name, aim, want, f
                   in zip(labels, aims, asked, share) if f < 1.0)
     return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
+
+
+def _modelled_aim(scene: Scene, plan: Plan) -> Aim:
+    """robot.pipeline.modelled_aim of the plan: from the predicted landing planning recorded in the
+    plan (planning.max_landing_spread predicts it for the plan as it is, with the same object,
+    contacts, robot and table), else predicted here. The record's world offset is the prediction's
+    own floats, so the aim is the one modelled_aim computes."""
+    record = plan.predicted_landing
+    if isinstance(record, dict) and record.get("carried_through_p_dpsi") is True \
+            and record.get("termination") == str(scene.robot.termination) and "world_m" in record:
+        x, y = record["world_m"]
+        return Aim(-x, -y, 0.0)
+    return modelled_aim(scene, plan)
 
 
 @dataclass
