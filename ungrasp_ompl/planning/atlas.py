@@ -108,6 +108,9 @@ class SecurityAtlas:
         #: optimum_cost's optima (their costs alone) by goal box: tiling's proof and the planner's
         #: stop at the optimum search once.
         self.optimum_costs: dict[tuple, float | None] = {}
+        #: planning.margins.LatticeMargins by objective and goal box (LatticeMargins.of): the margin
+        #: search, its cost baseline's report and the lattice's widest path compute them once.
+        self.margins: dict[tuple, object] = {}
         self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
             tuple(int(x) for x in self.lo_index), self.shape)
 

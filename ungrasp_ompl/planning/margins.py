@@ -102,6 +102,17 @@ class LatticeMargins:
                                        for k in range(3)])  # of one lattice step along each axis
         self.computed_states = 0
 
+    @classmethod
+    def of(cls, atlas: SecurityAtlas, objective: Objective = Objective.MARGIN,
+           goal_box: ArrayLike | None = None) -> "LatticeMargins":
+        """The atlas's margins for objective and goal_box, made once and kept on the atlas (what they
+        hold depends on these alone), so that the searches of one plan share them."""
+        box = np.asarray(atlas.scene.goal.box() if goal_box is None else goal_box, dtype=float)
+        key = (Objective(objective), box.tobytes())
+        if key not in atlas.margins:
+            atlas.margins[key] = cls(atlas, objective, box)
+        return atlas.margins[key]
+
     # -- the lattice's secure paths --------------------------------------------------------------
     @property
     def edges(self) -> "LatticeEdges":

@@ -209,7 +209,7 @@ class UngraspSetup:
         self.si.setStateValidityChecker(self.validity_checker)
         self.si.setMotionValidator(self.motion_validator)
         self.si.setup()
-        self.margins = LatticeMargins(self.atlas, self.options.objective) if self.options.objective != Objective.COST else None
+        self.margins = LatticeMargins.of(self.atlas, self.options.objective) if self.options.objective != Objective.COST else None
         if self.margins is not None:
             self.margins.prepare()
             self.objective = make_objective(self.si, self.atlas, self.margins)
@@ -470,7 +470,7 @@ def lattice_plan(scene: Scene, seed: int | None = None, atlas: SecurityAtlas | N
     objective = check_objective(objective, LATTICE)
     t0 = perf_counter()
     atlas = atlas if atlas is not None else SecurityAtlas(scene, planning_box(scene))
-    margins = LatticeMargins(atlas, objective) if objective != Objective.COST else None
+    margins = LatticeMargins.of(atlas, objective) if objective != Objective.COST else None
     t1 = perf_counter()
     result = lattice_search(atlas, scene.goal.box(), objective, margins)
     t2 = perf_counter()
@@ -580,7 +580,7 @@ def with_cost_baseline(own: Plan, baseline: Plan, atlas: SecurityAtlas | None = 
         path_from=PathSource.COST_BASELINE)
     bottleneck = own.margin_bottleneck_deg
     if not keep_own and bottleneck is None and atlas is not None:
-        found = LatticeMargins(atlas, Objective.MARGIN).bottleneck
+        found = LatticeMargins.of(atlas, Objective.MARGIN).bottleneck
         bottleneck = None if found is None else math.degrees(found)
     first = baseline.time_to_first_solution_s if baseline.solved else None
     if first is None and own.time_to_first_solution_s is not None:
