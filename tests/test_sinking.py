@@ -1,12 +1,15 @@
-"""How deep the contacts sink (docs/model.md 11.2): the bound docs/results.md states from 80
-`paper` trials per object of the campaign's base plans (seeds 1 and 2), held on 40 other trials
-per object (seed 3) of the same plans."""
+"""How deep the contacts sink (docs/model.md 11.2): the bound tools/sinking_bound.py measured over
+120 `paper` trials per object of the campaign's base plans (trial seeds 1 to 3, written to
+docs/results/sinking.json and quoted by docs/results.md), held on 40 other trials per object
+(seed 4) of the same plans."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
-from conftest import SCENES
+from conftest import ROOT, SCENES
 from ungrasp_ompl import Scene
 from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.scene.perturbation import PRESETS
@@ -14,21 +17,23 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.sim.campaign import simulate
 from ungrasp_ompl.sim.plan_trials import placement
 
-#: The deepest (mm) 80 trials per object of the base plans sank into a digit or the table (0.041
-#: mm, seeds 1 and 2), rounded up to the next hundredth of a millimetre (docs/results.md, "Sinking").
-SINKING_BOUND_MM = 0.05
+#: The deepest (mm) the measured trials of the base plans sank into a digit or the table, rounded up
+#: to the next hundredth of a millimetre (docs/results/sinking.json, "the bound").
+SINKING_BOUND_MM = next(r["bound_mm"] for r in json.loads((ROOT / "docs" / "results" / "sinking.json").read_text())
+                        ["rows"] if r["label"] == "the bound")
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
 def test_sinking_stays_within_its_measured_bound(name):
     """40 `paper` trials of the object's base plan (RRT*, seed 1, as the campaign plans it) drawn
-    with seed 3: every control tick of the primitives sinks no deeper than the bound, and the
-    contacts do sink (a trial that measured nothing would pass any bound)."""
+    with seed 4, which the bound's measurement did not draw: every control tick of the primitives
+    sinks no deeper than the bound, and the contacts do sink (a trial that measured nothing would
+    pass any bound)."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     assert result.solved
-    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, RunOptions(seed=3, jobs=1), scene=name)
+    report = simulate(placement(scene, result)[1], PRESETS["paper"], 40, RunOptions(seed=4, jobs=1), scene=name)
     depths = [t.max_penetration_mm for t in report.trials]
     assert max(depths) <= SINKING_BOUND_MM, sorted(depths)[-5:]
     assert sum(d > 0.0 for d in depths) >= 30
