@@ -140,7 +140,8 @@ def test_a_geometrys_friction_combines_with_the_objects_to_the_pairs(mu):
     assert drake_world.combined_friction(a, b) == pytest.approx(mu, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", [*OBJECTS, pytest.param("go_stone", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [*OBJECTS, "go_stone"])
 def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_engines(name):
     """The positive control of the table's contact: flat, 1 mm above the table, let go; after 0.3 s
     it lies on the table within 0.05 mm of below where it was dropped, flat, in MuJoCo and in Drake.
@@ -262,6 +263,7 @@ def test_engine_drake_without_the_extra_exits_1_naming_it(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_the_table_carries_a_resting_objects_weight_and_no_more():
     """The forces the engines are compared on (sim.drake_trial._DrakeWatch.forces, averaged over a
     control period's steps): the pick lying flat on the table is pushed up by its weight, m g with m

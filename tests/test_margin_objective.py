@@ -5,6 +5,7 @@ bottleneck (max-min) before an additive tie-break, as OMPL's planners combine an
 
 from __future__ import annotations
 
+import functools
 import math
 
 import pytest
@@ -21,13 +22,18 @@ def _scene(name: str) -> Scene:
     return Scene.from_file(SCENES / f"{name}.yaml")
 
 
+@functools.cache
+def _plans(name: str, seed: int, objective: str):
+    """plan of the shipped scene with RRT*, seeded, the default budget (one per module run)."""
+    return plan(_scene(name), seed=seed, objective=objective)
+
+
 def assert_margin_plan_not_narrower(name: str, seed: int) -> None:
     """RRT*, seeded, the default time budget: where the cost objective plans a path, the margin
     objective plans one too, and its smallest friction margin (as `plan` reports it, the start
     included) is at least the cost plan's and at most the lattice's bottleneck."""
-    scene = _scene(name)
-    cost_plan = plan(scene, seed=seed, objective="cost")
-    margin_plan = plan(scene, seed=seed, objective="margin")
+    cost_plan = _plans(name, seed, "cost")
+    margin_plan = _plans(name, seed, "margin")
     assert cost_plan.solved, cost_plan.reason
     assert margin_plan.solved, (f"{name} seed {seed}: the cost objective plans a smallest margin of "
                                 f"{cost_plan.min_margin_deg:.3f} deg, the margin objective no plan: "
@@ -89,7 +95,7 @@ def test_a_margin_plan_keeps_the_lattices_widest_margin(chalk_margin_setup):
 
     _, own = chalk_margin_setup
     assert own.solved and own.margin_forced is False
-    kept = plan(_scene("fabric_chalk"), seed=2, objective="margin")
+    kept = _plans("fabric_chalk", 2, "margin")
     widest = plan(_scene("fabric_chalk"), planner="lattice", objective="margin")
     assert kept.solved and kept.path_from is PathSource.LATTICE and (kept.planner, kept.seed) == ("RRTstar", 2)
     assert kept.margin_forced and kept.states == widest.states
@@ -99,7 +105,7 @@ def test_a_margin_plan_keeps_the_lattices_widest_margin(chalk_margin_setup):
     with pytest.raises(InputError) as bad:
         Plan.from_dict({**kept.to_dict(), "path_from": "elsewhere"})
     assert bad.value.field == "path_from"
-    first = plan(_scene("fabric_chalk"), seed=1, objective="margin")
+    first = _plans("fabric_chalk", 1, "margin")
     assert first.path_from is PathSource.PLANNER and first.margin_forced
 
 

@@ -78,6 +78,7 @@ def test_results_equal_running_inline_and_the_processes_are_fresh_or_reused(fres
         assert len(set(pids)) <= 2
 
 
+@pytest.mark.slow
 def test_a_task_past_its_deadline_is_hung_and_killed_and_the_run_goes_on(tmp_path):
     pid_file = tmp_path / "pid"
     t0 = time.monotonic()

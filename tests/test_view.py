@@ -137,6 +137,7 @@ def test_object_between_the_digits(export):
     assert checked > 50
 
 
+@pytest.mark.slow
 def test_browser_draws_the_scene_and_the_robot_moves(export, tmp_path):
     if _chromium() is None:
         pytest.skip(f"no Chromium binary found (looked for {', '.join(CHROMIUM_NAMES)}); "
@@ -163,6 +164,7 @@ def test_browser_draws_the_scene_and_the_robot_moves(export, tmp_path):
     assert yellow.sum() > 300 and red.sum() > 300 and blue.sum() > 300, (yellow.sum(), red.sum(), blue.sum())
 
 
+@pytest.mark.slow
 def test_browser_shows_the_running_primitive(export, tmp_path):
     if _chromium() is None:
         pytest.skip(f"no Chromium binary found (looked for {', '.join(CHROMIUM_NAMES)})")

@@ -257,6 +257,7 @@ def test_simulated_pincer_trial_beside_the_plan(export, tmp_path):
     assert np.allclose(turn, q[:, -1] + robot.pincer.closed_angle, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_browser_draws_the_pincer(export, tmp_path):
     """The page opens in headless Chromium without a script error, the close-up in the last
     primitive showing the object (yellow) between the finger (blue) and the thumb (red)."""
