@@ -175,8 +175,8 @@ class HandMotion:
     """A pincer's palm's, thumb's and finger's turns about J per radian of opening (rad/rad; + turns e
     toward n_B): mechanics.pincer.release_turns."""
     finger: tuple[float, float] | None = None
-    """The point of the finger finger_at follows, when the termination begins (m): a pincer's dome
-    centre C; None where the set-up does not give it (the fall leaves the finger out)."""
+    """A pincer's finger point finger_at follows, when the termination begins (m): its dome centre C;
+    None for jaws that slide (the fall leaves the finger out)."""
 
     @property
     def normal(self) -> tuple[float, float]:
@@ -222,17 +222,11 @@ class HandMotion:
                 vx - dfree / 2 * nx, vz - dfree / 2 * nz)
 
     def finger_at(self, t: float) -> tuple[float, float, float, float]:
-        """The finger's point (finger) at t (s): (x, z, vx, vz) (m, m/s): the palm's, and half the opening
-        beyond held along n_B; a pincer's turned about J (turned_at). ValueError without finger."""
+        """A pincer's finger point (finger) at t (s), turned about J (turned_at): (x, z, vx, vz) (m, m/s).
+        ValueError for a hand set up without it (jaws that slide: the fall leaves the finger out)."""
         if self.finger is None:
             raise ValueError("the hand's motion was set up without the finger")
-        if self.joint is not None:
-            return self.turned_at(self.finger, 2, t)[:4]
-        x, z, vx, vz, a, da = self.palm_at(t)
-        nx, nz = self.normal
-        free, dfree = (a - self.held, da) if a > self.held else (0.0, 0.0)
-        return (self.finger[0] + x + free / 2 * nx, self.finger[1] + z + free / 2 * nz,
-                vx + dfree / 2 * nx, vz + dfree / 2 * nz)
+        return self.turned_at(self.finger, 2, t)[:4]
 
     def turned_at(self, point: tuple[float, float], body: int, t: float
                   ) -> tuple[float, float, float, float, float, float]:

@@ -38,23 +38,20 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
     mechanics.release.pincer_hand); start: the object's pose when the termination begins, where it
     is known to differ from the pressed state (the thumb's face stays where the plan puts it).
     ReleaseModelError for a rotate termination."""
-    robot, digits, l = scene.robot, scene.digits, scene.object_length
+    robot = scene.robot
     kind = str(robot.termination)
     if kind not in ("open", "open_symmetric", "open_lift"):
         raise ReleaseModelError("only the opening terminations (open, open_symmetric, open_lift) are modelled",
                                 kind)
-    theta, d, psi = (float(x) for x in state)
+    hand_of = _pincer_release if robot.gripper is not None else _jaws_release
+    theta, hand = hand_of(scene, *(float(x) for x in state))
     frame = tuple(map(tuple, scene.plane_frame().tolist()))
-    if robot.gripper is not None:  # a pincer: its own press, its thumb and joint there, its joint's timing
-        radius, offset = robot.gripper.scaled(l)
-        if robot.final_press > 0.0:
-            th_p, d_p, psi_p, found = pincer_pressed_state(theta, d, psi, robot.final_press / l, digits, radius, offset)
-            if found:
-                theta, d, psi = th_p, d_p, psi_p
-        hand = pincer_hand(pincer_pose(theta, d, psi, digits, radius, offset), pincer_links(robot.gripper, digits, l),
-                           l, kind, robot.termination_opening, scene.sim.squeeze, robot.contact_speed,
-                           robot.retreat_height)
-        return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
+    return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
+
+
+def _jaws_release(scene: Scene, theta: float, d: float, psi: float) -> tuple[float, HandMotion]:
+    """The parallel jaws' pressed theta (rad) and their hand's motion as they let go from the state."""
+    robot, digits, l = scene.robot, scene.digits, scene.object_length
     if robot.final_press > 0.0:
         th_p, d_p, psi_p, found = pressed_state(theta, d, psi, robot.final_press / l, digits)
         if bool(found):
@@ -62,16 +59,31 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
     t_l, r_l = digits.object_thickness, digits.finger_tip_radius
     tip = thumb_tip(theta, d, psi, digits.alpha, t_l, r_l) * l
     axis = digit_axis(theta, psi)
-    travel = release_travel(theta, psi, kind)
+    travel = release_travel(theta, psi, str(robot.termination))
     fastest = max(float(np.linalg.norm(travel["thumb"])), float(np.linalg.norm(travel["finger"])))
     rate = TIMING_MARGIN * GRIPPER_SPEED
     if fastest > 0.0:
         rate = min(rate, robot.contact_speed / fastest)
-    hand = HandMotion(tip=(float(tip[0]), float(tip[1])), axis=(float(axis[0]), float(axis[1])),
-                      thumb_length=digits.thumb_length * l, palm=(float(travel["palm"][0]), float(travel["palm"][1])),
-                      opening=robot.termination_opening, held=min(scene.sim.squeeze, robot.termination_opening),
-                      rate=rate, acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
-    return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
+    return theta, HandMotion(tip=(float(tip[0]), float(tip[1])), axis=(float(axis[0]), float(axis[1])),
+                             thumb_length=digits.thumb_length * l,
+                             palm=(float(travel["palm"][0]), float(travel["palm"][1])),
+                             opening=robot.termination_opening,
+                             held=min(scene.sim.squeeze, robot.termination_opening), rate=rate,
+                             acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
+
+
+def _pincer_release(scene: Scene, theta: float, d: float, psi: float) -> tuple[float, HandMotion]:
+    """A pincer's pressed theta (rad) and its hand's motion as it lets go from the state: its own
+    press, its thumb and joint there, its joint's timing."""
+    robot, digits, l = scene.robot, scene.digits, scene.object_length
+    radius, offset = robot.gripper.scaled(l)
+    if robot.final_press > 0.0:
+        th_p, d_p, psi_p, found = pincer_pressed_state(theta, d, psi, robot.final_press / l, digits, radius, offset)
+        if found:
+            theta, d, psi = th_p, d_p, psi_p
+    return theta, pincer_hand(pincer_pose(theta, d, psi, digits, radius, offset),
+                              pincer_links(robot.gripper, digits, l), l, str(robot.termination),
+                              robot.termination_opening, scene.sim.squeeze, robot.contact_speed, robot.retreat_height)
 
 
 def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart:
