@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -37,6 +38,25 @@ def with_previous_pair(name: str, **sections):
     doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
     return Scene.from_dict({**doc, **sections, "contacts": PREVIOUS_PAIRS[name]},
                            source=f"{name}.yaml, previous pair")
+
+
+#: The deepest (mm) the measured trials of the base plans sank into a digit or the table, rounded up
+#: to the next hundredth of a millimetre (docs/results/sinking.json, "the bound").
+SINKING_BOUND_MM = next(r["bound_mm"] for r in json.loads((ROOT / "docs" / "results" / "sinking.json").read_text())
+                        ["rows"] if r["label"] == "the bound")
+
+
+def pick_before_0107() -> dict:
+    """The guitar pick from its start before decision 0107, whose plans pass through a P_dpsi: the
+    document of scenes/guitar_pick_reference_start.yaml (start d 0.77, the shortest plans), named
+    guitar_pick as the scene was. For tests of what a plan with a P_dpsi does (the carry, the
+    spread it lands over) and of trials recorded from that start. A new document each call, for the
+    caller to edit."""
+    import yaml
+
+    doc = yaml.safe_load((SCENES / "guitar_pick_reference_start.yaml").read_text())
+    doc["name"] = "guitar_pick"
+    return doc
 
 
 def small_landing(doc: dict) -> dict:

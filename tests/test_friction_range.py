@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import run_cli
+from conftest import pick_before_0107, run_cli
 from oracle import friction_margin_bisection, lp_force_closure
 from ungrasp_ompl import Scene
 from ungrasp_ompl.cli.exits import EXIT_BAD_INPUT
@@ -184,15 +184,18 @@ def test_a_shipped_object_plans_secure_at_both_ends(pick, planner):
     assert result.min_margin_deg == pytest.approx(math.degrees(worst.min()), abs=1e-6)
 
 
-def test_the_nominal_plan_of_the_pick_is_not_secure_over_the_range(pick):
-    """The plan the nominal friction gives the pick (uncertainty 0) has states that lose LP force
-    closure at the range's low end: the range changes what is planned."""
-    nominal = copy.deepcopy(shipped("guitar_pick"))
+def test_the_nominal_plan_of_the_pick_is_not_secure_over_the_range():
+    """The plan the nominal friction gives the pick from its start before decision 0107
+    (uncertainty 0; the cost objective, through a P_dpsi) has states that lose LP force closure at
+    the range's low end: the range changes what is planned."""
+    nominal = pick_before_0107()
+    ranged = Scene.from_dict(nominal)
+    assert ranged.friction.uncertainty == U
     nominal["friction"]["uncertainty"] = 0
     result = plan(Scene.from_dict(nominal), "lattice")
     assert result.solved and result.secure_over == (1.0, 1.0)
     s = plan_samples(result, result.resolution, both_modes=True)
-    low = plane_coefficients(pick, 0.7)
+    low = plane_coefficients(ranged, 0.7)
     lost = np.zeros(len(s.states), dtype=bool)
     for mode in set(zip(s.a_sign.tolist(), s.b_sign.tolist())):
         k = (s.a_sign == mode[0]) & (s.b_sign == mode[1])

@@ -9,7 +9,7 @@ from dataclasses import replace
 import pytest
 import yaml
 
-from conftest import SCENES
+from conftest import SCENES, pick_before_0107
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics.contact import Primitive
@@ -21,7 +21,12 @@ from ungrasp_ompl.scene.options import Landing
 
 
 def _bounded(name: str, bound: float | None) -> Scene:
-    scene = Scene.from_file(SCENES / f"{name}.yaml")
+    """The shipped scene NAME with planning.max_landing_spread BOUND (m, None: unbounded)."""
+    return _with_bound(Scene.from_file(SCENES / f"{name}.yaml"), bound)
+
+
+def _with_bound(scene: Scene, bound: float | None) -> Scene:
+    """SCENE with planning.max_landing_spread BOUND (m, None: unbounded)."""
     return replace(scene, options=replace(scene.options, max_landing_spread=bound))
 
 
@@ -40,9 +45,10 @@ def test_a_bound_on_the_spread_plans_the_puzzle_piece_without_p_dpsi():
 
 
 def test_a_bound_no_plan_keeps_fails_with_both_spreads():
-    """The guitar pick has no secure path without P_dpsi: bounded at 4 mm, planning fails with the
-    path's spread (beyond the bound) and the reason there is none without P_dpsi."""
-    result = plan(_bounded("guitar_pick", 0.004), planner="RRTstar", time=1.0, seed=1)
+    """The guitar pick from its start before decision 0107 has no secure path without P_dpsi:
+    bounded at 4 mm, planning fails with the path's spread (beyond the bound) and the reason there
+    is none without P_dpsi."""
+    result = plan(_with_bound(Scene.from_dict(pick_before_0107()), 0.004), planner="RRTstar", time=1.0, seed=1)
     assert not result.solved and result.outcome is PlanOutcome.LANDING_SPREAD
     assert result.evidence["spread_m"] > result.evidence["max_landing_spread_m"] == 0.004
     assert isinstance(result.evidence["without_p_dpsi"], str)

@@ -1,6 +1,7 @@
 """The out-of-plane margin (scene/stability3d.py, docs/model.md 11.18): an independent linear
 programme agrees with it, it falls with friction and with the pyramid, and it reads the recorded
-pick trial that the world with 0.7 times the friction turns out of the plane."""
+pick trial that the world with 0.7 times the friction turns out of the plane (the pick from its
+start before decision 0107, which the trial was recorded from)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
+from conftest import pick_before_0107
 from ungrasp_ompl.scene.perturbation import preset, trial_params
 from ungrasp_ompl.scene import Scene
 from ungrasp_ompl.scene.stability3d import (ConeModel, OutOfPlaneLoads, object_mass_centre, out_of_plane_margin,
@@ -22,6 +24,13 @@ PICK = "guitar_pick"
 @pytest.fixture(scope="module")
 def pick() -> Scene:
     return Scene.from_file(PICK)
+
+
+@pytest.fixture(scope="module")
+def recorded_pick() -> Scene:
+    """The pick whose trial docs/model.md 11.18 reads (tools/world_failures.py): from its start
+    before decision 0107 (d 0.77), planned under the cost objective."""
+    return Scene.from_dict(pick_before_0107())
 
 
 @pytest.fixture(scope="module")
@@ -181,7 +190,8 @@ class _Leg:
 
 
 class _Plan:
-    """The pick's first leg, as every pick plan starts (30 deg, d 0.77, psi 0)."""
+    """A plan's first leg from the scene's start (for the pick from before decision 0107: 30 deg,
+    d 0.77, psi 0): 2.5 deg of P_theta."""
 
     solved = True
 
@@ -195,25 +205,26 @@ def _trial_friction(scene: Scene, world: float, draw) -> tuple[float, float, flo
     return per[0][0], per[1][1], per[2][2]
 
 
-def test_the_recorded_pick_trial_turns_where_the_margin_is_negative(pick):
+def test_the_recorded_pick_trial_turns_where_the_margin_is_negative(recorded_pick):
     # docs/model.md 11.18: trial 0 of `paper` seed 1 at the world's friction x0.7 times its drawn
     # factors (0.62-0.68 of the scene's) is squeezed out of the pinch during the start press and
     # leaves the plane (tools/world_failures.py); the same draw in the nominal world places. The
     # press, with the trial's friction and its shift across GB:
+    scene = recorded_pick
     draw = trial_params(preset("paper"), 1, 1)[0]
-    states, press = _press(pick, _Plan(pick))
+    states, press = _press(scene, _Plan(scene))
     assert press.sum() >= 2
     loads = OutOfPlaneLoads(offset=abs(draw.shift_across_mm) / 1000)
     q, sa, sb, slide = states.states[press], states.a_sign[press], states.b_sign[press], states.slide[press]
     assert np.all(sa == 1) and np.all(sb == 1)  # the press slides A toward G and B along the thumb
-    cold = out_of_plane_margin(pick, q, sa, sb, _trial_friction(pick, 0.7, draw), ConeModel.ELLIPTIC, loads, slide)
-    warm = out_of_plane_margin(pick, q, sa, sb, _trial_friction(pick, 1.0, draw), ConeModel.ELLIPTIC, loads, slide)
+    cold = out_of_plane_margin(scene, q, sa, sb, _trial_friction(scene, 0.7, draw), ConeModel.ELLIPTIC, loads, slide)
+    warm = out_of_plane_margin(scene, q, sa, sb, _trial_friction(scene, 1.0, draw), ConeModel.ELLIPTIC, loads, slide)
     assert cold.push[0] < 0.0  # where the press begins, with the thumb's face along the object (psi 0)
     assert cold.push.min() == -math.inf  # no in-plane hold: the pinch slides out
     assert warm.push.min() > 0.0
 
 
-def test_the_recorded_pick_trial_leaves_the_plane_in_the_press_and_places_in_the_nominal_world(pick):
+def test_the_recorded_pick_trial_leaves_the_plane_in_the_press_and_places_in_the_nominal_world(recorded_pick):
     from ungrasp_ompl import planning
     from ungrasp_ompl.scene.options import Landing
     from ungrasp_ompl.sim.outcome import Outcome
@@ -221,7 +232,7 @@ def test_the_recorded_pick_trial_leaves_the_plane_in_the_press_and_places_in_the
     from ungrasp_ompl.sim.trial import run_trial
     from ungrasp_ompl.sim.world import World
 
-    scene = replace(pick, robot=replace(pick.robot, landing=Landing.PLANNED))
+    scene = replace(recorded_pick, robot=replace(recorded_pick.robot, landing=Landing.PLANNED))
     plan = planning.plan(scene, planner="lattice", seed=1)
     _, setup = placement(scene, plan)
     draw = trial_params(preset("paper"), 1, 1)[0]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from figure_marks import all_texts, axis_names, drawn_extents, legend_texts, overlap, unexplained_marks
 
-from conftest import SCENES
+from conftest import SCENES, pick_before_0107
 from ungrasp_ompl import Scene, plan
 from ungrasp_ompl.plots.cspace import REGION_CLASSES, plan_figure, regions_figure
 from ungrasp_ompl.plots.trials import TRIAL_PARAM_LABELS, trials_figure
@@ -78,7 +78,9 @@ def test_regions_legend_has_each_class_colour():
 
 @pytest.fixture(scope="module")
 def pick():
-    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    """The pick from its start before decision 0107 and its lattice plan of seed 1, whose P_dpsi
+    moves d: a path that holds several values of d, each drawn solid on its own slice."""
+    scene = Scene.from_dict(pick_before_0107())
     return scene, plan(scene, planner="lattice", seed=1)
 
 
@@ -280,7 +282,7 @@ def test_stability_names_each_roll_direction():
 
     scene = Scene.from_file(SCENES / "guitar_pick.yaml")
     report = analyse(scene, [("start", scene.start)])
-    (line,) = [ln for ln in report.lines() if "theta 30.0 deg, d 0.770, psi 0.0 deg" in ln]
+    (line,) = [ln for ln in report.lines() if "theta 30.0 deg, d 0.650, psi 0.0 deg" in ln]  # the scene's start
     ranges = [report.rolls[0].ranges_deg()[k] for k in (0, 1)]
     assert all(f"{r[0]:.2f} to {r[1]:.2f} deg" in line for r in ranges), line
 

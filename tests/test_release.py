@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import pick_before_0107
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics.release import (
     GRAVITY,
@@ -226,12 +227,13 @@ def test_the_contact_axes_are_mujocos(normal):
 
 @pytest.fixture(scope="module")
 def pick():
-    """The guitar pick's scene, as planned (no aim), and its RRT* plan of seed 1."""
+    """The guitar pick from its start before decision 0107, as planned (no aim), and its RRT*
+    plan of seed 1, which passes through a P_dpsi (the carry these tests read)."""
     from ungrasp_ompl import Scene
     from ungrasp_ompl.planning import plan
     from ungrasp_ompl.scene.options import Landing
 
-    scene = Scene.from_file(ROOT / "scenes" / "guitar_pick.yaml")
+    scene = Scene.from_dict(pick_before_0107())
     scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
     return scene, plan(scene, planner="RRTstar", time=1.0, seed=1)
 

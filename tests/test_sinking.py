@@ -5,11 +5,9 @@ docs/results/sinking.json and quoted by docs/results.md), held on 40 other trial
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from conftest import ROOT, SCENES
+from conftest import SCENES, SINKING_BOUND_MM
 from ungrasp_ompl import Scene
 from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.scene.perturbation import PRESETS
@@ -17,10 +15,6 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.sim.campaign import simulate
 from ungrasp_ompl.sim.plan_trials import placement
 
-#: The deepest (mm) the measured trials of the base plans sank into a digit or the table, rounded up
-#: to the next hundredth of a millimetre (docs/results/sinking.json, "the bound").
-SINKING_BOUND_MM = next(r["bound_mm"] for r in json.loads((ROOT / "docs" / "results" / "sinking.json").read_text())
-                        ["rows"] if r["label"] == "the bound")
 
 
 @pytest.mark.slow

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import PREVIOUS_PAIRS, ROOT, SCENES, run_cli, with_previous_pair
+from conftest import PREVIOUS_PAIRS, ROOT, SCENES, pick_before_0107, run_cli, with_previous_pair
 from ungrasp_ompl.geometry.outline import ellipse, polygon, rounded_polygon
 from ungrasp_ompl.mechanics.antipodal import antipodal_pairs, effective_friction
 from ungrasp_ompl.mechanics.roll import roll_simulation
@@ -190,7 +190,9 @@ def test_shipped_objects_plan_with_their_plane(tmp_path, name):
 
 
 def test_forbidding_partial_legs_removes_p_dpsi(tmp_path):
-    data = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    """The pick from its start before decision 0107, whose plans pass through a P_dpsi, plans with
+    planning.forbid_partial and none of its legs is a P_dpsi or partially stable."""
+    data = pick_before_0107()
     data["planning"] = {"forbid_partial": True}
     data["robot"].pop("start_press")  # it needs the clearance left out here
     data["robot"].pop("end_press")

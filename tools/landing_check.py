@@ -57,6 +57,9 @@ from ungrasp_ompl.sim.trial import placement_turn, run_trial  # noqa: E402
 from ungrasp_ompl.sim.world import Cone, World  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+#: The scene file each object's study reads: the pick's plans through a P_dpsi start where its
+#: scene started before decision 0107 (scenes/guitar_pick_reference_start.yaml).
+STUDY_SCENES = {"guitar_pick": "guitar_pick_reference_start"}
 WORLDS = {"nominal": World(), "friction x0.7": World(friction=0.7), "friction x1.3": World(friction=1.3),
           "pyramidal": World(cone=Cone.PYRAMIDAL)}
 
@@ -113,7 +116,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
           spread_bound: bool = True) -> dict:
     """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
     False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi)."""
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{name}.yaml"))
+    scene = Scene.from_file(str(ROOT / "scenes" / f"{STUDY_SCENES.get(name, name)}.yaml"))
     scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)

@@ -72,6 +72,9 @@ from ungrasp_ompl.sim.trial import run_trial
 from ungrasp_ompl.sim.world import World
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+#: The scene file each object's study reads: the pick's plans through a P_dpsi start where its
+#: scene started before decision 0107 (scenes/guitar_pick_reference_start.yaml).
+STUDY_SCENES = {"guitar_pick": "guitar_pick_reference_start"}
 WORLDS = ("friction=1", "friction=0.7", "friction=1.3", "cone=pyramidal")
 #: Outcomes that are not a failure to hold the object (placed, whether on target or not).
 HELD = (Outcome.SUCCESS, Outcome.OFF_TARGET)
@@ -162,7 +165,7 @@ def world_trials(args, rows: list[dict]) -> int:
     totals: dict[str, list[int]] = {}
     per_trial_rows = []
     for name in args.objects:
-        scene = Scene.from_file(name)
+        scene = Scene.from_file(STUDY_SCENES.get(name, name))
         plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
         if not plan.solved:
             print(f"{name}: RRT* found no plan")
@@ -273,7 +276,7 @@ def cage_study(objects: list[str], trials: int, seed: int, out: list[dict] | Non
     print("object, plan: primitives | cage: min escape (mJ), fully caged share, start (mJ) | "
           "margin at the worst draw (N) per world | trials held per world")
     for name in objects:
-        scene = Scene.from_file(name)
+        scene = Scene.from_file(STUDY_SCENES.get(name, name))
         scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
         params = trial_params(preset("paper"), seed, trials)
         for planner, plan_seed, objective in CAGE_PLANS:
@@ -350,7 +353,7 @@ def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
     out = [] if out is None else out
     print("object: leg needs factor (margin elliptic / pyramidal / planar force closure; 0.30: at most that)")
     for name in objects:
-        scene = Scene.from_file(name)
+        scene = Scene.from_file(STUDY_SCENES.get(name, name))
         plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
         st = plan_states(scene, plan)
         cells = []
@@ -394,7 +397,7 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
 
 
     obj = name
-    scene = Scene.from_file(name)
+    scene = Scene.from_file(STUDY_SCENES.get(name, name))
     plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
     _, setup = placement(scene, plan)
     params = TrialParams() if no_error else trial_params(preset("paper"), seed, trial + 1)[trial]
