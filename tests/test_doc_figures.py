@@ -5,6 +5,8 @@ no count stands on a page outside a mark, and the README's first example is what
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 import importlib.util
 import json
 import re
@@ -17,7 +19,7 @@ PAGES = ("README.md", "docs/results.md")
 #: The campaign tables tools/sim_campaigns.py wrote, each with its JSON beside it.
 TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_curved", "campaigns_curved_worlds",
           "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2", "campaigns_margin_seed2_planner_only",
-          "campaigns_curved_previous", "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin")
+          "campaigns_curved_previous", "campaigns_pick_previous_start", "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin")
 #: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
 ENGINE_KEYS = ("mujoco", "fisher_p")
 
@@ -287,3 +289,26 @@ def test_a_table_mark_with_no_rows_yet_renders_without_taking_the_text_after_it(
                         f"the text between\n<!-- table campaigns:worlds -->\n{tool.table('campaigns:worlds')}\n"
                         "<!-- /table -->\nthe end\n")
     assert tool.render(rendered) == rendered
+
+
+def test_a_merged_run_replaces_its_groups_rows_whatever_their_labels_now(tmp_path):
+    """Merging a run of one row group (--merge) drops that group's rows from the table, also those
+    whose labels the run no longer makes, and keeps every other group's rows as they were."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    old = results.load("campaigns_pick_previous_start")
+    caging = [r for r in old["rows"] if r["campaign"].startswith("caging")]
+    assert len(caging) == 2
+    table = tmp_path / "t.md"
+    table.write_text((ROOT / "docs/results/campaigns_pick_previous_start.md").read_text())
+    (tmp_path / "t.json").write_text(json.dumps(old))
+    renamed = campaigns.Row.from_record(caging[0])
+    renamed = dataclasses.replace(renamed, label=renamed.label.replace("+2 deg", "+9 deg"))
+    footer = table.read_text().strip().splitlines()[-1].replace("7326 s in all", "12 s in all")
+    merged, _, _, _ = campaigns.merge_rows(table, [renamed], footer, {"caging"})
+    labels = [r["label"] for r in merged]
+    assert [c for c in labels if c.startswith("caging")] == [renamed.label]
+    assert [r["key"] for r in merged if not r["campaign"].startswith("caging")] == \
+        [r["key"] for r in old["rows"] if not r["campaign"].startswith("caging")]

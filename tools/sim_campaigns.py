@@ -542,9 +542,21 @@ def _group(record: dict) -> str:
     return next((g for g in GROUP_ORDER if record["campaign"].startswith(g)), record["campaign"])
 
 
+#: Each row's --only name by the start of its label, the longer starts first.
+ROW_OPTIONS = (("base, open loop", "open"), ("base, handed over", "handed"), ("base", "base"), ("world", "worlds"),
+               ("unaimed", "unaimed"), ("edge", "edge"), ("previous pair", "smooth"), ("subset", "subset"),
+               ("caging", "caging"), ("control", "controls"), ("tangram", "tangram"), ("designed", "designed"),
+               ("own digits", "designed"), ("curved world", "curved_worlds"), ("curved", "curved"))
+
+
+def _option(record: dict) -> str | None:
+    """The --only name of the row group that makes record's row (None: no group's)."""
+    return next((o for start, o in ROW_OPTIONS if record["label"].startswith(start)), None)
+
+
 def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tuple[list[dict], dict, str, dict | None]:
-    """The records of table's results file (TABLE.json) with this run's rows in place of theirs
-    (the rows of other groups kept, in GROUP_ORDER), the runs that made them (each: its command,
+    """The records of table's results file (TABLE.json) with this run's rows in place of those of
+    the groups it ran (the rows of other groups kept, in GROUP_ORDER), the runs that made them (each: its command,
     seconds and the keys of the rows it still holds; a run none of whose rows is left dropped), the
     merged table's footer (its seconds the runs' sum), and the file as it was (None: no file)."""
     import json
@@ -556,7 +568,8 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     new = [parse_row(r.line()) for r in rows]
     first = json.loads(path.read_text()) if path.exists() else None
     old = first if first is not None else {"rows": [], "runs": {}}
-    keys = {r["key"] for r in new}
+    keys = {r["key"] for r in new}  # and the rows of the groups run again, whatever their labels now
+    keys |= {r["key"] for r in old["rows"] if _option(r) in only}
     merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
     runs = old.get("runs", {})
