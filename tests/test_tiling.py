@@ -7,6 +7,8 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
+import time
 from dataclasses import replace
 
 import fcl
@@ -715,6 +717,96 @@ def test_modelled_aims_are_executed_once_and_as_modelled(two_shipped, monkeypatc
         assert len(calls) == 1 and calls[0]["aims"] is not None
         for name in ("times", "positions", "velocities", "accelerations"):
             assert np.array_equal(getattr(aimed.execution.trajectory, name), getattr(fresh.trajectory, name)), name
+
+
+_TIMINGS = {"time_to_first_solution_s", "planning_time_s", "setup_time_s", "time_s"}
+
+
+def _untimed(doc):
+    """A tiling.json document without its wall-clock fields."""
+    if isinstance(doc, dict):
+        return {k: _untimed(v) for k, v in doc.items() if k not in _TIMINGS}
+    if isinstance(doc, list):
+        return [_untimed(v) for v in doc]
+    return doc
+
+
+@pytest.mark.slow
+def test_pieces_planned_ahead_in_forked_processes_get_the_plans_planned_here(tmp_path, monkeypatch):
+    """With worker processes (TilingOptions.jobs) the pieces are planned in forked children, some
+    while the search goes on, and the tiling is the one planned in this process alone, to the
+    bit: a seeded OMPL planner's plans (each piece's own seed), their tolerances and the checks."""
+    from ungrasp_ompl.layout import tiler
+
+    made = tmp_path / "made_by"
+    plan_piece = tiler._plan_piece
+
+    def recorded(scene, atlas, piece):
+        with made.open("a") as f:
+            f.write(f"{os.getpid()}\n")
+        return plan_piece(scene, atlas, piece)
+
+    monkeypatch.setattr(tiler, "_plan_piece", recorded)
+    layout = Layout.from_dict({**_SHIPPED, "pieces": _SHIPPED["pieces"][:3]})
+    planner = PlannerOptions(planner="RRTstar", time=0.1, seed=3)
+    here = tile(layout, TilingOptions(planner=planner, jobs=1))
+    assert set(made.read_text().split()) == {str(os.getpid())}
+    made.unlink()
+    forked = tile(layout, TilingOptions(planner=planner, jobs=2))
+    assert str(os.getpid()) not in made.read_text().split()
+    assert here.solved and len(here.placements) == 3
+    assert _untimed(forked.to_dict()) == _untimed(here.to_dict())
+    assert [p.plan.states for p in forked.placements] == [p.plan.states for p in here.placements]
+
+
+def test_the_pictures_drawn_in_a_forked_process_are_the_ones_drawn_here(two_shipped, tmp_path, monkeypatch):
+    """TiledLayout.write's pictures are the same files whether a forked process drew them ahead
+    (PictureDrawing, as tile_layout starts it), shares them with this one at write, or this
+    process draws them all (no fork)."""
+    import ungrasp_ompl.workflows.tile as workflow
+    from ungrasp_ompl.plots.cspace import draw_plan
+    from ungrasp_ompl.plots.layout import draw_layout
+
+    layout, tiling = two_shipped
+    names = ["layout.png"] + [f"cspace_{p.order}_{p.name}.png" for p in tiling.placements]
+    draw_layout(layout, tiling, tmp_path / "here" / names[0])
+    for p, name in zip(tiling.placements, names[1:]):
+        draw_plan(p.scene, p.plan, tmp_path / "here" / name)
+    ahead = workflow.PictureDrawing(layout, tiling)
+    deadline = time.monotonic() + 60
+    while not ahead._pool.items("pictures") and time.monotonic() < deadline:  # drawn there before write
+        ahead._pool.poll(0.05)
+    assert ahead._pool.items("pictures")[:1] == [0]
+    doc, picture, cspaces = workflow.TiledLayout(layout, tiling, drawing=ahead).write(tmp_path / "ahead")
+    assert [picture] + cspaces == [tmp_path / "ahead" / n for n in names]
+    assert not ahead._spare.exists()
+    workflow.TiledLayout(layout, tiling).write(tmp_path / "shared")
+    monkeypatch.setattr(workflow, "can_fork", lambda: False)
+    workflow.TiledLayout(layout, tiling).write(tmp_path / "alone")
+    for name in names:
+        want = (tmp_path / "here" / name).read_bytes()
+        assert len(want) > 10_000
+        for way in ("ahead", "shared", "alone"):
+            assert (tmp_path / way / name).read_bytes() == want, (way, name)
+
+
+def test_the_files_exported_in_a_forked_process_are_the_ones_exported_here(two_shipped, tmp_path):
+    """TiledLayout.export's files are the same, by kind, name and bytes, whether a forked process
+    wrote them ahead (ExportAhead, as tile_layout starts it) or this process writes them."""
+    import ungrasp_ompl.workflows.tile as workflow
+    from ungrasp_ompl.sim.tiling import aim_tiling
+
+    layout, tiling = two_shipped
+    execution = aim_tiling(layout, tiling).execution
+    here = workflow.export_files(tiling, execution, tmp_path / "here")
+    ahead = workflow.ExportAhead(tiling, execution)
+    moved = workflow.TiledLayout(layout, tiling, execution, exporting=ahead).export(tmp_path / "ahead")
+    assert list(moved) == list(here) and {"json", "touch_off", "view"} <= set(here)
+    assert not ahead._spare.exists()
+    for kind, path in here.items():
+        assert moved[kind] == tmp_path / "ahead" / path.name
+        assert moved[kind].read_bytes() == path.read_bytes(), kind
+        assert moved[kind].stat().st_mode == path.stat().st_mode, kind
 
 
 def _start_hits(doc: dict, placement, down: list[str], aim) -> bool:

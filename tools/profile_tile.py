@@ -3,10 +3,12 @@
 `python -m cProfile -m ungrasp_ompl tile ...` writes no profile, because the command leaves through
 os._exit; this runs the same command line (cli.run) under cProfile in this process instead:
 
-    python tools/profile_tile.py [scenes/tangram.yaml] [--out DIR] [--prof FILE] [-- more tile arguments]
+    python tools/profile_tile.py [scenes/tangram.yaml] [--out DIR] [--prof FILE] [--serial] [-- more tile arguments]
 
 It prints the cumulative seconds of each phase (the search's screens and proofs, planning per
-piece, execution, export, pictures) and the top functions by cumulative time.
+piece, execution, export, pictures) and the top functions by cumulative time. The pieces' plans
+and the pictures are made in forked processes, which the profile does not see (it shows this
+process waiting for them); --serial makes everything here, in turn, as one process would.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ PHASES = {
     "  approaches (ranking)": ("layout/tiler.py", "approaches"),
     "  scenes of pieces": ("layout/model.py", "scene"),
     "  planning per piece": ("setup.py", "plan"),
+    "  waiting for the pieces' plans": ("layout/tiler.py", "take_ahead"),
     "execution (IK, timing)": ("pipeline.py", "execute_sequence"),
     "export (trajectory files)": ("export.py", "export_all"),
     "3D view record": ("record.py", "write_view_record"),
@@ -43,14 +46,24 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="output directory (default: a temporary one)")
     parser.add_argument("--prof", default="/tmp/tile.prof", help="where to write the profile")
     parser.add_argument("--top", type=int, default=40, help="functions listed by cumulative time")
-    parser.add_argument("rest", nargs="*", help="more tile arguments (after --)")
-    args = parser.parse_args()
+    parser.add_argument("--serial", action="store_true",
+                        help="plan the pieces and draw the pictures in this process (no forked processes)")
+    argv = sys.argv[1:]
+    cut = argv.index("--") if "--" in argv else len(argv)
+    args = parser.parse_args(argv[:cut])
+    rest = argv[cut + 1:]  # the tile arguments after --, which argparse would take for positionals
     from ungrasp_ompl.cli import run
 
+    if args.serial:
+        import ungrasp_ompl.layout.tiler as tiler
+        import ungrasp_ompl.workflows.tile as workflow
+
+        tiler.default_jobs = lambda: 1
+        workflow.can_fork = lambda: False
     out = args.out or tempfile.mkdtemp(prefix="profile_tile_")
     profiler = cProfile.Profile()
     t0 = time.perf_counter()
-    code = profiler.runcall(run, ["tile", args.layout, "--out", out, *args.rest])
+    code = profiler.runcall(run, ["tile", args.layout, "--out", out, *rest])
     wall = time.perf_counter() - t0
     profiler.dump_stats(args.prof)
     stats = pstats.Stats(args.prof, stream=sys.stderr)

@@ -44,11 +44,18 @@ is taken and the summary says so. A TilingMemo keeps the scenes, screens, proofs
 and reproducible plans of one call for the next on the same layout (another order,
 an approach avoided): the second search makes the same checks and finds the same
 tiling, computing only what the first did not.
+
+The pieces are planned in forked copies of this process (TilingOptions.jobs at a
+time, parallel.forked), each from the moment the search proves it at its place
+in the order (its seed is that place's), so that planning goes on beside the
+search; a plan whose place the search gives up is given up too. Each plan is the
+one this process would make: the same scene, lattice, planner options and seed.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, field, replace
 from enum import Enum, StrEnum
@@ -58,6 +65,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
+from ..parallel.forked import Forked, can_fork
+from ..parallel.runner import default_jobs
 from ..geometry.collision import CollisionChecker
 from ..geometry.plane import curved, flush
 from ..mechanics import kinematic_validity
@@ -67,7 +76,7 @@ from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from ..planning.lattice import optimum_cost
 from ..planning.plan_tolerance import tolerance_scale
 from ..planning.result import Plan, PlanOutcome, describe_outcome
-from ..planning.setup import LATTICE, EndsProblem, PlannerOptions
+from ..planning.setup import LATTICE, EndsProblem, PlannerOptions, seed_ompl
 from ..scene import Scene
 from .model import Layout
 
@@ -108,8 +117,16 @@ class TilingOptions:
     avoid: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = ()
     """Approaches not to take: (piece name, G, B in the piece's own coordinates, m), each matched
     within 1 um (sim.tiling.tile_aimed avoids those whose landing's aim does not fit)."""
+    jobs: int | None = None
+    """Processes planning pieces beside the search (forked copies of this one, each planning one
+    piece at a time; parallel.forked): None, one per core (parallel.runner.default_jobs); 1, none:
+    every piece planned here after the search. The plans are the same whichever (the order's, each
+    piece's seed its own); only the search's rank "first" plans ahead."""
 
     def validated(self) -> "TilingOptions":
+        jobs = self.jobs
+        if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+            raise InputError("jobs", f"must be a positive integer, got {jobs!r}")
         if not isinstance(self.approaches, int) or self.approaches < 1:
             raise InputError("approaches", f"must be a positive integer, got {self.approaches!r}")
         longest = self.planner.range
@@ -503,6 +520,32 @@ def prove(scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
     return None, atlas
 
 
+def _reproducible(piece: PlannerOptions) -> bool:
+    """Whether a piece's planner options give the same plan every time: the lattice, or a seed."""
+    return piece.planner == LATTICE or piece.seed is not None
+
+
+def _plan_piece(scene: Scene, atlas: SecurityAtlas, piece: PlannerOptions) -> tuple[Plan, float | None]:
+    """The piece's plan with its planner options on its proof's lattice, and the plan's tolerance's
+    scale (None unsolved)."""
+    p = planning.plan(scene, atlas=atlas, **asdict(piece))
+    return p, tolerance_scale(scene, p) if p.solved else None
+
+
+def _plans_of_piece(scene: Scene, atlas: SecurityAtlas, key: tuple, lattice_key: tuple
+                    ) -> list[tuple[tuple, tuple[Plan, float | None]]]:
+    """In a forked child (_Tiler.plan_ahead): the plans plan_pieces makes of one piece, by their
+    plan keys: the planner's (key), and where it finds no path, the lattice's (lattice_key). An
+    unseeded planner draws afresh: the child's OMPL generator is a copy of its parent's."""
+    piece = key[1]
+    if piece.seed is None:
+        seed_ompl(int.from_bytes(os.urandom(4), "little"))
+    found = [(key, _plan_piece(scene, atlas, piece))]
+    if not found[0][1][0].solved and piece.planner != LATTICE:
+        found.append((lattice_key, _plan_piece(scene, atlas, lattice_key[1])))
+    return found
+
+
 # -- the search ----------------------------------------------------------------------
 
 @dataclass
@@ -564,20 +607,34 @@ class _Tiler:
         self.proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
         self.deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
         self.dead: set[frozenset[int]] = set()  # sets of pieces down from which no order completes the layout
+        #: Plans made ahead by a not reproducible planner, by planned()'s key (the memo keeps the others).
+        self.ahead: dict = {}
+        #: The forked children planning pieces ahead (None: every piece is planned here, in turn).
+        self.pool: Forked | None = None
 
     def run(self) -> Tiling:
         """The tiling: an order found and every piece planned, or where and why it failed."""
         t0 = time.perf_counter()
-        found = self.search([], [])
-        if found is None:
-            self.explain_failure()
-        else:
-            self.plan_pieces(found)
+        jobs = default_jobs() if self.opts.jobs is None else self.opts.jobs
+        if jobs > 1 and can_fork() and self.opts.rank is Rank.FIRST:
+            self.pool = Forked(jobs)
+        try:
+            found = self.search([], [])
+            if found is None:
+                self.explain_failure()
+            else:
+                self.plan_pieces(found)
+        finally:
+            if self.pool is not None:
+                self.pool.close()
+                self.pool = None
         self.result.time_s = time.perf_counter() - t0
         return self.result
 
     # -- what the steps share ---------------------------------------------------------------
     def report(self, stage: str, done: int, i: int) -> None:
+        if self.pool is not None:  # a child that ended hands its worker to the next plan waiting
+            self.pool.poll()
         if self.progress is not None:
             self.progress(TilingProgress(stage, done, self.n, self.result.checks, self.layout.pieces[i].name))
 
@@ -621,21 +678,62 @@ class _Tiler:
             self.memo.proofs[at] = prove(scene)
         return self.memo.proofs[at]
 
+    def plan_key(self, placed: list[int], i: int, a: Approach, scene: Scene, planner: str,
+                 seed: int | None = None) -> tuple:
+        """The key of piece i's plan by planner (and seed) with placed down (TilingMemo.plans):
+        the approach's and the piece's planner options."""
+        own = self.opts.planner
+        longest = own.range if own.range is not None else (scene.options.range or PIECE_RANGE)
+        return _at(placed, i, a), replace(own, planner=planner, seed=seed, range=longest)
+
     def planned(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas, planner: str,
                 seed: int | None = None) -> tuple[Plan, float | None]:
         """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
         unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
-        own = self.opts.planner
-        longest = own.range if own.range is not None else (scene.options.range or PIECE_RANGE)
-        piece = replace(own, planner=planner, seed=seed, range=longest)
-        key = (_at(placed, i, a), piece)
+        key = self.plan_key(placed, i, a, scene, planner, seed)
         if key in self.memo.plans:
             return self.memo.plans[key]
-        p = planning.plan(scene, atlas=atlas, **asdict(piece))
-        found = p, tolerance_scale(scene, p) if p.solved else None
-        if planner == LATTICE or seed is not None:
+        if key in self.ahead:
+            return self.ahead.pop(key)
+        found = _plan_piece(scene, atlas, key[1])
+        if _reproducible(key[1]):
             self.memo.plans[key] = found
         return found
+
+    def order_seed(self, k: int) -> int | None:
+        """The seed of the order's piece k (from 0): the planner's seed + k (None: none)."""
+        seed = self.opts.planner.seed
+        return None if seed is None else seed + k
+
+    def plan_ahead(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas) -> None:
+        """Start planning piece i in a forked child (the pool's; none without one) as plan_pieces
+        plans it when it comes next after placed: by the planner, with the seed of its place, and
+        where that finds no path, by the lattice; unless that plan is made already."""
+        if self.pool is None:
+            return
+        key = self.plan_key(placed, i, a, scene, self.opts.planner.planner, self.order_seed(len(placed)))
+        if key not in self.memo.plans and key not in self.ahead:  # the most holdable states first: the longest
+            self.pool.submit(key, _plans_of_piece, scene, atlas, key, self.plan_key(placed, i, a, scene, LATTICE),
+                             weight=float(np.count_nonzero(atlas.holdable)))
+
+    def drop_ahead(self, placed: list[int], i: int, a: Approach, scene: Scene) -> None:
+        """Give up planning piece i ahead after placed (plan_ahead): no order needs that plan."""
+        if self.pool is not None:
+            self.pool.discard(self.plan_key(placed, i, a, scene, self.opts.planner.planner,
+                                             self.order_seed(len(placed))))
+
+    def take_ahead(self, key: tuple) -> None:
+        """Wait for the plans made ahead under key, if any, and keep them as planned() keeps its own
+        (a child that failed leaves them to planned())."""
+        if self.pool is None or key not in self.pool:
+            return
+        ok, found = self.pool.result(key)
+        self.pool.discard(key)
+        for plan_key, value in found if ok else ():
+            if _reproducible(plan_key[1]):
+                self.memo.plans[plan_key] = value
+            else:
+                self.ahead[plan_key] = value
 
     def fail(self, i: int, placed: list[int], reasons: list[ApproachRejected]) -> None:
         if len(placed) > self.deepest["depth"]:
@@ -673,6 +771,7 @@ class _Tiler:
             found = self.search(placed + [i], chosen + [(i, *proof)])
             if found is not None:
                 return found
+            self.drop_ahead(placed, i, proof[0], proof[1])  # no order completes the layout from placed and i
         return None
 
     def first_proven(self, i: int, placed: list[int], options: tuple[list, list[ApproachRejected]]
@@ -692,6 +791,7 @@ class _Tiler:
                 problem, atlas = self.proved(placed, i, a, scene)
                 if problem is None:
                     self.proven[key] = (a, scene, atlas)
+                    self.plan_ahead(placed, i, a, scene, atlas)  # while the search goes on
                     break
                 why.append(ApproachRejected(Rejection.NO_SECURE_PATH, a))
             if self.proven[key] is None:
@@ -716,6 +816,15 @@ class _Tiler:
         """Plan every piece in the order found, each on its proof's lattice (the lattice's own plan
         where the planner finds none), into the result's placements."""
         opts, result, pieces = self.opts, self.result, self.layout.pieces
+        if self.pool is not None:  # every piece of the order planned ahead; the plans of other orders given up
+            wanted = set()
+            for k, (i, a, scene, atlas) in enumerate(found):
+                down = [j for j, *_ in found[:k]]
+                self.plan_ahead(down, i, a, scene, atlas)
+                wanted.add(self.plan_key(down, i, a, scene, opts.planner.planner, self.order_seed(k)))
+            for key in self.pool.keys():
+                if key not in wanted:
+                    self.pool.discard(key)
         placed_before: list[int] = []
         for k, (i, a, scene, atlas) in enumerate(found):
             self.report("plan", k, i)
@@ -724,7 +833,8 @@ class _Tiler:
                 a, scene, atlas, ranked = self.most_tolerant(i, placed_before, (a, scene, atlas))
             down = list(placed_before)
             placed_before.append(i)
-            planner, seed = opts.planner.planner, None if opts.planner.seed is None else opts.planner.seed + k
+            planner, seed = opts.planner.planner, self.order_seed(k)
+            self.take_ahead(self.plan_key(down, i, a, scene, planner, seed))
             p, tol = self.planned(down, i, a, scene, atlas, planner, seed)  # on the lattice the proof searched
             note = None
             if not p.solved and planner != LATTICE:  # the search proved a path: take the lattice's

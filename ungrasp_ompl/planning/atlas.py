@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, kinematic_validity, primitive_sliding_signs
+from ..mechanics.contact import sliding_signs
 from ..mechanics.section import finger_contact
 from ..scene import Scene
 from .verify import SAMPLES_PER_STEP, first_loss_along
@@ -67,6 +68,9 @@ class Leg:
     def primitive(self) -> str:
         return LEG_PRIMITIVE[self.kind]
 
+
+#: Motions whose answer (motion_secure) an atlas remembers before the memory is cleared.
+MOTION_MEMORY = 200_000
 
 #: Above this share of the lattice's states, force closure is computed over the whole lattice from
 #: its axes rather than state by state (the two cost about the same at a quarter, measured on the
@@ -102,6 +106,11 @@ class SecurityAtlas:
         self._steps: dict[tuple[str, int], NDArray[np.bool_]] = {}
         self._reverse = scene.options.reverse_primitives
         self._no_dpsi = scene.options.forbid_partial  # P_dpsi slides A and B: partial 3D stability
+        #: motion_secure's answers by (a, b), and the X legs' by (start, end): a planner asks for
+        #: the same lattice motions again (a third of RRT*'s checks on the tangram's pieces)
+        self._motions: dict[tuple, bool] = {}
+        self._diagonals: dict[tuple, bool] = {}
+        self._x_modes: dict[int, NDArray[np.bool_]] = {}  # per A's sign: mode_ok for B's -1, 0, 1
         #: lattice_search's cost optima by goal box (planning.lattice fills it: the lattice planner
         #: and a failure's explanation search once).
         self.cost_optima: dict[tuple, object] = {}
@@ -307,18 +316,25 @@ class SecurityAtlas:
         return bool(self.runs(kind, 1 if n > 0 else -1)[start] > abs(n))
 
     def _diagonal_secure(self, start: tuple[int, int, int], end: tuple[int, int, int]) -> bool:
+        """An X leg: every lattice state it passes (its d and psi rounded along the straight line)
+        secure in the mode the leg's own direction makes there (A slides with dd, B with the sign
+        of ds_B, per state: mechanics.contact's P_dpsi)."""
+        key = (start, end)
+        known = self._diagonals.get(key)
+        if known is not None:
+            return known
         dj, dk = end[D] - start[D], end[PSI] - start[PSI]
         n = max(abs(dj), abs(dk))
         t = np.arange(n + 1) / n
         jj = start[D] + np.rint(t * dj).astype(int)
         kk = start[PSI] + np.rint(t * dk).astype(int)
-        _, sb = primitive_sliding_signs("P_dpsi", self.axes[D][jj], self.axes[PSI][kk], dj * self.res[D], dk * self.res[PSI])
-        i, sa = start[THETA], 1 if dj > 0 else -1
-        for b in (-1, 0, 1):
-            sel = sb == b
-            if sel.any() and not self.mode_ok(sa, b)[i, jj[sel], kk[sel]].all():
-                return False
-        return True
+        _, sb = sliding_signs(self.axes[D][jj], self.axes[PSI][kk], dj * self.res[D], dk * self.res[PSI])
+        sa = 1 if dj > 0 else -1
+        if sa not in self._x_modes:
+            self._x_modes[sa] = np.stack([self.mode_ok(sa, b) for b in (-1, 0, 1)])
+        secure = bool(self._x_modes[sa][sb.astype(np.intp) + 1, start[THETA], jj, kk].all())
+        self._diagonals[key] = secure
+        return secure
 
     def realisations(self, a: tuple[int, int, int], b: tuple[int, int, int]):
         """Candidate leg sequences (lists of Leg) from lattice index a to b, fewest legs first."""
@@ -343,6 +359,17 @@ class SecurityAtlas:
 
     def motion_secure(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> bool:
         """Whether some staircase of secure legs leads from lattice index a to b (first found wins)."""
+        key = (a, b)
+        known = self._motions.get(key)
+        if known is None:
+            if len(self._motions) >= MOTION_MEMORY:
+                self._motions.clear()
+                self._diagonals.clear()
+            known = self._motions[key] = self._staircase_secure(a, b)
+        return known
+
+    def _staircase_secure(self, a: tuple[int, int, int], b: tuple[int, int, int]) -> bool:
+        """motion_secure, worked out."""
         if not self.allowed(tuple(b[k] - a[k] for k in range(3))):
             return False
         if a == b:

@@ -222,18 +222,22 @@ class AimingMemo:
 
 def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
                progress: Callable[[TilingProgress], None] | None = None,
-               memo: AimingMemo | None = None) -> tuple[Tiling, AimedTiling | None]:
+               memo: AimingMemo | None = None,
+               solved: Callable[[Tiling], None] | None = None) -> tuple[Tiling, AimedTiling | None]:
     """Tile the layout (tiling.tile) and aim it (aim_tiling), making room for the aims: for each
     piece aimed short, in order, the layout is tiled again with that piece's approach avoided
     (TilingOptions.avoid), and the new tiling is kept when less of the aims is left untaken
     (summed over the pieces). An approach whose avoidance leaves no tiling, or takes no more of
     the aims, is kept. Each tiling reuses what the ones before it worked out (AimingMemo; memo,
-    when given, holds what earlier calls on this layout did). Returns the tiling and its aimed
-    execution (None when no tiling is found)."""
+    when given, holds what earlier calls on this layout did). solved, when given, is called with
+    each solved tiling before it is aimed (workflows.tile draws its pictures meanwhile). Returns
+    the tiling and its aimed execution (None when no tiling is found)."""
     memo = AimingMemo() if memo is None else memo
     tiling = tile(layout, options, progress, memo.search)
     if not tiling.solved:
         return tiling, None
+    if solved is not None:
+        solved(tiling)
     aimed = aim_tiling(layout, tiling, memo.landings, memo.kept)
     tried: set[tuple] = set()
     while True:
@@ -246,6 +250,8 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         again = tile(layout, retry, progress, memo.search)
         if not again.solved:
             continue
+        if solved is not None:
+            solved(again)
         aimed_again = aim_tiling(layout, again, memo.landings, memo.kept)
         if _shortfall(aimed_again) < _shortfall(aimed):
             options, tiling, aimed = retry, again, aimed_again

@@ -3,20 +3,29 @@
 :func:`tile_layout` tiles the layout (tiling.tile: an order, an approach and a plan per piece)
 and executes the solved tiling on the arm; the :class:`TiledLayout` it returns has ``summary()``
 ``write(dir)`` (tiling.json, layout.png, a C-space picture per piece) and, when solved,
-``export(dir)`` (the exported trajectory and the view's record).
+``export(dir)`` (the exported trajectory and the view's record). The pictures of a solved tiling
+are drawn in a forked copy of this process while this one aims and executes it
+(:class:`PictureDrawing`); ``write`` takes those drawn by then and draws the others itself. The
+exported files are written likewise from the moment the trajectory is known (:class:`ExportAhead`),
+and ``export`` moves them into place. Either makes the files this process would.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable
-from dataclasses import dataclass
+import shutil
+import tempfile
+import weakref
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
-from ..io import write_text_atomic
+from ..io import write_atomic, write_text_atomic
 from ..layout.model import Layout
 from ..layout.tiler import Tiling, TilingOptions, TilingProgress
+from ..parallel.forked import Forked, can_fork
 from ..planning.setup import LATTICE
 from ..plots.cspace import draw_plan
 from ..plots.layout import draw_layout
@@ -40,6 +49,12 @@ class TiledLayout:
     so (robot.landing; None: the tiling is not solved)."""
     short: tuple[tuple[str, float, float], ...] = ()
     """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
+    drawing: "PictureDrawing | None" = field(default=None, repr=False, compare=False)
+    """The tiling's pictures being drawn in a forked process (tile_layout starts it when the tiling
+    is found), which write takes; None: write draws them (sharing the work with a forked process)."""
+    exporting: "ExportAhead | None" = field(default=None, repr=False, compare=False)
+    """The execution's exported files being written in a forked process (tile_layout starts it
+    once the trajectory is known), which export takes; None: export writes them."""
 
     def summary(self) -> str:
         """The layout's spread when it has one, the tiling's summary, then the trajectory's when there is one."""
@@ -49,29 +64,159 @@ class TiledLayout:
         """Write tiling.json, layout.png and cspace_K_NAME.png per piece into out, each atomically;
         returns their paths (the pictures in the order of the pieces)."""
         out = Path(out)
-        doc, picture = out / "tiling.json", out / "layout.png"
+        doc = out / "tiling.json"
         spread = self.layout.spread
         written = self.tiling.to_dict() if spread is None else {**self.tiling.to_dict(), "spread": {
             "gap_before_m": spread.gap_before, "gap_m": spread.gap,
             "shifts_m": {p.name: s.tolist() for p, s in zip(self.layout.pieces, spread.shifts)}}}
         write_text_atomic(doc, json.dumps(written, indent=1) + "\n")
-        draw_layout(self.layout, self.tiling, picture)
-        cspaces = []
-        for p in self.tiling.placements:
-            cspaces.append(out / f"cspace_{p.order}_{p.name}.png")
-            draw_plan(p.scene, p.plan, cspaces[-1])
-        return doc, picture, cspaces
+        drawing, self.drawing = self.drawing, None  # taken: a second write draws them again
+        if drawing is None or drawing.tiling is not self.tiling:
+            if drawing is not None:
+                drawing.close()
+            drawing = PictureDrawing(self.layout, self.tiling)
+        paths = drawing.write(out)
+        return doc, paths[0], paths[1:]
 
     def export(self, out: str | os.PathLike[str]) -> dict[str, Path]:
         """Write the exported trajectory (every format robot.export writes) and view_scene.json
         into out, atomically; returns their paths by kind."""
         if self.execution is None:
             raise ValueError("the layout has no tiling to export")
-        pieces = self.tiling.placements
-        files = export_all(self.execution.trajectory, out, first_touch_off(self.tiling, self.execution))
-        files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], self.execution,
-                                          labels=[p.name for p in pieces], kind="tiling")
-        return files
+        ahead, self.exporting = self.exporting, None  # taken: a second export writes them again
+        if ahead is not None and ahead.execution is not self.execution:
+            ahead.close()
+        elif ahead is not None and (files := ahead.moved(out)) is not None:
+            return files
+        return export_files(self.tiling, self.execution, out)
+
+
+def export_files(tiling: Tiling, execution: Execution, out: str | os.PathLike[str]) -> dict[str, Path]:
+    """TiledLayout.export's files, written here: the exported trajectory (robot.export, with the
+    first piece's touch-off) and view_scene.json; their paths by kind."""
+    pieces = tiling.placements
+    files = export_all(execution.trajectory, out, first_touch_off(tiling, execution))
+    files["view"] = write_view_record(out, [(p.scene, p.plan) for p in pieces], execution,
+                                      labels=[p.name for p in pieces], kind="tiling")
+    return files
+
+
+class ExportAhead:
+    """TiledLayout.export's files (export_files) written by a forked copy of this process into a
+    directory of its own, from the moment this is made (where the platform forks: parallel.forked);
+    moved() moves them into place. They are the files export_files writes here."""
+
+    def __init__(self, tiling: Tiling, execution: Execution):
+        self.execution = execution
+        """The execution exported."""
+        self._spare = Path(tempfile.mkdtemp(prefix="ungrasp_ompl_export_"))
+        self._pool = Forked(1) if can_fork() else None
+        if self._pool is not None:
+            self._pool.submit("export", export_files, tiling, execution, self._spare)
+        self._closed = weakref.finalize(self, _discard, self._pool, self._spare)
+
+    def moved(self, out: str | os.PathLike[str]) -> dict[str, Path] | None:
+        """Wait for the files and move each into out (atomically); their paths by kind, or None
+        when the forked process wrote none (export_files then writes them)."""
+        try:
+            ok, files = (False, None) if self._pool is None else self._pool.result("export")
+            if not ok:
+                return None
+            out = Path(out)
+            out.mkdir(parents=True, exist_ok=True)
+            moved = {kind: out / Path(spare).name for kind, spare in files.items()}
+            for kind, spare in files.items():
+                _move(Path(spare), moved[kind])
+            return moved
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Stop the child and remove its directory."""
+        self._closed()
+
+
+def _move(source: Path, target: Path) -> None:
+    """Move a file into place atomically: renamed within a file system, else copied beside target first."""
+    try:
+        os.replace(source, target)
+    except OSError:
+        write_atomic(target, partial(shutil.copyfile, source))
+
+
+def pictures(layout: Layout, tiling: Tiling) -> list[tuple[str, Callable[[Path], None]]]:
+    """The pictures TiledLayout.write writes, in order: (file name, a function drawing it to a
+    path): layout.png, then cspace_K_NAME.png per piece in order."""
+    out: list[tuple[str, Callable[[Path], None]]] = [("layout.png", partial(draw_layout, layout, tiling))]
+    out += [(f"cspace_{p.order}_{p.name}.png", partial(draw_plan, p.scene, p.plan)) for p in tiling.placements]
+    return out
+
+
+class PictureDrawing:
+    """A tiling's pictures (pictures()), drawn one after the other, in order, by a forked copy of
+    this process into a directory of its own, from the moment this is made (where the platform
+    forks: parallel.forked); write() moves those drawn into place and draws the others itself,
+    from the last, so that the two processes share what is left. The pictures are the same files
+    whichever process draws them."""
+
+    def __init__(self, layout: Layout, tiling: Tiling):
+        self.tiling = tiling
+        """The tiling drawn."""
+        self.pictures = pictures(layout, tiling)
+        self._spare = Path(tempfile.mkdtemp(prefix="ungrasp_ompl_pictures_"))
+        self._pool = Forked(1) if can_fork() else None
+        if self._pool is not None:
+            self._pool.submit("pictures", _draw_each, self.pictures, self._spare, stream=True)
+        self._closed = weakref.finalize(self, _discard, self._pool, self._spare)
+
+    def write(self, out: str | os.PathLike[str]) -> list[Path]:
+        """Write every picture into out (each atomically); returns their paths, in order."""
+        out = Path(out)
+        paths = [out / name for name, _ in self.pictures]
+        todo = list(range(len(paths)))  # a range: the child draws from its first, this process from its last
+        pool, seen = self._pool, 0
+        try:
+            while todo:
+                if pool is not None:
+                    pool.poll()
+                    drawn = pool.items("pictures")
+                    for k in drawn[seen:]:
+                        if k in todo:
+                            todo.remove(k)
+                            data = (self._spare / self.pictures[k][0]).read_bytes()
+                            write_atomic(paths[k], partial(_write_bytes, data))
+                    seen = len(drawn)
+                    if len(todo) == 1 and not pool.finished("pictures"):
+                        pool.poll(None)  # the one left is the child's: wait for it
+                        continue
+                if todo:
+                    k = todo.pop()
+                    self.pictures[k][1](paths[k])
+        finally:
+            self.close()
+        return paths
+
+    def close(self) -> None:
+        """Stop the child and remove its directory."""
+        self._closed()
+
+
+def _draw_each(drawn: list[tuple[str, Callable[[Path], None]]], into: Path) -> Iterator[int]:
+    """In the forked child: draw each picture into the directory into, in order, yielding its index."""
+    for k, (name, draw) in enumerate(drawn):
+        draw(into / name)
+        yield k
+
+
+def _write_bytes(data: bytes, path: str) -> None:
+    Path(path).write_bytes(data)
+
+
+def _discard(pool: Forked | None, spare: Path) -> None:
+    """PictureDrawing's end: its child killed, its directory removed."""
+    if pool is not None:
+        pool.close()
+    shutil.rmtree(spare, ignore_errors=True)
 
 
 def layout_summary(layout: Layout, tiling: Tiling, execution: Execution | None,
@@ -105,7 +250,13 @@ def tile_layout(layout: Layout, options: TilingOptions,
     execute the solved tiling on the arm, every piece in order, each aimed by its landing where its
     scene says so (sim.tiling.tile_aimed)."""
     check_tiling_options(options)
-    tiling, aimed = tile_aimed(layout, options, progress)
+    drawings: list[PictureDrawing] = []  # each solved tiling's pictures, drawn while it is aimed
+    tiling, aimed = tile_aimed(layout, options, progress, solved=lambda t: drawings.append(PictureDrawing(layout, t)))
+    drawing = next((d for d in drawings if d.tiling is tiling), None)
+    for d in drawings:
+        if d is not drawing:
+            d.close()
     if aimed is None:
-        return TiledLayout(layout, tiling)
-    return TiledLayout(layout, tiling, aimed.execution, aimed.short)
+        return TiledLayout(layout, tiling, drawing=drawing)
+    return TiledLayout(layout, tiling, aimed.execution, aimed.short, drawing,
+                       ExportAhead(tiling, aimed.execution))
