@@ -123,7 +123,7 @@ def certified(pick_file):
 @pytest.mark.slow
 def test_certify_keeps_the_highest_wilson_lower_bound_among_its_candidates(certified):
     scene, result = certified
-    assert [c.source.label() for c in result.candidates] == ["RRTstar cost seed 1", "lattice cost"]
+    assert [c.source.label() for c in result.candidates] == ["RRTstar margin seed 1", "lattice margin"]  # the scene's objective
     simulated = [c for c in result.candidates if c.simulated]
     assert simulated and result.certified
     for c in simulated:

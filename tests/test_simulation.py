@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 import yaml
 
-from conftest import SCENES, SINKING_BOUND_MM, assert_picture, run_cli
+from conftest import SCENES, SINKING_BOUND_MM, assert_picture, pick_before_0107, run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import Plan
@@ -657,14 +657,15 @@ def test_a_grasp_off_across_gb_turns_the_pick_further_unless_a_stays_inside_its_
     across the plane form a narrow triangle, widest at B; a grasp 0.7 mm off across GB puts A's push
     outside it where the plan lets A come near G (planning.across_margin 0, which turns A's dome
     toward G at d 0.77 before sliding it away), and the pick turns out of the plane several times
-    further than where the shipped plan keeps A 1 mm inside the supports (pressed). Both place it."""
-    import yaml
-
-    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    further than where the plan keeps A 1 mm inside the supports (pressed). Both place it. The
+    pick from its start before decision 0107, where the margin binds: from the shipped start, d
+    0.65, A stays well inside the supports either way."""
+    doc = pick_before_0107()
+    kept = Scene.from_dict(pick_before_0107(), source="across margin kept")
     doc["planning"]["across_margin"] = 0.0
     across = replace(TrialParams(), shift_across_mm=-0.7)
     rolls = []
-    for scene in (Scene.from_file(SCENES / "guitar_pick.yaml"), Scene.from_dict(doc, source="no across margin")):
+    for scene in (kept, Scene.from_dict(doc, source="no across margin")):
         result = plan(scene, planner="lattice")
         ex = execute(scene, result)
         r = run_trial(trial_setup(scene, result, ex.trajectory, ex.robot), across)
