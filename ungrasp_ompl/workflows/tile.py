@@ -101,19 +101,32 @@ def export_files(tiling: Tiling, execution: Execution, out: str | os.PathLike[st
     return files
 
 
-class ExportAhead:
-    """TiledLayout.export's files (export_files) written by a forked copy of this process into a
-    directory of its own, from the moment this is made (where the platform forks: parallel.forked);
-    moved() moves them into place. They are the files export_files writes here."""
+class _Ahead:
+    """Work of this process done ahead by a forked copy of it (where the platform forks:
+    parallel.forked) into a directory of its own, spare; close() stops the child and removes the
+    directory (also when this is dropped)."""
+
+    def __init__(self, prefix: str, key: str, fn: Callable, *args, stream: bool = False):
+        self._spare = Path(tempfile.mkdtemp(prefix=prefix))
+        self._pool = Forked(1) if can_fork() else None
+        if self._pool is not None:
+            self._pool.submit(key, fn, *args, self._spare, stream=stream)
+        self._closed = weakref.finalize(self, _discard, self._pool, self._spare)
+
+    def close(self) -> None:
+        """Stop the child and remove its directory."""
+        self._closed()
+
+
+class ExportAhead(_Ahead):
+    """TiledLayout.export's files (export_files) written ahead by a forked copy of this process
+    (_Ahead) from the moment this is made; moved() moves them into place. They are the files
+    export_files writes here."""
 
     def __init__(self, tiling: Tiling, execution: Execution):
         self.execution = execution
         """The execution exported."""
-        self._spare = Path(tempfile.mkdtemp(prefix="ungrasp_ompl_export_"))
-        self._pool = Forked(1) if can_fork() else None
-        if self._pool is not None:
-            self._pool.submit("export", export_files, tiling, execution, self._spare)
-        self._closed = weakref.finalize(self, _discard, self._pool, self._spare)
+        super().__init__("ungrasp_ompl_export_", "export", export_files, tiling, execution)
 
     def moved(self, out: str | os.PathLike[str]) -> dict[str, Path] | None:
         """Wait for the files and move each into out (atomically); their paths by kind, or None
@@ -130,10 +143,6 @@ class ExportAhead:
             return moved
         finally:
             self.close()
-
-    def close(self) -> None:
-        """Stop the child and remove its directory."""
-        self._closed()
 
 
 def _move(source: Path, target: Path) -> None:
@@ -152,22 +161,17 @@ def pictures(layout: Layout, tiling: Tiling) -> list[tuple[str, Callable[[Path],
     return out
 
 
-class PictureDrawing:
-    """A tiling's pictures (pictures()), drawn one after the other, in order, by a forked copy of
-    this process into a directory of its own, from the moment this is made (where the platform
-    forks: parallel.forked); write() moves those drawn into place and draws the others itself,
-    from the last, so that the two processes share what is left. The pictures are the same files
-    whichever process draws them."""
+class PictureDrawing(_Ahead):
+    """A tiling's pictures (pictures()), drawn one after the other, in order, ahead by a forked copy
+    of this process (_Ahead) from the moment this is made; write() moves those drawn into place and
+    draws the others itself, from the last, so that the two processes share what is left. The
+    pictures are the same files whichever process draws them."""
 
     def __init__(self, layout: Layout, tiling: Tiling):
         self.tiling = tiling
         """The tiling drawn."""
         self.pictures = pictures(layout, tiling)
-        self._spare = Path(tempfile.mkdtemp(prefix="ungrasp_ompl_pictures_"))
-        self._pool = Forked(1) if can_fork() else None
-        if self._pool is not None:
-            self._pool.submit("pictures", _draw_each, self.pictures, self._spare, stream=True)
-        self._closed = weakref.finalize(self, _discard, self._pool, self._spare)
+        super().__init__("ungrasp_ompl_pictures_", "pictures", _draw_each, self.pictures, stream=True)
 
     def write(self, out: str | os.PathLike[str]) -> list[Path]:
         """Write every picture into out (each atomically); returns their paths, in order."""
@@ -183,8 +187,7 @@ class PictureDrawing:
                     for k in drawn[seen:]:
                         if k in todo:
                             todo.remove(k)
-                            data = (self._spare / self.pictures[k][0]).read_bytes()
-                            write_atomic(paths[k], partial(_write_bytes, data))
+                            _move(self._spare / self.pictures[k][0], paths[k])
                     seen = len(drawn)
                     if len(todo) == 1 and not pool.finished("pictures"):
                         pool.poll(None)  # the one left is the child's: wait for it
@@ -196,10 +199,6 @@ class PictureDrawing:
             self.close()
         return paths
 
-    def close(self) -> None:
-        """Stop the child and remove its directory."""
-        self._closed()
-
 
 def _draw_each(drawn: list[tuple[str, Callable[[Path], None]]], into: Path) -> Iterator[int]:
     """In the forked child: draw each picture into the directory into, in order, yielding its index."""
@@ -208,12 +207,8 @@ def _draw_each(drawn: list[tuple[str, Callable[[Path], None]]], into: Path) -> I
         yield k
 
 
-def _write_bytes(data: bytes, path: str) -> None:
-    Path(path).write_bytes(data)
-
-
 def _discard(pool: Forked | None, spare: Path) -> None:
-    """PictureDrawing's end: its child killed, its directory removed."""
+    """_Ahead's end: its child killed, its directory removed."""
     if pool is not None:
         pool.close()
     shutil.rmtree(spare, ignore_errors=True)
