@@ -21,7 +21,8 @@ TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campa
           "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2", "campaigns_margin_seed2_planner_only",
           "campaigns_curved_previous", "campaigns_pick_previous_start", "campaigns_curved_with_p_dpsi",
           "campaigns_curved_worlds_with_p_dpsi", "campaigns_drake_pick_previous_start",
-          "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin")
+          "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin",
+          "campaigns_drake_point_thumb")
 #: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
 ENGINE_KEYS = ("mujoco", "fisher_p")
 

@@ -220,6 +220,52 @@ def test_a_flat_finger_pushes_the_pick_along_the_picks_face_normal():
             assert off < 2.0, f"the finger's contact normal is {off:.1f} deg off the pick's face normal"
 
 
+@pytest.mark.parametrize("pad", (True, False))
+def test_the_thumb_touches_the_picks_end_in_a_patch_across_the_plane(pad, monkeypatch):
+    """The pick's end pressed 0.03 mm into the thumb's face, the pick leaning 20 deg off the face as
+    in the grasp: with the thumb's pad (sim.drake_world.thumb_pad) Drake meets it in one patch
+    along the face's normal (within 2 deg) that spreads across the manipulation plane (over 1
+    mm along the thumb's width), so that it can carry a couple about the plane's lines, as the
+    several contacts MuJoCo gives the face do; the thumb's mesh in point contact (THUMB_PAD off)
+    touches it at a single point (docs/model.md 11.19, record 0109)."""
+    import pydrake.all as drake
+
+    monkeypatch.setattr(drake_world, "THUMB_PAD", pad)
+    spec = _spec("guitar_pick")
+    dw = drake_world.build(describe(spec), drake.PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((6, 2))),
+                           drake.PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((1, 2))), np.eye(3))
+    plant, ctx, sg = dw.plant, dw.plant_context, dw.scene_graph
+    dw.jaw_joints["thumb"].set_translation(ctx, -0.01)
+    dw.jaw_joints["finger"].set_translation(ctx, 0.01)
+    thumb = plant.EvalBodyPoseInWorld(ctx, dw.bodies["thumb"])
+    outline = spec.obj.outline
+    end = np.array([*outline[np.argmax(outline[:, 0])], 0.0])  # B: the outline's far end, its lower edge
+    lean = math.radians(20.0)
+    # in the thumb's frame: the pick's x (toward B) into the face, its top face (z) away from it
+    ex = np.array([-math.sin(lean), 0.0, math.cos(lean)])
+    ez = np.array([math.cos(lean), 0.0, math.sin(lean)])
+    rot = np.column_stack([ex, np.cross(ez, ex), ez])
+    at = np.array([-3e-5, 0.0, spec.gripper.thumb_length - 0.005])
+    pose = thumb.multiply(drake.RigidTransform(drake.RotationMatrix(rot), at - rot @ end))
+    plant.SetFreeBodyPose(ctx, dw.bodies["object"], pose)
+    query = sg.get_query_output_port().Eval(sg.GetMyContextFromRoot(dw.simulator.get_context()))
+    surfaces, pairs = query.ComputeContactSurfacesWithFallback(drake.HydroelasticContactRepresentation.kPolygon)
+    mine = {"object", "thumb"}
+    points = [p for p in pairs if {dw.geoms.get(p.id_A), dw.geoms.get(p.id_B)} == mine]
+    patches = [s for s in surfaces if {dw.geoms.get(s.id_M()), dw.geoms.get(s.id_N())} == mine]
+    if not pad:
+        assert len(points) == 1 and not patches
+        return
+    assert not points and len(patches) == 1
+    mesh = patches[0].poly_mesh_W()
+    normal = sum(mesh.area(f) * mesh.face_normal(f) for f in range(mesh.num_faces()))
+    face = thumb.rotation().col(0)
+    off = math.degrees(math.acos(min(1.0, abs(float(normal @ face)) / float(np.linalg.norm(normal)))))
+    assert off < 2.0
+    across = np.array([mesh.vertex(v) for v in range(mesh.num_vertices())]) @ thumb.rotation().col(1)
+    assert np.ptp(across) > 1e-3
+
+
 @pytest.mark.slow
 def test_a_flat_finger_tip_holds_the_pick_through_the_settling():
     """The pick's flat-tip trial 9 of seed 1 (its `paper` errors; the lattice's plan) stays in the

@@ -345,6 +345,9 @@ def main() -> None:
                     help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
                                                      "their contact forces logged in both engines")
+    ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
+                    help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
+                         "point: its mesh's point contact, the builder before the thumb's pad")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
@@ -358,7 +361,7 @@ def main() -> None:
     if drake and args.table is None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
-        contact_forces(args.contacts, args.seed)
+        contact_forces(args.contacts, args.seed, args.thumb)
         return
     TIMESTEP = args.timestep
     COMPOUNDED_FRICTION = args.compounded_friction
@@ -713,20 +716,24 @@ def _summary(log: list, mu_g: float, result) -> dict:
             "held_until_s": float(held[-1][0]) if held else None,
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
-            "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None}
+            "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg}
 
 
-def contact_forces(which: str, seed: int) -> None:
+def contact_forces(which: str, seed: int, thumb: str = "pad") -> None:
     """Trials of the base rows (OBJECT:TRIAL,...) in both engines with their contact forces logged;
-    their summaries into docs/results/campaigns_drake_contacts.json."""
+    their summaries into docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches
+    the object in Drake (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made."""
     import shlex
 
     from campaign_results import merge_study
 
     from ungrasp_ompl.scene.perturbation import trial_params
     from ungrasp_ompl.sim import trial as mj_trial
+    from ungrasp_ompl.sim import drake_world
     from ungrasp_ompl.sim.drake_trial import run_drake_trial
 
+    drake_world.THUMB_PAD = thumb == "pad"
+    engines = ("mujoco", "drake") if thumb == "pad" else ("drake",)
     started = time.perf_counter()
     rows = []
     for item in which.split(","):
@@ -736,22 +743,31 @@ def contact_forces(which: str, seed: int) -> None:
         params = trial_params(PRESETS["paper"], seed, int(k) + 1)[int(k)]
         mu_g = mj_trial.trial_spec(setup, params).friction.table
         logs: dict[str, list] = {"mujoco": [], "drake": []}
-        watch = mj_trial._Watch
-        mj_trial._Watch = _mujoco_forces(logs["mujoco"])
-        try:
-            results = {"mujoco": mj_trial.run_trial(setup, params, int(k), seed)}
-        finally:
-            mj_trial._Watch = watch
-        results["drake"] = run_drake_trial(setup, params, int(k), seed, contact_log=logs["drake"])
-        for engine in ("mujoco", "drake"):
+        poses: dict[str, list] = {"mujoco": [], "drake": []}
+        results = {}
+        if "mujoco" in engines:
+            watch = mj_trial._Watch
+            mj_trial._Watch = _mujoco_forces(logs["mujoco"])
+            try:
+                results["mujoco"] = mj_trial.run_trial(setup, params, int(k), seed, record=poses["mujoco"])
+            finally:
+                mj_trial._Watch = watch
+        results["drake"] = run_drake_trial(setup, params, int(k), seed, record=poses["drake"],
+                                           contact_log=logs["drake"])
+        for engine in engines:
             row = _summary(logs[engine], mu_g, results[engine])
-            rows.append({"label": f"{name} trial {k}, {engine}", "object": name, "trial": int(k), "engine": engine,
-                         **row})
+            # how far the object lies out of the manipulation plane when the drive starts, the settling done
+            row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
+            label = f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
+            rows.append({"label": label, "object": name, "trial": int(k),
+                         "engine": engine if thumb == "pad" else f"{engine} (thumb point)", **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
     formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
                "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
-               "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}"}
-    path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", "contacts",
+               "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
+               "roll_start_deg": "{:.2f}"}
+    path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json",
+                       "contacts" if thumb == "pad" else "contacts_thumb_point",
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
                        rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials")
     print(f"wrote {path}")

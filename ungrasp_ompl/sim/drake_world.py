@@ -7,17 +7,22 @@ each contact pair's model chosen by what it is (docs/model.md 11.19).
   body on a compliant table), which spreads the force over the patch where the two lie on each
   other; a point contact there carries a resting object on one point that jumps from corner to
   corner.
-* The digits (the thumb, the finger, a rounded finger's dome) make point contact with the object:
-  they carry no hydroelastic representation, and Drake falls back to point contact for their
-  pairs. A 1 mm dome pressed by a few newtons into a thin prism needs the contact's stiffness from
-  Hertz (POINT_STIFFNESS), not from a pressure field across the prism's half-thickness, which it
-  sinks through; compliant hydroelastic faces (PLA, a pressure field fanned from the digit's
-  centroid) threw the pick out of the pinch in the settling, the thumb's force jumping from 1.3 N
-  to 16 N within a millisecond as the object's edge crossed between the field's tetrahedra.
-  Drake computes these point contacts with FCL's MPR (Minkowski portal refinement), which finds
-  the penetration along the line between the two shapes' centres, not the least one: right for
-  the dome on the object's face, wrong (normals tens of degrees off, depths several times too
-  deep) for a face lying on the object's face or a dome over its rim.
+* A rounded finger's dome makes point contact with the object: it carries no hydroelastic
+  representation, and Drake falls back to point contact for its pair. A 1 mm dome pressed by a
+  few newtons into a thin prism needs the contact's stiffness from Hertz (POINT_STIFFNESS), not
+  from a pressure field across the prism's half-thickness, which it sinks through. Drake computes
+  the point contact with FCL's MPR (Minkowski portal refinement), which finds the penetration
+  along the line between the two shapes' centres, not the least one: right for the dome on the
+  object's face, wrong (normals tens of degrees off, depths several times too deep) for a face
+  lying on the object's face or a dome over its rim.
+* The thumb touches the object with a pad (thumb_pad): a compliant hydroelastic box behind its
+  face, flush with it. A point contact there holds the object's end at one point, about which the
+  pinch lets it turn out of the plane (the pick turned 4 deg further than in MuJoCo before the
+  drive began, and the jaws closed past the plan's opening); the pad's patch carries the couple
+  the face's several contacts carry in MuJoCo. Compliant faces over the thumb's whole mesh (a
+  pressure field fanned from its centroid) threw the pick out of the pinch instead, the force
+  jumping from 1.3 N to 16 N within a millisecond as the object's edge crossed between the
+  field's tetrahedra; a box's field rises with the depth behind its face.
 * A flat finger (no dome) touches the object with a pad instead (flat_pad): a compliant
   hydroelastic box behind its face, through its tip edge and leaning back FACE_DRAFT, so that it
   presses along its edge, a patch on the object's face, as the plan's A. Its contact with the
@@ -81,6 +86,10 @@ HOUSING_MODULUS = 3.0e9
 #: A flat finger's pad (flat_pad): how fast its pressure rises with depth (Pa/m, its hydroelastic
 #: modulus over its half depth), the table's: the stiffest SAP keeps a flat object still on.
 PAD_GRADIENT = TABLE_MODULUS / TABLE_SLAB
+#: Whether the thumb touches the object with its pad (thumb_pad); False gives its mesh a point
+#: contact instead, as the builder did before the pad, for the comparison of the two in
+#: tools/sim_campaigns.py --contacts --thumb point (docs/model.md 11.19).
+THUMB_PAD = True
 #: SAP's near-rigid threshold (its default).
 NEAR_RIGID = 1.0
 #: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes, half spaces
@@ -298,8 +307,8 @@ def _add_palm(drake, plant, world: WorldDescription, palm_base: NDArray, geoms: 
 
 def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
     """The two jaws sliding on the palm, coupled, each digit on its bend spring: the gripper's
-    model instance, the bodies by name (the palm's too), the jaws' joints by jaw and a flat
-    finger's pad (GeometryId -> PAD_GRADIENT; none for a rounded finger)."""
+    model instance, the bodies by name (the palm's too), the jaws' joints by jaw and the digits'
+    pads (GeometryId -> PAD_GRADIENT): the thumb's (thumb_pad), and a flat finger's (flat_pad)."""
     X = drake.RigidTransform
     gripper = plant.AddModelInstance("gripper")
     bodies = {"palm": palm}
@@ -323,13 +332,17 @@ def _add_jaws(drake, plant, world: WorldDescription, palm, geoms: dict):
             gid = plant.RegisterCollisionGeometry(body, pose, shape, geom.name, _properties(
                 drake, geom, geometry_friction(geom.friction), None))
             geoms[gid] = geom.name
-        if jaw is world.finger and world.dome is None:
-            half, pose, modulus = flat_pad(world)
+        if jaw is world.thumb:
+            pad = thumb_pad(world) if THUMB_PAD else None
+        else:
+            pad = flat_pad(world) if world.dome is None else None
+        if pad is not None:
+            half, pose, modulus = pad
             geom = digit.geoms[0]
             props = _properties(drake, geom, geometry_friction(geom.friction), "compliant", modulus,
                                 relaxation=OBJECT_RELAXATION_TIME)
             gid = plant.RegisterCollisionGeometry(body, drake.RigidTransform(pose), drake.Box(*(2 * half)),
-                                                  "finger_pad", props)
+                                                  f"{digit.name}_pad", props)
             geoms[gid], pads[gid] = geom.name, PAD_GRADIENT
         bodies[jaw.name + "_jaw"], bodies[digit.name] = carriage, body
     plant.AddCouplerConstraint(jaw_joints["thumb"], jaw_joints["finger"], -1.0, 0.0)
@@ -351,6 +364,21 @@ def flat_pad(world: WorldDescription) -> tuple[NDArray[np.float64], NDArray[np.f
     pose = np.eye(4)
     pose[:3, :3] = lean
     pose[:3, 3] = np.array([0.0, 0.0, g.finger_length]) + lean @ np.array([half[0], 0.0, -half[2]])
+    return half, pose, PAD_GRADIENT * float(half.min())
+
+
+def thumb_pad(world: WorldDescription) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """The thumb's pad, its contact with the object in Drake (docs/model.md 11.19): a box behind
+    the thumb's face, as deep as its tip is thick, as wide as the thumb and as long, its face the
+    thumb's face (x = 0 of the thumb's frame, flush), compliant as a flat finger's pad (flat_pad),
+    so that the object's end meets it in a patch that carries a couple across the plane, as the
+    face's several contacts do in MuJoCo. Its half sizes (3,), its pose in the thumb's frame (4x4,
+    m: x from the face into the thumb is -x, z from the palm to the tip) and its hydroelastic
+    modulus (Pa)."""
+    g = world.spec.gripper
+    half = np.array([g.thumb_tip_thickness / 2, g.width / 2, g.thumb_length / 2])
+    pose = np.eye(4)
+    pose[:3, 3] = np.array([-half[0], 0.0, half[2]])
     return half, pose, PAD_GRADIENT * float(half.min())
 
 
