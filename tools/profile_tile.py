@@ -3,12 +3,18 @@
 `python -m cProfile -m ungrasp_ompl tile ...` writes no profile, because the command leaves through
 os._exit; this runs the same command line (cli.run) under cProfile in this process instead:
 
-    python tools/profile_tile.py [scenes/tangram.yaml] [--out DIR] [--prof FILE] [--serial] [-- more tile arguments]
+    python tools/profile_tile.py [scenes/tangram.yaml] [--out DIR] [--prof FILE] [--serial] [--sample S] [-- more tile arguments]
 
 It prints the cumulative seconds of each phase (the search's screens and proofs, planning per
 piece, execution, export, pictures) and the top functions by cumulative time. The pieces' plans
 and the pictures are made in forked processes, which the profile does not see (it shows this
 process waiting for them); --serial makes everything here, in turn, as one process would.
+
+cProfile charges every Python call, so code making many small calls (the planners' callbacks,
+the force-closure checks) looks dearer than it is beside numpy's large operations. --sample S
+profiles instead by sampling this process's stack every S seconds (a thread; the profiler is
+off): it prints each function's share of the samples, inclusive and its own, which is its share
+of the wall time. With --serial that is the share of the whole command's work.
 """
 
 from __future__ import annotations
@@ -18,7 +24,9 @@ import cProfile
 import pstats
 import sys
 import tempfile
+import threading
 import time
+from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,6 +54,8 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="output directory (default: a temporary one)")
     parser.add_argument("--prof", default="/tmp/tile.prof", help="where to write the profile")
     parser.add_argument("--top", type=int, default=40, help="functions listed by cumulative time")
+    parser.add_argument("--sample", type=float, default=None, metavar="S",
+                        help="sample the stack every S seconds instead of cProfile (see above)")
     parser.add_argument("--serial", action="store_true",
                         help="plan the pieces and draw the pictures in this process (no forked processes)")
     argv = sys.argv[1:]
@@ -61,6 +71,9 @@ def main() -> None:
         tiler.default_jobs = lambda: 1
         workflow.can_fork = lambda: False
     out = args.out or tempfile.mkdtemp(prefix="profile_tile_")
+    if args.sample is not None:
+        sampled(lambda: run(["tile", args.layout, "--out", out, *rest]), args.sample, args.top)
+        return
     profiler = cProfile.Profile()
     t0 = time.perf_counter()
     code = profiler.runcall(run, ["tile", args.layout, "--out", out, *rest])
@@ -78,6 +91,42 @@ def main() -> None:
         seconds, calls = by_phase.get(phase, (0.0, 0))
         print(f"{phase:<42} {seconds:7.2f} s  {calls:5d} calls", file=sys.stderr)
     stats.sort_stats("cumulative").print_stats(args.top)
+
+
+def sampled(call, period: float, top: int) -> None:
+    """Run call() while a thread samples the calling thread's stack every period seconds; print
+    the top functions by their share of the samples (inclusive, and their own)."""
+    stacks: Counter[tuple[str, ...]] = Counter()
+    target, done = threading.get_ident(), threading.Event()
+
+    def sample() -> None:
+        while not done.wait(period):
+            frame, stack = sys._current_frames().get(target), []
+            while frame is not None:
+                code = frame.f_code
+                stack.append(f"{Path(code.co_filename).name}:{code.co_name}")
+                frame = frame.f_back
+            stacks[tuple(stack)] += 1
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+    t0 = time.perf_counter()
+    try:
+        code = call()
+    finally:
+        done.set()
+        sampler.join()
+    total = max(sum(stacks.values()), 1)
+    inclusive: Counter[str] = Counter()
+    own: Counter[str] = Counter()
+    for stack, n in stacks.items():
+        for name in set(stack):
+            inclusive[name] += n
+        own[stack[0]] += n
+    print(f"\nexit {code}; {time.perf_counter() - t0:.2f} s, {total} samples", file=sys.stderr)
+    print(f"{'inclusive':>9} {'own':>6}  function", file=sys.stderr)
+    for name, n in inclusive.most_common(top):
+        print(f"{100 * n / total:8.1f}% {100 * own[name] / total:5.1f}%  {name}", file=sys.stderr)
 
 
 if __name__ == "__main__":
