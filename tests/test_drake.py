@@ -328,3 +328,142 @@ def test_the_table_carries_a_resting_objects_weight_and_no_more():
     fx, fy, fz = np.mean([forces["table"] for _, forces in log[-50:]], axis=0)
     assert fz == pytest.approx(mass * 9.81, rel=5e-3)
     assert math.hypot(fx, fy) < 0.01 * fz
+
+
+def _tangram_piece(name: str):
+    """A shipped tangram piece as a simulated object (its outline about its centroid, 3 mm plywood)."""
+    import yaml
+
+    from ungrasp_ompl.sim.spec import SimObject
+
+    doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
+    piece = next(p for p in doc["pieces"] if p["name"] == name)
+    return SimObject(np.array(piece["outline"]["polygon"], dtype=float), piece["thickness"], doc["sim"]["density"], None)
+
+
+def _at(x: float, y: float, z: float) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, 3] = [x, y, z]
+    return pose
+
+
+def test_a_piece_downs_field_fills_its_prism_and_rises_alike_below_every_face():
+    """sim.drake_world.placed_field: the tetrahedra, each of positive volume, fill the piece's
+    prism exactly, and the modulus is PAD_GRADIENT times half the thickness (the pressure at the
+    mid layer, half the thickness below every face)."""
+    from scipy.spatial import ConvexHull
+
+    from ungrasp_ompl.sim.spec import prism
+
+    for name in ("large_triangle_1", "square", "parallelogram"):
+        obj = _tangram_piece(name)
+        vertices = prism(obj.outline, 0.0, obj.thickness)
+        points, tets, modulus = drake_world.placed_field(vertices)
+        a, b, c, d = (points[tets[:, i]] for i in range(4))
+        volumes = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6
+        assert volumes.min() > 0, name
+        assert volumes.sum() == pytest.approx(ConvexHull(vertices).volume, rel=1e-9), name
+        assert modulus == pytest.approx(drake_world.PAD_GRADIENT * obj.thickness / 2, rel=1e-12)
+        inner = np.isclose(points[:, 2], obj.thickness / 2, rtol=0.0, atol=1e-12)
+        assert inner.sum() == len(obj.outline) + 1, name  # the inset outline and its centre
+
+
+def test_the_pieces_down_are_what_both_engines_build():
+    """A layout's pieces already down (the description's placed FreeBodies) in both builders: the
+    same masses and starting poses, MuJoCo's and Drake's contact readers count them as solids, a
+    piece's field meets the object with the solids' pair coefficient and its hull the table with
+    the table's, through Drake's combination of two coefficients."""
+    import mujoco
+    import pydrake.all as drake
+
+    spec = _spec("puzzle_piece")
+    placed = (("square", _tangram_piece("square"), _at(0.40, 0.05, -1e-5)),
+              ("parallelogram", _tangram_piece("parallelogram"), _at(0.50, 0.05, -1e-5)))
+    spec = replace(spec, placed=placed)
+    world = describe(spec)
+    assert [b.name for b in world.placed] == ["placed0", "placed1"]
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    ids = model_ids(model)
+    dw = drake_world.build(world, drake.PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((6, 2))),
+                           drake.PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((1, 2))), np.eye(3))
+    ctx = dw.plant_context
+    inspector = dw.scene_graph.model_inspector()
+    obj = next(g for g, k in dw.geoms.items() if k == "object")
+    mu_object = inspector.GetProximityProperties(obj).GetProperty("material", "coulomb_friction")
+    for k, body in enumerate(world.placed):
+        mj = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)
+        assert mj in ids.placed_bodies
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, body.name) in ids.solid_geoms
+        rigid = dw.bodies[body.name]
+        assert rigid.get_mass(ctx) == pytest.approx(model.body_mass[mj], rel=1e-6)
+        pose = dw.plant.EvalBodyPoseInWorld(ctx, rigid).GetAsMatrix4()
+        assert np.allclose(pose, placed[k][2], atol=1e-12)
+        gids = dw.plant.GetCollisionGeometriesForBody(rigid)
+        assert len(gids) == 2 and all(dw.geoms[g] == "solid" for g in gids)
+        # its field meets the object with the solids' pair coefficient, its hull the table with the
+        # object's pair coefficient there (as MuJoCo's larger of the two, both mu_G)
+        table = next(g for g, k in dw.geoms.items() if k == "table")
+        mu_table = inspector.GetProximityProperties(table).GetProperty("material", "coulomb_friction")
+        hull, field_ = sorted(gids, key=lambda g: inspector.GetName(g).endswith("_field"))
+        for g, other, pair in ((field_, mu_object, spec.friction.solids), (hull, mu_table, spec.friction.table)):
+            mu = inspector.GetProximityProperties(g).GetProperty("material", "coulomb_friction")
+            combined = drake.CalcContactFrictionFromSurfaceProperties(other, mu)
+            assert combined.dynamic_friction() == pytest.approx(pair, rel=1e-12)
+
+
+def test_a_piece_down_dropped_flat_from_a_millimetre_rests_where_it_fell():
+    """A tangram piece already down, dropped flat 1 mm above the table (the object parked 0.25 m
+    away, the hand a metre above), lies after 0.3 s on the table within 0.06 mm of below where it
+    was dropped, flat: its hull's rigid hydroelastic patch on the table (sim.drake_world). The
+    large triangle, 3 mm of plywood on the table's friction, is put down 0.051 mm off as it lands
+    and stays there: the objects' drops are held to 0.05 mm, and a piece down lies within a
+    sixtieth of the placements' 3 mm verdict."""
+    spec = _spec("puzzle_piece")
+    for name in ("large_triangle_1", "small_triangle_2"):
+        drop = _at(0.45, 0.0, 0.001)
+        out: list = []
+        settle_object(replace(spec, placed=((name, _tangram_piece(name), drop),)), _at(0.45, 0.25, 0.001), 0.3,
+                      placed=out)
+        final = out[0]
+        moved = np.linalg.norm(final[:2, 3] - drop[:2, 3])
+        assert moved < 6e-5, f"{name}: moved {moved * 1000:.4f} mm"
+        assert abs(final[2, 3]) < 5e-5, f"{name}: rests {final[2, 3] * 1000:.4f} mm off the table's top"
+        assert math.degrees(math.acos(min(1.0, final[2, 2]))) < 0.05, name
+
+
+def test_the_object_pushed_against_a_piece_downs_side_meets_it_along_the_sides_normal():
+    """The object (a tangram-sized triangle) pushed 0.01-0.1 mm into the side of a square lying on
+    the table, at 40 poses (lifted up to 1 mm, slid along the side, turned by up to 0.3 deg about
+    the vertical and across): the pressure's resultant over their contact surface (the square's
+    compliant field, sim.drake_world.placed_field, on the object's faces) lies within 2 deg of
+    the side's normal, and the trial's contact reader counts the contact as a solid's. Point
+    contact by MPR (a rigid square) gave up to 10.8 deg at the same poses."""
+    import pydrake.all as drake
+
+    from ungrasp_ompl.sim.drake_trial import _DrakeWatch
+    from ungrasp_ompl.sim.spec import SimObject
+
+    side = 0.016  # a 32 mm square of 3 mm plywood, its side x = side facing +x
+    square = SimObject(np.array([[-side, -side], [side, -side], [side, side], [-side, side]]), 0.003, 650.0, None)
+    tri = SimObject(np.array([[0.0, -0.0225], [0.0, 0.0225], [0.0225, 0.0]]), 0.003, 650.0, None)
+    spec = replace(_spec("puzzle_piece"), obj=tri, placed=(("square", square, _at(0.0, 0.0, -1e-5)),))
+    dw = drake_world.build(describe(spec), drake.PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((6, 2))),
+                           drake.PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((1, 2))), np.eye(3))
+    ctx, sg_ctx = dw.plant_context, dw.scene_graph.GetMyContextFromRoot(dw.simulator.get_context())
+    dw.palm_joints[2].set_translation(ctx, 1.0)
+    watch = _DrakeWatch(dw)
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        depth, lift, slide = rng.uniform(1e-5, 1e-4), rng.uniform(1e-4, 1e-3), rng.uniform(-0.008, 0.008)
+        turn = drake.RotationMatrix.MakeZRotation(math.radians(rng.uniform(-0.3, 0.3))) @ \
+            drake.RotationMatrix.MakeYRotation(math.radians(rng.uniform(-0.3, 0.3)))
+        dw.plant.SetFreeBodyPose(ctx, dw.bodies["object"], drake.RigidTransform(turn, [side - depth, slide, lift]))
+        query = dw.scene_graph.get_query_output_port().Eval(sg_ctx)
+        surfaces, points = query.ComputeContactSurfacesWithFallback(drake.HydroelasticContactRepresentation.kPolygon)
+        assert not [p for p in points if {watch.kind.get(p.id_A), watch.kind.get(p.id_B)} == {"object", "solid"}]
+        (surface,) = [s for s in surfaces if {watch.kind.get(s.id_M()), watch.kind.get(s.id_N())} == {"object", "solid"}]
+        mesh, pressure = surface.poly_mesh_W(), surface.poly_e_MN()
+        resultant = sum(mesh.area(f) * pressure.EvaluateCartesian(f, mesh.element_centroid(f)) * mesh.face_normal(f)
+                        for f in range(mesh.num_faces()))
+        off = math.degrees(math.acos(min(1.0, abs(resultant[0]) / np.linalg.norm(resultant))))
+        assert off < 2.0, f"{off:.2f} deg off the side's normal"

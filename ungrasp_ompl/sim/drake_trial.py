@@ -96,6 +96,8 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     settled = False
     watch = _DrakeWatch(dw)
     track_m = track_rad = 0.0
+    placed = [dw.bodies[body.name] for body in dw.world.placed]
+    free = [obj, *placed]  # the free bodies whose stillness settles the trial, as MuJoCo's Stillness
 
     def frame(name: str) -> tuple[NDArray, NDArray]:
         pose = plant.EvalBodyPoseInWorld(ctx, dw.bodies[name])
@@ -118,9 +120,7 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
         if record is not None:
             record.append((t, _body_pose(plant, ctx, obj)))
         if record is None and t >= judge.lifting:
-            v = plant.EvalBodySpatialVelocityInWorld(ctx, obj)
-            velocity = np.concatenate([v.translational(), v.rotational()])[None, :]
-            if still.note(t, moving(velocity), watch.digit_touches_object()):
+            if still.note(t, moving(_velocities(plant, ctx, free)), watch.digit_touches_free()):
                 settled = True
                 break
         judge.tick(k, t, look, frame)
@@ -129,7 +129,8 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     final = _body_pose(plant, ctx, obj)
     if record is not None:
         record.append((float(drive.times[-1]) + setup.sim.rest_time, final))
-    result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall, [],
+    others = [_body_pose(plant, ctx, body).tolist() for body in placed]
+    result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall, others,
                           probed)
     return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
                             palm_tracking_deg=math.degrees(track_rad))
@@ -188,6 +189,15 @@ def _body_pose(plant, ctx, body) -> NDArray[np.float64]:
     return plant.EvalBodyPoseInWorld(ctx, body).GetAsMatrix4()
 
 
+def _velocities(plant, ctx, bodies: list) -> NDArray[np.float64]:
+    """The bodies' velocities (n, 6: linear m/s, angular rad/s; world), as sim.trial.moving reads them."""
+    out = []
+    for body in bodies:
+        v = plant.EvalBodySpatialVelocityInWorld(ctx, body)
+        out.append(np.concatenate([v.translational(), v.rotational()]))
+    return np.array(out)
+
+
 class _DrakeWatch:
     """The object's contacts at a control tick, from Drake's contact results, as the verdict reads
     them (sim.trial.read_contacts, which MuJoCo's sim.trial._Watch feeds too): who touches the
@@ -199,6 +209,9 @@ class _DrakeWatch:
         self.kind = dw.geoms
         self.pads = dw.pads
         self.object_id = next(g for g, k in dw.geoms.items() if k == "object")
+        #: the free bodies' geometries: the object's and the pieces' down (MuJoCo's Stillness watches them all)
+        self.free_ids = {self.object_id} | {g for body in dw.world.placed
+                                            for g in self.plant.GetCollisionGeometriesForBody(dw.bodies[body.name])}
         self.vertices = dw.world.object.geom.shape.vertices
         self.table_height = dw.world.table_height
         self._results = None
@@ -276,6 +289,21 @@ class _DrakeWatch:
     def digit_touches_object(self) -> bool:
         return any(touch.kind in DIGIT_KINDS for touch in self._contacts()[0])
 
+    def digit_touches_free(self) -> bool:
+        """Whether a digit touches the object or a piece down (sim.trial.Stillness' rule)."""
+        if self.digit_touches_object():
+            return True
+        if len(self.free_ids) == 1:
+            return False
+        results = self.plant.get_contact_results_output_port().Eval(self.ctx)
+        pairs = [(results.point_pair_contact_info(i).point_pair().id_A, results.point_pair_contact_info(i).point_pair().id_B)
+                 for i in range(results.num_point_pair_contacts())]
+        pairs += [(results.hydroelastic_contact_info(i).contact_surface().id_M(),
+                   results.hydroelastic_contact_info(i).contact_surface().id_N())
+                  for i in range(results.num_hydroelastic_contacts())]
+        return any((a in self.free_ids and self.kind.get(b) in DIGIT_KINDS)
+                   or (b in self.free_ids and self.kind.get(a) in DIGIT_KINDS) for a, b in pairs)
+
     def _depth(self, touch: Touch) -> float:
         """How deep the object reaches into the other geometry of a hydroelastic contact (m): into
         the table, its lowest vertex's depth; into a digit's face, their signed distance."""
@@ -300,12 +328,14 @@ class _DrakeWatch:
 
 
 def settle_object(spec, pose: NDArray, duration: float, time_step: float | None = None,
-                  record: list | None = None, contact_log: list | None = None) -> NDArray[np.float64]:
+                  record: list | None = None, contact_log: list | None = None,
+                  placed: list | None = None) -> NDArray[np.float64]:
     """The object of spec put at pose (4x4) and left to gravity and the table for duration (s) in
-    Drake, the hand parked a metre above, still: its pose at the end (4x4). record: when a list is
-    given, (time s, pose) every control period (2 ms); contact_log: (time s, the forces on the
-    object by kind, averaged over the period's steps: _period_forces), as often. The drop test of
-    tests/test_drake.py."""
+    Drake, with spec's pieces down (spec.placed, each starting at its pose), the hand parked a
+    metre above, still: its pose at the end (4x4). record: when a list is given, (time s, pose)
+    every control period (2 ms); contact_log: (time s, the forces on the object by kind, averaged
+    over the period's steps: _period_forces), as often; placed: the pieces' poses (4x4) at the end
+    are appended to it, in spec.placed's order. The drop tests of tests/test_drake.py."""
     from .drake_world import build, require_drake
 
     drake = require_drake()
@@ -330,4 +360,6 @@ def settle_object(spec, pose: NDArray, duration: float, time_step: float | None 
                 contact_log.append((float(t), _period_forces(dw.simulator, watch, float(t), dt)))
             if record is not None:
                 record.append((float(t), _body_pose(plant, ctx, obj)))
+    if placed is not None:
+        placed.extend(_body_pose(plant, ctx, dw.bodies[body.name]) for body in dw.world.placed)
     return _body_pose(plant, ctx, obj)

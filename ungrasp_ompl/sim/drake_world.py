@@ -28,6 +28,23 @@ each contact pair's model chosen by what it is (docs/model.md 11.19).
   presses along its edge, a patch on the object's face, as the plan's A. Its contact with the
   object is computed from the two shapes' volumes, with no portal; the finger's own mesh does not
   touch the object, and the pad touches nothing else.
+* A piece already down (a layout's, world.placed) is a free body with two contact geometries,
+  each for the pairs whose model suits them. Its hull, rigid hydroelastic as the object, lies on
+  the compliant table in a patch (Drake has no hydroelastic contact of a compliant body with a
+  compliant half space: the table's pair with a compliant piece would fall back to point
+  contact, on the piece's corners) and meets the hand as the object does. Its field (placed_field),
+  compliant hydroelastic, its pressure rising with the depth below its nearest face at
+  PAD_GRADIENT (the table's and the pads'), meets the object, the walls and the other pieces' fields.
+  A rigid piece would meet the rigid object in a rigid-rigid pair, which Drake has no
+  hydroelastic model of: it falls back to point contact by MPR, whose normals for a face or an
+  edge against a face come out off (above). Compliant, it meets the object in a patch along the
+  faces' normals, the rigid walls in a patch, the other pieces in compliant-compliant patches.
+  Drake's own compliant convex field (fanned from the centroid) rises 2 x / t below a face across
+  the thickness t but x / r below a side face r from the centroid, ten times softer at a 3 mm
+  piece's edges; the mesh here rises alike below every face.
+* The fixed solids (the frame's walls, obstacles) are rigid hydroelastic: the object and the
+  digits meet them in point contact as before (a rigid-rigid pair, and no hydroelastic
+  representation), a piece's field and the housing in a patch.
 * The palm rides on six joints from the world (three slides along the world's axes, three
   hinges about axes fixed in the palm's first orientation), each driven by a stiff PD controller
   that SAP applies implicitly (an arm that goes where it is told, the weld of MuJoCo's model),
@@ -43,8 +60,10 @@ hydroelastic contact alike), where MuJoCo takes the larger. The object's geometr
 OBJECT_FRICTION and every other geometry the coefficient that makes the combination its pair's
 coefficient with the object (geometry_friction): mu OBJECT_FRICTION / (2 OBJECT_FRICTION - mu). SAP uses
 the dynamic coefficient; the static one is set equal. A digit on the table (a failure whatever its
-friction) then has 2 a b / (a + b) of the two geometries' values, not MuJoCo's larger coefficient.
-"""
+friction) then has 2 a b / (a + b) of the two geometries' values, not MuJoCo's larger coefficient;
+so has a piece down on a wall or on another piece. A piece's hull carries the object's
+coefficient, so that the piece lies on the table with the object's pair coefficient there, as in
+MuJoCo's model (the larger of the solids' and the table's, both mu_G)."""
 
 from __future__ import annotations
 
@@ -56,7 +75,7 @@ from numpy.typing import NDArray
 
 from ..errors import ToolError
 from .spec import FACE_DRAFT
-from .world_description import Box, Geom, Mesh, Sphere, WorldDescription
+from .world_description import Box, FreeBody, Geom, Mesh, Sphere, WorldDescription
 
 #: The coefficient the object's own geometry carries (any value above half the largest pair's
 #: coefficient serves: every other geometry's is solved from it, geometry_friction).
@@ -157,10 +176,11 @@ class DrakeWorld:
     palm_base: NDArray[np.float64]  #: the palm's first orientation (3, 3), the hinges' reference
     palm_source: object  #: the palm's desired state (TrajectorySource)
     jaw_source: object  #: the servo's desired state (TrajectorySource)
-    bodies: dict[str, object] = field(default_factory=dict)  #: object, palm, thumb, finger, thumb_jaw, finger_jaw
+    #: object, palm, thumb, finger, thumb_jaw, finger_jaw, and the pieces down by name (placed0, ...)
+    bodies: dict[str, object] = field(default_factory=dict)
     palm_joints: list = field(default_factory=list)
     jaw_joints: dict[str, object] = field(default_factory=dict)  #: thumb, finger
-    #: GeometryId -> object, table, thumb, finger, finger_tip, palm, solid
+    #: GeometryId -> object, table, thumb, finger, finger_tip, palm, solid (a wall, an obstacle or a piece down)
     geoms: dict[object, str] = field(default_factory=dict)
     #: GeometryId of a flat finger's pad -> how fast its pressure rises with depth (Pa/m)
     pads: dict[object, float] = field(default_factory=dict)
@@ -225,8 +245,6 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     drake = require_drake()
     if world.thumb.joint != "slide":
         raise ToolError("the Drake world builds the parallel gripper only (a pincer's hinged jaws are MuJoCo's)")
-    if world.placed:
-        raise ToolError("the Drake world has no objects already down (a layout's pieces are MuJoCo's)")
     dt = world.spec.timestep if time_step is None else time_step
     builder = drake.DiagramBuilder()
     plant, scene_graph = drake.AddMultibodyPlant(drake.MultibodyPlantConfig(
@@ -238,6 +256,11 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
     hand, palm, joints = _add_palm(drake, plant, world, palm_base, geoms)
     gripper, bodies, jaw_joints, pads = _add_jaws(drake, plant, world, palm, geoms)
     bodies["object"] = _add_object(drake, plant, world, geoms)
+    hulls, fields = [], []
+    for body in world.placed:
+        bodies[body.name], hull, compliant = _add_placed(drake, plant, body, geoms)
+        hulls.append(hull)
+        fields.append(compliant)
     _add_actuators(drake, plant, world, joints, jaw_joints)
     # the hand does not touch itself (MuJoCo's model excludes the same pairs)
     hand_set = plant.CollectRegisteredGeometries([palm, bodies["thumb"], bodies["finger"], bodies["thumb_jaw"],
@@ -249,6 +272,13 @@ def build(world: WorldDescription, palm_trajectory, jaw_trajectory, palm_base: N
         mesh = [g for g, kind in geoms.items() if kind == geoms[pad] and g != pad]
         filters.ExcludeBetween(drake.GeometrySet(mesh), drake.GeometrySet([obj]))
         filters.ExcludeBetween(drake.GeometrySet([pad]), drake.GeometrySet([g for g in geoms if g not in (obj, pad)]))
+    if hulls:  # a piece down: its hull on the table and the hand, its field on the object, the walls, the pieces
+        walls = [g for g, kind in geoms.items() if kind == "solid" and g not in hulls and g not in fields]
+        table = next(g for g, kind in geoms.items() if kind == "table")
+        filters.ExcludeWithin(drake.GeometrySet(hulls))
+        filters.ExcludeBetween(drake.GeometrySet(hulls), drake.GeometrySet(fields + walls + [obj]))
+        filters.ExcludeBetween(drake.GeometrySet(fields), drake.GeometrySet([table]))
+        filters.ExcludeBetween(drake.GeometrySet(fields), hand_set)
     scene_graph.collision_filter_manager().Apply(filters)
 
     palm_source = builder.AddSystem(drake.TrajectorySource(palm_trajectory, 1))
@@ -274,7 +304,7 @@ def _add_table(drake, plant, world: WorldDescription, geoms: dict) -> None:
     for solid in world.solids:
         shape, pose = _shape(drake, solid)
         gid = plant.RegisterCollisionGeometry(plant.world_body(), pose, shape, solid.name,
-                                              _properties(drake, solid, geometry_friction(solid.friction), None))
+                                              _properties(drake, solid, geometry_friction(solid.friction), "rigid"))
         geoms[gid] = "solid"
 
 
@@ -391,6 +421,123 @@ def _add_object(drake, plant, world: WorldDescription, geoms: dict):
         drake, world.object.geom, OBJECT_FRICTION, "rigid", relaxation=OBJECT_RELAXATION_TIME))
     geoms[gid] = "object"
     return obj
+
+
+def _add_placed(drake, plant, body: FreeBody, geoms: dict):
+    """A piece already down: a free body (its own model instance) starting at its pose, its mass
+    from its density over its hull, with two contact geometries (the module: which pairs each
+    meets is set by build's filters): its hull, rigid hydroelastic, with the object's coefficient
+    (OBJECT_FRICTION), and its field (placed_field; Drake's compliant convex where its solid is
+    no prism), compliant hydroelastic, with the solids' pair coefficient (geometry_friction). Its
+    body, and the two GeometryIds."""
+    instance = plant.AddModelInstance(body.name)
+    rigid = plant.AddRigidBody(body.name, instance, _inertia(drake, (body.geom,)))
+    mu = geometry_friction(body.geom.friction)
+    shape, pose = _shape(drake, body.geom)
+    # the hull carries the object's coefficient, so that the piece lies on the table with the
+    # object's pair coefficient there (the solids' pair coefficient is the table's, mu_G)
+    hull = plant.RegisterCollisionGeometry(rigid, pose, shape, body.name, _properties(
+        drake, body.geom, OBJECT_FRICTION, "rigid", relaxation=OBJECT_RELAXATION_TIME))
+    field_ = placed_field(body.geom.shape.vertices)
+    if field_ is None:
+        modulus = PAD_GRADIENT * float(np.ptp(body.geom.shape.vertices[:, 2])) / 2
+    else:
+        points, tets, modulus = field_
+        shape = drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(
+            _vtk(points, tets), ".vtk", body.name + ".vtk")))
+    compliant = plant.RegisterCollisionGeometry(rigid, pose, shape, body.name + "_field", _properties(
+        drake, body.geom, mu, "compliant", modulus, relaxation=OBJECT_RELAXATION_TIME))
+    geoms[hull] = geoms[compliant] = "solid"
+    plant.SetDefaultFloatingBaseBodyPose(rigid, drake.RigidTransform(drake.RotationMatrix(body.pose[:3, :3]),
+                                                                     body.pose[:3, 3]))
+    return rigid, hull, compliant
+
+
+def placed_field(vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.int64], float] | None:
+    """A prism's tetrahedral mesh for compliant hydroelastic contact whose pressure rises at
+    PAD_GRADIENT with the depth below the nearest face, as a box's does in Drake (the pads'):
+    the outline's hull at the bottom and the top, and inset by half the thickness t at mid height,
+    where every point lies t / 2 below the nearest face and the pressure is the modulus E =
+    PAD_GRADIENT t / 2. Between them: a wedge under each side face, a slab under the bottom and one
+    under the top (each cut into prisms about the outline's centroid), every tetrahedron between
+    the surface (pressure 0) and the mid layer (E), so that the linear pressure in it is E times
+    the depth below its face over t / 2. vertices (N, 3): the prism's, two outlines at two heights
+    (m, the body's frame). Returns the mesh's points (K, 3), its tetrahedra (M, 4: positive
+    volume) and E (Pa); None where vertices are no prism, or the outline is too narrow for the
+    inset (a side vanishes)."""
+    from scipy.spatial import ConvexHull
+
+    z = vertices[:, 2]
+    lo, hi = float(z.min()), float(z.max())
+    t = hi - lo
+    if t <= 0 or not np.all(np.isclose(z, lo, atol=1e-9 + 1e-6 * t) | np.isclose(z, hi, atol=1e-9 + 1e-6 * t)):
+        return None
+    xy = vertices[:, :2]
+    try:
+        ring = xy[ConvexHull(xy).vertices]  # counter-clockwise
+    except Exception:  # noqa: BLE001 (a degenerate outline: qhull's error)
+        return None
+    n = len(ring)
+    edges = np.roll(ring, -1, axis=0) - ring
+    inward = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
+    h = t / 2
+    # the inset corner k: on the lines of sides k - 1 and k moved inward by h
+    prev_n, next_n = np.roll(inward, 1, axis=0), inward
+    bisector = prev_n + next_n
+    scale = h / np.einsum("ij,ij->i", bisector, next_n)
+    mid = ring + bisector * scale[:, None]
+    inset_edges = np.roll(mid, -1, axis=0) - mid
+    if np.any(np.einsum("ij,ij->i", inset_edges, edges) <= 1e-12):
+        return None
+    bottom = np.column_stack([ring, np.full(n, lo)])
+    top = np.column_stack([ring, np.full(n, hi)])
+    middle = np.column_stack([mid, np.full(n, lo + h)])
+    centres = np.array([[*ring.mean(axis=0), lo], [*ring.mean(axis=0), hi], [*mid.mean(axis=0), lo + h]])
+    points = np.vstack([bottom, top, middle, centres])
+    B, T, M = np.arange(n), n + np.arange(n), 2 * n + np.arange(n)
+    cb, ct, cm = 3 * n, 3 * n + 1, 3 * n + 2
+    tets = []
+    for k in range(n):
+        j = (k + 1) % n
+        tets += _prism_tets((cb, B[k], B[j]), (cm, M[k], M[j]))  # under the bottom
+        tets += _prism_tets((ct, T[k], T[j]), (cm, M[k], M[j]))  # under the top
+        tets += _prism_tets((B[k], M[k], T[k]), (B[j], M[j], T[j]))  # under side k
+    tets = np.array(tets, dtype=np.int64)
+    a, b, c, d = (points[tets[:, i]] for i in range(4))
+    negative = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    return points, tets, PAD_GRADIENT * h
+
+
+def _prism_tets(a: tuple[int, int, int], b: tuple[int, int, int]) -> list[tuple[int, int, int, int]]:
+    """A triangular prism (a[k] over b[k]) cut into three tetrahedra, each of its quadrilateral
+    faces cut along the diagonal through its smallest vertex index, so that prisms sharing a face
+    cut it alike (the mesh conforms)."""
+    v = list(a) + list(b)  # 0 1 2 / 3 4 5, k over k + 3
+    first = int(np.argmin(v))
+    # relabel so that the smallest is vertex 0: turn the triangles, and swap them if it is on b
+    turn = first % 3
+    order = [(turn + i) % 3 for i in range(3)]
+    lower, upper = ([v[i] for i in order], [v[i + 3] for i in order])
+    if first >= 3:
+        lower, upper = upper, lower
+    p0, p1, p2 = lower
+    p3, p4, p5 = upper
+    if min(p1, p5) < min(p2, p4):
+        return [(p0, p1, p2, p5), (p0, p1, p5, p4), (p0, p4, p5, p3)]
+    return [(p0, p1, p2, p4), (p0, p4, p2, p5), (p0, p4, p5, p3)]
+
+
+def _vtk(points: NDArray, tets: NDArray) -> str:
+    """A tetrahedral mesh as a legacy ASCII VTK unstructured grid (Drake's volume mesh file)."""
+    lines = ["# vtk DataFile Version 3.0", "placed piece", "ASCII", "DATASET UNSTRUCTURED_GRID",
+             f"POINTS {len(points)} double"]
+    lines += [" ".join(f"{x:.17g}" for x in p) for p in points]
+    lines.append(f"CELLS {len(tets)} {5 * len(tets)}")
+    lines += ["4 " + " ".join(str(int(i)) for i in t) for t in tets]
+    lines.append(f"CELL_TYPES {len(tets)}")
+    lines += ["10"] * len(tets)
+    return "\n".join(lines) + "\n"
 
 
 def _add_actuators(drake, plant, world: WorldDescription, joints: list, jaw_joints: dict) -> None:

@@ -38,11 +38,11 @@ from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
 from ..scene.options import Landing
 from ..scene.perturbation import Perturbation
-from .campaign import trial_runner
+from .campaign import ENGINES, run_engine_trial, trial_runner
 from .landing import robot_landing
 from .outcome import FLAT_TILT_DEG, TrialResult
 from .setup import trial_setup
-from .trial import TrialSetup, run_trial
+from .trial import TrialSetup
 
 
 @dataclass
@@ -277,9 +277,11 @@ def _inside(layout: Layout, outline: NDArray, pose: NDArray, tol: float = 5e-4) 
 
 
 def run_attempt(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation, seed: int,
-                attempt: int) -> TilingAttempt:
+                attempt: int, engine: str = "mujoco") -> TilingAttempt:
     """Attempt k: piece j draws its errors from a Generator seeded (seed, k, j); the arm's
-    calibration is one per attempt (piece 0's draw), as it is one per set-up."""
+    calibration is one per attempt (piece 0's draw), as it is one per set-up. Each piece's trial
+    runs in the engine named (sim.campaign.ENGINES: run_engine_trial), the pieces down in it
+    where the trials before left them (TrialResult.placed_poses)."""
     out = TilingAttempt(attempt, names=[n for n, _ in setups])
     placed: tuple = ()
     calibration = perturbation.sample(np.random.default_rng([seed, attempt, 0]))
@@ -287,7 +289,8 @@ def run_attempt(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbati
         params = replace(perturbation.sample(np.random.default_rng([seed, attempt, j])),
                          palm_shift_mm=calibration.palm_shift_mm, palm_turn_deg=calibration.palm_turn_deg,
                          table_height_mm=calibration.table_height_mm)
-        result = run_trial(replace(setup, spec=replace(setup.spec, placed=placed)), params, attempt, seed)
+        result = run_engine_trial(replace(setup, spec=replace(setup.spec, placed=placed)), params, attempt, seed,
+                                  engine)
         out.pieces.append(result)
         if not result.placed:  # past a piece the strict verdict alone fails, the attempt goes on for the paper's
             return out
@@ -306,12 +309,17 @@ def _attempt(args: tuple) -> TilingAttempt:
 
 def simulate_tiling(layout: Layout, setups: list[tuple[str, TrialSetup]], perturbation: Perturbation,
                     attempts: int, run: RunOptions = RunOptions(jobs=1),
-                    progress: Callable[[TilingAttempt], None] | None = None) -> list[TilingAttempt]:
+                    progress: Callable[[TilingAttempt], None] | None = None,
+                    engine: str = "mujoco") -> list[TilingAttempt]:
     """Run attempts 0 .. attempts-1 of the whole layout, each with the errors of run.seed's
-    stream, on run's worker processes (ungrasp_ompl.parallel.runner) or its Ray cluster."""
+    stream, on run's worker processes (ungrasp_ompl.parallel.runner) or its Ray cluster, every
+    piece's trial in the engine named (sim.campaign.ENGINES; docs/model.md 11.19)."""
     if attempts < 1:
         raise InputError("trials", f"must be at least 1, got {attempts}")
-    work = [(layout, setups, perturbation, run.seed, k) for k in range(attempts)]
+    if engine not in ENGINES:
+        raise InputError("engine", f"must be one of {', '.join(ENGINES)}, got {engine!r}")
+    work = [(layout, setups, perturbation, run.seed, k) if engine == "mujoco" else
+            (layout, setups, perturbation, run.seed, k, engine) for k in range(attempts)]
     results: list[TilingAttempt] = []
     with trial_runner(run.workers, attempts, run.cluster) as runner, closing(runner.run(_attempt, work)) as outcomes:
         for outcome in outcomes:

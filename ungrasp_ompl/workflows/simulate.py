@@ -112,20 +112,18 @@ class SimulateOptions:
         return self
 
     def _check_engine(self, scene: Scene | None) -> None:
-        """The engine known, and Drake installed and asked for what its world builds (a scene, a
-        parallel gripper, a world that changes no contact setting of MuJoCo's own)."""
+        """The engine known, and Drake installed and asked for what its world builds (a scene's or
+        a layout's: a parallel gripper, a world that changes no contact setting of MuJoCo's own)."""
         if self.engine not in ENGINES:
             raise InputError("engine", f"must be one of {', '.join(ENGINES)}, got {self.engine!r}")
         if self.engine != "drake":
             return
-        if scene is None:
-            raise InputError("engine", "drake runs a single scene; a layout's pieces run in MuJoCo")
         if self.world.cone != World().cone or self.world.stiffness != 1.0:
             raise InputError("world", "cone and stiffness are MuJoCo's contact settings; Drake's contacts are its own "
                              "(docs/model.md 11.19)")
         from ..robot.pipeline import gripper_links
 
-        if gripper_links(scene) is not None:
+        if scene is not None and gripper_links(scene) is not None:
             raise InputError("engine", "drake builds the parallel gripper; a pincer runs in MuJoCo")
         from ..sim.drake_world import require_drake
 
@@ -344,7 +342,8 @@ class LayoutSimulation:
             pieces = len(self.attempts[0].names)
             if not self.options.world.nominal:
                 lines.append(f"in a world the tiling and its aims never saw: {self.options.world.describe()}")
-            lines.append(f"success {self.successes}/{len(self.attempts)} (all {pieces} pieces flat inside the frame)")
+            engine = "" if self.options.engine == "mujoco" else f" in {engine_name(self.options.engine)}"
+            lines.append(f"success {self.successes}/{len(self.attempts)}{engine} (all {pieces} pieces flat inside the frame)")
             if self.placed != self.successes:
                 lines.append(f"placed by the paper's criterion (any error) {self.placed}/{len(self.attempts)}")
             lines += [f"  attempt {a.attempt}: {a.cause()}" for a in self.attempts if not a.success]
@@ -357,7 +356,7 @@ class LayoutSimulation:
             raise ValueError("nothing was simulated: the layout has no tiling")
         out = Path(out)
         files = export_all(self.execution.trajectory, out, first_touch_off(self.tiling, self.execution))
-        doc = {"layout": self.layout.name, "world": self.options.world.to_dict(),
+        doc = {"layout": self.layout.name, "world": self.options.world.to_dict(), "engine": self.options.engine,
                "attempts": len(self.attempts), "successes": self.successes,
                "placed_paper_criterion": self.placed,
                "results": [{"attempt": a.attempt, "success": a.success, "placed": a.placed, "cause": a.cause(),
@@ -378,5 +377,6 @@ def simulate_layout(layout: Layout, options: SimulateOptions,
     if aimed is None:
         return LayoutSimulation(layout, tiling, options)
     setups = [(name, replace(setup, world=options.world)) for name, setup in aimed.setups]
-    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.run, progress)
+    attempts = simulate_tiling(layout, setups, options.perturbation(), options.trials, options.run, progress,
+                               options.engine)
     return LayoutSimulation(layout, tiling, options, aimed.execution, attempts, aimed.short)
