@@ -22,7 +22,7 @@ TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campa
           "campaigns_curved_previous", "campaigns_pick_previous_start", "campaigns_curved_with_p_dpsi",
           "campaigns_curved_worlds_with_p_dpsi", "campaigns_drake_pick_previous_start",
           "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin",
-          "campaigns_drake_point_thumb")
+          "campaigns_drake_point_thumb", "campaigns_curved_face_back", "campaigns_curved_worlds_face_back")
 #: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
 ENGINE_KEYS = ("mujoco", "fisher_p")
 

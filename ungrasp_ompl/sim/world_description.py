@@ -190,12 +190,16 @@ def describe(spec: SimModelSpec) -> WorldDescription:
     g, f = spec.gripper, spec.friction
     flat = g.finger_tip_radius <= 0.0
     thumb_mesh = extrude_y(digit_outline(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, -1.0), g.width)
-    # a rounded finger is a ball-nosed digit: its body ends at the dome's centre and its face
-    # stands back by the dome's radius there, and further toward the palm (FACE_DRAFT), so that
-    # nothing but the dome reaches the object, even where it turns a little in the grasp (psi < 0)
+    # a rounded finger is a ball-nosed digit: its body ends at the dome's centre. On a slab its
+    # face stands back by the dome's radius there, and further toward the palm (FACE_DRAFT), so
+    # that nothing but the dome reaches the object, even where it turns a little in the grasp
+    # (psi < 0), as the plan's A is the dome. On a curved section the plan's finger rolls on the
+    # object with its face, tangent to the dome (mechanics.kinematics.section_pinch), and so does
+    # this one: its face is flush with the dome's front
     r = 0.0 if flat else g.finger_tip_radius
-    finger_mesh = extrude_y(digit_outline(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r, r,
-                                    0.0 if flat else FACE_DRAFT), g.width)
+    curved = spec.obj.solid is not None
+    finger_mesh = extrude_y(digit_outline(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, 1.0, r,
+                                          0.0 if curved else r, 0.0 if flat or curved else FACE_DRAFT), g.width)
     thumb_bend = Bend(*digit_bending(g.thumb_length, g.thumb_tip_thickness, g.thumb_base_thickness, g.width))
     finger_bend = Bend(*digit_bending(g.finger_length, g.finger_tip_thickness, g.finger_base_thickness, g.width))
     thumb_geoms = (Geom("thumb", Mesh(thumb_mesh), f.thumb, PLA_DENSITY, rgba=".8 .3 .2 1"),)
