@@ -48,6 +48,9 @@ part for any time (docs/model.md 11.4) instead of the bound of 11.4, to report r
 (sim.timestep), the rest of each scene unchanged: to see whether the rows hold at a finer step
 (0.05 or 0.025 ms) than the scenes' 0.1 ms.
 
+`--worlds LABEL,...` runs only those worlds of the `worlds` rows (their labels in WORLDS, e.g.
+"pyramidal cones"); with --merge the table's other worlds' rows are kept.
+
 `--compounded-friction` draws the `paper` friction error on top of a world's friction factor, the
 rule before a world fixed its pairs' friction (docs/decisions/0100-a-world-fixes-its-friction.md),
 to report the worlds' rows under both.
@@ -134,6 +137,8 @@ GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram"
 #: The longest one contact may be absent before the termination (s): the verdict's own, or inf
 #: for the rule of docs/model.md 11.4 (--previous-grip-rule).
 MAX_GAP: float = MAX_CONTACT_GAP
+#: The labels of the `worlds` rows to run (--worlds), or None for all of WORLDS.
+WORLD_LABELS: tuple[str, ...] | None = None
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
 COMPOUNDED_FRICTION: bool = False
 #: What the rows' RRT* plans optimise (--objective): None, each scene's planning.objective.
@@ -342,6 +347,8 @@ def main() -> None:
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
                     help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
+    ap.add_argument("--worlds", default=None,
+                    help="only these worlds of the `worlds` rows, by label, comma-separated (e.g. 'pyramidal cones')")
     ap.add_argument("--figure", type=Path, default=None,
                     help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
@@ -352,7 +359,7 @@ def main() -> None:
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS
     ENGINE = args.engine
     drake = ENGINE == "drake"
     if args.trials is None:
@@ -365,6 +372,12 @@ def main() -> None:
         contact_forces(args.contacts, args.seed, args.thumb)
         return
     TIMESTEP = args.timestep
+    if args.worlds is not None:
+        WORLD_LABELS = tuple(w.strip() for w in args.worlds.split(","))
+        unknown = set(WORLD_LABELS) - {label for label, _ in WORLDS}
+        if unknown:
+            ap.error(f"--worlds: no world labelled {', '.join(sorted(unknown))} (worlds: "
+                     f"{', '.join(label for label, _ in WORLDS)})")
     COMPOUNDED_FRICTION = args.compounded_friction
     OBJECTIVE = args.objective
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
@@ -409,6 +422,8 @@ def main() -> None:
             scene = _scene(name, "rounded")
             result = _plan(scene, s)
             for label, world in WORLDS:
+                if WORLD_LABELS is not None and label not in WORLD_LABELS:
+                    continue
                 show(run(f"world: {name}, {label}", scene, result, n, j, s, "-", world=world))
     if "unaimed" in only:  # the hand as planned: no aim fitted in any world
         def unaimed(name: str):
@@ -571,7 +586,8 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     first = json.loads(path.read_text()) if path.exists() else None
     old = first if first is not None else {"rows": [], "runs": {}}
     keys = {r["key"] for r in new}  # and the rows of the groups run again, whatever their labels now
-    keys |= {r["key"] for r in old["rows"] if _option(r) in only}
+    regrouped = only - {"worlds"} if WORLD_LABELS is not None else only  # --worlds: only its worlds' rows
+    keys |= {r["key"] for r in old["rows"] if _option(r) in regrouped}
     merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
     runs = old.get("runs", {})
@@ -582,11 +598,17 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
                                                       "rows": [r["key"] for r in old["rows"]]}}
     runs = {name: {**run, "rows": [k for k in run["rows"] if k not in keys]} for name, run in runs.items()}
     runs = {name: run for name, run in runs.items() if run["rows"]}
-    runs[",".join(sorted(only))] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
+    runs[_run_name(only)] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
                                     "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
     _, tail = footer.split(" s in all; ", 1)
     footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
     return merged, runs, footer, first
+
+
+def _run_name(only: set[str]) -> str:
+    """A run's name in a merged file's `runs`: its groups, and the worlds it ran where --worlds chose them."""
+    name = ",".join(sorted(only))
+    return name if WORLD_LABELS is None else f"{name}: {', '.join(WORLD_LABELS)}"
 
 
 def _write_merged(table: Path, merged: list[dict], footer: str) -> None:
@@ -612,7 +634,7 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
     path = table.with_suffix(".json")
     merged, runs, footer, first = merge_rows(table, rows, footer, only)
     _write_merged(table, merged, footer)
-    latest = runs[",".join(sorted(only))]
+    latest = runs[_run_name(only)]
     doc = table_json(table, latest["command"] if first is None else first["command"], date.today().isoformat())
     if first is not None:
         doc.update(produced=first["produced"])
