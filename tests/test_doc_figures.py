@@ -16,13 +16,17 @@ import pytest
 from conftest import ROOT, run_cli
 
 PAGES = ("README.md", "docs/results.md")
+#: The step convergence study's files (record 0111), each run at one step.
+STEP_TABLES = ("campaigns_step_0.1ms", "campaigns_step_0.05ms", "campaigns_step_0.025ms", "campaigns_step_0.0125ms",
+               "campaigns_step_0.00625ms")
 #: The campaign tables tools/sim_campaigns.py wrote, each with its JSON beside it.
 TABLES = ("campaigns", "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_curved", "campaigns_curved_worlds",
           "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2", "campaigns_margin_seed2_planner_only",
           "campaigns_curved_previous", "campaigns_pick_previous_start", "campaigns_curved_with_p_dpsi",
           "campaigns_curved_worlds_with_p_dpsi", "campaigns_drake_pick_previous_start",
           "campaigns_curved_go_stone_margin", "campaigns_curved_worlds_go_stone_margin",
-          "campaigns_drake_point_thumb", "campaigns_curved_face_back", "campaigns_curved_worlds_face_back")
+          "campaigns_drake_point_thumb", "campaigns_curved_face_back", "campaigns_curved_worlds_face_back",
+          *STEP_TABLES)
 #: What the Drake campaign's rows hold beside its table's figures: MuJoCo's row and the Fisher test.
 ENGINE_KEYS = ("mujoco", "fisher_p")
 
@@ -315,3 +319,66 @@ def test_a_merged_run_replaces_its_groups_rows_whatever_their_labels_now(tmp_pat
     assert [c for c in labels if c.startswith("caging")] == [renamed.label]
     assert [r["key"] for r in merged if not r["campaign"].startswith("caging")] == \
         [r["key"] for r in old["rows"] if not r["campaign"].startswith("caging")]
+
+
+def _step_doc(step_ms: float, counts: dict[str, int], world: str = "pyramidal cones") -> dict:
+    """A campaign file run at one step with a row per object in world (strict successes of 40)."""
+    rows = [results.parse_row(f"| world: {o}, {world} | {n}/40 (0-0 %) | {n}/40 (-) | - | - | secure | - | - |")
+            for o, n in counts.items()]
+    return {"table": "t.md", "step": f"timestep {step_ms:g} ms", "rows": rows}
+
+
+def test_the_step_rule_takes_the_coarsest_step_every_finer_one_agrees_from():
+    """Record 0111's rule on made-up counts, against the rule's own words checked by the Fisher
+    oracle: the coarsest step at which every object's count, and every finer step's, agrees with
+    the finest's (p >= 0.05); where the finest and the next coarser disagree, the finest, flagged."""
+    steps = (0.1, 0.05, 0.025, 0.0125)
+    rising = {"guitar_pick": (0, 4, 36, 39), "puzzle_piece": (0, 30, 20, 38), "fabric_chalk": (1, 18, 37, 40)}
+    docs = [_step_doc(t, {o: c[k] for o, c in rising.items()}) for k, t in enumerate(steps)]
+    entry = results.step_study(*docs)["pyramidal cones"]
+    agree = [all(_fisher_two_sided(c[k], 40, c[-1], 40) >= 0.05 for c in rising.values()) for k in range(4)]
+    assert agree == [False, False, False, True] and entry["step_ms"] == 0.0125 and entry["converged"] is False
+    settled = {"guitar_pick": (0, 37, 39, 40), "puzzle_piece": (2, 35, 38, 37), "fabric_chalk": (5, 36, 40, 39)}
+    docs = [_step_doc(t, {o: c[k] for o, c in settled.items()}) for k, t in enumerate(steps)]
+    entry = results.step_study(*docs)["pyramidal cones"]
+    assert entry["steps"] == list(steps) and entry["step_ms"] == 0.05 and entry["converged"] is True
+    assert "timestep 0.05 ms" in _step_doc(0.05, {})["step"]
+    with pytest.raises(ValueError):
+        results.step_ms({"table": "t.md", "step": "the scenes' own step"})
+
+
+def test_the_pyramidal_step_is_the_one_its_study_gives():
+    """sim.pyramidal_timestep's default is the step record 0111's rule gives the pyramidal world
+    from the study's files, each run at one step."""
+    from ungrasp_ompl.scene.options import SimOptions
+
+    docs = [results.load(name) for name in STEP_TABLES]
+    entry = results.step_study(*docs)["pyramidal cones"]
+    assert SimOptions().pyramidal_timestep == pytest.approx(entry["step_ms"] / 1000, rel=1e-9)
+    for doc in docs:
+        assert "--timestep" in doc["command"] and doc["step"] == f"timestep {results.step_ms(doc):g} ms"
+
+
+def test_a_merged_run_of_some_worlds_keeps_the_other_worlds_rows(tmp_path, monkeypatch):
+    """--worlds with --merge replaces the rows of the worlds it ran and keeps the other worlds'."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    old = results.load("campaigns")
+    worlds = [r for r in old["rows"] if r["campaign"] == "world"]
+    pyramidal = [r for r in worlds if r["subject"].endswith("pyramidal cones")]
+    assert len(pyramidal) == 3 and len(worlds) > 3
+    table = tmp_path / "t.md"
+    table.write_text((ROOT / "docs/results/campaigns.md").read_text())
+    (tmp_path / "t.json").write_text(json.dumps(old))
+    again = [dataclasses.replace(campaigns.Row.from_record(r), successes=r["successes"] + 1) for r in pyramidal]
+    footer = table.read_text().strip().splitlines()[-1]
+    footer = "12 s in all; " + footer.split(" s in all; ", 1)[1]
+    monkeypatch.setattr(campaigns, "WORLD_LABELS", ("pyramidal cones",))
+    merged, runs, _, _ = campaigns.merge_rows(table, again, footer, {"worlds"})
+    by_key = {r["key"]: r for r in merged}
+    assert [by_key[r["key"]]["successes"] for r in pyramidal] == [r["successes"] + 1 for r in pyramidal]
+    kept = [r for r in worlds if r not in pyramidal]
+    assert all(by_key[r["key"]] == results.parse_row(results.row_line(r)) for r in kept)
+    assert "worlds: pyramidal cones" in runs

@@ -49,10 +49,11 @@ def _compiled(setup, params=TrialParams()):
 
 
 def test_each_key_changes_the_compiled_world_by_its_factor(pick):
-    """Friction per pair, the free object's mass, the cone, the contacts' time constant and the
-    jaws' force limit of the compiled model, against the nominal world's, key by key; the other
-    parts of the model stay as they were."""
+    """Friction per pair, the free object's mass, the cone (and its step, sim.pyramidal_timestep),
+    the contacts' time constant and the jaws' force limit of the compiled model, against the
+    nominal world's, key by key; the other parts of the model stay as they were."""
     setup = _setup(pick)
+    setup = replace(setup, sim=replace(setup.sim, pyramidal_timestep=setup.sim.timestep / 4))  # told apart
     _, nominal, ids = _compiled(setup)
     fr = {g: nominal.geom_friction[g][0] for g in (ids.table_geom, *ids.finger_geoms, *ids.thumb_geoms)}
     mass = nominal.body_mass[ids.object_body]
@@ -66,11 +67,13 @@ def test_each_key_changes_the_compiled_world_by_its_factor(pick):
             m.geom_friction[ids.table_geom][0] == pytest.approx(0.5 * fr[ids.table_geom])
             and all(m.geom_friction[g][0] == pytest.approx(fr[g]) for g in digits)),
         World(density=2.0): lambda m: m.body_mass[ids.object_body] == pytest.approx(2.0 * mass),
-        World(cone=Cone.PYRAMIDAL): lambda m: m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL,
+        World(cone=Cone.PYRAMIDAL): lambda m: (m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
+                                               and m.opt.timestep == pytest.approx(setup.sim.pyramidal_timestep)),
         World(stiffness=0.25): lambda m: m.geom_solref[ids.table_geom][0] == pytest.approx(2 * SOLREF[0]),
         World(jaw_force=1.5): lambda m: np.allclose(m.actuator_forcerange[ids.actuator], 1.5 * force),
     }
     assert nominal.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and nominal.geom_solref[ids.table_geom][0] == SOLREF[0]
+    assert nominal.opt.timestep == pytest.approx(setup.sim.timestep)
     for world, holds in cases.items():
         _, model, _ = _compiled(replace(setup, world=world))
         assert holds(model), world

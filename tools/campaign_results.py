@@ -19,7 +19,7 @@ tests/test_doc_figures.py) compares:
   than letters, digits, `_`, `.` and `+` made one `-`), FIELD one of FIELDS; a summary.json of
   `simulate` (one row) and the whole file's own fields (`produced`, `command`) take no ROW;
 * `<!-- table SOURCE:NAME -->` ... `<!-- /table -->` a table built from the file (TABLES;
-  `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`).
+  `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`; `steps` any number, each run at one step).
 
 A study's results file (`tools/landing_check.py --results`, `tools/world_failures.py --results`)
 holds rows of its own fields, with the key of their label, and `formats`: how each field is shown
@@ -565,10 +565,125 @@ def table_engines(doc: dict) -> str:
     return "\n".join(lines)
 
 
+#: Two counts agree within chance where the two-sided Fisher exact test's p is at least this
+#: (docs/decisions/0111-pyramidal-cones-run-at-the-step-they-converge-at.md).
+CHANCE_P = 0.05
+
+
+def fisher_p(a: dict, b: dict) -> float:
+    """The two-sided Fisher exact test's p of two rows' strict successes, each over its own trials."""
+    from scipy.stats import fisher_exact
+
+    table = [[a["successes"], a["trials"] - a["successes"]], [b["successes"], b["trials"] - b["successes"]]]
+    return float(fisher_exact(table, alternative="two-sided")[1])
+
+
+def step_ms(doc: dict) -> float:
+    """The step (ms) a campaign file's rows ran at: its footer's `timestep S ms`; ValueError for a
+    file run at the scenes' own steps, which differ between worlds (record 0111)."""
+    m = re.fullmatch(r"timestep ([\d.e+-]+) ms", doc["step"])
+    if m is None:
+        raise ValueError(f"{doc['table']}: not run at one given step ({doc['step']})")
+    return float(m.group(1))
+
+
+def step_study(*docs: dict) -> dict[str, dict]:
+    """The step convergence study of record 0111 from campaign files each run at one step: world
+    label -> {"counts": {object: {step_ms: row}}, "steps": the steps (ms) at which all three objects
+    ran, coarse to fine, "step_ms": the step the record's rule gives, "converged": whether the
+    finest step agrees with the next coarser for every object}. The rule: the coarsest step at which
+    every object's count, and every finer step's, agrees within chance (CHANCE_P) with the finest's."""
+    study: dict[str, dict] = {}
+    for doc in docs:
+        step = step_ms(doc)
+        for label, group in worlds(doc).items():
+            counts = study.setdefault(label, {"counts": {}})["counts"]
+            for obj, row in group.items():
+                counts.setdefault(obj, {})[step] = row
+    for entry in study.values():
+        counts = entry["counts"]
+        steps = sorted(set.intersection(*(set(c) for c in counts.values())), reverse=True)
+        finest = steps[-1]
+        agrees = [all(fisher_p(counts[o][t], counts[o][finest]) >= CHANCE_P for o in counts) for t in steps]
+        chosen = next(t for k, t in enumerate(steps) if all(agrees[k:]))
+        converged = len(steps) > 1 and all(fisher_p(counts[o][steps[-2]], counts[o][finest]) >= CHANCE_P
+                                           for o in counts)
+        entry.update(steps=steps, step_ms=chosen, converged=converged)
+    return study
+
+
+#: Record 0112's rows of the elliptic world: those seen before it, and those that test it.
+SEEN_WORLDS = ("as modelled", "friction x0.7", "friction x1.3")
+TEST_WORLDS = ("density x0.5", "density x2", "stiffness x0.25 (time constant x2)")
+
+
+def pooled(study: dict[str, dict], labels: tuple[str, ...]) -> dict[float, dict]:
+    """The strict successes of the worlds labels (every object's row) pooled per step, at the steps
+    where all of them ran: step_ms -> {"successes", "trials"}."""
+    rows = [c for label in labels for c in study[label]["counts"].values()]
+    steps = sorted(set.intersection(*(set(c) for c in rows)), reverse=True)
+    return {t: {"successes": sum(c[t]["successes"] for c in rows), "trials": sum(c[t]["trials"] for c in rows)}
+            for t in steps}
+
+
+def elliptic_step(study: dict[str, dict]) -> float:
+    """Record 0112's rule on its test rows (TEST_WORLDS, pooled): 0.1 ms unless it differs from
+    0.025 ms beyond chance; then the coarser of 0.05 and 0.025 ms that agrees with 0.025 ms."""
+    counts = pooled(study, TEST_WORLDS)
+    if fisher_p(counts[0.1], counts[0.025]) >= CHANCE_P:
+        return 0.1
+    return 0.05 if fisher_p(counts[0.05], counts[0.025]) >= CHANCE_P else 0.025
+
+
+def table_steps(*docs: dict) -> str:
+    """Per world and object the strict successes at each step of the study (step_study), each with
+    the Fisher p against the finest step's count; for a pyramidal world, the step record 0111's
+    rule gives it."""
+    study = step_study(*docs)
+    steps = sorted({t for e in study.values() for c in e["counts"].values() for t in c}, reverse=True)
+    lines = ["| world | object | " + " | ".join(f"{t:g} ms" for t in steps) + " | the world's step (record 0111) |",
+             "|---" * (len(steps) + 3) + "|"]
+    for label, entry in study.items():
+        finest = entry["steps"][-1]
+        for k, obj in enumerate(o for o in OBJECTS if o in entry["counts"]):
+            cells = []
+            for t in steps:
+                row = entry["counts"][obj].get(t)
+                if row is None:
+                    cells.append("")
+                    continue
+                p = "" if t == finest else f" (p {_p(fisher_p(row, entry['counts'][obj][finest]))})"
+                cells.append(f"{row['successes']}/{row['trials']}{p}")
+            rule = ""
+            if k == 0 and "pyramidal" in label:
+                rule = f"{entry['step_ms']:g} ms" + ("" if entry["converged"] else ", convergence not shown")
+            lines.append(f"| {label if k == 0 else ''} | {OBJECT_NAMES[obj]} | " + " | ".join(cells) + f" | {rule} |")
+    return "\n".join(lines)
+
+
+def table_steps_pooled(*docs: dict) -> str:
+    """Record 0112: the elliptic rows' strict successes pooled over the three objects and their
+    worlds, per step, with the Fisher p against 0.025 ms's; the step its rule gives."""
+    study = step_study(*docs)
+    lines = ["| rows | " + " | ".join(f"{t:g} ms" for t in (0.1, 0.05, 0.025)) + " | the step (record 0112) |",
+             "|---|---|---|---|---|"]
+    for name, labels in (("seen before record 0112", SEEN_WORLDS), ("record 0112's test", TEST_WORLDS)):
+        counts = pooled(study, labels)
+        cells = []
+        for t in (0.1, 0.05, 0.025):
+            c = counts.get(t)
+            p = "" if c is None or t == 0.025 else f" (p {_p(fisher_p(c, counts[0.025]))})"
+            cells.append("" if c is None else f"{c['successes']}/{c['trials']}{p}")
+        rule = f"{elliptic_step(study):g} ms" if labels == TEST_WORLDS else ""
+        lines.append(f"| {name}: {', '.join(labels)} | " + " | ".join(cells) + f" | {rule} |")
+    return "\n".join(lines)
+
+
 TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worlds, "readme": table_readme,
           "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule, "landing": table_landing,
           "wf_trials": table_wf_trials, "wf_needed": table_wf_needed, "wf_cage": table_wf_cage,
-          "wf_forces": table_wf_forces, "engines": table_engines}
+          "wf_forces": table_wf_forces, "engines": table_engines, "steps": table_steps,
+          "steps_pooled": table_steps_pooled}
 
 
 def table(spec: str) -> str:

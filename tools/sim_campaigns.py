@@ -45,8 +45,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
 part for any time (docs/model.md 11.4) instead of the bound of 11.4, to report rows under both.
 
 `--timestep S` runs every row with MuJoCo's step set to S seconds in place of the scenes' own
-(sim.timestep), the rest of each scene unchanged: to see whether the rows hold at a finer step
-(0.05 or 0.025 ms) than the scenes' 0.1 ms.
+(sim.timestep, and sim.pyramidal_timestep in a world with pyramidal cones), the rest of each scene
+unchanged: to see whether the rows hold at a finer step than the scenes' own (records 0019, 0111).
 
 `--worlds LABEL,...` runs only those worlds of the `worlds` rows (their labels in WORLDS, e.g.
 "pyramidal cones"); with --merge the table's other worlds' rows are kept.
@@ -107,7 +107,7 @@ from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: 
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
-from ungrasp_ompl.scene.options import Landing  # noqa: E402
+from ungrasp_ompl.scene.options import Landing, SimOptions  # noqa: E402
 from ungrasp_ompl.sim.landing import CACHE_VARIABLE  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant  # noqa: E402
 from ungrasp_ompl.sim.trial import MAX_CONTACT_GAP  # noqa: E402
@@ -185,8 +185,9 @@ class Row:
 
 
 def _stepped(scene: Scene) -> Scene:
-    """The scene simulated with the campaign's timestep (TIMESTEP), if one is set."""
-    return scene if TIMESTEP is None else scene.with_sim(timestep=TIMESTEP)
+    """The scene simulated with the campaign's timestep (TIMESTEP), if one is set, in every world
+    (sim.timestep and sim.pyramidal_timestep)."""
+    return scene if TIMESTEP is None else scene.with_sim(timestep=TIMESTEP, pyramidal_timestep=TIMESTEP)
 
 
 def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
@@ -346,7 +347,9 @@ def main() -> None:
                          "recording this run's command beside the table's (the figure draws the merged rows)")
     ap.add_argument("--attempts", type=int, default=10, help="tangram attempts per row (default 10)")
     ap.add_argument("--timestep", type=float, default=None,
-                    help="MuJoCo's step for every row (s; default: the scenes' own, sim.timestep)")
+                    help="MuJoCo's step for every row, in every world (s; default: the scenes' own, sim.timestep "
+                         "and sim.pyramidal_timestep)")
+    ap.add_argument("--no-figure", action="store_true", help="write the table alone, no figure")
     ap.add_argument("--worlds", default=None,
                     help="only these worlds of the `worlds` rows, by label, comma-separated (e.g. 'pyramidal cones')")
     ap.add_argument("--figure", type=Path, default=None,
@@ -511,7 +514,9 @@ def main() -> None:
             result = _plan(scene, CURVED_PLAN_SEED)
             for label, world in CURVED_WORLDS:
                 show(run(f"curved world: {name}, {label}", scene, result, n, j, s, "-", world=world))
-    step = "the scenes' own step" if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms"
+    sim = SimOptions()
+    step = (f"the scenes' own steps ({sim.timestep * 1000:g} ms; pyramidal cones {sim.pyramidal_timestep * 1000:g} ms)"
+            if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms")
     if drake:
         step = f"Drake (SAP) at {step}"
     rule = "the previous lost-grip rule (11.4)" if args.previous_grip_rule else "the lost-grip bound (11.4)"
@@ -527,8 +532,9 @@ def main() -> None:
     if args.table is not None and args.merge:
         doc = merged_table(args.table, rows, footer, only)
         print(f"wrote {args.table}\nwrote {args.table.with_suffix('.json')}")
-        draw([Row.from_record(r) for r in doc["rows"]], args.figure)
-        print(f"wrote {args.figure}")
+        if not args.no_figure:
+            draw([Row.from_record(r) for r in doc["rows"]], args.figure)
+            print(f"wrote {args.figure}")
         return
     if args.table is not None:
         from ungrasp_ompl.io import write_text_atomic
@@ -541,8 +547,9 @@ def main() -> None:
 
         print(f"wrote {write_json(args.table, shlex.join(['python', 'tools/sim_campaigns.py', *sys.argv[1:]]))}")
     if rows:
-        draw(rows, args.figure)
-        print(f"wrote {args.figure}")
+        if not args.no_figure:
+            draw(rows, args.figure)
+            print(f"wrote {args.figure}")
 
 
 # --- the engines side by side (--engine drake) ---------------------------------------------------

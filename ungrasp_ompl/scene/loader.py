@@ -309,8 +309,9 @@ class SceneReader:
                else self.number(m, f"sim.{k}", k, positive=True, default=getattr(d, k)) for k in m}
         if out.get("density", d.density) > 25000:
             self.fail("sim.density", f"must be at most 25000 kg/m^3 (denser than any solid), got {out['density']:g}")
-        if out.get("timestep", d.timestep) > 0.002:
-            self.fail("sim.timestep", f"must be at most 0.002 s (the control period), got {out['timestep']:g}")
+        for k in ("timestep", "pyramidal_timestep"):
+            if out.get(k, getattr(d, k)) > 0.002:
+                self.fail(f"sim.{k}", f"must be at most 0.002 s (the control period), got {out[k]:g}")
         if out.get("grip_force", d.grip_force) > 170:
             self.fail("sim.grip_force", f"must be at most 170 N (the gripper's rating), got {out['grip_force']:g}")
         for k in ("squeeze", "settle_time", "rest_time", "max_error"):

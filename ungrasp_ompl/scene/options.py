@@ -219,8 +219,12 @@ class SimOptions:
     """The jaws' force limit (N): how hard the gripper squeezes."""
     squeeze: float = 0.001
     """How far inside the planned opening the jaws are commanded (m)."""
-    timestep: float = 0.0001
-    """Simulation step (s); half the contacts' 0.2 ms time constant (docs/model.md 11.2)."""
+    timestep: float = 0.000025
+    """Simulation step (s), an eighth of the contacts' 0.2 ms time constant: the step at which the
+    campaigns' outcomes converge pooled over rows (docs/decisions/0112-the-elliptic-step-is-tested-pooled-over-rows.md)."""
+    pyramidal_timestep: float = 0.0000125
+    """Simulation step (s) in a world with pyramidal friction cones (sim.world.Cone), at which
+    their outcomes converge (docs/decisions/0111-pyramidal-cones-run-at-the-step-they-converge-at.md)."""
     settle_time: float = 0.3
     """Stillness with the object in the pinch before the motion (s)."""
     rest_time: float = 0.5

@@ -31,8 +31,9 @@ from .trial import DIGIT_KINDS, Judge, StillWindow, Touch, TrialSetup, _pose, _s
 from .world_description import describe
 
 
-#: SAP's time step (s); None: the scene's sim.timestep, MuJoCo's.
-DRAKE_TIME_STEP: float | None = None
+#: SAP's time step (s), the step Drake's rows ran at (docs/model.md 11.19); None: the scene's
+#: sim.timestep, MuJoCo's. SAP is implicit: MuJoCo's convergence (record 0112) is not Drake's.
+DRAKE_TIME_STEP: float | None = 0.0001
 
 
 @dataclass

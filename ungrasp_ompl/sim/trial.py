@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from .drive import GripperDrive
 from .model import Keyframe, ModelIds, build_mjcf, model_ids
 from .spec import SimModelSpec
-from .world import World
+from .world import Cone, World
 from .outcome import FLAT_TILT_DEG, ContactTravel, Outcome, TrialResult
 from .probe import TouchOffProbe, calibrate, noise_sequence, periods_within, probing
 from ..mechanics.kinematics import GRAVITY
@@ -247,9 +247,9 @@ def touch_down(model, data, ids: ModelIds, palm: NDArray, offset: NDArray, durat
 
 def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
     """The nominal model in the setup's world (setup.world: its friction, densities, cone, contact
-    stiffness and jaw force), with the trial's friction, mass, thickness and table height. The
-    trial's drawn friction factors apply only to pairs whose friction the world leaves alone
-    (unless setup.friction_draw_in_world)."""
+    stiffness and jaw force; pyramidal cones at their own step, sim.pyramidal_timestep), with the
+    trial's friction, mass, thickness and table height. The trial's drawn friction factors apply
+    only to pairs whose friction the world leaves alone (unless setup.friction_draw_in_world)."""
     spec, world = setup.spec, setup.world
     fg, fa, fb = params.friction_scale
     table, digits = world.friction_factors
@@ -266,7 +266,8 @@ def trial_spec(setup: TrialSetup, params: TrialParams) -> SimModelSpec:
                    friction=replace(fr, table=fr.table * table * fg, finger=fr.finger * digits * fa,
                                     thumb=fr.thumb * digits * fb, solids=fr.solids * table * fg),
                    grip_force=spec.grip_force * world.jaw_force, cone=str(world.cone),
-                   contact_time=spec.contact_time * world.time_constant_factor)
+                   contact_time=spec.contact_time * world.time_constant_factor,
+                   timestep=setup.sim.pyramidal_timestep if world.cone is Cone.PYRAMIDAL else spec.timestep)
 
 
 class StillWindow:
