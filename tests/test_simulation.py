@@ -622,6 +622,9 @@ def test_simulate_refuses_a_scene_without_thickness_and_a_bad_sim_section(tmp_pa
     (tmp_path / "bad.yaml").write_text(text)
     r = run_cli("simulate", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "b"))
     assert r.returncode == 2 and "sim.timestep" in r.stderr and not (tmp_path / "b").exists()
+    (tmp_path / "bad.yaml").write_text(text.replace("timestep: 0.5", "pyramidal_timestep: 0.5"))
+    r = run_cli("simulate", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "b"))
+    assert r.returncode == 2 and "sim.pyramidal_timestep" in r.stderr and not (tmp_path / "b").exists()
     (tmp_path / "bad.yaml").write_text(text.replace("timestep: 0.5", "handed_over: 3"))
     r = run_cli("simulate", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "b"))
     assert r.returncode == 2 and "sim.handed_over: must be true or false" in r.stderr

@@ -384,20 +384,30 @@ def table_readme_worlds(doc: dict) -> str:
     return "\n".join(lines)
 
 
-def table_readme(doc: dict) -> str:
-    """The README's comparison with the paper: the base rows, the flat tip, caging and the tangram."""
-    groups = {c: g for c, g in object_groups(doc).items()}
-    rows = {r["key"]: r for r in doc["rows"]}
-    caging = [r for r in doc["rows"] if r["campaign"] == "caging"]
+def table_readme(doc: dict, *older: dict) -> str:
+    """The README's comparison with the paper: the base rows, the flat tip, caging and the tangram;
+    a row doc lacks is taken from the first of older that has it, its step named."""
+    def source(has) -> tuple[dict, str]:
+        for d in (doc, *older):
+            if has(d):
+                return d, "" if d is doc else f" ({d['step']})"
+        raise KeyError("no results file has the row")
+
     lines = ["| experiment | ours, simulated: successes (95 % interval) | the paper, on the robot |", "|---|---|---|"]
-    lines.append(f"| the three objects, 40 trials each | {_rate(*_sum(groups['base']))} | {totals(doc)['base']['paper']} |")
-    lines.append(f"| the same, a flat finger tip (edge contact) | {_rate(*_sum(groups['edge']))} | "
-                 f"{groups['edge'][OBJECTS[0]]['paper']} |")
-    for r in caging:
+    d, step = source(lambda d: "base" in object_groups(d))
+    lines.append(f"| the three objects, 40 trials each{step} | {_rate(*_sum(object_groups(d)['base']))} | "
+                 f"{totals(d)['base']['paper']} |")
+    d, step = source(lambda d: "edge" in object_groups(d))
+    edge = object_groups(d)["edge"]
+    lines.append(f"| the same, a flat finger tip (edge contact){step} | {_rate(*_sum(edge))} | {edge[OBJECTS[0]]['paper']} |")
+    d, step = source(lambda d: any(r["campaign"] == "caging" for r in d["rows"]))
+    for r in (r for r in d["rows"] if r["campaign"] == "caging"):
         tip = r["subject"].rsplit(", ", 1)[1]
-        lines.append(f"| the pick started outside force closure, {tip} | {FIELDS['strict_interval'](r)} | {r['paper']} |")
-    tangram = rows["tangram-rounded-tip-lattice-plans"]
-    lines.append(f"| the tangram, whole layouts | {FIELDS['strict_interval'](tangram)} | {tangram['paper']} |")
+        lines.append(f"| the pick started outside force closure, {tip}{step} | {FIELDS['strict_interval'](r)} | "
+                     f"{r['paper']} |")
+    d, step = source(lambda d: any(r["key"] == "tangram-rounded-tip-lattice-plans" for r in d["rows"]))
+    tangram = next(r for r in d["rows"] if r["key"] == "tangram-rounded-tip-lattice-plans")
+    lines.append(f"| the tangram, whole layouts{step} | {FIELDS['strict_interval'](tangram)} | {tangram['paper']} |")
     return "\n".join(lines)
 
 

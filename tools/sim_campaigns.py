@@ -518,7 +518,9 @@ def main() -> None:
     step = (f"the scenes' own steps ({sim.timestep * 1000:g} ms; pyramidal cones {sim.pyramidal_timestep * 1000:g} ms)"
             if TIMESTEP is None else f"timestep {TIMESTEP * 1000:g} ms")
     if drake:
-        step = f"Drake (SAP) at {step}"
+        from ungrasp_ompl.sim.drake_trial import DRAKE_TIME_STEP
+
+        step = f"Drake (SAP) at timestep {DRAKE_TIME_STEP * 1000:g} ms"
     rule = "the previous lost-grip rule (11.4)" if args.previous_grip_rule else "the lost-grip bound (11.4)"
     friction = ("a world's friction compounded with the drawn friction error" if COMPOUNDED_FRICTION
                 else "a world's friction fixes its pairs (decision 0100)")
