@@ -608,7 +608,7 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     runs = {name: {**run, "rows": [k for k in run["rows"] if k not in keys]} for name, run in runs.items()}
     runs = {name: run for name, run in runs.items() if run["rows"]}
     runs[_run_name(only)] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
-                                    "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
+                             "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
     _, tail = footer.split(" s in all; ", 1)
     footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
     return merged, runs, footer, first
