@@ -348,19 +348,20 @@ def test_the_step_rule_takes_the_coarsest_step_every_finer_one_agrees_from():
     docs = [_step_doc(t, {o: c[k] for o, c in settled.items()}) for k, t in enumerate(steps)]
     entry = results.step_study(*docs)["pyramidal cones"]
     assert entry["steps"] == list(steps) and entry["step_ms"] == 0.05 and entry["converged"] is True
-    assert "timestep 0.05 ms" in _step_doc(0.05, {})["step"]
     with pytest.raises(ValueError):
         results.step_ms({"table": "t.md", "step": "the scenes' own step"})
 
 
-def test_the_pyramidal_step_is_the_one_its_study_gives():
-    """sim.pyramidal_timestep's default is the step record 0111's rule gives the pyramidal world
-    from the study's files, each run at one step."""
+def test_the_steps_are_the_ones_their_study_gives():
+    """sim.pyramidal_timestep's default is the step record 0111's rule gives the pyramidal world,
+    and sim.timestep's the step record 0112's rule gives the elliptic one, from the study's files,
+    each run at one step."""
     from ungrasp_ompl.scene.options import SimOptions
 
     docs = [results.load(name) for name in STEP_TABLES]
-    entry = results.step_study(*docs)["pyramidal cones"]
-    assert SimOptions().pyramidal_timestep == pytest.approx(entry["step_ms"] / 1000, rel=1e-9)
+    study = results.step_study(*docs)
+    assert SimOptions().pyramidal_timestep == pytest.approx(study["pyramidal cones"]["step_ms"] / 1000, rel=1e-9)
+    assert SimOptions().timestep == pytest.approx(results.elliptic_step(study) / 1000, rel=1e-9)
     for doc in docs:
         assert "--timestep" in doc["command"] and doc["step"] == f"timestep {results.step_ms(doc):g} ms"
 

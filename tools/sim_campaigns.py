@@ -556,14 +556,6 @@ def main() -> None:
 
 # --- the engines side by side (--engine drake) ---------------------------------------------------
 
-def fisher_p(a: tuple[int, int], b: tuple[int, int]) -> float:
-    """The two-sided Fisher exact test's p of two counts (successes, trials): whether the two
-    success rates, each over its own trials, differ beyond chance."""
-    from scipy.stats import fisher_exact
-
-    return float(fisher_exact([[a[0], a[1] - a[0]], [b[0], b[1] - b[0]]], alternative="two-sided")[1])
-
-
 def _group(record: dict) -> str:
     return next((g for g in GROUP_ORDER if record["campaign"].startswith(g)), record["campaign"])
 
@@ -658,7 +650,7 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
     import json
     from datetime import date
 
-    from campaign_results import table_json
+    from campaign_results import fisher_p, table_json
 
     from ungrasp_ompl.io import write_text_atomic
 
@@ -678,7 +670,7 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
         r["mujoco"] = None if m is None else {k: m[k] for k in (
             "successes", "trials", "interval_percent", "placed", "error_mean_mm", "error_max_mm", "sinking_max_mm",
             "failures")}
-        r["fisher_p"] = None if m is None else fisher_p((r["successes"], r["trials"]), (m["successes"], m["trials"]))
+        r["fisher_p"] = None if m is None else fisher_p(r, m)
     doc.update(runs=runs, mujoco_source=str(MUJOCO_RESULTS.relative_to(ROOT)), mujoco_command=mujoco["command"],
                mujoco_produced=mujoco["produced"])
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
