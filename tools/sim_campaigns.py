@@ -116,8 +116,8 @@ from ungrasp_ompl.sim.world import World  # noqa: E402
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 #: The `curved` rows' scenes: the curved solids (docs/model.md 2.7) and the pincer (7).
-CURVED = ("go_stone", "coin", "pincer_puzzle_piece")
-#: The seed of the `curved` rows' RRT* plans, one with which RRT* solves all three scenes.
+CURVED = ("go_stone", "coin", "pincer_puzzle_piece", "pincer_guitar_pick")
+#: The seed of the `curved` rows' RRT* plans, one with which RRT* solves all four scenes.
 CURVED_PLAN_SEED = 3
 #: The worlds the Go stone and the coin are run in besides their own (docs/model.md 11.16).
 CURVED_WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
