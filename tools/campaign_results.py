@@ -386,11 +386,11 @@ def table_readme_worlds(doc: dict) -> str:
 
 def table_readme(doc: dict, *older: dict) -> str:
     """The README's comparison with the paper: the base rows, the flat tip, caging and the tangram;
-    a row doc lacks is taken from the first of older that has it, its step named."""
+    a row doc lacks is taken from the first of older that has it, its step named where it is not doc's."""
     def source(has) -> tuple[dict, str]:
         for d in (doc, *older):
             if has(d):
-                return d, "" if d is doc else f" ({d['step']})"
+                return d, "" if d.get("step") == doc.get("step") else f" ({d['step']})"
         raise KeyError("no results file has the row")
 
     lines = ["| experiment | ours, simulated: successes (95 % interval) | the paper, on the robot |", "|---|---|---|"]
