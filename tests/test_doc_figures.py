@@ -184,7 +184,8 @@ def test_the_readme_quotes_what_its_first_example_prints(tmp_path, monkeypatch):
 # --- the studies' results files (tools/landing_check.py, tools/world_failures.py --results) ---------
 
 #: The results files of a study tool, and the tool that writes each.
-STUDIES = {"landing_check": "tools/landing_check.py", "world_failures": "tools/world_failures.py"}
+STUDIES = {"landing_check": "tools/landing_check.py", "world_failures": "tools/world_failures.py",
+           "sliding_drift": "tools/sliding_drift.py"}
 
 
 def _model_sections() -> str:
@@ -238,7 +239,9 @@ def test_the_margin_s_counts_follow_from_its_trials():
 
 def test_the_landing_differences_follow_from_the_landings():
     """landing_check: model - simulated is each model landing less the simulated one; a trial that
-    lost the object has no landing; n counts the placed trials of at most five."""
+    lost the object has no landing; n counts the placed trials of at most five: at least those the
+    strict verdict placed, at most those that did not lose their grip (a strict failure such as a
+    turn out of the plane may still be placed by the paper's criterion; a lost grip ends a trial)."""
     doc = results.load("landing_check")
     rows = [r for r in doc["rows"] if "world" in r]
     assert rows
@@ -248,7 +251,24 @@ def test_the_landing_differences_follow_from_the_landings():
         else:
             assert r["sim_along_mm"] is None and r["model_minus_sim_mm"] is None
         placed = sum(o in ("success", "placed off target") for o in r["draw_outcomes"])
-        assert r["n"] == placed + r["sim_placed"] <= 1 + len(r["draw_outcomes"])
+        held = sum(not o.startswith("grip lost") for o in r["draw_outcomes"])
+        assert placed + r["sim_placed"] <= r["n"] <= held + r["sim_placed"] <= 1 + len(r["draw_outcomes"])
+
+
+def test_the_drift_rows_pair_the_two_cones_on_the_same_trials():
+    """sliding_drift: each object has one row per cone, over the same number of trials; the mean
+    drift is at most the largest; the spread is a standard deviation; no more successes than trials."""
+    doc = results.load("sliding_drift")
+    rows = [r for r in doc["rows"] if "trials" in r]
+    objects = {r["label"].split(", ")[0] for r in rows}
+    assert rows and len(rows) == 2 * len(objects)
+    for name in objects:
+        mine = {r["label"].split(", ")[1]: r for r in rows if r["label"].startswith(name + ", ")}
+        assert set(mine) == {"elliptic", "pyramidal"}
+        assert mine["elliptic"]["trials"] == mine["pyramidal"]["trials"] >= 2
+        for r in mine.values():
+            assert 0.0 <= r["b_drift_mean_mm"] <= r["b_drift_max_mm"]
+            assert r["landing_across_sd_mm"] >= 0.0 and 0 <= r["successes"] <= r["trials"]
 
 
 def test_merging_a_study_keeps_the_others(tmp_path):
@@ -267,7 +287,7 @@ def test_merging_a_study_keeps_the_others(tmp_path):
 
 def test_the_model_s_release_and_world_sections_quote_their_files():
     """docs/model.md 11.17 and 11.18: every marked figure and table is its file's, the figures and
-    tables come from the two studies' files, and no count (k/n), millimetre to the hundredth,
+    tables come from the three studies' files, and no count (k/n), millimetre to the hundredth,
     newton to the hundredth or old-rule friction factor stands outside a mark."""
     text = _model_sections()
     assert results.differences(text) == []
