@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+from landing_check import in_plane  # noqa: E402
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS, trial_params  # noqa: E402
@@ -57,7 +58,7 @@ def trial_drift(task: tuple) -> tuple[float, float, float, bool]:
     record: list = []
     result = run_trial(setup, params, k, seed, record=record)
     target = np.asarray(setup.target_pose)
-    normal, along = target[:3, 1], target[:3, 0]  # the plane's normal and GB, world
+    normal = target[:3, 1]  # the plane's normal (the object lies flat at its target, GB along x), world
     b_body = np.append(np.asarray(setup.b_point), 1.0)
     times = np.array([t for t, _ in record])
 
@@ -66,10 +67,8 @@ def trial_drift(task: tuple) -> tuple[float, float, float, bool]:
         return float((pose @ b_body)[:3] @ normal) * 1e3
 
     drift = sum(b_across(b) - b_across(a) for name, a, b in setup.drive.phases if name == "P_psi")
-    off = placement_offset(np.asarray(result.final_pose), target, setup.spec.obj.outline)
-    horizontal = along[:2] / np.linalg.norm(along[:2])
-    across = np.array([-horizontal[1], horizontal[0]])
-    return drift, float(off @ horizontal) * 1e3, float(off @ across) * 1e3, result.outcome is Outcome.SUCCESS
+    along, across = in_plane(target, placement_offset(np.asarray(result.final_pose), target, setup.spec.obj.outline))
+    return drift, along * 1e3, across * 1e3, result.outcome is Outcome.SUCCESS
 
 
 def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor) -> list[dict]:
