@@ -117,6 +117,8 @@ SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 #: The `curved` rows' scenes: the curved solids (docs/model.md 2.7) and the pincer (7).
 CURVED = ("go_stone", "coin", "pincer_puzzle_piece", "pincer_guitar_pick")
+#: The `curved_worlds` rows' scenes: the curved solids.
+CURVED_WORLD_SCENES = ("go_stone", "coin")
 #: The seed of the `curved` rows' RRT* plans, one with which RRT* solves all four scenes.
 CURVED_PLAN_SEED = 3
 #: The worlds the Go stone and the coin are run in besides their own (docs/model.md 11.16).
@@ -350,6 +352,8 @@ def main() -> None:
                     help="MuJoCo's step for every row, in every world (s; default: the scenes' own, sim.timestep "
                          "and sim.pyramidal_timestep)")
     ap.add_argument("--no-figure", action="store_true", help="write the table alone, no figure")
+    ap.add_argument("--scenes", default=None,
+                    help="only these scenes in the curved and curved_worlds rows, comma-separated (e.g. go_stone)")
     ap.add_argument("--worlds", default=None,
                     help="only these worlds of the `worlds` rows, by label, comma-separated (e.g. 'pyramidal cones')")
     ap.add_argument("--figure", type=Path, default=None,
@@ -381,6 +385,9 @@ def main() -> None:
         if unknown:
             ap.error(f"--worlds: no world labelled {', '.join(sorted(unknown))} (worlds: "
                      f"{', '.join(label for label, _ in WORLDS)})")
+    curved = CURVED if args.scenes is None else tuple(x.strip() for x in args.scenes.split(","))
+    if set(curved) - set(CURVED):
+        ap.error(f"--scenes: no curved row of {', '.join(sorted(set(curved) - set(CURVED)))} (scenes: {', '.join(CURVED)})")
     COMPOUNDED_FRICTION = args.compounded_friction
     OBJECTIVE = args.objective
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
@@ -504,12 +511,12 @@ def main() -> None:
         show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
                  "109/120", (109, 120), "secure", "-"))
     if "curved" in only:  # curved solids and the pincer, as shipped (docs/model.md 2.7, 7)
-        for name in CURVED:
+        for name in curved:
             scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
             show(run(f"curved: {name}, plan seed {CURVED_PLAN_SEED}", scene, _plan(scene, CURVED_PLAN_SEED), n, j, s,
                      "-"))
     if "curved_worlds" in only:  # the same plans in worlds they never saw (docs/model.md 11.16)
-        for name in ("go_stone", "coin"):
+        for name in (x for x in CURVED_WORLD_SCENES if x in curved):
             scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
             result = _plan(scene, CURVED_PLAN_SEED)
             for label, world in CURVED_WORLDS:
