@@ -49,7 +49,8 @@ part for any time (docs/model.md 11.4) instead of the bound of 11.4, to report r
 unchanged: to see whether the rows hold at a finer step than the scenes' own (records 0019, 0111).
 
 `--worlds LABEL,...` runs only those worlds of the `worlds` rows (their labels in WORLDS, e.g.
-"pyramidal cones"); with --merge the table's other worlds' rows are kept.
+"pyramidal cones"); with --merge the table's other worlds' rows are kept. `--scenes NAME,...` runs
+only those scenes of the curved and curved_worlds rows; with --merge the others' rows are kept.
 
 `--compounded-friction` draws the `paper` friction error on top of a world's friction factor, the
 rule before a world fixed its pairs' friction (docs/decisions/0100-a-world-fixes-its-friction.md),
@@ -141,6 +142,8 @@ GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram"
 MAX_GAP: float = MAX_CONTACT_GAP
 #: The labels of the `worlds` rows to run (--worlds), or None for all of WORLDS.
 WORLD_LABELS: tuple[str, ...] | None = None
+#: The curved rows' scenes (--scenes), or None for all of CURVED.
+CURVED_SCENES: tuple[str, ...] | None = None
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
 COMPOUNDED_FRICTION: bool = False
 #: What the rows' RRT* plans optimise (--objective): None, each scene's planning.objective.
@@ -366,7 +369,7 @@ def main() -> None:
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, CURVED_SCENES
     ENGINE = args.engine
     drake = ENGINE == "drake"
     if args.trials is None:
@@ -385,7 +388,8 @@ def main() -> None:
         if unknown:
             ap.error(f"--worlds: no world labelled {', '.join(sorted(unknown))} (worlds: "
                      f"{', '.join(label for label, _ in WORLDS)})")
-    curved = CURVED if args.scenes is None else tuple(x.strip() for x in args.scenes.split(","))
+    CURVED_SCENES = None if args.scenes is None else tuple(x.strip() for x in args.scenes.split(","))
+    curved = CURVED if CURVED_SCENES is None else CURVED_SCENES
     if set(curved) - set(CURVED):
         ap.error(f"--scenes: no curved row of {', '.join(sorted(set(curved) - set(CURVED)))} (scenes: {', '.join(CURVED)})")
     COMPOUNDED_FRICTION = args.compounded_friction
@@ -595,8 +599,12 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     old = first if first is not None else {"rows": [], "runs": {}}
     keys = {r["key"] for r in new}  # and the rows of the groups run again, whatever their labels now
     regrouped = only - {"worlds"} if WORLD_LABELS is not None else only  # --worlds: only its worlds' rows
+    if CURVED_SCENES is not None:  # --scenes: only its scenes' rows
+        regrouped = regrouped - {"curved", "curved_worlds"}
     keys |= {r["key"] for r in old["rows"] if _option(r) in regrouped}
-    merged = [parse_row(row_line(r)) for r in old["rows"] if r["key"] not in keys] + new
+    fresh = {r["key"]: r for r in new}  # a row run again keeps its place
+    merged = [fresh.pop(r["key"]) if r["key"] in fresh else parse_row(row_line(r)) for r in old["rows"]
+              if r["key"] not in keys or r["key"] in fresh] + list(fresh.values())
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
     runs = old.get("runs", {})
     if not runs and old["rows"]:  # a table one run wrote whole: that run, named by its groups
@@ -614,9 +622,11 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
 
 
 def _run_name(only: set[str]) -> str:
-    """A run's name in a merged file's `runs`: its groups, and the worlds it ran where --worlds chose them."""
+    """A run's name in a merged file's `runs`: its groups, and the worlds and scenes it ran where
+    --worlds and --scenes chose them."""
     name = ",".join(sorted(only))
-    return name if WORLD_LABELS is None else f"{name}: {', '.join(WORLD_LABELS)}"
+    chosen = [*(WORLD_LABELS or ()), *(CURVED_SCENES or ())]
+    return f"{name}: {', '.join(chosen)}" if chosen else name
 
 
 def _write_merged(table: Path, merged: list[dict], footer: str) -> None:
