@@ -454,11 +454,12 @@ def test_a_touch_off_takes_out_the_tables_height_as_the_arm_sees_it(pick, table_
     assert failed.table_found_mm is None
 
 
-@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
+@pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk", "pincer_puzzle_piece"])
 def test_the_touch_off_program_expects_the_table_where_the_simulated_digits_meet_it(name, tmp_path):
     """The exported probe (touch_off.urscript) expects a digit to meet the table lift + clearance
     below its start, the clearance from the planar model of the digits (a rounded finger
-    ball-nosed); the simulated digits' own lowest point at the start pinch (their meshes and
+    ball-nosed; a pincer's turned about its joint, and its program sets the joint's angle); the
+    simulated digits' own lowest point at the start pinch (their meshes and
     dome, MuJoCo's kinematics) stands that high above the table, and the program stops where the
     simulated probe does (the force reading past TouchOffOptions.threshold). A calibration error
     moves the lowest point by what the trial's touch-off then takes out, the probe's error left
@@ -479,6 +480,8 @@ def test_the_touch_off_program_expects_the_table_where_the_simulated_digits_meet
     assert f"offset = {probe.options.lift + probe.clearance:.6f} - (p_top[2] - p_stop[2] - deflection)" in program
     assert f"while norm(reading) < {probe.options.threshold:g}:" in program and "get_tcp_force()[2]" in program
     assert _joint_list_text(probe.start_joints) in program
+    gripper_call = "angle" if scene.robot.gripper is not None else "opening"
+    assert f"ungrasp_gripper_set_{gripper_call}({probe.opening:.6f})" in program
     for params in trial_params(PRESETS["paper"], seed=3, trials=4):
         error = calibration_offset(setup.drive, params)
         found = touch_off_shift(setup, model, ids, error, params)

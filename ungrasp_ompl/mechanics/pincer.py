@@ -334,6 +334,25 @@ def digit_outlines(pose: PincerPose, digits: DigitGeometry) -> tuple[NDArray[np.
                     digits.finger_tip_thickness, digits.finger_base_thickness, 1.0))
 
 
+def pincer_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry, radius: float,
+                     offset: float) -> NDArray[np.float64]:
+    """Height of the pincer's digits' lowest point above the table at states (theta, d, psi), over
+    l (radius and offset: PincerSpec.scaled): the lowest vertex of the thumb's outline and of the
+    finger's (digit_outlines), a rounded finger ball-nosed (its body ending r short of its
+    outline's tip, along its link, its dome reaching down to the centre's height less r), as
+    mechanics.kinematics.digits_clearance has the parallel digits. A touch-off (robot.touch_off)
+    lowers the empty hand by this much before a digit meets the table."""
+    pose = pincer_pose(theta, d, psi, digits, radius, offset)
+    thumb, finger = digit_outlines(pose, digits)
+    thumb = pose.thumb_tip[..., None, :] + thumb
+    finger = pose.finger_corner[..., None, :] + finger
+    r = digits.finger_tip_radius
+    if r > 0:
+        finger[..., [0, 3], :] -= r * pose.finger_z[..., None, :]
+    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
+    return np.minimum(low, pose.dome[..., 1] - r) if r > 0 else low
+
+
 def housing(pose: PincerPose, digits: DigitGeometry) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The housing behind the joint: its centre (..., 2) and its outline relative to it (..., 4, 2),
     over l, palm_length deep along -palm_z from the joint and palm_width across, centred on the

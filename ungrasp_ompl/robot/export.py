@@ -439,7 +439,7 @@ def read_urscript_servo_targets(path: PathLike) -> NDArray[np.float64]:
 def write_touch_off_urscript(probe: TouchOff, path: PathLike) -> None:
     """A URScript program for the touch-off before the plan (robot.touch_off), with the options the
     simulator's probe uses (probe.options: TouchOffOptions): with the hand empty, it sets the start
-    pinch's opening, moves to probe.options.lift above the start pinch, zeroes the force sensor,
+    pinch's opening (a pincer's joint angle), moves to probe.options.lift above the start pinch, zeroes the force sensor,
     lowers the hand straight down at probe.options.speed, one control period at a time, until the
     vertical force reading reaches probe.options.threshold in magnitude (or halts once it has gone
     probe.options.overtravel past the expected touch), takes the commanded pose there less the
@@ -459,10 +459,10 @@ def write_touch_off_urscript(probe: TouchOff, path: PathLike) -> None:
         "# below, the cell's calibration, measured once by running this program over a surface of known height",
         "# with deflection = 0 (the offset it then reports is minus the give). 0: not calibrated.",
         "def ungrasp_touch_off():",
-        _GRIPPER_FUNCTION.rstrip("\n"),
+        (_PINCER_FUNCTION if probe.pincer else _GRIPPER_FUNCTION).rstrip("\n"),
         "",
         f"  deflection = {probe.deflection:.6f}",
-        f"  ungrasp_gripper_set_opening({probe.opening:.6f})",
+        f"  ungrasp_gripper_set_{'angle' if probe.pincer else 'opening'}({probe.opening:.6f})",
         f"  q_pinch = {q0}",
         f"  p_top = pose_trans(p[0, 0, {o.lift:g}, 0, 0, 0], get_forward_kin(q_pinch))",
         f"  movej(get_inverse_kin(p_top, qnear=q_pinch), a={_MOVEJ_ACC:g}, v={_MOVEJ_VEL:g})",

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanics.kinematics import digits_clearance
+from ..mechanics.pincer import pincer_clearance
 from ..planning.result import Plan
 from ..scene import Scene
 from .trajectory import JointTrajectory
@@ -71,12 +72,14 @@ class TouchOff:
     start_joints: tuple[float, ...]
     """Arm joints (rad) at the start pinch (the trajectory's first pose after the approach)."""
     opening: float
-    """The gripper's opening at the start pinch (m); the hand is empty."""
+    """The gripper's opening at the start pinch (m; a pincer's joint angle, rad); the hand is empty."""
     clearance: float
     """How far the digits' lowest point is above the table at the start pinch, as planned (m)."""
     base_z: float
     """The scene's robot.base height (m), which the measured offset corrects."""
     options: TouchOffOptions = TouchOffOptions()
+    pincer: bool = False
+    """Whether the gripper is a pincer (robot.gripper.kind pincer), whose opening is its joint angle."""
     deflection: float = 0.0
     """How far (m) the hand goes on past the first touch before the reading passes the threshold:
     the digits' and the contacts' give at that force, a calibration of the cell made once with this
@@ -96,13 +99,17 @@ def touch_off(scene: Scene, plan: Plan, trajectory: JointTrajectory,
     """The touch-off for plan executed as trajectory (robot.pipeline.execute), None when the
     scene's robot makes none (robot.touch_off false): the start pinch is where the approach ends
     (the segment prefix + "approach": a layout's piece names its segments); the clearance is the
-    digits' lowest point there (mechanics digits_clearance at the plan's first state), in metres;
+    digits' lowest point there (mechanics digits_clearance, or a pincer's pincer_clearance, at the
+    plan's first state), in metres;
     deflection (m): the cell's calibration of its probe (TouchOff.deflection)."""
     if not scene.robot.touch_off:
         return None
     approach = next((end for name, _, end in trajectory.segments if name == prefix + "approach"), 0)
     q = trajectory.positions[approach]
     theta, d, psi = plan.states[0]
-    clearance = float(digits_clearance(theta, d, psi, scene.digits)) * scene.object_length
-    return TouchOff(start_joints=tuple(float(x) for x in q[:6]), opening=float(q[6]), clearance=clearance,
-                    base_z=float(np.asarray(scene.robot.base)[2, 3]), options=options, deflection=float(deflection))
+    pincer = scene.robot.gripper
+    low = (digits_clearance(theta, d, psi, scene.digits) if pincer is None
+           else pincer_clearance(theta, d, psi, scene.digits, *pincer.scaled(scene.object_length)))
+    return TouchOff(start_joints=tuple(float(x) for x in q[:6]), opening=float(q[6]),
+                    clearance=float(low) * scene.object_length, base_z=float(np.asarray(scene.robot.base)[2, 3]),
+                    options=options, pincer=pincer is not None, deflection=float(deflection))

@@ -290,16 +290,12 @@ class SceneReader:
 
     def pincer_limits(self, m: dict, termination: str) -> None:
         """What a pincer's robot section may not ask for: the release open_lift moves the digits as
-        parallel jaws part, and the touch-off expects the parallel digits' lowest point; InputError
-        naming the field. The landing modelled it may ask for with an opening termination, as the
+        parallel jaws part; InputError naming the field. The landing modelled it may ask for with an opening termination, as the
         parallel gripper may: the model of the fall turns a pincer's digits about its joint
         (mechanics.release.pincer_hand)."""
         if termination == Termination.OPEN_LIFT:
             self.fail("robot.termination", "open_lift needs the parallel gripper (kind parallel): a pincer lets go "
                       "by open, open_symmetric or rotate")
-        if self.flag(m, "robot.touch_off", "touch_off"):
-            self.fail("robot.touch_off", "needs the parallel gripper (kind parallel): the probe expects the parallel "
-                      "digits' lowest point")
 
     def sim(self, value: Any) -> SimOptions:
         m = self.mapping(value, "sim")
