@@ -39,6 +39,9 @@ PHASES = {
     "  approaches (ranking)": ("layout/tiler.py", "approaches"),
     "  scenes of pieces": ("layout/model.py", "scene"),
     "  planning per piece": ("setup.py", "plan"),
+    "    lattice friction margins (each state once)": ("margin_table.py", "margins"),
+    "    legs re-validated": ("verify.py", "first_failing_leg"),
+    "    landings predicted": ("predicted_landing.py", "predict_landing"),
     "  waiting for the pieces' plans": ("layout/tiler.py", "take_ahead"),
     "execution (IK, timing)": ("pipeline.py", "execute_sequence"),
     "export (trajectory files)": ("export.py", "export_all"),
@@ -89,7 +92,7 @@ def main() -> None:
     print(f"\nexit {code}; {wall:.2f} s in cli.run under the profiler (profile: {args.prof})", file=sys.stderr)
     for phase in PHASES:
         seconds, calls = by_phase.get(phase, (0.0, 0))
-        print(f"{phase:<42} {seconds:7.2f} s  {calls:5d} calls", file=sys.stderr)
+        print(f"{phase:<46} {seconds:7.2f} s  {calls:5d} calls", file=sys.stderr)
     stats.sort_stats("cumulative").print_stats(args.top)
 
 

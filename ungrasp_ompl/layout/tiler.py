@@ -74,6 +74,7 @@ from ..mechanics.antipodal import antipodal_pairs
 from .. import planning
 from ..planning.atlas import SecurityAtlas, lattice_axes, planning_box
 from ..planning.lattice import optimum_cost
+from ..planning.margin_table import MARGIN_TABLE
 from ..planning.plan_tolerance import tolerance_scale
 from ..planning.result import Plan, PlanOutcome, describe_outcome
 from ..planning.setup import LATTICE, EndsProblem, PlannerOptions, seed_ompl
@@ -713,6 +714,7 @@ class _Tiler:
             return
         key = self.plan_key(placed, i, a, scene, self.opts.planner.planner, self.order_seed(len(placed)))
         if key not in self.memo.plans and key not in self.ahead:  # the most holdable states first: the longest
+            MARGIN_TABLE.share(atlas.axes, scene.friction)  # the pieces' lattices share their states' margins
             self.pool.submit(key, _plans_of_piece, scene, atlas, key, self.plan_key(placed, i, a, scene, LATTICE),
                              weight=float(np.count_nonzero(atlas.holdable)))
 

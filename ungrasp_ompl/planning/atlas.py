@@ -32,10 +32,11 @@ atlas tries every order and takes the one with fewest legs.
 
 from __future__ import annotations
 
+import copy
 import functools
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +45,7 @@ from ..geometry.collision import CollisionChecker
 from ..mechanics import force_closure, kinematic_validity, primitive_sliding_signs
 from ..mechanics.contact import sliding_signs
 from ..mechanics.section import finger_contact
-from ..scene import Scene
+from ..scene import PlanningOptions, Scene
 from .verify import SAMPLES_PER_STEP, first_loss_along
 
 THETA, D, PSI = 0, 1, 2
@@ -71,6 +72,10 @@ class Leg:
 
 #: Motions whose answer (motion_secure) an atlas remembers before the memory is cleared.
 MOTION_MEMORY = 200_000
+
+#: The planning options the tables of an atlas depend on (SecurityAtlas.with_options): the sliding
+#: model (force closure), the reverse primitives (the legs' directions) and the resolution.
+LATTICE_OPTIONS = ("sliding_model", "reverse_primitives", "resolution")
 
 #: Above this share of the lattice's states, force closure is computed over the whole lattice from
 #: its axes rather than state by state (the two cost about the same at a quarter, measured on the
@@ -122,6 +127,35 @@ class SecurityAtlas:
         self.margins: dict[tuple, object] = {}
         self._index_consts = tuple(tuple(float(x) for x in v) for v in (self.origin, self.res)) + (
             tuple(int(x) for x in self.lo_index), self.shape)
+        #: with_options's atlases by their options.
+        self._twins: dict[PlanningOptions, SecurityAtlas] = {}
+
+    def with_options(self, options: PlanningOptions) -> "SecurityAtlas":
+        """This lattice for this atlas's scene with other planning options (with_landing_spread's
+        replan without P_dpsi: planning.forbid_partial on, no landing bound), made once per options
+        and kept: an atlas whose scene is the scene with those options, the same as one built for
+        it (SecurityAtlas(scene, box)), which shares every table of a lattice state with this one
+        (its kinematics, collisions, force closure per contact mode, secure steps and runs, goal
+        states the gripper can let go from), since none depends on the options that may differ;
+        the answers that depend on them (which legs are secure: forbid_partial; the searches'
+        optima and margins) are its own. ValueError for options that change those tables (the
+        sliding model, reverse primitives, the resolution)."""
+        own = self.scene.options
+        changed = [f for f in LATTICE_OPTIONS if getattr(options, f) != getattr(own, f)]
+        if changed:
+            raise ValueError(f"planning options {', '.join(changed)} change the lattice's tables: build an atlas")
+        if options == own:
+            return self
+        if options not in self._twins:
+            twin = copy.copy(self)
+            twin.scene = replace(self.scene, options=options)
+            twin._no_dpsi = options.forbid_partial
+            for name in ("_releasable", "_mode_ok", "_runs", "_steps", "_x_modes"):  # tables: shared, each kept apart
+                setattr(twin, name, dict(getattr(self, name)))
+            twin._motions, twin._diagonals, twin._twins = {}, {}, {}  # which legs are secure: the twin's own
+            twin.cost_optima, twin.optimum_costs, twin.margins = {}, {}, {}
+            self._twins[options] = twin
+        return self._twins[options]
 
     def prepare(self) -> None:
         """Compute every leg table planning may need now, so none is built lazily while planning."""

@@ -38,10 +38,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..scene.options import Objective  # what the scene's planning.objective names
 from ..mechanics import primitive_sliding_signs
-from ..mechanics.margin import friction_margin
 from ..scene.tolerance import ToleranceOptions, state_tolerances
 from .atlas import D, LEG_AXES, PSI, Leg, SecurityAtlas, reference_cost
 from .edges import LatticeEdges, lattice_edges
+from .margin_table import MARGIN_TABLE
 
 
 #: Margins below this (deg) count as this in the balanced penalty, so that it stays finite.
@@ -73,7 +73,8 @@ class LatticeMargins:
     """Friction margins (rad) of an atlas's lattice states per contact mode (tolerances, a scale of
     the error box, for the ``tolerance`` objective), and the penalties of a robust objective
     (``margin``, ``balanced`` or ``tolerance``; see the module docstring).
-    ``computed_states`` counts the values evaluated so far."""
+    ``computed_states`` counts the states whose values were asked for so far (a friction margin is
+    computed once per state for every lattice like this one: planning.margin_table)."""
 
     def __init__(self, atlas: SecurityAtlas, objective: Objective = Objective.MARGIN, goal_box: ArrayLike | None = None):
         """goal_box: the goal region's (2, 3) corners (theta rad, d over l, psi rad), the scene's by
@@ -165,8 +166,8 @@ class LatticeMargins:
                     # at least 0 where the atlas finds the state secure: the two checks' geometry may
                     # differ by rounding at a boundary, which must not cut a path the planner may take
                     out[idx] = np.maximum(np.minimum(closure, kinematic), 0.0)
-                else:
-                    out[idx] = friction_margin(th, d, ps, key[0], key[1], s.friction)
+                else:  # friction_margin(th, d, ps, *key, s.friction), each state's once for every lattice like this
+                    out[idx] = MARGIN_TABLE.margins(self.atlas.axes, idx, key[0], key[1], s.friction)
                 self.computed_states += len(idx[0])
             self._mode[key] = out
         return self._mode[key]

@@ -6,6 +6,7 @@ when it carries it through the plan's P_dpsi legs (carried_start), over the worl
 from __future__ import annotations
 
 import math
+from dataclasses import astuple
 
 import numpy as np
 
@@ -130,4 +131,36 @@ def predict_landing(scene: Scene, plan: Plan, carried: bool = True) -> ReleasePr
     setup = release_setup(scene, tuple(plan.states[-1]))
     if carried:
         setup = ReleaseSetup(setup.body, setup.hand, carried_start(scene, plan, setup), setup.frame)
-    return predict_release(setup, float(mu_g), float(mu_b), str(scene.robot.termination), carried)
+    return _predicted(setup, float(mu_g), float(mu_b), str(scene.robot.termination), carried)
+
+
+#: How many predictions _predicted keeps (the oldest is dropped first).
+KEPT_PREDICTIONS = 256
+
+_kept: dict[tuple, ReleasePrediction] = {}
+
+
+def _predicted(setup: ReleaseSetup, mu_g: float, mu_b: float, termination: str, carried: bool) -> ReleasePrediction:
+    """mechanics.release.predict_release of these arguments, made once for the last KEPT_PREDICTIONS
+    distinct ones: a scene's plans often end alike (the planner's, the margin objective's and their
+    replans without P_dpsi end in the same state through the same P_dpsi legs, or none), and a
+    prediction is a function of these values alone. Kept by their exact values (each float by its
+    bits), never by object."""
+    key = _exact((astuple(setup), mu_g, mu_b, termination, carried))
+    found = _kept.get(key)
+    if found is None:
+        found = predict_release(setup, mu_g, mu_b, termination, carried)
+        if len(_kept) >= KEPT_PREDICTIONS:
+            del _kept[next(iter(_kept))]
+        _kept[key] = found
+    return found
+
+
+def _exact(value: object) -> object:
+    """value (nested tuples of floats and other hashable values) with every float as its exact
+    hexadecimal form, so that keys that differ in a bit (0.0 and -0.0) differ."""
+    if isinstance(value, (float, np.floating)):
+        return float(value).hex()
+    if isinstance(value, tuple):
+        return tuple(_exact(v) for v in value)
+    return value

@@ -29,7 +29,6 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from ..errors import InputError, ToolError
-from ..geometry.collision import CollisionChecker
 from ..mechanics.margin import friction_margin
 from ..parallel.options import check_seed
 from ..parallel.runner import TaskStatus, run_in_child
@@ -50,7 +49,7 @@ from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, P
 from .space import make_state_space, path_states, set_state
 from .turns import ROADMAP_PLANNERS, RoadmapCostObjective, RoadmapMotionValidator, TakeTurns
 from .validity import LatticeValidityChecker, PrimitiveMotionValidator
-from .verify import PathCheck, PathProblem, verify_leg
+from .verify import PathCheck, PathProblem, first_failing_leg
 
 
 #: Planners that may spin in C++ without checking their termination condition, and what was seen.
@@ -416,13 +415,14 @@ def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None
 
 def verify_legs(scene: Scene, atlas: SecurityAtlas, legs: list[Leg]) -> PathProblem | None:
     """Re-check every leg in its travel direction with the exact mechanics and FCL at half the
-    lattice step; the first failure, or None."""
-    checker = CollisionChecker(scene.collision_model())
-    for k, leg in enumerate(legs):
-        why = verify_leg(scene, leg.primitive, atlas.state(leg.start), atlas.state(leg.end), atlas.res / 2, checker)
-        if why:
-            return PathProblem(PathCheck.LEG_FAILS, k, leg.primitive, why)
-    return None
+    lattice step (planning.verify.verify_leg, every leg at once: first_failing_leg); the first
+    failure, or None."""
+    found = first_failing_leg(scene, [(leg.primitive, atlas.state(leg.start), atlas.state(leg.end)) for leg in legs],
+                              atlas.res / 2)
+    if found is None:
+        return None
+    k, why = found
+    return PathProblem(PathCheck.LEG_FAILS, k, legs[k].primitive, why)
 
 
 #: Planners whose best path so far can be read from their tree while they run (solve's stop at the
@@ -558,7 +558,8 @@ def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, i
     result = with_tolerance_floor(scene, result)
     if result.solved and scene.options.max_landing_spread is not None:
         result = with_landing_spread(scene, result,
-                                     lambda s: _plan_objective(s, planner, time, seed, iterations, None, **options))
+                                     lambda s, a: _plan_objective(s, planner, time, seed, iterations, a, **options),
+                                     atlas)
     return result
 
 
@@ -615,13 +616,16 @@ def with_widest_path(result: Plan, widest: Callable[[], Plan]) -> Plan:
                                  planning_time_s=result.planning_time_s + other.planning_time_s)
 
 
-def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene], Plan]) -> Plan:
+def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene, SecurityAtlas | None], Plan],
+                        atlas: SecurityAtlas | None = None) -> Plan:
     """A solved plan held to the scene's planning.max_landing_spread (docs/model.md 11.24): with its
     predicted landing (planning.predicted_landing), kept when the landing moves no more than the bound over
     the friction's range and both cones; else, when the plan has a P_dpsi (which carries the object
     and makes its landing depend on friction), the scene planned again by replan without P_dpsi
     (planning.forbid_partial) and that plan kept when it keeps the bound; else failed
-    (PlanOutcome.LANDING_SPREAD, path kept)."""
+    (PlanOutcome.LANDING_SPREAD, path kept). replan takes the scene without P_dpsi and its secure
+    lattice when one is known: atlas's for it (SecurityAtlas.with_options: the scene's lattice, built
+    already, serves it), where atlas, the scene's, is given; None otherwise."""
     bound = scene.options.max_landing_spread
     landing = predict_landing(scene, result)
     result = replace(result, predicted_landing=landing.to_dict())
@@ -629,8 +633,10 @@ def with_landing_spread(scene: Scene, result: Plan, replan: Callable[[Scene], Pl
         return result
     without: float | str = "the plan has no P_dpsi"
     if not scene.options.forbid_partial and any(p.type == "P_dpsi" for p in result.primitives):
-        strict = replace(scene, options=replace(scene.options, forbid_partial=True, max_landing_spread=None))
-        other = replan(strict)
+        options = replace(scene.options, forbid_partial=True, max_landing_spread=None)
+        lattice = atlas.with_options(options) if atlas is not None and atlas.scene is scene else None
+        strict = lattice.scene if lattice is not None else replace(scene, options=options)
+        other = replan(strict, lattice)
         if other.solved:
             kept = predict_landing(strict, other)
             if kept.spread <= bound:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 
@@ -31,7 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..geometry.collision import CollisionChecker
-from ..mechanics import Friction, contact_wrenches, force_closure, kinematic_checks, primitive_sliding_signs
+from ..mechanics import (Friction, SlidingModel, contact_wrenches, force_closure, kinematic_checks,
+                         primitive_sliding_signs)
 from ..scene import Scene
 
 #: Samples per lattice step that the re-validation takes along a leg (verify_legs: at half a
@@ -125,6 +127,16 @@ class PathProblem:
         return out
 
 
+def _leg_samples(q0: ArrayLike, q1: ArrayLike, resolution: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The samples (n + 1, 3) verify_leg checks along a leg from q0 to q1 (states (theta rad, d over
+    l, psi rad)), its ends included, no farther apart than resolution per coordinate; and the leg's
+    step q1 - q0."""
+    q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
+    step = q1 - q0
+    n = max(1, int(math.ceil(np.max(np.abs(step) / np.asarray(resolution)) - 1e-9)))
+    return q0 + np.linspace(0.0, 1.0, n + 1)[:, None] * step, step
+
+
 def verify_leg(
     scene: Scene,
     primitive: str,
@@ -134,10 +146,7 @@ def verify_leg(
     checker: CollisionChecker | None = None,
 ) -> LegFailure | None:
     """Check one leg from q0 to q1 (states (theta, d, psi)); None if secure, else why not."""
-    q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
-    step = q1 - q0
-    n = max(1, int(math.ceil(np.max(np.abs(step) / np.asarray(resolution)) - 1e-9)))
-    q = q0 + np.linspace(0.0, 1.0, n + 1)[:, None] * step
+    q, step = _leg_samples(q0, q1, resolution)
     th, d, ps = q.T
     for name, ok in kinematic_checks(th, d, ps, scene.digits).items():
         if not ok.all():
@@ -159,28 +168,90 @@ def verify_leg(
     return None
 
 
+def first_failing_leg(
+    scene: Scene,
+    legs: Sequence[tuple[str, ArrayLike, ArrayLike]],
+    resolution: ArrayLike,
+    checker: CollisionChecker | None = None,
+) -> tuple[int, LegFailure] | None:
+    """The first of legs ((primitive, q0, q1) each, in order) that verify_leg finds not secure, and
+    why (verify_leg's answer for it); None when every leg is secure.
+
+    verify_leg leg by leg, each of its checks run once over the samples of every leg still secure
+    (a handful of array operations for a whole path instead of a handful per leg): every check
+    decides each sample, or each piece between two samples, on its own, so a leg fails here
+    exactly where it fails alone; the failing leg is then checked alone for its reason."""
+    if not legs:
+        return None
+    parts = [_leg_samples(q0, q1, resolution) for _, q0, q1 in legs]
+    q = np.concatenate([samples for samples, _ in parts])
+    owner = np.repeat(np.arange(len(legs)), [len(samples) for samples, _ in parts])
+    signs = [primitive_sliding_signs(primitive, samples[:, 1], samples[:, 2], step[1], step[2])
+             for (primitive, _, _), (samples, step) in zip(legs, parts)]
+    sa, sb = (np.concatenate(x) for x in zip(*signs))
+    th, d, ps = q.T
+    bad = np.zeros(len(legs), dtype=bool)
+    held = np.logical_and.reduce(list(kinematic_checks(th, d, ps, scene.digits).values()))
+    bad[owner[~held]] = True
+    live = np.flatnonzero(~bad[owner])
+    bad[owner[live[~force_closure(th[live], d[live], ps[live], sa[live], sb[live], scene.friction)]]] = True
+    same = np.flatnonzero((owner[:-1] == owner[1:]) & (sa[:-1] == sa[1:]) & (sb[:-1] == sb[1:])
+                          & ~bad[owner[:-1]])  # pieces of a leg still secure, in one contact mode
+    lost = first_loss_along(q[same], q[same + 1], sa[same], sb[same], scene.friction)
+    bad[owner[same[~np.isnan(lost)]]] = True
+    checker = checker or CollisionChecker(scene.collision_model())
+    live = np.flatnonzero(~bad[owner])
+    if len(live):
+        bad[owner[live[checker.in_collision(q[live])]]] = True
+    for k in np.flatnonzero(bad):
+        primitive, q0, q1 = legs[k]
+        why = verify_leg(scene, primitive, q0, q1, resolution, checker)
+        if why is not None:
+            return int(k), why
+    return None
+
+
 def first_loss_along(q0: ArrayLike, q1: ArrayLike, a_sign: ArrayLike, b_sign: ArrayLike, friction: Friction,
                      depth: int = DEPTH) -> NDArray[np.float64]:
     """Where force closure is first lost along each straight segment from q0 to q1 ((N, 3) states
     (theta rad, d over l, psi rad)) in the contact mode (a_sign, b_sign) (each (N,) or a scalar):
     the fraction t in [0, 1] of the first point found not force-closed (0 or 1: an end), NaN where
     the segment is force-closed throughout (see the module docstring; friction's whole range, as
-    force_closure checks it)."""
+    force_closure checks it). Each segment is searched on its own; the segments whose contact
+    modes have the same slots and the same deciding frictions (_mode_groups) are searched together."""
     q0, q1 = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q0, q1))
     n = len(q0)
     sa, sb = (np.broadcast_to(np.asarray(x, dtype=int), (n,)) for x in (a_sign, b_sign))
     out = np.full(n, np.nan)
-    for a, b in {(int(x), int(y)) for x, y in zip(sa, sb)}:
-        sel = np.flatnonzero((sa == a) & (sb == b))
-        out[sel] = _first_loss(q0[sel], q1[sel], a, b, friction, depth)
+    for sel, deciding in _mode_groups(sa, sb, friction):
+        out[sel] = _first_loss(q0[sel], q1[sel], sa[sel], sb[sel], friction, deciding, depth)
     return out
 
 
-def _triple_products(q: NDArray, a: int, b: int, friction: Friction) -> NDArray[np.float64]:
-    """The triple products of the contact wrenches' slots at states q (N, 3) in mode (a, b), at
-    every friction that decides the range (Friction.ends): shape (N, 20 times their count)."""
+def _mode_groups(sa: NDArray, sb: NDArray, friction: Friction) -> list[tuple[NDArray[np.intp], tuple[Friction, ...]]]:
+    """The segments in contact modes (sa, sb) (each (N,)) in groups that _first_loss may search
+    together, each with the frictions that decide its range (Friction.ends; friction itself when
+    known exactly): under the relaxed model every mode has all six wrench slots and the range's
+    low end decides alone, so all the segments form one group; under the strict model a sliding
+    contact loses a slot and adds the range's high end, so the groups are by which contacts slide."""
+    if friction.model is SlidingModel.RELAXED:
+        keys = np.zeros(len(sa), dtype=int)
+    else:
+        keys = 2 * (sa != 0) + (sb != 0)
     out = []
-    for f in (friction.ends(a != 0, b != 0) if friction.uncertainty > 0.0 else (friction,)):
+    for key in np.unique(keys):
+        a_slides, b_slides = bool(key // 2), bool(key % 2)
+        deciding = friction.ends(a_slides, b_slides) if friction.uncertainty > 0.0 else (friction,)
+        out.append((np.flatnonzero(keys == key), deciding))
+    return out
+
+
+def _triple_products(q: NDArray, a: NDArray, b: NDArray, deciding: tuple[Friction, ...]) -> NDArray[np.float64]:
+    """The triple products of the contact wrenches' slots at states q (N, 3) in modes (a, b) (each
+    (N,)), at every friction that decides the range (deciding, _mode_groups): shape (N, 20 times
+    their count)."""
+    out = []
+    for f in deciding:
         w, exists = contact_wrenches(q[:, 0], q[:, 1], q[:, 2], a, b, f)
         w = w * exists[..., None]  # a slot the mode does not have spans nothing
         i, j, k = _TRIPLES.T
@@ -188,10 +259,12 @@ def _triple_products(q: NDArray, a: int, b: int, friction: Friction) -> NDArray[
     return np.concatenate(out, axis=1)
 
 
-def _first_loss(q0: NDArray, q1: NDArray, a: int, b: int, friction: Friction, depth: int) -> NDArray[np.float64]:
-    """first_loss_along for segments in one contact mode (a, b): the segments' pieces where some
-    triple product may change sign (_may_change) halved, force closure checked where they are
-    halved, depth times at most."""
+def _first_loss(q0: NDArray, q1: NDArray, a: NDArray, b: NDArray, friction: Friction,
+                deciding: tuple[Friction, ...], depth: int) -> NDArray[np.float64]:
+    """first_loss_along for segments in contact modes (a, b) (each (N,)) of one of _mode_groups'
+    groups, whose range deciding decides: the segments' pieces where some triple product may
+    change sign (_may_change) halved, force closure checked where they are halved, depth times at
+    most."""
     out = np.full(len(q0), np.nan)
     if not len(q0):
         return out
@@ -204,11 +277,11 @@ def _first_loss(q0: NDArray, q1: NDArray, a: int, b: int, friction: Friction, de
     for _ in range(depth):
         if not len(seg):
             break
-        may = _may_change(q0[seg], step[seg], lo, hi, a, b, friction)
+        may = _may_change(q0[seg], step[seg], lo, hi, a[seg], b[seg], deciding)
         seg, lo, hi = seg[may], lo[may], hi[may]
         mid = (lo + hi) / 2.0
         q = q0[seg] + mid[:, None] * step[seg]
-        lost = ~force_closure(q[:, 0], q[:, 1], q[:, 2], a, b, friction)
+        lost = ~force_closure(q[:, 0], q[:, 1], q[:, 2], a[seg], b[seg], friction)
         np.fmin.at(out, seg[lost], mid[lost])
         keep = ~lost
         seg, lo, mid, hi = seg[keep], lo[keep], mid[keep], hi[keep]
@@ -216,18 +289,18 @@ def _first_loss(q0: NDArray, q1: NDArray, a: int, b: int, friction: Friction, de
     return out
 
 
-def _may_change(q0: NDArray, step: NDArray, lo: NDArray, hi: NDArray, a: int, b: int, friction: Friction
-                ) -> NDArray[np.bool_]:
-    """Per piece [lo, hi] of a segment q0 + t step: whether some triple product may change sign
-    on it. It may where its sign differs at the two ends; else where the tangents at its ends
-    (slopes by finite differences) meet at or beyond 0, i.e. where a product convex along the piece
-    might dip through 0 and back (the tangents lie below a convex function; a concave one is
-    least at an end)."""
+def _may_change(q0: NDArray, step: NDArray, lo: NDArray, hi: NDArray, a: NDArray, b: NDArray,
+                deciding: tuple[Friction, ...]) -> NDArray[np.bool_]:
+    """Per piece [lo, hi] of a segment q0 + t step in contact mode (a, b) (each per piece): whether
+    some triple product may change sign on it. It may where its sign differs at the two ends; else
+    where the tangents at its ends (slopes by finite differences) meet at or beyond 0, i.e. where a
+    product convex along the piece might dip through 0 and back (the tangents lie below a convex
+    function; a concave one is least at an end)."""
     h = np.minimum(_SLOPE_STEP, (hi - lo) / 8.0)
     ts = np.concatenate([lo, lo + h, hi - h, hi])
     n = len(lo)
     q = np.tile(q0, (4, 1)) + ts[:, None] * np.tile(step, (4, 1))
-    p = _triple_products(q, a, b, friction).reshape(4, n, -1)
+    p = _triple_products(q, np.tile(a, 4), np.tile(b, 4), deciding).reshape(4, n, -1)
     width = (hi - lo)[:, None]
     f0, f1 = p[0], p[3]
     sign = np.sign(f0)
