@@ -27,7 +27,8 @@ along the table and changes no contact, to keep the study to about 20 minutes of
 With --needed, the friction factor (on every contact's coefficient) each leg of the RRT* plans
 needs for a margin of at least 0, with elliptic and with pyramidal cones, beside the factor planar
 force closure needs (section 4). With --forces, a rigid-body reading of one trial of an object's
-RRT* plan (the first of --objects) in the nominal world, friction x0.7 and pyramidal cones: the
+RRT* plan (the first of --objects; --plan-seed and --objective choose the plan, seed 1 and the
+cost by default) in the nominal world, friction x0.7 and pyramidal cones: the
 trial's outcome, and at chosen ticks of the settling (the start press) and after it, the turn out of
 the plane (a roll about GB and a turn of GB about the vertical), G's slip across the plane, and each
 contact's normal force, the ratios of its tangential force in the plane and across it to the normal,
@@ -132,6 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--needed", action="store_true", help="the friction each leg needs")
     parser.add_argument("--forces", action="store_true", help="the contact forces of one trial (of the first of --objects)")
     parser.add_argument("--trial", type=int, default=0, help="the trial --forces reads")
+    parser.add_argument("--plan-seed", type=int, default=1, help="the seed of the RRT* plan --forces reads")
+    parser.add_argument("--objective", choices=("cost", "margin"), default="cost",
+                        help="what the RRT* plan --forces reads optimises")
     parser.add_argument("--no-error", action="store_true", help="--forces reads a trial without any error")
     parser.add_argument("--impratio", type=float, default=None,
                         help="--forces runs a copy of the trial's model with this impratio (the simulator's is 10)")
@@ -149,9 +153,9 @@ def main(argv: list[str] | None = None) -> int:
     elif args.needed:
         study, code = "needed", friction_needed(args.objects, rows)
     elif args.forces:
-        study = forces_run(args.objects[0], args.trial, args.no_error, args.impratio)
+        study = forces_run(args.objects[0], args.trial, args.no_error, args.impratio, args.plan_seed, args.objective)
         code = contact_forces(args.objects[0], args.trial, args.seed, tuple(args.ticks), args.no_error, args.impratio,
-                              rows, study)
+                              rows, study, args.plan_seed, args.objective)
     else:
         study, code = "trials", world_trials(args, rows)
     if args.results:
@@ -373,17 +377,21 @@ def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
     return 0
 
 
-def forces_run(name: str, trial: int, no_error: bool, impratio: float | None) -> str:
+def forces_run(name: str, trial: int, no_error: bool, impratio: float | None, plan_seed: int = 1,
+               objective: str = "cost") -> str:
     """The study's name of one --forces reading ("forces: guitar_pick, trial 0", "forces: guitar_pick,
-    no error, impratio 1")."""
-    return (f"forces: {name}, {'no error' if no_error else f'trial {trial}'}"
+    no error, impratio 1", "forces: go_stone, margin plan seed 3, trial 9")."""
+    plan = "" if (plan_seed, objective) == (1, "cost") else f", {objective} plan seed {plan_seed}"
+    return (f"forces: {name}{plan}, {'no error' if no_error else f'trial {trial}'}"
             + ("" if impratio is None else f", impratio {impratio:g}"))
 
 
 def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], no_error: bool = False,
-                   impratio: float | None = None, out: list[dict] | None = None, study: str = "forces") -> int:
-    """Print the rigid-body reading of one trial of an object's RRT* plan (see the module docstring),
-    and the trial's outcome in each world; no_error: the trial without any error; impratio: run a
+                   impratio: float | None = None, out: list[dict] | None = None, study: str = "forces",
+                   plan_seed: int = 1, objective: str = "cost") -> int:
+    """Print the rigid-body reading of one trial of an object's RRT* plan (of plan_seed, optimising
+    objective; see the module docstring), and the trial's outcome in each world; no_error: the trial
+    without any error; impratio: run a
     copy of the trial's model with that impratio instead of the simulator's (not a world of
     sim/world.py: a probe of how stiffly friction holds). The rows go into out, labelled by study."""
     out = [] if out is None else out
@@ -398,14 +406,14 @@ def contact_forces(name: str, trial: int, seed: int, ticks: tuple[float, ...], n
 
     obj = name
     scene = Scene.from_file(STUDY_SCENES.get(name, name))
-    plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
+    plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=plan_seed, objective=objective)
     _, setup = placement(scene, plan)
     params = TrialParams() if no_error else trial_params(preset("paper"), seed, trial + 1)[trial]
     out.append({"label": study, "study": study, "object": obj, "trial": None if no_error else trial,
                 "shift_across_mm": params.shift_across_mm, "factor_g": params.friction_scale[0],
                 "factor_a": params.friction_scale[1], "factor_b": params.friction_scale[2], "impratio": impratio})
     frame = setup.target_pose[:3, :3]  # the plane's: x toward B, y across, z up
-    print(f"{name}, RRT* seed 1, trial {trial}: shift across {params.shift_across_mm:+.2f} mm, friction "
+    print(f"{name}, RRT* seed {plan_seed} ({objective}), trial {trial}: shift across {params.shift_across_mm:+.2f} mm, friction "
           f"factors {', '.join(f'{f:.2f}' for f in params.friction_scale)}")
     for item in ("friction=1", "friction=0.7", "cone=pyramidal"):
         world = world_of(item)
