@@ -81,12 +81,12 @@ def small_landing_file(name: str, directory: Path) -> Path:
     return path
 
 
-#: The longest test files first (their total time on two cores, `pytest --durations=0`, about 200 s
+#: The longest test files first (their total time on two cores, `pytest --durations=0`, about 300 s
 #: down to 15 s): xdist hands each worker whole files in collection order (pyproject passes
 #: --no-loadscope-reorder, else it orders them by their number of tests), so a long file that
 #: started last would leave the other core idle for its whole length. The rest keep their order.
-LONGEST_FILES = ("test_simulation.py", "test_tiling.py", "test_bad_input.py", "test_scenes.py", "test_cli.py",
-                 "test_certify.py", "test_cluster.py", "test_view.py", "test_objectives.py", "test_benchmark.py",
+LONGEST_FILES = ("test_simulation.py", "test_tiling.py", "test_sinking.py", "test_bad_input.py", "test_scenes.py",
+                 "test_cli.py", "test_certify.py", "test_cluster.py", "test_view.py", "test_objectives.py", "test_benchmark.py",
                  "test_yardstick.py", "test_tolerance.py", "test_lattice_build.py", "test_force_closure.py",
                  "test_planning.py", "test_design.py", "test_workflows.py", "test_cage.py")
 
