@@ -316,13 +316,22 @@ def digits_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: Dig
     meets the table."""
     thumb, finger = digit_polygons(theta, d, psi, digits)
     r = digits.finger_tip_radius
+    dome = dome_centre(theta, d, psi, digits.object_thickness, r, digits.section) if r > 0 else None
+    return outlines_clearance(thumb, finger, digit_axis(theta, psi), dome, r)
+
+
+def outlines_clearance(thumb: NDArray[np.float64], finger: NDArray[np.float64], finger_axis: NDArray[np.float64],
+                       dome: NDArray[np.float64] | None, r: float) -> NDArray[np.float64]:
+    """Height of the lowest point of two digits above the table, over l, from their outlines in the
+    plane (..., 4, 2), in digit_polygons' vertex order: a rounded finger (r > 0, over l) is
+    ball-nosed, its body ending r short of its outline's tip along finger_axis (..., 2, toward the
+    tip) and its dome, of centre dome (..., 2), reaching down to the centre's height less r.
+    digits_clearance's for the parallel digits, mechanics.pincer.pincer_clearance's for a pincer's."""
     if r > 0:
         finger = finger.copy()
-        finger[..., [0, 3], :] -= r * digit_axis(theta, psi)[..., None, :]
+        finger[..., [0, 3], :] -= r * finger_axis[..., None, :]
     low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
-    if r > 0:
-        low = np.minimum(low, dome_centre(theta, d, psi, digits.object_thickness, r, digits.section)[..., 1] - r)
-    return low
+    return np.minimum(low, dome[..., 1] - r) if r > 0 else low
 
 
 def digit_polygons(

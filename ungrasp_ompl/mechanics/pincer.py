@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
-from .kinematics import DigitGeometry, digit_axis, dome_centre, object_axis, thumb_normal
+from .kinematics import DigitGeometry, digit_axis, dome_centre, object_axis, outlines_clearance, thumb_normal
 
 
 @dataclass(frozen=True)
@@ -337,20 +337,14 @@ def digit_outlines(pose: PincerPose, digits: DigitGeometry) -> tuple[NDArray[np.
 def pincer_clearance(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry, radius: float,
                      offset: float) -> NDArray[np.float64]:
     """Height of the pincer's digits' lowest point above the table at states (theta, d, psi), over
-    l (radius and offset: PincerSpec.scaled): the lowest vertex of the thumb's outline and of the
-    finger's (digit_outlines), a rounded finger ball-nosed (its body ending r short of its
-    outline's tip, along its link, its dome reaching down to the centre's height less r), as
-    mechanics.kinematics.digits_clearance has the parallel digits. A touch-off (robot.touch_off)
-    lowers the empty hand by this much before a digit meets the table."""
+    l (radius and offset: PincerSpec.scaled): kinematics.outlines_clearance of its digits' outlines
+    (digit_outlines), the finger ball-nosed along its link, as digits_clearance has the parallel
+    digits. A touch-off (robot.touch_off) lowers the empty hand by this much before a digit meets
+    the table."""
     pose = pincer_pose(theta, d, psi, digits, radius, offset)
     thumb, finger = digit_outlines(pose, digits)
-    thumb = pose.thumb_tip[..., None, :] + thumb
-    finger = pose.finger_corner[..., None, :] + finger
-    r = digits.finger_tip_radius
-    if r > 0:
-        finger[..., [0, 3], :] -= r * pose.finger_z[..., None, :]
-    low = np.minimum(thumb[..., 1].min(axis=-1), finger[..., 1].min(axis=-1))
-    return np.minimum(low, pose.dome[..., 1] - r) if r > 0 else low
+    return outlines_clearance(pose.thumb_tip[..., None, :] + thumb, pose.finger_corner[..., None, :] + finger,
+                              pose.finger_z, pose.dome, digits.finger_tip_radius)
 
 
 def housing(pose: PincerPose, digits: DigitGeometry) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
