@@ -129,6 +129,32 @@ def test_the_world_description_is_what_both_engines_build():
     assert inspector.GetShape(dome).radius() == world.dome.shape.radius
 
 
+@pytest.mark.parametrize("name", ["guitar_pick", "fabric_chalk", "go_stone"])
+def test_the_hull_drake_gets_is_the_objects_hull_with_large_faces_fanned_from_their_centroids(name):
+    """hull_triangles (record 0115): a closed mesh, every edge met once each way, whose signed
+    volume (its triangles turned outward) and area are those of scipy's hull of the same vertices; on the slabs,
+    a triangle with three of the hull's corners lies on a face of at most four of them (a larger
+    face is fanned from its centroid)."""
+    from collections import Counter
+
+    from scipy.spatial import ConvexHull
+
+    vertices = describe(_spec(name)).object.geom.shape.vertices
+    points, triangles = drake_world.hull_triangles(vertices)
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    hull = ConvexHull(vertices)
+    assert np.einsum("ij,ij->i", a, normals).sum() / 6 == pytest.approx(hull.volume, rel=1e-9)
+    assert np.linalg.norm(normals, axis=1).sum() / 2 == pytest.approx(hull.area, rel=1e-9)
+    edges = Counter((int(x), int(y)) for t in triangles for x, y in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])))
+    assert all(n == 1 and edges.get((y, x)) == 1 for (x, y), n in edges.items())
+    unit = normals / np.linalg.norm(normals, axis=1)[:, None]
+    if name != "go_stone":
+        cornered = triangles.max(axis=1) < len(vertices)
+        in_plane = np.abs(unit[cornered] @ vertices.T - np.einsum("ij,ij->i", unit, a)[cornered, None]) < 1e-12
+        assert np.all(in_plane.sum(axis=1) <= 4)
+
+
 @pytest.mark.parametrize("mu", [0.05, 0.25, 0.35, 0.45, 0.7, 1.3])
 def test_a_geometrys_friction_combines_with_the_objects_to_the_pairs(mu):
     """Drake's 2 a b / (a + b) of the object's coefficient and the one geometry_friction gives is the pair's."""

@@ -77,7 +77,9 @@ trial in Drake, the pieces already down in it (sim.tiling.simulate_tiling's engi
 both engines, logs the forces on the object at every control tick, and writes what they show per
 engine into docs/results/campaigns_drake_contacts.json (.md beside): while both digits and the
 table hold the object, the table's friction use (its tangential over its normal force) against the
-trial's mu at G, the mean size of each digit's force on the object and the table's normal force.
+trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
+and how far G moves along the table before the termination (and in which phase most). With
+`--tip flat` the trials are the edge rows' (the flat finger tip).
 
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
@@ -363,6 +365,8 @@ def main() -> None:
                     help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
                                                      "their contact forces logged in both engines")
+    ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
+                    help="with --contacts: the finger tip of the rows whose trials are run (flat: the edge rows')")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
@@ -379,7 +383,7 @@ def main() -> None:
     if drake and args.table is None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
-        contact_forces(args.contacts, args.seed, args.thumb)
+        contact_forces(args.contacts, args.seed, args.thumb, args.tip)
         return
     TIMESTEP = args.timestep
     if args.worlds is not None:
@@ -736,11 +740,13 @@ def _mujoco_forces(log: list):
     return Logged
 
 
-def _summary(log: list, mu_g: float, result) -> dict:
+def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
     """What a trial's log of contact forces shows: while both digits press the object and the table
     holds it up, the table's friction use (its tangential over its normal force, each summed over
     WINDOW ticks) against mu_G, the mean size of the force each digit exerts and the table's mean
-    normal force."""
+    normal force; and from its poses ((time s, the object's pose 4x4) per tick, G at the body's
+    origin), how far G moves along the table before the termination and in which phase of the
+    drive (sim.drive.GripperDrive) it moves furthest."""
     log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
            for t, f in log]  # Drake names the finger's dome apart; MuJoCo's finger is one
     held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
@@ -755,13 +761,34 @@ def _summary(log: list, mu_g: float, result) -> dict:
             "held_until_s": float(held[-1][0]) if held else None,
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
-            "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg}
+            "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg,
+            **_g_travel(poses, drive)}
 
 
-def contact_forces(which: str, seed: int, thumb: str = "pad") -> None:
-    """Trials of the base rows (OBJECT:TRIAL,...) in both engines with their contact forces logged;
-    their summaries into docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches
-    the object in Drake (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made."""
+def _g_travel(poses: list, drive) -> dict:
+    """How far (mm) G, the object's body origin, moves along the table from the drive's start to its
+    termination's, and the phase of the drive in which it moves furthest (its name and mm)."""
+    end = drive.phase_start("termination")
+    times = np.array([t for t, _ in poses])
+    g = np.array([np.asarray(pose)[:2, 3] for _, pose in poses])
+    held = times <= end
+    steps = np.linalg.norm(np.diff(g, axis=0), axis=1) * 1000
+    per_phase: dict[str, float] = {}
+    for (t, _), step in zip(poses[1:], steps):
+        if t <= end:
+            name = drive.phase_at(t)[1]
+            per_phase[name] = per_phase.get(name, 0.0) + float(step)
+    phase = max(per_phase, key=per_phase.get) if per_phase else None
+    last = int(np.flatnonzero(held)[-1]) if held.any() else 0
+    return {"g_moved_mm": float(np.linalg.norm(g[last] - g[0]) * 1000), "g_moved_most_in": phase,
+            "g_moved_most_mm": per_phase.get(phase) if phase else None}
+
+
+def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded") -> None:
+    """Trials of the base rows (OBJECT:TRIAL,...; with tip "flat" the edge rows') in both engines
+    with their contact forces logged; their summaries into
+    docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches the object in Drake
+    (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made."""
     import shlex
 
     from campaign_results import merge_study
@@ -777,7 +804,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad") -> None:
     rows = []
     for item in which.split(","):
         name, k = item.split(":")
-        scene = _scene(name, "rounded")
+        scene = _scene(name, tip)
         setup = replace(placement(scene, _plan(scene, seed))[1], max_contact_gap=MAX_GAP)
         params = trial_params(PRESETS["paper"], seed, int(k) + 1)[int(k)]
         mu_g = mj_trial.trial_spec(setup, params).friction.table
@@ -794,19 +821,20 @@ def contact_forces(which: str, seed: int, thumb: str = "pad") -> None:
         results["drake"] = run_drake_trial(setup, params, int(k), seed, record=poses["drake"],
                                            contact_log=logs["drake"])
         for engine in engines:
-            row = _summary(logs[engine], mu_g, results[engine])
+            row = _summary(logs[engine], mu_g, results[engine], poses[engine], setup.drive)
             # how far the object lies out of the manipulation plane when the drive starts, the settling done
             row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
-            label = f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
+            label = (f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
+                     + (", flat tip" if tip == "flat" else ""))
             rows.append({"label": label, "object": name, "trial": int(k),
                          "engine": engine if thumb == "pad" else f"{engine} (thumb point)", **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
     formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
                "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
                "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
-               "roll_start_deg": "{:.2f}"}
+               "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}"}
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json",
-                       "contacts" if thumb == "pad" else "contacts_thumb_point",
+                       ("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""),
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
                        rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials")
     print(f"wrote {path}")

@@ -109,6 +109,10 @@ PAD_GRADIENT = TABLE_MODULUS / TABLE_SLAB
 #: contact instead, as the builder did before the pad, for the comparison of the two in
 #: tools/sim_campaigns.py --contacts --thumb point (docs/model.md 11.19).
 THUMB_PAD = True
+#: Whether the object's and the pieces' hulls reach Drake triangulated by hull_triangles (record
+#: 0115); False gives Drake their vertices as a Convex, triangulated by Drake, as the builder did
+#: before, for the comparison of the two in tools/bench_sim.py --engine drake --drake-hull convex.
+FANNED_HULLS = True
 #: SAP's near-rigid threshold (its default).
 NEAR_RIGID = 1.0
 #: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes, half spaces
@@ -206,9 +210,18 @@ def _properties(drake, geom: Geom, friction: float, hydro: str | None, modulus: 
     return props
 
 
-def _shape(drake, geom: Geom):
-    """Drake's shape of a description geometry and its pose in the body's frame."""
+def _shape(drake, geom: Geom, patches: bool = False):
+    """Drake's shape of a description geometry and its pose in the body's frame. patches: the
+    geometry is rigid hydroelastic on a free body (the object, a piece's hull), whose contact
+    patches are cut from its triangles: a mesh is then its hull triangulated by hull_triangles,
+    the same solid as Drake's Convex of its vertices."""
     s = geom.shape
+    if isinstance(s, Mesh) and patches and FANNED_HULLS:
+        points, triangles = hull_triangles(s.vertices)
+        obj = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in points.tolist())
+        obj += "".join(f"f {a} {b} {c}\n" for a, b, c in (triangles + 1).tolist())
+        return (drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(obj, ".obj", geom.name + ".obj"))),
+                drake.RigidTransform(s.centre))
     if isinstance(s, Mesh):
         return drake.Convex(np.ascontiguousarray(s.vertices.T), geom.name), drake.RigidTransform(s.centre)
     if isinstance(s, Sphere):
@@ -216,6 +229,58 @@ def _shape(drake, geom: Geom):
     if isinstance(s, Box):
         return drake.Box(*(2 * s.half)), drake.RigidTransform(s.centre)
     raise TypeError(f"no Drake shape for {s!r}")
+
+
+def hull_triangles(vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The convex hull of vertices (N, 3) as a closed triangle mesh, each triangle's corners
+    counter-clockwise seen from outside: its points (M, 3: the hull's vertices, then the centroid of
+    each face with more than four corners) and triangles (K, 3, indices into points). A face of
+    three or four corners keeps the hull's one or two triangles; a larger face is fanned from its
+    centroid.
+
+    Drake cuts a rigid hydroelastic geometry's contact patch from its triangles, a polygon and a
+    contact constraint each, and triangulates a Convex's faces itself, fanning a face from one of
+    its corners: where that corner lies in a patch, every triangle of the face crosses it (the
+    pick's end on the thumb's pad: 139 slivers of its face across a strip 0.05 mm wide), and the
+    contact problem of every step grows with them. Fanned from its centroid, a face crosses a
+    patch at its edge with the few triangles whose outer sides lie there. The solid is the same."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(np.asarray(vertices, dtype=float))
+    planes = hull.equations / np.linalg.norm(hull.equations[:, :3], axis=1)[:, None]
+    here = np.repeat(np.arange(len(planes)), 3)
+    there = hull.neighbors.ravel()
+    same = np.all(np.abs(planes[here] - planes[there]) <= 1e-9, axis=1)  # neighbours in one plane: one face
+    _, face = connected_components(coo_matrix((np.ones(int(same.sum())), (here[same], there[same])),
+                                                  shape=(len(planes),) * 2), directed=False)
+    small = np.bincount(face)[face] <= 2  # a face of one or two simplices: three or four corners
+    points = [hull.points]
+    triangles = [_outward(hull.points, hull.simplices[small], planes[small])]
+    extra = len(hull.points)
+    for f in np.unique(face[~small]):  # five corners or more: fanned from the centroid
+        mine = face == f
+        corners = np.unique(hull.simplices[mine])
+        normal = planes[mine][0, :3]
+        xyz = hull.points[corners]
+        centre = xyz.mean(axis=0)
+        u = (xyz[0] - centre) / np.linalg.norm(xyz[0] - centre)
+        ring = corners[np.argsort(np.arctan2((xyz - centre) @ np.cross(normal, u), (xyz - centre) @ u))]
+        points.append(centre[None])
+        triangles.append(np.column_stack([np.full(len(ring), extra), ring, np.roll(ring, -1)]))
+        extra += 1
+    return np.vstack(points), np.vstack(triangles).astype(np.int64)
+
+
+def _outward(points: NDArray, triangles: NDArray, planes: NDArray) -> NDArray[np.int64]:
+    """The triangles (K, 3) with each one's corners turned counter-clockwise seen from outside its
+    plane (planes (K, 4), unit outward normals first)."""
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), planes[:, :3]) < 0
+    out = triangles.copy()
+    out[flip, 1], out[flip, 2] = triangles[flip, 2], triangles[flip, 1]
+    return out
 
 
 def _inertia(drake, geoms: tuple[Geom, ...]):
@@ -416,7 +481,7 @@ def _add_object(drake, plant, world: WorldDescription, geoms: dict):
     """The object, a free rigid body with its friction set per pair (OBJECT_FRICTION); its body."""
     objects = plant.AddModelInstance("object")
     obj = plant.AddRigidBody("object", objects, _inertia(drake, (world.object.geom,)))
-    shape, pose = _shape(drake, world.object.geom)
+    shape, pose = _shape(drake, world.object.geom, patches=True)
     gid = plant.RegisterCollisionGeometry(obj, pose, shape, "object", _properties(
         drake, world.object.geom, OBJECT_FRICTION, "rigid", relaxation=OBJECT_RELAXATION_TIME))
     geoms[gid] = "object"
@@ -433,7 +498,7 @@ def _add_placed(drake, plant, body: FreeBody, geoms: dict):
     instance = plant.AddModelInstance(body.name)
     rigid = plant.AddRigidBody(body.name, instance, _inertia(drake, (body.geom,)))
     mu = geometry_friction(body.geom.friction)
-    shape, pose = _shape(drake, body.geom)
+    shape, pose = _shape(drake, body.geom, patches=True)
     # the hull carries the object's coefficient, so that the piece lies on the table with the
     # object's pair coefficient there (the solids' pair coefficient is the table's, mu_G)
     hull = plant.RegisterCollisionGeometry(rigid, pose, shape, body.name, _properties(
@@ -441,6 +506,7 @@ def _add_placed(drake, plant, body: FreeBody, geoms: dict):
     field_ = placed_field(body.geom.shape.vertices)
     if field_ is None:
         modulus = PAD_GRADIENT * float(np.ptp(body.geom.shape.vertices[:, 2])) / 2
+        shape, pose = _shape(drake, body.geom)
     else:
         points, tets, modulus = field_
         shape = drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(
