@@ -1,7 +1,7 @@
 """Speed of simulated execution: wall and CPU time of one trial, per object, as campaigns run them.
 
     python tools/bench_sim.py [--trials N] [--perturb paper] [--timestep S] [--objects NAME,...]
-                              [--engine mujoco|drake [--drake-hull fanned|convex]]
+                              [--engine mujoco|drake [--drake-hull fanned|convex]] [--results]
 
 Plans each shipped object once (RRT*, seed 1), builds its trajectory, then times N trials with the
 preset's errors (seed 1, trial k drawn as campaigns draw it): model compile, settle, drive, and the
@@ -13,7 +13,8 @@ trial that goes the whole way. --timestep S times the trials at MuJoCo's step S 
 scenes' own (sim.timestep), to see what a finer step costs. --engine drake times the trials in
 Drake (sim.drake_trial) and prints beside them the most polygons the thumb's and the table's
 contact patches with the object had at a control tick; --drake-hull convex builds the object's hull
-as Drake triangulates it (sim.drake_world.FANNED_HULLS, record 0115).
+as Drake triangulates it (sim.drake_world.FANNED_HULLS, record 0115). --results merges the rows into
+docs/results/bench_sim.json (.md beside), one study per engine and hull, for the pages to quote.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
 
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.scene.perturbation import TrialParams, preset, trial_params  # noqa: E402
@@ -79,7 +81,10 @@ def main() -> None:
     ap.add_argument("--drake-hull", choices=("fanned", "convex"), default="fanned",
                     help="with --engine drake: the object's hull triangulated from its faces' centroids "
                          "(the builder's) or by Drake from its vertices")
+    ap.add_argument("--results", action="store_true", help="merge the rows into docs/results/bench_sim.json")
     args = ap.parse_args()
+    started = time.perf_counter()
+    rows = []
     if args.engine == "drake":
         from ungrasp_ompl.sim import drake_world
 
@@ -104,6 +109,23 @@ def main() -> None:
               f"{max(cpus):>11.3f} {max(r.sim_time_s for r, _, _ in runs):>17.2f} "
               f"{sum(r.success for r, _, _ in runs):>3}/{len(runs):<3} | {whole_wall:>19.3f} {whole.sim_time_s:>11.2f}"
               + (f" | {POLYGONS.get('thumb', 0)}, {POLYGONS.get('table', 0)}" if args.engine == "drake" else ""))
+        rows.append({"label": f"{args.engine}{'' if args.engine == 'mujoco' else ', hull ' + args.drake_hull}: {name}",
+                     "object": name, "trials": len(runs), "wall_median_s": statistics.median(walls),
+                     "wall_max_s": max(walls), "cpu_median_s": statistics.median(cpus), "cpu_max_s": max(cpus),
+                     "placed": sum(r.success for r, _, _ in runs), "whole_trial_wall_s": whole_wall,
+                     **({"thumb_polygons_max": POLYGONS.get("thumb", 0), "table_polygons_max": POLYGONS.get("table", 0)}
+                        if args.engine == "drake" else {})})
+    if args.results:
+        import shlex
+
+        from campaign_results import merge_study
+
+        study = args.engine + ("" if args.engine == "mujoco" else f"-hull-{args.drake_hull}")
+        formats = {k: "{:.2f}" for k in ("wall_median_s", "wall_max_s", "cpu_median_s", "cpu_max_s", "whole_trial_wall_s")}
+        path = merge_study(ROOT / "docs" / "results" / "bench_sim.json", study,
+                           shlex.join(["python", "tools/bench_sim.py", *sys.argv[1:]]), time.perf_counter() - started,
+                           rows, formats, "The cost of a simulated trial, per engine (tools/bench_sim.py)")
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":
