@@ -95,17 +95,18 @@ def _fisher_two_sided(a: int, n: int, b: int, m: int) -> float:
     return min(1.0, sum(q for q in prob if q <= seen * (1 + 1e-7)))
 
 
-def test_the_drake_campaign_sets_each_row_beside_mujoco_s():
+@pytest.mark.parametrize("name, tangram", [("campaigns_drake", False), ("campaigns_drake_tangram", True)])
+def test_the_drake_campaign_sets_each_row_beside_mujoco_s(name, tangram):
     """Each Drake row holds MuJoCo's row of the same key in the MuJoCo file it names, figure for
     figure, and the two-sided Fisher test's p of the two counts (each over its own trials); the
-    tangram, which Drake does not build, has no row."""
-    doc = results.load("campaigns_drake")
+    tangram's rows have a file of their own, set beside MuJoCo's tangram file."""
+    doc = results.load(name)
     source = doc["mujoco_source"]
     assert source.startswith("docs/results/") and source.endswith(".json")
     mujoco = results.load(source.removeprefix("docs/results/").removesuffix(".json"))
     theirs = {r["key"]: r for r in mujoco["rows"]}
     assert doc["mujoco_command"] == mujoco["command"]
-    assert doc["rows"] and not any(r["campaign"].startswith("tangram") for r in doc["rows"])
+    assert doc["rows"] and all(r["campaign"].startswith("tangram") == tangram for r in doc["rows"])
     for r in doc["rows"]:
         m = theirs[r["key"]]
         assert r["mujoco"] == {k: m[k] for k in r["mujoco"]} and r["mujoco"]["trials"] == m["trials"], r["key"]

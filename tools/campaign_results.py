@@ -575,6 +575,21 @@ def table_engines(doc: dict) -> str:
     return "\n".join(lines)
 
 
+def table_versus(doc: dict, before: dict) -> str:
+    """Two runs of the same rows, row by row (the rows of doc that before has too): each one's
+    strict successes with their intervals and mean errors, and the two-sided Fisher test's p."""
+    lines = ["| row | now (95 % interval) | before (95 % interval) | mean error, now / before | Fisher p |",
+             "|---|---|---|---|---|"]
+    theirs = {r["key"]: r for r in before["rows"]}
+    for r in doc["rows"]:
+        b = theirs.get(r["key"])
+        if b is None or "successes" not in r:
+            continue
+        lines.append(f"| {r['label']} | {FIELDS['strict_interval'](r)} | {FIELDS['strict_interval'](b)} | "
+                     f"{_mm(r['error_mean_mm'])} / {_mm(b['error_mean_mm'])} | {_p(fisher_p(r, b))} |")
+    return "\n".join(lines)
+
+
 #: Two counts agree within chance where the two-sided Fisher exact test's p is at least this
 #: (docs/decisions/0111-pyramidal-cones-run-at-the-step-they-converge-at.md).
 CHANCE_P = 0.05
@@ -692,7 +707,7 @@ def table_steps_pooled(*docs: dict) -> str:
 TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worlds, "readme": table_readme,
           "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule, "landing": table_landing,
           "wf_trials": table_wf_trials, "wf_needed": table_wf_needed, "wf_cage": table_wf_cage,
-          "wf_forces": table_wf_forces, "engines": table_engines, "steps": table_steps,
+          "wf_forces": table_wf_forces, "engines": table_engines, "versus": table_versus, "steps": table_steps,
           "steps_pooled": table_steps_pooled}
 
 

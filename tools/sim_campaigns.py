@@ -79,8 +79,9 @@ both engines, logs the forces on the object at every control tick, and writes wh
 engine into docs/results/campaigns_drake_contacts.json (.md beside): while both digits and the
 table hold the object, the table's friction use (its tangential over its normal force) against the
 trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
-and how far G moves along the table before the termination (and in which phase most). With
-`--tip flat` the trials are the edge rows' (the flat finger tip).
+how far G moves along the table before the termination (and in which phase most) and after it
+begins, and the finger's mean force on the object in the termination. With `--tip flat` the
+trials are the edge rows' (the flat finger tip).
 
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
@@ -137,6 +138,8 @@ HEADER = ("| campaign | ours: success (95 % interval) | placed by the paper's cr
           "| paper | the model on the plan | failures | deepest sinking mm |\n|---|---|---|---|---|---|---|---|")
 #: MuJoCo's rows the Drake rows are set beside, and the order of the row groups in Drake's file.
 MUJOCO_RESULTS = ROOT / "docs" / "results" / "campaigns.json"
+#: MuJoCo's tangram rows, beside which a Drake file of tangram rows alone is set.
+MUJOCO_TANGRAM = ROOT / "docs" / "results" / "campaigns_tangram.json"
 GROUP_ORDER = ("base", "edge", "control", "tangram")
 #: The --only name of each row group.
 GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram": "tangram"}
@@ -669,13 +672,34 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
     return doc
 
 
+def paired_with_mujoco(doc: dict) -> dict:
+    """A Drake results file's rows, each with MuJoCo's row of the same key and the two-sided Fisher
+    test's p of the two counts, from MUJOCO_TANGRAM when every row is the tangram's, else from
+    MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both); the file names its MuJoCo file."""
+    import json
+
+    from campaign_results import fisher_p
+
+    source = MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else MUJOCO_RESULTS
+    mujoco = json.loads(source.read_text())
+    theirs = {r["key"]: r for r in mujoco["rows"]}
+    for r in doc["rows"]:
+        m = theirs.get(r["key"])
+        r["mujoco"] = None if m is None else {k: m[k] for k in (
+            "successes", "trials", "interval_percent", "placed", "error_mean_mm", "error_max_mm", "sinking_max_mm",
+            "failures")}
+        r["fisher_p"] = None if m is None else fisher_p(r, m)
+    return {**doc, "mujoco_source": str(source.relative_to(ROOT)), "mujoco_command": mujoco["command"],
+            "mujoco_produced": mujoco["produced"]}
+
+
 def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
     """Merge the Drake rows into args.table (.md and .json, the rows of other groups kept), each
     with MuJoCo's row of the same key and the Fisher test's p, and draw both engines."""
     import json
     from datetime import date
 
-    from campaign_results import fisher_p, table_json
+    from campaign_results import table_json
 
     from ungrasp_ompl.io import write_text_atomic
 
@@ -687,17 +711,7 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
     command = (f"python tools/sim_campaigns.py --engine drake --trials {args.trials} --jobs {args.jobs} "
                f"--seed {args.seed} --table {rel} --only {groups}")
-    doc = table_json(table, command, date.today().isoformat())
-    mujoco = json.loads(MUJOCO_RESULTS.read_text())
-    theirs = {r["key"]: r for r in mujoco["rows"]}
-    for r in doc["rows"]:
-        m = theirs.get(r["key"])
-        r["mujoco"] = None if m is None else {k: m[k] for k in (
-            "successes", "trials", "interval_percent", "placed", "error_mean_mm", "error_max_mm", "sinking_max_mm",
-            "failures")}
-        r["fisher_p"] = None if m is None else fisher_p(r, m)
-    doc.update(runs=runs, mujoco_source=str(MUJOCO_RESULTS.relative_to(ROOT)), mujoco_command=mujoco["command"],
-               mujoco_produced=mujoco["produced"])
+    doc = paired_with_mujoco({**table_json(table, command, date.today().isoformat()), "runs": runs})
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
     print(f"wrote {table}\nwrote {path}")
     draw_engines(doc["rows"], args.figure)
@@ -750,7 +764,7 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
     WINDOW ticks) against mu_G, the mean size of the force each digit exerts and the table's mean
     normal force; and from its poses ((time s, the object's pose 4x4) per tick, G at the body's
     origin), how far G moves along the table before the termination and in which phase of the
-    drive (sim.drive.GripperDrive) it moves furthest."""
+    drive (sim.drive.GripperDrive) it moves furthest, and what the termination does (_release)."""
     log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
            for t, f in log]  # Drake names the finger's dome apart; MuJoCo's finger is one
     held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
@@ -766,7 +780,28 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
             "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg,
-            **_g_travel(poses, drive)}
+            **_g_travel(poses, drive), **_release(log, poses, drive)}
+
+
+def _release(log: list, poses: list, drive) -> dict:
+    """What the termination does to the object: how far (mm) G moves along the table from the
+    termination's start to the trial's end, the finger's mean force (N) on the object over the
+    termination's ticks (log: _summary's, the finger's dome counted with it), and the impulse
+    (mN s) of the thumb's, the finger's and the table's forces along G's travel over the logged
+    ticks from the termination on."""
+    start = drive.phase_start("termination")
+    end = next((b for name, _, b in drive.phases if name == "termination"), start)
+    g = np.array([np.asarray(pose)[:2, 3] for t, pose in poses if t >= start])
+    finger = [np.linalg.norm(f.get("finger", np.zeros(3))) for t, f in log if start <= t <= end]
+    out = {"g_moved_release_mm": float(np.linalg.norm(g[-1] - g[0]) * 1000) if len(g) else None,
+           "finger_release_n": float(np.mean(finger)) if finger else None}
+    if len(g) > 1 and np.linalg.norm(g[-1] - g[0]) > 0:  # each kind's push along G's travel, from the termination on
+        way = (g[-1] - g[0]) / np.linalg.norm(g[-1] - g[0])
+        ticks = [(t, f) for t, f in log if t >= start]
+        dt = float(drive.times[1] - drive.times[0])
+        for kind in ("thumb", "finger", "table"):
+            out[f"{kind}_push_release_mns"] = 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ way) for _, f in ticks)
+    return out
 
 
 def _g_travel(poses: list, drive) -> dict:
@@ -836,7 +871,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
     formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
                "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
                "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
-               "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}"}
+               "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
+               "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
+               "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}"}
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json",
                        ("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""),
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
