@@ -254,7 +254,7 @@ def hull_triangles(vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.i
     there = hull.neighbors.ravel()
     same = np.all(np.abs(planes[here] - planes[there]) <= 1e-9, axis=1)  # neighbours in one plane: one face
     _, face = connected_components(coo_matrix((np.ones(int(same.sum())), (here[same], there[same])),
-                                                  shape=(len(planes),) * 2), directed=False)
+                                              shape=(len(planes),) * 2), directed=False)
     small = np.bincount(face)[face] <= 2  # a face of one or two simplices: three or four corners
     points = [hull.points]
     triangles = [_outward(hull.points, hull.simplices[small], planes[small])]
