@@ -95,7 +95,8 @@ def _fisher_two_sided(a: int, n: int, b: int, m: int) -> float:
     return min(1.0, sum(q for q in prob if q <= seen * (1 + 1e-7)))
 
 
-@pytest.mark.parametrize("name, tangram", [("campaigns_drake", False), ("campaigns_drake_tangram", True)])
+@pytest.mark.parametrize("name, tangram", [("campaigns_drake", False), ("campaigns_drake_fanned_hull", False),
+                                           ("campaigns_drake_tangram_fanned_hull", True)])
 def test_the_drake_campaign_sets_each_row_beside_mujoco_s(name, tangram):
     """Each Drake row holds MuJoCo's row of the same key in the MuJoCo file it names, figure for
     figure, and the two-sided Fisher test's p of the two counts (each over its own trials); the

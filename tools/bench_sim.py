@@ -12,8 +12,9 @@ were placed. Trial 0 without errors is timed too, run to the end even if it fail
 trial that goes the whole way. --timestep S times the trials at MuJoCo's step S (s) in place of the
 scenes' own (sim.timestep), to see what a finer step costs. --engine drake times the trials in
 Drake (sim.drake_trial) and prints beside them the most polygons the thumb's and the table's
-contact patches with the object had at a control tick; --drake-hull convex builds the object's hull
-as Drake triangulates it (sim.drake_world.FANNED_HULLS, record 0115). --results merges the rows into
+contact patches with the object had at a control tick; --drake-hull fanned builds the object's hull
+fanned from its faces' centroids (sim.drake_world.FANNED_HULLS, record 0115) instead of as Drake
+triangulates it. --results merges the rows into
 docs/results/bench_sim.json (.md beside), one study per engine and hull, for the pages to quote.
 """
 
@@ -78,9 +79,9 @@ def main() -> None:
     ap.add_argument("--timestep", type=float, default=None, help="MuJoCo's step (s; default: the scenes' own)")
     ap.add_argument("--objects", default="guitar_pick,puzzle_piece,fabric_chalk", help="the object scenes timed")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco")
-    ap.add_argument("--drake-hull", choices=("fanned", "convex"), default="fanned",
-                    help="with --engine drake: the object's hull triangulated from its faces' centroids "
-                         "(the builder's) or by Drake from its vertices")
+    ap.add_argument("--drake-hull", choices=("fanned", "convex"), default="convex",
+                    help="with --engine drake: the object's hull triangulated by Drake from its vertices "
+                         "(the builder's) or from its faces' centroids (record 0115)")
     ap.add_argument("--results", action="store_true", help="merge the rows into docs/results/bench_sim.json")
     args = ap.parse_args()
     started = time.perf_counter()

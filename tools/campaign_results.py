@@ -578,7 +578,7 @@ def table_engines(doc: dict) -> str:
 def table_versus(doc: dict, before: dict) -> str:
     """Two runs of the same rows, row by row (the rows of doc that before has too): each one's
     strict successes with their intervals and mean errors, and the two-sided Fisher test's p."""
-    lines = ["| row | now (95 % interval) | before (95 % interval) | mean error, now / before | Fisher p |",
+    lines = ["| row | first (95 % interval) | second (95 % interval) | mean error, first / second | Fisher p |",
              "|---|---|---|---|---|"]
     theirs = {r["key"]: r for r in before["rows"]}
     for r in doc["rows"]:
