@@ -214,8 +214,8 @@ def _properties(drake, geom: Geom, friction: float, hydro: str | None, modulus: 
 def _shape(drake, geom: Geom, patches: bool = False):
     """Drake's shape of a description geometry and its pose in the body's frame. patches: the
     geometry is rigid hydroelastic on a free body (the object, a piece's hull), whose contact
-    patches are cut from its triangles: a mesh is then its hull triangulated by hull_triangles,
-    the same solid as Drake's Convex of its vertices."""
+    patches are cut from its triangles: with FANNED_HULLS a mesh is then its hull triangulated by
+    hull_triangles, the same solid as Drake's Convex of its vertices."""
     s = geom.shape
     if isinstance(s, Mesh) and patches and FANNED_HULLS:
         points, triangles = hull_triangles(s.vertices)
