@@ -101,6 +101,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -776,6 +777,7 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
     log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
            for t, f in log]  # Drake names the finger's dome apart; MuJoCo's finger is one
     held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
+    times, g_track = _g_track(poses)
     g = np.array([f["table"] for _, f in held]) if held else np.zeros((1, 3))
     kernel = np.ones(min(WINDOW, len(g)))
     use = (np.convolve(np.hypot(g[:, 0], g[:, 1]), kernel, "valid")
@@ -788,18 +790,24 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
             "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg,
-            **_g_travel(poses, drive), **_release(log, poses, drive)}
+            **_g_travel(times, g_track, drive), **_release(log, times, g_track, drive)}
 
 
-def _release(log: list, poses: list, drive) -> dict:
-    """What the termination does to the object: how far (mm) G moves along the table from the
-    termination's start to the trial's end, the finger's mean force (N) on the object over the
-    termination's ticks (log: _summary's, the finger's dome counted with it), and the impulse
-    (mN s) of the thumb's, the finger's and the table's forces along G's travel over the logged
-    ticks from the termination on."""
+def _g_track(poses: list) -> tuple[NDArray, NDArray]:
+    """From a trial's poses ((time s, the object's pose 4x4) per tick): their times (K,) and G's
+    place on the table (K, 2, m), G the object's body origin."""
+    return np.array([t for t, _ in poses]), np.array([np.asarray(pose)[:2, 3] for _, pose in poses])
+
+
+def _release(log: list, times: NDArray, g: NDArray, drive) -> dict:
+    """What the termination does to the object: how far (mm) G (at times, _g_track) moves along the
+    table from the termination's start to the trial's end, the finger's mean force (N) on the
+    object over the termination's ticks (log: _summary's, the finger's dome counted with it), and
+    the impulse (mN s) of the thumb's, the finger's and the table's forces along G's travel over
+    the logged ticks from the termination on."""
     start = drive.phase_start("termination")
     end = next((b for name, _, b in drive.phases if name == "termination"), start)
-    g = np.array([np.asarray(pose)[:2, 3] for t, pose in poses if t >= start])
+    g = g[times >= start]
     finger = [np.linalg.norm(f.get("finger", np.zeros(3))) for t, f in log if start <= t <= end]
     out = {"g_moved_release_mm": float(np.linalg.norm(g[-1] - g[0]) * 1000) if len(g) else None,
            "finger_release_n": float(np.mean(finger)) if finger else None}
@@ -812,18 +820,16 @@ def _release(log: list, poses: list, drive) -> dict:
     return out
 
 
-def _g_travel(poses: list, drive) -> dict:
-    """How far (mm) G, the object's body origin, moves along the table from the drive's start to its
+def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
+    """How far (mm) G (at times, _g_track) moves along the table from the drive's start to its
     termination's, and the phase of the drive in which it moves furthest (its name and mm)."""
     end = drive.phase_start("termination")
-    times = np.array([t for t, _ in poses])
-    g = np.array([np.asarray(pose)[:2, 3] for _, pose in poses])
     held = times <= end
     steps = np.linalg.norm(np.diff(g, axis=0), axis=1) * 1000
     per_phase: dict[str, float] = {}
-    for (t, _), step in zip(poses[1:], steps):
+    for t, step in zip(times[1:], steps):
         if t <= end:
-            name = drive.phase_at(t)[1]
+            name = drive.phase_at(float(t))[1]
             per_phase[name] = per_phase.get(name, 0.0) + float(step)
     phase = max(per_phase, key=per_phase.get) if per_phase else None
     last = int(np.flatnonzero(held)[-1]) if held.any() else 0

@@ -507,7 +507,7 @@ def _add_placed(drake, plant, body: FreeBody, geoms: dict):
     field_ = placed_field(body.geom.shape.vertices)
     if field_ is None:
         modulus = PAD_GRADIENT * float(np.ptp(body.geom.shape.vertices[:, 2])) / 2
-        shape, pose = _shape(drake, body.geom)
+        shape, pose = _shape(drake, body.geom)  # a compliant field: Drake's Convex, never the fanned hull's mesh
     else:
         points, tets, modulus = field_
         shape = drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(
