@@ -129,18 +129,23 @@ def test_the_world_description_is_what_both_engines_build():
     assert inspector.GetShape(dome).radius() == world.dome.shape.radius
 
 
+@pytest.mark.parametrize("rule", ["large-fanned", "fanned"])
 @pytest.mark.parametrize("name", ["guitar_pick", "fabric_chalk", "go_stone"])
-def test_the_hull_drake_gets_is_the_objects_hull_with_large_faces_fanned_from_their_centroids(name):
-    """hull_triangles (record 0115): a closed mesh, every edge met once each way, whose signed
-    volume (its triangles turned outward) and area are those of scipy's hull of the same vertices; on the slabs,
-    a triangle with three of the hull's corners lies on a face of at most four of them (a larger
-    face is fanned from its centroid)."""
+def test_a_triangulated_hull_is_the_objects_hull_with_large_faces_fanned_from_their_centroids(name, rule):
+    """large_faces_fanned (record 0116) and hull_triangles (record 0115): a closed mesh, every edge
+    met once each way, whose signed volume (its triangles turned outward) and area are those of
+    scipy's hull of the same vertices; on the slabs, a triangle with three of the hull's corners
+    lies on a face of at most four of them (a larger face is fanned from its centroid: the pick's
+    and the chalk's two)."""
     from collections import Counter
 
     from scipy.spatial import ConvexHull
 
     vertices = describe(_spec(name)).object.geom.shape.vertices
-    points, triangles = drake_world.hull_triangles(vertices)
+    if rule == "fanned":
+        points, triangles = drake_world.hull_triangles(vertices)
+    else:
+        points, triangles = drake_world.large_faces_fanned(drake_world.require_drake(), vertices)
     a, b, c = (points[triangles[:, k]] for k in range(3))
     normals = np.cross(b - a, c - a)
     hull = ConvexHull(vertices)
@@ -150,9 +155,17 @@ def test_the_hull_drake_gets_is_the_objects_hull_with_large_faces_fanned_from_th
     assert all(n == 1 and edges.get((y, x)) == 1 for (x, y), n in edges.items())
     unit = normals / np.linalg.norm(normals, axis=1)[:, None]
     if name != "go_stone":
+        assert len(points) - len(vertices) == 2
         cornered = triangles.max(axis=1) < len(vertices)
         in_plane = np.abs(unit[cornered] @ vertices.T - np.einsum("ij,ij->i", unit, a)[cornered, None]) < 1e-12
         assert np.all(in_plane.sum(axis=1) <= 4)
+
+
+def test_a_hull_of_small_faces_reaches_drake_as_its_convex():
+    """The puzzle piece's hull has no face of more than four corners: large_faces_fanned leaves it
+    to Drake's Convex (record 0116)."""
+    vertices = describe(_spec("puzzle_piece")).object.geom.shape.vertices
+    assert drake_world.large_faces_fanned(drake_world.require_drake(), vertices) is None
 
 
 @pytest.mark.parametrize("mu", [0.05, 0.25, 0.35, 0.45, 0.7, 1.3])

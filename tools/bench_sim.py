@@ -1,7 +1,7 @@
 """Speed of simulated execution: wall and CPU time of one trial, per object, as campaigns run them.
 
     python tools/bench_sim.py [--trials N] [--perturb paper] [--timestep S] [--objects NAME,...]
-                              [--engine mujoco|drake [--drake-hull fanned|convex]] [--results]
+                              [--engine mujoco|drake [--drake-hull large-fanned|convex|fanned]] [--results]
 
 Plans each shipped object once (RRT*, seed 1), builds its trajectory, then times N trials with the
 preset's errors (seed 1, trial k drawn as campaigns draw it): model compile, settle, drive, and the
@@ -12,9 +12,9 @@ were placed. Trial 0 without errors is timed too, run to the end even if it fail
 trial that goes the whole way. --timestep S times the trials at MuJoCo's step S (s) in place of the
 scenes' own (sim.timestep), to see what a finer step costs. --engine drake times the trials in
 Drake (sim.drake_trial) and prints beside them the most polygons the thumb's and the table's
-contact patches with the object had at a control tick; --drake-hull fanned builds the object's hull
-fanned from its faces' centroids (sim.drake_world.FANNED_HULLS, record 0115) instead of as Drake
-triangulates it. --results merges the rows into
+contact patches with the object had at a control tick; --drake-hull says how the object's hull
+reaches Drake (sim.drake_world.HULLS): large-fanned, the builder's (record 0116), convex (Drake's
+Convex) or fanned (record 0115, refused). --results merges the rows into
 docs/results/bench_sim.json (.md beside), one study per engine and hull, for the pages to quote.
 """
 
@@ -79,9 +79,8 @@ def main() -> None:
     ap.add_argument("--timestep", type=float, default=None, help="MuJoCo's step (s; default: the scenes' own)")
     ap.add_argument("--objects", default="guitar_pick,puzzle_piece,fabric_chalk", help="the object scenes timed")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco")
-    ap.add_argument("--drake-hull", choices=("fanned", "convex"), default="convex",
-                    help="with --engine drake: the object's hull triangulated by Drake from its vertices "
-                         "(the builder's) or from its faces' centroids (record 0115)")
+    ap.add_argument("--drake-hull", choices=("large-fanned", "convex", "fanned"), default="large-fanned",
+                    help="with --engine drake: how the object's hull reaches Drake (sim.drake_world.HULLS)")
     ap.add_argument("--results", action="store_true", help="merge the rows into docs/results/bench_sim.json")
     args = ap.parse_args()
     started = time.perf_counter()
@@ -89,7 +88,7 @@ def main() -> None:
     if args.engine == "drake":
         from ungrasp_ompl.sim import drake_world
 
-        drake_world.FANNED_HULLS = args.drake_hull == "fanned"
+        drake_world.HULLS = args.drake_hull
         count_polygons()
     print(f"{'object':<14} {'wall s (median)':>15} {'wall s (max)':>12} {'CPU s (median)':>14} {'CPU s (max)':>11} "
           f"{'simulated s (max)':>17} {'placed':>7} | {'whole trial: wall s':>19} {'simulated s':>11}"

@@ -375,9 +375,10 @@ def main() -> None:
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
-    ap.add_argument("--drake-hull", choices=("convex", "fanned"), default="convex",
-                    help="with --engine drake: the object's and the pieces' hulls as Drake triangulates them "
-                         "(the builder's) or fanned from their faces' centroids (record 0115)")
+    ap.add_argument("--drake-hull", choices=("large-fanned", "convex", "fanned"), default="large-fanned",
+                    help="with --engine drake: how the object's and the pieces' hulls reach Drake "
+                         "(sim.drake_world.HULLS): Drake's division with large faces fanned from their "
+                         "centroids (record 0116, the builder's), Drake's Convex, or record 0115's (refused)")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
@@ -387,7 +388,7 @@ def main() -> None:
     if drake:
         from ungrasp_ompl.sim import drake_world
 
-        drake_world.FANNED_HULLS = args.drake_hull == "fanned"
+        drake_world.HULLS = args.drake_hull
     if args.trials is None:
         args.trials = 20 if drake else 40
     if args.figure is None:
@@ -717,9 +718,8 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
     _write_merged(table, merged, footer)
     groups = ",".join(GROUP_OPTION[g] for g in GROUP_ORDER if any(_group(r) == g for r in merged))
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
-    hull = " --drake-hull fanned" if args.drake_hull == "fanned" else ""
-    command = (f"python tools/sim_campaigns.py --engine drake{hull} --trials {args.trials} --jobs {args.jobs} "
-               f"--seed {args.seed} --table {rel} --only {groups}")
+    command = (f"python tools/sim_campaigns.py --engine drake --drake-hull {args.drake_hull} --trials {args.trials} "
+               f"--jobs {args.jobs} --seed {args.seed} --table {rel} --only {groups}")
     doc = paired_with_mujoco({**table_json(table, command, date.today().isoformat()), "runs": runs})
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
     print(f"wrote {table}\nwrote {path}")

@@ -109,11 +109,12 @@ PAD_GRADIENT = TABLE_MODULUS / TABLE_SLAB
 #: contact instead, as the builder did before the pad, for the comparison of the two in
 #: tools/sim_campaigns.py --contacts --thumb point (docs/model.md 11.19).
 THUMB_PAD = True
-#: Whether the object's and the pieces' hulls reach Drake triangulated by hull_triangles; False
-#: (the builder's) gives Drake their vertices as a Convex, triangulated by Drake. Record 0115 tried
-#: the fanned hull and refused it: the puzzle piece dropped flat on the table slides 0.29 mm under
-#: it (tests/test_drake.py). tools/bench_sim.py and tools/sim_campaigns.py set it (--drake-hull).
-FANNED_HULLS = False
+#: How the object's and the pieces' hulls reach Drake, whose contact patches on a rigid body are cut
+#: from its triangles (docs/model.md 11.19): "large-fanned" (record 0116), Drake's own triangles
+#: but a face of more than four corners fanned from its centroid (large_faces_fanned); "convex",
+#: Drake's Convex of the vertices, every face fanned from one of its corners; "fanned", record
+#: 0115's, refused (hull_triangles). tools/bench_sim.py and tools/sim_campaigns.py set it (--drake-hull).
+HULLS = "large-fanned"
 #: SAP's near-rigid threshold (its default).
 NEAR_RIGID = 1.0
 #: Hydroelastic geometries' tessellation hint (m); Drake ignores it for convex shapes, half spaces
@@ -214,11 +215,14 @@ def _properties(drake, geom: Geom, friction: float, hydro: str | None, modulus: 
 def _shape(drake, geom: Geom, patches: bool = False):
     """Drake's shape of a description geometry and its pose in the body's frame. patches: the
     geometry is rigid hydroelastic on a free body (the object, a piece's hull), whose contact
-    patches are cut from its triangles: with FANNED_HULLS a mesh is then its hull triangulated by
-    hull_triangles, the same solid as Drake's Convex of its vertices."""
+    patches are cut from its triangles: a mesh then reaches Drake as HULLS says, the same solid as
+    Drake's Convex of its vertices."""
     s = geom.shape
-    if isinstance(s, Mesh) and patches and FANNED_HULLS:
-        points, triangles = hull_triangles(s.vertices)
+    triangulated = None
+    if isinstance(s, Mesh) and patches and HULLS != "convex":
+        triangulated = hull_triangles(s.vertices) if HULLS == "fanned" else large_faces_fanned(drake, s.vertices)
+    if triangulated is not None:
+        points, triangles = triangulated
         obj = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in points.tolist())
         obj += "".join(f"f {a} {b} {c}\n" for a, b, c in (triangles + 1).tolist())
         return (drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(obj, ".obj", geom.name + ".obj"))),
@@ -232,19 +236,43 @@ def _shape(drake, geom: Geom, patches: bool = False):
     raise TypeError(f"no Drake shape for {s!r}")
 
 
-def hull_triangles(vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The convex hull of vertices (N, 3) as a closed triangle mesh, each triangle's corners
-    counter-clockwise seen from outside: its points (M, 3: the hull's vertices, then the centroid of
-    each face with more than four corners) and triangles (K, 3, indices into points). A face of
-    three or four corners keeps the hull's one or two triangles; a larger face is fanned from its
-    centroid.
+def large_faces_fanned(drake, vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.int64]] | None:
+    """Drake's convex hull of vertices (N, 3; m) as a closed triangle mesh divided as Drake divides
+    it, each face fanned from its first corner, except that a face of more than four corners is
+    fanned from its centroid (record 0116): its points (M, 3: the hull's vertices, then those
+    centroids) and triangles (K, 3, counter-clockwise seen from outside). None where no face has
+    more than four corners: Drake's Convex is then the same division.
 
-    Drake cuts a rigid hydroelastic geometry's contact patch from its triangles, a polygon and a
-    contact constraint each, and triangulates a Convex's faces itself, fanning a face from one of
-    its corners: where that corner lies in a patch, every triangle of the face crosses it (the
-    pick's end on the thumb's pad: 139 slivers of its face across a strip 0.05 mm wide), and the
-    contact problem of every step grows with them. Fanned from its centroid, a face crosses a
-    patch at its edge with the few triangles whose outer sides lie there. The solid is the same."""
+    A face fanned from a corner that lies in a contact patch crosses the patch with every one of
+    its triangles, each a polygon and a SAP constraint at every step (the pick's end on the
+    thumb's pad: some 140 slivers); fanned from its centroid, it crosses a patch at its rim with
+    the few triangles whose outer sides lie there. Faces of three or four corners keep Drake's
+    division, on which an object dropped flat rests as it does under Drake's Convex: record 0115
+    divided them otherwise, and a dropped prism slid."""
+    hull = drake.Convex(np.ascontiguousarray(np.asarray(vertices, dtype=float).T), "hull").GetConvexHull()
+    points = [np.array([hull.vertex(k) for k in range(hull.num_vertices())])]
+    data, triangles, k, extra = hull.face_data(), [], 0, hull.num_vertices()
+    large = False
+    while k < len(data):
+        n = data[k]
+        ring = np.asarray(data[k + 1:k + 1 + n], dtype=np.int64)
+        k += 1 + n
+        if n <= 4:
+            triangles += [(ring[0], ring[j], ring[j + 1]) for j in range(1, n - 1)]
+            continue
+        large = True
+        points.append(points[0][ring].mean(axis=0)[None])
+        triangles += [(extra, ring[j], ring[(j + 1) % n]) for j in range(n)]
+        extra += 1
+    return (np.vstack(points), np.array(triangles, dtype=np.int64)) if large else None
+
+
+def hull_triangles(vertices: NDArray) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Record 0115's hull (refused, HULLS "fanned"): the convex hull of vertices (N, 3) as a closed
+    triangle mesh, each triangle's corners counter-clockwise seen from outside: its points (M, 3:
+    the hull's vertices, then the centroid of each face with more than four corners) and triangles
+    (K, 3, indices into points). A face of three or four corners keeps qhull's one or two
+    triangles, not Drake's division; a larger face is fanned from its centroid."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import ConvexHull
@@ -507,7 +535,7 @@ def _add_placed(drake, plant, body: FreeBody, geoms: dict):
     field_ = placed_field(body.geom.shape.vertices)
     if field_ is None:
         modulus = PAD_GRADIENT * float(np.ptp(body.geom.shape.vertices[:, 2])) / 2
-        shape, pose = _shape(drake, body.geom)  # a compliant field: Drake's Convex, never the fanned hull's mesh
+        shape, pose = _shape(drake, body.geom)  # a compliant field: Drake's Convex, never a triangulated hull
     else:
         points, tets, modulus = field_
         shape = drake.Mesh(drake.InMemoryMesh(mesh_file=drake.MemoryFile(
