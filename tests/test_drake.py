@@ -506,3 +506,40 @@ def test_the_object_pushed_against_a_piece_downs_side_meets_it_along_the_sides_n
                         for f in range(mesh.num_faces()))
         off = math.degrees(math.acos(min(1.0, abs(resultant[0]) / np.linalg.norm(resultant))))
         assert off < 2.0, f"{off:.2f} deg off the side's normal"
+
+
+def test_a_drake_state_that_turns_non_finite_ends_the_step_as_diverged_and_other_errors_are_raised():
+    """stepped (sim.drake_trial), which a Drake trial advances through: a free body given a
+    non-finite velocity makes Drake's next step fail on a non-finite pose, which stepped reports
+    (False: the trial ends as Outcome.DIVERGED) instead of raising; an error of another kind is
+    raised."""
+    from functools import partial
+
+    from pydrake.all import (AddMultibodyPlantSceneGraph, CoulombFriction, DiagramBuilder, RigidTransform, Simulator,
+                             SpatialInertia, Sphere, UnitInertia)
+
+    from ungrasp_ompl.sim.drake_trial import stepped
+
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlantSceneGraph(builder, 1e-4)
+    body = plant.AddRigidBody("b", SpatialInertia(0.01, np.zeros(3), UnitInertia.SolidSphere(0.01)))
+    plant.RegisterCollisionGeometry(body, RigidTransform(), Sphere(0.01), "b", CoulombFriction(0.5, 0.5))
+    plant.Finalize()
+    simulator = Simulator(builder.Build())
+    simulator.Initialize()
+    assert stepped(partial(simulator.AdvanceTo, 0.001))
+
+    def fails():
+        raise RuntimeError("the solver did not converge")
+
+    with pytest.raises(RuntimeError):
+        stepped(fails)
+    ctx = plant.GetMyMutableContextFromRoot(simulator.get_mutable_context())
+    plant.SetFreeBodySpatialVelocity(ctx, body, _nan_velocity())
+    assert not stepped(partial(simulator.AdvanceTo, 0.002))
+
+
+def _nan_velocity():
+    from pydrake.all import SpatialVelocity
+
+    return SpatialVelocity(np.zeros(3), np.full(3, np.nan))

@@ -2,13 +2,16 @@
 
 Each command runs REPEAT times in a fresh process, output to a temporary directory, as a new
 user runs it (the installed console script next to this interpreter, else ``python -m
-ungrasp_ompl``). It prints what it measures and writes no results file:
+ungrasp_ompl``). It prints what it measures:
 
-    python tools/bench_cli.py [--repeat 5] [--only plan,import,...]
+    python tools/bench_cli.py [--repeat 5] [--only plan,import,...] [--results]
 
 Names: import (``python -c "import ungrasp_ompl.cli"``), help (``ungrasp-ompl --help``),
 bad_input (a scene that does not exist: exit 2), plan (reference_asymmetric, 1 s of RRT*,
-pictures), export (guitar_pick planned, timed and exported), tile (the tangram, RRT*).
+pictures), plan_pick (guitar_pick planned, seed 1, its picture), export (the same, timed and
+exported), tile (the tangram, RRT*). With plan_pick, export and tile it prints what the project
+aims at: export's time over plan_pick's (s, at most 2) and tile's as a multiple of plan_pick's (at
+most 3); --results writes those rows to docs/results/bench_cli.json (.md beside), for the pages.
 Two rows follow from inside a fresh process each: setup (UngraspSetup.setup_time on
 reference_asymmetric: the secure lattice and the planner) and cost (RRT*'s cost after its seeded
 budget for seeds 1-5, median, against the exact lattice optimum): what the speed work must keep.
@@ -27,6 +30,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
 SCENES = ROOT / "scenes"
 
 
@@ -42,6 +46,7 @@ COMMANDS: dict[str, tuple[list[str], tuple[int, ...], float]] = {
     "bad_input": (_cli() + ["plan", "no_such_scene.yaml"], (2,), 0.3),
     "plan": (_cli() + ["plan", str(SCENES / "reference_asymmetric.yaml"), "--seed", "1", "--time", "1",
                        "--out", "{out}"], (0,), 1.5),
+    "plan_pick": (_cli() + ["plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--out", "{out}"], (0,), 2.0),
     "export": (_cli() + ["plan", str(SCENES / "guitar_pick.yaml"), "--seed", "1", "--export", "{out}"], (0,), 2.0),
     "tile": (_cli() + ["tile", str(SCENES / "tangram.yaml"), "--out", "{out}"], (0, 3), 15.0),
 }
@@ -55,6 +60,14 @@ _COSTS = ("import json; from ungrasp_ompl import Scene, plan; "
           f"s = Scene.from_file({str(SCENES / 'reference_asymmetric.yaml')!r}); "
           "print(json.dumps([plan(s, seed=k, time=1.0).cost for k in range(1, 6)] + "
           "[plan(s, planner='lattice').cost]))")
+
+
+def _shown(argv: list[str]) -> str:
+    """A command line as a user types it: the console script by name, the scenes' paths from the
+    checkout's root, OUT for the output directory."""
+    cli = _cli()
+    words = ["ungrasp-ompl", *argv[len(cli):]] if argv[:len(cli)] == cli else argv
+    return " ".join(w.replace(str(ROOT) + "/", "").replace("{out}", "OUT") for w in words)
 
 
 def _python(code: str) -> object:
@@ -84,16 +97,39 @@ def main() -> None:
     p.add_argument("--repeat", type=int, default=5, help="runs per command (default 5)")
     p.add_argument("--only", default=",".join(COMMANDS), help="comma-separated names (default: all)")
     p.add_argument("--no-inside", action="store_true", help="leave out the setup and cost rows")
+    p.add_argument("--results", action="store_true",
+                   help="write the commands' rows and the targets' ratios to docs/results/bench_cli.json")
     args = p.parse_args()
+    started = time.perf_counter()
     names = [n.strip() for n in args.only.split(",") if n.strip()]
     unknown = [n for n in names if n not in COMMANDS]
     if unknown:
         raise SystemExit(f"bench_cli: --only: unknown command(s) {', '.join(unknown)}; known: {', '.join(COMMANDS)}")
     print(f"{'command':<10} {'best':>7} {'median':>7} {'aim':>6}   (whole process, s, {args.repeat} runs)")
+    medians: dict[str, float] = {}
+    rows = []
     for name in names:
         argv, ok, aim = COMMANDS[name]
         walls = [_time_once(argv, ok) for _ in range(args.repeat)]
+        medians[name] = statistics.median(walls)
+        rows.append({"label": name, "command": _shown(argv), "runs": len(walls), "best_s": min(walls),
+                     "median_s": medians[name]})
         print(f"{name:<10} {min(walls):7.2f} {statistics.median(walls):7.2f} {aim:6.1f}", flush=True)
+    if {"plan_pick", "export", "tile"} <= medians.keys():
+        over = medians["export"] - medians["plan_pick"]
+        times = medians["tile"] / medians["plan_pick"]
+        rows.append({"label": "targets", "export_over_plan_s": over, "tile_over_plan": times})
+        print(f"export takes {over:.2f} s more than plan_pick (aim: at most 2 s); tile takes {times:.2f} times "
+              "plan_pick's time (aim: at most 3)")
+    if args.results:
+        from campaign_results import merge_study
+
+        here = [r for r in rows if r["label"] in ("plan_pick", "export", "tile", "targets")]
+        formats = {"best_s": "{:.2f}", "median_s": "{:.2f}", "export_over_plan_s": "{:.2f}", "tile_over_plan": "{:.2f}"}
+        path = merge_study(ROOT / "docs" / "results" / "bench_cli.json", "commands",
+                           " ".join(["python", "tools/bench_cli.py", *sys.argv[1:]]), time.perf_counter() - started,
+                           here, formats, "What the commands a user types cost, whole process (tools/bench_cli.py)")
+        print(f"wrote {path}")
     if not args.no_inside:
         setups = [float(_python(_SETUP)) for _ in range(args.repeat)]
         print(f"{'setup':<10} {min(setups):7.3f} {statistics.median(setups):7.3f} {0.1:6.1f}   "

@@ -20,13 +20,15 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.perturbation import TrialParams
-from .outcome import TrialResult
+from .outcome import Outcome, TrialResult
 from .trial import DIGIT_KINDS, Judge, StillWindow, Touch, TrialSetup, _pose, _start, _Tick, moving, read_contacts
 from .world_description import describe
 
@@ -86,17 +88,20 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     a flat face of the object vary from step to step (docs/model.md 11.19)."""
     wall = time.perf_counter()
     probed: list = []
-    dw, palm, ticks, dt = _started(setup, params, probed)
+    dw, palm, ticks, dt, t0 = _built(setup, params, probed)
     plant, ctx, simulator, obj = dw.plant, dw.plant_context, dw.simulator, dw.bodies["object"]
-    if record is not None:
-        record.append((0.0, _body_pose(plant, ctx, obj)))
-
     drive = setup.drive
     judge = Judge(setup)
+    track_m = track_rad = 0.0
+    final = _body_pose(plant, ctx, obj)  # the object's last finite pose, should Drake's state diverge
+    if not stepped(partial(simulator.AdvanceTo, t0)):  # the settling
+        judge.failure = judge.lost = (Outcome.DIVERGED, float(drive.times[0]))
+        return _result(judge, dw, final, lambda: None, params, trial, seed, wall, probed, (track_m, track_rad))
+    if record is not None:
+        record.append((0.0, _body_pose(plant, ctx, obj)))
     still = StillWindow()
     settled = False
     watch = _DrakeWatch(dw)
-    track_m = track_rad = 0.0
     placed = [dw.bodies[body.name] for body in dw.world.placed]
     free = [obj, *placed]  # the free bodies whose stillness settles the trial, as MuJoCo's Stillness
 
@@ -107,40 +112,79 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     def look() -> _Tick:
         return watch.look(setup.b_point)
 
+    final = _body_pose(plant, ctx, obj)
     for k in range(1, len(drive.times)):
         if judge.lost is not None and record is None and stop_at_failure:
             break
-        if contact_log is None:
-            simulator.AdvanceTo(ticks[k])
-        else:
-            contact_log.append((float(drive.times[k]), _period_forces(simulator, watch, ticks[k], dt)))
         t = float(drive.times[k])
+        step = (partial(simulator.AdvanceTo, ticks[k]) if contact_log is None else
+                partial(_logged_period, contact_log, t, simulator, watch, ticks[k], dt))
+        if not stepped(step):
+            judge.failure = judge.lost = (Outcome.DIVERGED, t)
+            return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
+        final = _body_pose(plant, ctx, obj)
         rot, origin = frame("palm")
         track_m = max(track_m, float(np.linalg.norm(origin - palm[k][:3, 3])))
         track_rad = max(track_rad, _angle(rot, palm[k][:3, :3]))
         if record is not None:
-            record.append((t, _body_pose(plant, ctx, obj)))
+            record.append((t, final))
         if record is None and t >= judge.lifting:
             if still.note(t, moving(_velocities(plant, ctx, free)), watch.digit_touches_free()):
                 settled = True
                 break
         judge.tick(k, t, look, frame)
     if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
-        simulator.AdvanceTo(simulator.get_context().get_time() + setup.sim.rest_time)
+        rest = partial(simulator.AdvanceTo, simulator.get_context().get_time() + setup.sim.rest_time)
+        if not stepped(rest):
+            judge.failure = judge.lost = (Outcome.DIVERGED, float(drive.times[-1]))
+            return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
     final = _body_pose(plant, ctx, obj)
     if record is not None:
         record.append((float(drive.times[-1]) + setup.sim.rest_time, final))
-    others = [_body_pose(plant, ctx, body).tolist() for body in placed]
-    result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall, others,
+    return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
+
+
+def stepped(step: Callable[[], object]) -> bool:
+    """Run step (Drake advancing); False where Drake's state became non-finite on the way (a step
+    that diverged: Drake's error says so). Any other error is raised."""
+    try:
+        step()
+    except RuntimeError as exc:
+        if "non-finite" not in str(exc):
+            raise
+        return False
+    return True
+
+
+def _logged_period(log: list, t: float, simulator, watch: "_DrakeWatch", until: float, dt: float) -> None:
+    """Advance to until (s) and append (t, the period's mean forces on the object) to log."""
+    log.append((t, _period_forces(simulator, watch, until, dt)))
+
+
+def _result(judge: Judge, dw, final: NDArray, look, params: TrialParams, trial: int, seed: int | None,
+            wall: float, probed: list, track: tuple[float, float]) -> DrakeTrialResult:
+    """The trial's result in world dw, the object at pose final: judge's verdict, the pieces' poses
+    at the end (NaN where the state diverged) and the palm's tracking (m, rad)."""
+    plant, ctx = dw.plant, dw.plant_context
+    others = [_body_pose(plant, ctx, dw.bodies[body.name]).tolist() for body in dw.world.placed]
+    result = judge.result(final, look, params, trial, seed, float(dw.simulator.get_context().get_time()), wall, others,
                           probed)
-    return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
-                            palm_tracking_deg=math.degrees(track_rad))
+    return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track[0] * 1000,
+                            palm_tracking_deg=math.degrees(track[1]))
 
 
 def _started(setup: TrialSetup, params: TrialParams, probed: list):
     """The trial's Drake world advanced to the drive's start from MuJoCo's trial's first state (its
     settling, the probe's shift into probed): the world (DrakeWorld), the palm's poses at the
     drive's ticks, the ticks' times in Drake (s) and Drake's step (s)."""
+    dw, palm, ticks, dt, t0 = _built(setup, params, probed)
+    dw.simulator.AdvanceTo(t0)
+    return dw, palm, ticks, dt
+
+
+def _built(setup: TrialSetup, params: TrialParams, probed: list):
+    """_started's world, palm poses, ticks and step, the world initialised at MuJoCo's trial's first
+    state but not yet settled, and the settling's end in Drake's time (s)."""
     from .drake_world import build, palm_angles, require_drake
 
     drake = require_drake()
@@ -164,8 +208,7 @@ def _started(setup: TrialSetup, params: TrialParams, probed: list):
     plant.SetFreeBodyPose(ctx, dw.bodies["object"],
                           drake.RigidTransform(drake.RotationMatrix(start_pose[:3, :3]), start_pose[:3, 3]))
     dw.simulator.Initialize()
-    dw.simulator.AdvanceTo(t0)
-    return dw, palm, ticks, dt
+    return dw, palm, ticks, dt, t0
 
 
 def _period_forces(simulator, watch: "_DrakeWatch", until: float, dt: float) -> dict[str, NDArray[np.float64]]:

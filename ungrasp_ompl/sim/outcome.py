@@ -22,6 +22,7 @@ class Outcome(enum.Enum):
     NOT_FLAT = "not flat after the retreat"  #: it was let go but does not lie flat
     DIGIT_TOUCHING = "a digit still touches it"  #: after the retreat
     OFF_TARGET = "placed off target"  #: the paper's criterion holds, but farther than max_error from the target
+    DIVERGED = "the simulation diverged"  #: the engine's state became non-finite: no verdict on the plan, not placed
 
     @property
     def success(self) -> bool:
@@ -47,6 +48,7 @@ _OUTCOME_WORDS = {
     Outcome.NOT_FLAT: "the object was let go but does not lie flat",
     Outcome.DIGIT_TOUCHING: "a digit still touches the object after the retreat",
     Outcome.OFF_TARGET: "placed flat, but farther from its target than the scene allows",
+    Outcome.DIVERGED: "the physics engine's state became non-finite, so the trial ended there unjudged (counted as not placed)",
 }
 
 
