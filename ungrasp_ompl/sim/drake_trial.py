@@ -93,12 +93,6 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     drive = setup.drive
     judge = Judge(setup)
     track_m = track_rad = 0.0
-    final = _body_pose(plant, ctx, obj)  # the object's last finite pose, should Drake's state diverge
-    if not stepped(partial(simulator.AdvanceTo, t0)):  # the settling
-        judge.failure = judge.lost = (Outcome.DIVERGED, float(drive.times[0]))
-        return _result(judge, dw, final, lambda: None, params, trial, seed, wall, probed, (track_m, track_rad))
-    if record is not None:
-        record.append((0.0, _body_pose(plant, ctx, obj)))
     still = StillWindow()
     settled = False
     watch = _DrakeWatch(dw)
@@ -112,7 +106,23 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     def look() -> _Tick:
         return watch.look(setup.b_point)
 
+    def finish(final: NDArray, diverged_at: float | None = None) -> DrakeTrialResult:
+        """The result with the object at pose final (4x4), failed as diverged at diverged_at (s) if
+        given; the pieces' poses at the end (NaN where the state diverged)."""
+        if diverged_at is not None:
+            judge.failure = judge.lost = (Outcome.DIVERGED, diverged_at)
+        others = [_body_pose(plant, ctx, body).tolist() for body in placed]
+        result = judge.result(final, look, params, trial, seed, float(simulator.get_context().get_time()), wall,
+                              others, probed)
+        return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track_m * 1000,
+                                palm_tracking_deg=math.degrees(track_rad))
+
+    final = _body_pose(plant, ctx, obj)  # the object's last finite pose, should Drake's state diverge
+    if not stepped(partial(simulator.AdvanceTo, t0)):  # the settling
+        return finish(final, float(drive.times[0]))
     final = _body_pose(plant, ctx, obj)
+    if record is not None:
+        record.append((0.0, final))
     for k in range(1, len(drive.times)):
         if judge.lost is not None and record is None and stop_at_failure:
             break
@@ -120,8 +130,7 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
         step = (partial(simulator.AdvanceTo, ticks[k]) if contact_log is None else
                 partial(_logged_period, contact_log, t, simulator, watch, ticks[k], dt))
         if not stepped(step):
-            judge.failure = judge.lost = (Outcome.DIVERGED, t)
-            return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
+            return finish(final, t)
         final = _body_pose(plant, ctx, obj)
         rot, origin = frame("palm")
         track_m = max(track_m, float(np.linalg.norm(origin - palm[k][:3, 3])))
@@ -136,12 +145,11 @@ def run_drake_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed
     if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
         rest = partial(simulator.AdvanceTo, simulator.get_context().get_time() + setup.sim.rest_time)
         if not stepped(rest):
-            judge.failure = judge.lost = (Outcome.DIVERGED, float(drive.times[-1]))
-            return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
+            return finish(final, float(drive.times[-1]))
     final = _body_pose(plant, ctx, obj)
     if record is not None:
         record.append((float(drive.times[-1]) + setup.sim.rest_time, final))
-    return _result(judge, dw, final, look, params, trial, seed, wall, probed, (track_m, track_rad))
+    return finish(final)
 
 
 def stepped(step: Callable[[], object]) -> bool:
@@ -159,18 +167,6 @@ def stepped(step: Callable[[], object]) -> bool:
 def _logged_period(log: list, t: float, simulator, watch: "_DrakeWatch", until: float, dt: float) -> None:
     """Advance to until (s) and append (t, the period's mean forces on the object) to log."""
     log.append((t, _period_forces(simulator, watch, until, dt)))
-
-
-def _result(judge: Judge, dw, final: NDArray, look, params: TrialParams, trial: int, seed: int | None,
-            wall: float, probed: list, track: tuple[float, float]) -> DrakeTrialResult:
-    """The trial's result in world dw, the object at pose final: judge's verdict, the pieces' poses
-    at the end (NaN where the state diverged) and the palm's tracking (m, rad)."""
-    plant, ctx = dw.plant, dw.plant_context
-    others = [_body_pose(plant, ctx, dw.bodies[body.name]).tolist() for body in dw.world.placed]
-    result = judge.result(final, look, params, trial, seed, float(dw.simulator.get_context().get_time()), wall, others,
-                          probed)
-    return DrakeTrialResult(**result.__dict__, palm_tracking_mm=track[0] * 1000,
-                            palm_tracking_deg=math.degrees(track[1]))
 
 
 def _started(setup: TrialSetup, params: TrialParams, probed: list):
