@@ -506,8 +506,7 @@ def main() -> None:
         show(run("control: pick, a fifth of the friction", scene, _plan(scene, s), n, j, s, "(must fail)",
                  world=World(friction=0.2)))
     if "tangram" in only:
-        # in Drake the lattice's rows alone: an attempt costs minutes there, and RRT* and the
-        # ranking by tolerance find the same plans (docs/results.md, the tangram)
+        # in Drake the lattice's rows alone, unranked: an attempt costs minutes there
         for rank in ("first",) if drake else ("first", "tolerance"):
             for tip in ("rounded", "flat"):
                 show(tangram(args.attempts, j, s, tip, rank))
