@@ -12,7 +12,8 @@ pictures), plan_pick (guitar_pick planned, seed 1, its picture), export (the sam
 exported), tile (the tangram, RRT*). With plan_pick, export and tile it prints what the project
 aims at: export's time over plan_pick's (s, at most 2) and tile's as a multiple of plan_pick's (at
 most 3), and tile's CPU time over plan_pick's: tile's time can come no nearer plan_pick's than
-its CPU time shared over every core (tile_floor_over_plan); --results writes those rows to docs/results/bench_cli.json (.md beside), for the pages.
+its CPU time shared over every core (tile_floor_over_plan); --results writes those rows to
+docs/results/bench_cli.json (.md beside), for the pages.
 Two rows follow from inside a fresh process each: setup (UngraspSetup.setup_time on
 reference_asymmetric: the secure lattice and the planner) and cost (RRT*'s cost after its seeded
 budget for seeds 1-5, median, against the exact lattice optimum): what the speed work must keep.
@@ -113,7 +114,7 @@ def main() -> None:
     if unknown:
         raise SystemExit(f"bench_cli: --only: unknown command(s) {', '.join(unknown)}; known: {', '.join(COMMANDS)}")
     print(f"{'command':<10} {'best':>7} {'median':>7} {'aim':>6} {'CPU':>7}   (whole process, s, {args.repeat} runs; "
-          "CPU: the median's user and system time, forked processes included)")
+          "CPU: the median user and system time, forked processes included)")
     rows = {}
     for name in names:
         argv, ok, aim = COMMANDS[name]
