@@ -50,9 +50,8 @@ HEADER = """\
 # table touched off under the start pinch, each piece let go at theta up to 8 deg
 # with the thumb at 30-65 deg (psi), opened as open_lift does, its landing moving at most 4 mm
 # over friction 0.7-1.3 times the layout's and both cones (planning.max_landing_spread, as the
-# puzzle piece's), planned for the widest tolerance of the set-up's errors, the let-go between
-# the walls and the pieces included (planning.objective; record 0117), and aimed by where the
-# model of the fall lands it on average over that range
+# puzzle piece's), planned for the widest friction margin (planning.objective, as the puzzle
+# piece is), and aimed by where the model of the fall lands it on average over that range
 # (robot.landing: modelled, fitted in no simulated world; a piece whose whole aim would take it
 # or the robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.15, 11.17).
 """
@@ -93,7 +92,7 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
         "start": {"theta_deg": 30, "d": 0.8, "psi_deg": 0},
         "goal": {"theta_max_deg": 8, "d": [0.0, 1.0], "psi_deg": [30, 65]},
         "planning": {"table_clearance": 0.002, "thumb_tip_margin": 0.001, "across_margin": 0.001,
-                     "max_landing_spread": 0.004, "objective": "tolerance"},
+                     "max_landing_spread": 0.004, "objective": "margin"},
         "robot": {"termination": "open_lift", "termination_opening": 0.004, "start_press": 0.001,
                   "end_press": 0.0005, "touch_off": True, "landing": "modelled"},
         "sim": {"density": 650},
