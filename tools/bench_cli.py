@@ -119,10 +119,9 @@ def main() -> None:
     for name in names:
         argv, ok, aim = COMMANDS[name]
         walls, cpus = zip(*[_time_once(argv, ok) for _ in range(args.repeat)])
-        rows[name] = {"label": name, "command": _shown(argv), "runs": len(walls), "best_s": min(walls),
-                      "median_s": statistics.median(walls), "cpu_median_s": statistics.median(cpus)}
-        print(f"{name:<10} {min(walls):7.2f} {statistics.median(walls):7.2f} {aim:6.1f} {statistics.median(cpus):7.2f}",
-              flush=True)
+        row = rows[name] = {"label": name, "command": _shown(argv), "runs": len(walls), "best_s": min(walls),
+                            "median_s": statistics.median(walls), "cpu_median_s": statistics.median(cpus)}
+        print(f"{name:<10} {row['best_s']:7.2f} {row['median_s']:7.2f} {aim:6.1f} {row['cpu_median_s']:7.2f}", flush=True)
     if {"plan_pick", "export", "tile"} <= rows.keys():
         plan, export, tile = rows["plan_pick"], rows["export"], rows["tile"]
         cores = os.cpu_count() or 1
