@@ -142,6 +142,8 @@ class TrialResult:
             return self.outcome.value
         where = (f"primitive {self.phase_index + 1} ({self.phase})" if self.phase.startswith("P_")
                  else f"the {self.phase}")
+        if where in self.outcome.value:  # 'not flat after the retreat' names its phase already
+            return f"{self.outcome.value} at {self.time_s:.2f} s"
         return f"{self.outcome.value} in {where} at {self.time_s:.2f} s"
 
     def to_row(self) -> dict:
