@@ -22,7 +22,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   the deviation and the friction margin at the deviated start (negative);
 * worlds: the three objects' base plans, their hands aimed as in base, run in worlds neither the
   plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
-  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2);
+  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2); with --tip flat
+  the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
@@ -149,6 +150,8 @@ GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram"
 MAX_GAP: float = MAX_CONTACT_GAP
 #: The labels of the `worlds` rows to run (--worlds), or None for all of WORLDS.
 WORLD_LABELS: tuple[str, ...] | None = None
+#: The finger tip of the `worlds` rows (--tip): the base scenes' rounded one, or the edge rows' flat one.
+WORLD_TIP = "rounded"
 #: The curved rows' scenes (--scenes), or None for all of CURVED.
 CURVED_SCENES: tuple[str, ...] | None = None
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
@@ -371,7 +374,8 @@ def main() -> None:
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
                                                      "their contact forces logged in both engines")
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
-                    help="with --contacts: the finger tip of the rows whose trials are run (flat: the edge rows')")
+                    help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
+                         "--contacts of the rows whose trials are run (flat: the edge rows')")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
@@ -382,8 +386,9 @@ def main() -> None:
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, CURVED_SCENES
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, CURVED_SCENES
     ENGINE = args.engine
+    WORLD_TIP = args.tip
     drake = ENGINE == "drake"
     if drake:
         from ungrasp_ompl.sim import drake_world
@@ -449,13 +454,14 @@ def main() -> None:
     if "base" in only:
         objects("base: the three objects", lambda name: (f"base: {name}, rounded tip", _scene(name, "rounded")))
     if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
+        tip = "" if WORLD_TIP == "rounded" else f", {WORLD_TIP} tip"
         for name in OBJECTS:
-            scene = _scene(name, "rounded")
+            scene = _scene(name, WORLD_TIP)
             result = _plan(scene, s)
             for label, world in WORLDS:
                 if WORLD_LABELS is not None and label not in WORLD_LABELS:
                     continue
-                show(run(f"world: {name}, {label}", scene, result, n, j, s, "-", world=world))
+                show(run(f"world: {name}, {label}{tip}", scene, result, n, j, s, "-", world=world))
     if "unaimed" in only:  # the hand as planned: no aim fitted in any world
         def unaimed(name: str):
             scene = _scene(name, "rounded")
