@@ -24,6 +24,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
   cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2); with --tip flat
   the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
+  with --start least-slide the base and worlds rows from each object's start from which B slides
+  least along the thumb (record 0118, least_slide_start), the labels saying so;
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
@@ -152,6 +154,8 @@ MAX_GAP: float = MAX_CONTACT_GAP
 WORLD_LABELS: tuple[str, ...] | None = None
 #: The finger tip of the `worlds` rows (--tip): the base scenes' rounded one, or the edge rows' flat one.
 WORLD_TIP = "rounded"
+#: Where the base and worlds rows start (--start): the scenes' own start, or "least-slide" (record 0118).
+START = "scene"
 #: The curved rows' scenes (--scenes), or None for all of CURVED.
 CURVED_SCENES: tuple[str, ...] | None = None
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
@@ -203,6 +207,43 @@ def _stepped(scene: Scene) -> Scene:
     """The scene simulated with the campaign's timestep (TIMESTEP), if one is set, in every world
     (sim.timestep and sim.pyramidal_timestep)."""
     return scene if TIMESTEP is None else scene.with_sim(timestep=TIMESTEP, pyramidal_timestep=TIMESTEP)
+
+
+def least_slide_start(scene: Scene) -> float:
+    """Record 0118's rule: of the starts with scene's theta and psi and d in hundredths within its
+    goal's d range, the d whose exact lattice plan (the scene's planning options, seed 1) is secure
+    and slides B least along the thumb (l |delta s_b| summed over the plan's legs)."""
+    from ungrasp_ompl.mechanics.kinematics import s_b
+
+    lo, hi = scene.goal.box()
+    l, dg = scene.object_length, scene.digits
+    slides = {}
+    for k in range(math.ceil(lo[1] * 100 - 1e-9), math.floor(hi[1] * 100 + 1e-9) + 1):
+        moved = replace(scene, start=np.array([scene.start[0], k / 100, scene.start[2]]))
+        result = plan(moved, planner="lattice", seed=1)
+        if not result.solved:
+            continue
+        ways = np.array([w for p in result.primitives for w in p.waypoints])
+        along = s_b(ways[:, 1], ways[:, 2], dg.alpha, scene.object3d.thickness / l, dg.finger_tip_radius / l)
+        # each primitive's waypoints begin where the last ended: the joins add nothing
+        slides[k / 100] = float(np.sum(np.abs(np.diff(along)))) * l
+    if not slides:
+        raise SystemExit(f"--start least-slide: {scene.name} has no secure lattice plan from any start in its goal's d range")
+    return min(slides, key=lambda d: (slides[d], -d))
+
+
+_LEAST_SLIDE: dict[tuple, float] = {}  # least_slide_start's answers by scene name and finger tip
+
+
+def _started(scene: Scene) -> tuple[Scene, str]:
+    """The scene from the start --start chooses, and the words its base row's label ends with."""
+    if START == "scene":
+        return scene, ""
+    key = (scene.name, scene.digits.flat_finger_tip)
+    if key not in _LEAST_SLIDE:
+        _LEAST_SLIDE[key] = least_slide_start(scene)
+    d = _LEAST_SLIDE[key]
+    return replace(scene, start=np.array([scene.start[0], d, scene.start[2]])), f", least-slide start d {d:.2f}"
 
 
 def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
@@ -376,6 +417,9 @@ def main() -> None:
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
                     help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
                          "--contacts of the rows whose trials are run (flat: the edge rows')")
+    ap.add_argument("--start", choices=("scene", "least-slide"), default="scene",
+                    help="where the base and worlds rows start: the scenes' own start, or each object's start "
+                         "from which B slides least along the thumb (record 0118; labels end ', least-slide start')")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
@@ -386,9 +430,9 @@ def main() -> None:
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, CURVED_SCENES
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
     ENGINE = args.engine
-    WORLD_TIP = args.tip
+    WORLD_TIP, START = args.tip, args.start
     drake = ENGINE == "drake"
     if drake:
         from ungrasp_ompl.sim import drake_world
@@ -452,11 +496,15 @@ def main() -> None:
                      "109/120", (109, 120), "secure", "-"))
 
     if "base" in only:
-        objects("base: the three objects", lambda name: (f"base: {name}, rounded tip", _scene(name, "rounded")))
+        def based(name: str):
+            scene, start = _started(_scene(name, "rounded"))
+            return f"base: {name}, rounded tip{start}", scene
+        objects("base: the three objects", based)
     if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
         tip = "" if WORLD_TIP == "rounded" else f", {WORLD_TIP} tip"
+        tip += "" if START == "scene" else f", {START} start"
         for name in OBJECTS:
-            scene = _scene(name, WORLD_TIP)
+            scene, _ = _started(_scene(name, WORLD_TIP))
             result = _plan(scene, s)
             for label, world in WORLDS:
                 if WORLD_LABELS is not None and label not in WORLD_LABELS:
