@@ -24,8 +24,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
   cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2); with --tip flat
   the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
-  with --start least-slide the base and worlds rows from each object's start from which B slides
-  least along the thumb (record 0118, least_slide_start), the labels saying so;
+  with --start least-slide the base, worlds, unaimed and controls rows from each object's start
+  from which B slides least along the thumb (record 0118, least_slide_start), the labels saying so;
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
@@ -512,8 +512,8 @@ def main() -> None:
                 show(run(f"world: {name}, {label}{tip}", scene, result, n, j, s, "-", world=world))
     if "unaimed" in only:  # the hand as planned: no aim fitted in any world
         def unaimed(name: str):
-            scene = _scene(name, "rounded")
-            return (f"unaimed (landing: planned): {name}, rounded tip",
+            scene, start = _started(_scene(name, "rounded"))
+            return (f"unaimed (landing: planned): {name}, rounded tip{start}",
                     replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED)))
         objects("unaimed: the three objects", unaimed)
     if "edge" in only:
@@ -548,16 +548,16 @@ def main() -> None:
                      f"(margin {math.degrees(margin):.1f} deg), {tip} tip", scene, steeper_start(result, offset),
                      n, j, s, paper, rate))
     if "controls" in only:
-        scene = _scene("guitar_pick")
+        scene, start = _started(_scene("guitar_pick"))
         dg = scene.digits  # equal digits: the thumb as long as the finger, the finger unchanged
         equal = plan(replace(scene, digits=replace(dg, alpha=0.0, thumb_length=dg.thumb_length + dg.alpha)),
                      planner="lattice")
         verdict = f"planned with equal digits: {equal.reason}" if not equal.solved else "equal digits: solved"
         print(f"  control, equal digits planned: {verdict}", file=sys.stderr)
-        attempt("control: pick, the asymmetric plan run with equal digits", lambda: run(
-            "control: pick, the asymmetric plan run with equal digits", scene, _plan(scene, s), n, j, s,
+        attempt(f"control: pick, the asymmetric plan run with equal digits{start}", lambda: run(
+            f"control: pick, the asymmetric plan run with equal digits{start}", scene, _plan(scene, s), n, j, s,
             "not placeable", variant=Variant(equal_digits=True), model=verdict))
-        show(run("control: pick, a fifth of the friction", scene, _plan(scene, s), n, j, s, "(must fail)",
+        show(run(f"control: pick, a fifth of the friction{start}", scene, _plan(scene, s), n, j, s, "(must fail)",
                  world=World(friction=0.2)))
     if "tangram" in only:
         # in Drake the lattice's rows alone, unranked: an attempt costs minutes there
