@@ -210,26 +210,15 @@ def _stepped(scene: Scene) -> Scene:
 
 
 def least_slide_start(scene: Scene) -> float:
-    """Record 0118's rule: of the starts with scene's theta and psi and d in hundredths within its
-    goal's d range, the d whose exact lattice plan (the scene's planning options, seed 1) is secure
-    and slides B least along the thumb (l |delta s_b| summed over the plan's legs)."""
-    from ungrasp_ompl.mechanics.kinematics import s_b
+    """Record 0118's rule: the start d (in hundredths, within the goal's d range, the scene's theta
+    and psi) whose exact lattice plan (the scene's planning options, seed 1) is secure and slides B
+    least along the thumb (ungrasp_ompl.benchmark.starts, as `ungrasp-ompl starts` chooses)."""
+    from ungrasp_ompl.benchmark.starts import StartOptions, search_starts
 
-    lo, hi = scene.goal.box()
-    l, dg = scene.object_length, scene.digits
-    slides = {}
-    for k in range(math.ceil(lo[1] * 100 - 1e-9), math.floor(hi[1] * 100 + 1e-9) + 1):
-        moved = replace(scene, start=np.array([scene.start[0], k / 100, scene.start[2]]))
-        result = plan(moved, planner="lattice", seed=1)
-        if not result.solved:
-            continue
-        ways = np.array([w for p in result.primitives for w in p.waypoints])
-        along = s_b(ways[:, 1], ways[:, 2], dg.alpha, scene.object3d.thickness / l, dg.finger_tip_radius / l)
-        # each primitive's waypoints begin where the last ended: the joins add nothing
-        slides[k / 100] = float(np.sum(np.abs(np.diff(along)))) * l
-    if not slides:
+    best = search_starts(scene, StartOptions(run=RunOptions(seed=1, jobs=1))).best
+    if best is None:
         raise SystemExit(f"--start least-slide: {scene.name} has no secure lattice plan from any start in its goal's d range")
-    return min(slides, key=lambda d: (slides[d], -d))
+    return best.d
 
 
 _LEAST_SLIDE: dict[tuple, float] = {}  # least_slide_start's answers by scene name and finger tip

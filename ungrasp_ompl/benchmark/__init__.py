@@ -24,7 +24,9 @@ One concern per module:
 * :mod:`.bench` -- :func:`run_benchmark` and its pictures;
 * :mod:`.sweep` -- :func:`run_sweep` and its picture;
 * :mod:`.map` -- :func:`run_map`, the feasibility map, and its picture;
-* :mod:`.design` -- :func:`run_design`, the search over digit designs, and its picture.
+* :mod:`.design` -- :func:`run_design`, the search over digit designs, and its picture;
+* :mod:`.starts` -- :func:`choose_start`, the search over the start's d for the one from which B
+  slides least along the thumb.
 
 Nothing here prints: the CLI does.
 """
@@ -35,7 +37,9 @@ from .bench import BenchmarkResult, run_benchmark
 from .design import DesignOptions, DesignResult, run_design
 from .map import MapOptions, MapResult, run_map
 from .options import BenchmarkOptions, SweepOptions
+from .starts import StartChoice, StartOptions, b_slide, choose_start, search_starts
 from .sweep import SweepResult, run_sweep
 
 __all__ = ["BenchmarkOptions", "BenchmarkResult", "DesignOptions", "DesignResult", "MapOptions", "MapResult",
-           "SweepOptions", "SweepResult", "run_benchmark", "run_design", "run_map", "run_sweep"]
+           "StartChoice", "StartOptions", "SweepOptions", "SweepResult", "b_slide", "choose_start", "run_benchmark",
+           "run_design", "run_map", "run_sweep", "search_starts"]

@@ -25,7 +25,7 @@ __all__ = ["main", "run"]
 #: Options fields whose flag is not --field-name (the library names its options' fields).
 _FIELD_FLAGS = {"alphas": "--alpha", "tip_radii": "--tip-radius", "friction_scales": "--friction-scale",
                 "start_psi_offset": "--start-psi-offset-deg", "start_theta_deg": "--start-theta",
-                "plan.trials": "--certify"}
+                "plan.trials": "--certify", "starts.d_range": "--d", "starts.d_step": "--step"}
 
 
 def _as_flag(exc: InputError, parser: argparse.ArgumentParser, args: argparse.Namespace) -> InputError:

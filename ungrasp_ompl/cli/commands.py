@@ -234,6 +234,27 @@ def design_command(args: argparse.Namespace) -> int:
     return EXIT_OK if result.best is not None else EXIT_NO_SOLUTION
 
 
+def starts_command(args: argparse.Namespace) -> int:
+    from ..benchmark.starts import StartOptions, choose_start
+
+    bounds = None
+    if args.d is not None:
+        parts = args.d.split(":")
+        try:
+            bounds = tuple(float(x) for x in parts)
+        except ValueError:
+            raise InputError("--d", f"must be LOW:HIGH, two numbers over l, got {args.d!r}") from None
+        if len(bounds) != 2:
+            raise InputError("--d", f"must be LOW:HIGH, two numbers over l, got {args.d!r}")
+    options = StartOptions(d_range=bounds, d_step=args.step, run=_run(args), out=args.out)
+    bar = Progress("starts", "starts")
+    result = choose_start(args.scene, options, progress=bar.show)
+    files = result.write(options.out)
+    print(result.summary())
+    print(f"wrote {', '.join(str(p) for p in files.values())}")
+    return EXIT_OK if result.best is not None else EXIT_NO_SOLUTION
+
+
 def _cluster(args: argparse.Namespace) -> str | None:
     """The Ray cluster to run on: --cluster, else the RAY_ADDRESS variable, else None (this machine)."""
     return args.cluster or os.environ.get("RAY_ADDRESS") or None
@@ -389,4 +410,4 @@ def scenes_command(args: argparse.Namespace) -> int:
 
 
 #: The function of each command, by its name on the command line.
-COMMANDS = {"plan": plan_command, "regions": regions_command, "stability": stability_command, "cage": cage_command, "bench": bench_command, "sweep": sweep_command, "map": map_command, "design": design_command, "tile": tile_command, "simulate": simulate_command, "scenes": scenes_command, "view": view_command}
+COMMANDS = {"plan": plan_command, "regions": regions_command, "stability": stability_command, "cage": cage_command, "bench": bench_command, "sweep": sweep_command, "map": map_command, "design": design_command, "starts": starts_command, "tile": tile_command, "simulate": simulate_command, "scenes": scenes_command, "view": view_command}

@@ -194,6 +194,20 @@ def _add_design(sub: argparse._SubParsersAction) -> None:
                     "design_scene.yaml")
 
 
+def _add_starts(sub: argparse._SubParsersAction) -> None:
+    """The `starts` command's arguments."""
+    sr = sub.add_parser("starts", help="where to hand the object over: plan from each start d in the goal's range, "
+                        "choose the one from which B slides least along the thumb")
+    sr.add_argument("scene", help="scene file (YAML) or the name of a shipped scene")
+    sr.add_argument("--d", default=None, metavar="LOW:HIGH",
+                    help="the candidates' d bounds over l, both included (default: the goal region's d range)")
+    sr.add_argument("--step", type=float, default=0.01, help="spacing of the candidates' d over l (default 0.01)")
+    sr.add_argument("--seed", type=int, default=1, help="seed of the lattice plans (default 1)")
+    sr.add_argument("--jobs", type=int, default=None, help="candidates at a time on this machine (default: all cores)")
+    _add_cluster(sr)
+    sr.add_argument("--out", default="starts", help="output directory (default ./starts): starts.csv, starts_scene.yaml")
+
+
 def _add_stability(sub: argparse._SubParsersAction) -> None:
     """The `stability` command's arguments."""
     st = sub.add_parser("stability", help="print the 3D stability analysis of a scene with an object outline")
@@ -315,7 +329,7 @@ def _add_scenes(sub: argparse._SubParsersAction) -> None:
 
 
 #: Each command's arguments, in the order --help lists them.
-COMMANDS = (_add_plan, _add_bench, _add_sweep, _add_map, _add_design, _add_stability, _add_cage, _add_tile,
+COMMANDS = (_add_plan, _add_bench, _add_sweep, _add_map, _add_design, _add_starts, _add_stability, _add_cage, _add_tile,
             _add_simulate, _add_view, _add_regions, _add_scenes)
 
 

@@ -1,0 +1,243 @@
+"""``starts``: where to hand the object over, the start's d from which B slides least.
+
+In each P_psi B slides along the thumb's face, and how far is set by the start's d and the plan
+(docs/model.md 11.18): a shorter slide leaves less for a push across the plane to walk B across
+the face when the world's friction is not the model's (docs/decisions/0118). Per candidate d, in
+steps of StartOptions.d_step over l within the goal's d range (the scene's theta and psi kept), as
+one task on a runner: the exact lattice plan with the scene's planning options, and B's slide
+along the thumb summed over the plan's legs (b_slide). The chosen start is the one whose plan is
+secure and slides B least (the larger d on a tie). ``StartChoice.write`` writes starts.csv and
+starts_scene.yaml (the scene file with the chosen start, loadable by every command).
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import io
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from ..errors import InputError
+from ..io import write_text_atomic
+from ..mechanics.kinematics import s_b
+from ..mechanics.pincer import pincer_s_b
+from ..parallel.options import RunOptions
+from ..parallel.runner import TaskStatus, open_runner
+from ..planning import plan
+from ..planning.result import Plan, PlanOutcome
+from ..scene import Scene
+from ..scene.loader import read_yaml
+from ..shipped import resolve
+from .options import check_out
+
+#: A candidate's task time (s) before it counts as hung.
+CANDIDATE_DEADLINE_S = 300.0
+#: The most candidates a search may have.
+MAX_CANDIDATES = 1000
+#: starts.csv's columns.
+START_COLUMNS = ("d", "task_status", "outcome", "b_slide_mm", "min_margin_deg", "cost", "chosen", "error")
+
+
+@dataclass(frozen=True)
+class StartOptions:
+    """What ``starts`` searches and how it runs."""
+
+    d_range: tuple[float, float] | None = None
+    """The candidates' d bounds (over l, both included); None: the goal region's d range."""
+    d_step: float = 0.01
+    """Spacing of the candidates' d (over l)."""
+    run: RunOptions = RunOptions()
+    """run.seed the lattice plans' seed; run.jobs candidates at a time on this machine (None: all
+    cores); run.cluster a Ray cluster's address (None: this machine)."""
+    out: str | os.PathLike[str] = "starts"
+    """Output directory for starts.csv and starts_scene.yaml."""
+
+    def candidates(self, scene: Scene) -> tuple[float, ...]:
+        """The candidate d (over l) for scene, these options checked; InputError naming the option
+        otherwise."""
+        step = self.d_step
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not (math.isfinite(step) and step > 0):
+            raise InputError("d_step", f"must be a positive number (over l), got {step!r}")
+        if self.d_range is None:
+            lo, hi = scene.goal.box()
+            low, high = float(lo[1]), float(hi[1])
+        else:
+            low, high = (float(x) for x in self.d_range)
+            if not (math.isfinite(low) and math.isfinite(high) and 0.0 <= low <= high <= 1.0):
+                raise InputError("d_range", f"must be two d in [0, 1] (over l), the first not above the second, "
+                                            f"got {self.d_range!r}")
+        first, last = math.ceil(low / step - 1e-9), math.floor(high / step + 1e-9)
+        if last < first:
+            raise InputError("d_range", f"holds no d in steps of {step:g}: [{low:g}, {high:g}]")
+        if last - first + 1 > MAX_CANDIDATES:
+            raise InputError("d_step", f"gives more than {MAX_CANDIDATES} candidates over [{low:g}, {high:g}]")
+        check_out(self.out)
+        self.run.validated()
+        return tuple(round(k * step, 9) for k in range(first, last + 1))
+
+
+def b_slide(scene: Scene, result: Plan) -> float:
+    """How far B slides along the thumb's face over a solved plan (m): |delta s_B| summed over the
+    waypoints of every leg (a pincer's s_B by mechanics.pincer.pincer_s_b; a curved section's by
+    its own)."""
+    dg, l = scene.digits, scene.object_length
+    ways = np.array([w for p in result.primitives for w in p.waypoints], dtype=float)
+    if scene.robot.gripper is not None:
+        along = np.array([pincer_s_b(*q, dg, *scene.robot.gripper.scaled(l)) for q in ways], dtype=float)
+    else:
+        along = s_b(ways[:, 1], ways[:, 2], dg.alpha, dg.object_thickness, dg.finger_tip_radius, dg.section)
+    return float(np.sum(np.abs(np.diff(along)))) * l  # each leg begins where the last ended: joins add nothing
+
+
+@dataclass(frozen=True)
+class StartCandidate:
+    """One candidate start: its d, its plan's outcome and, where secure, what the plan does."""
+
+    d: float
+    """The start's d (over l)."""
+    task_status: TaskStatus = TaskStatus.DONE
+    """How the candidate's task ended (a hung or crashed task has no plan)."""
+    outcome: PlanOutcome | None = None
+    """The lattice plan's outcome; None when the task did not finish."""
+    b_slide_m: float | None = None
+    """B's slide along the thumb over the plan (m); None without a secure plan."""
+    min_margin_deg: float | None = None
+    """The plan's smallest friction margin (deg); None without a secure plan."""
+    cost: float | None = None
+    """The plan's cost; None without a secure plan."""
+    error: str = ""
+    """Why the candidate has no plan, for a person ("" when it has one)."""
+
+
+@dataclass(frozen=True)
+class StartTask:
+    """One candidate's work: the scene from that start, and the lattice's seed."""
+
+    index: int
+    d: float
+    scene: Scene
+    seed: int
+
+
+def start_cell(task: StartTask) -> StartCandidate:
+    """Plan one candidate start exactly (the scene's planning options) and measure B's slide."""
+    try:
+        result = plan(task.scene, planner="lattice", seed=task.seed)
+    except InputError as exc:  # a start the scene's checks refuse (outside the bounds, not force-closed ...)
+        return StartCandidate(task.d, error=f"{exc.field}: {exc.reason}")
+    if not result.solved:
+        return StartCandidate(task.d, outcome=result.outcome, error=result.reason or result.outcome.value)
+    return StartCandidate(task.d, outcome=result.outcome, b_slide_m=b_slide(task.scene, result),
+                          min_margin_deg=result.min_margin_deg, cost=result.cost)
+
+
+@dataclass(frozen=True)
+class StartChoice:
+    """Every candidate start in order of d, the chosen one, and the scene file to rewrite."""
+
+    scene: str
+    """The scene's name."""
+    own_d: float
+    """The scene's own start d (over l)."""
+    candidates: list[StartCandidate]
+    """Every candidate, by increasing d."""
+    chosen: int | None
+    """Index of the chosen candidate; None: no candidate has a secure plan."""
+    length: float
+    """The object's length l (m)."""
+    document: Any = field(default=None, repr=False)
+    """The scene file's parsed YAML, which starts_scene.yaml rewrites."""
+
+    @property
+    def best(self) -> StartCandidate | None:
+        """The chosen candidate (None: none has a secure plan)."""
+        return None if self.chosen is None else self.candidates[self.chosen]
+
+    def summary(self) -> str:
+        """What a person reads: the candidates, the chosen start against the scene's own."""
+        secure = sum(c.b_slide_m is not None for c in self.candidates)
+        lines = [f"{self.scene}: {len(self.candidates)} starts in d "
+                 f"{self.candidates[0].d:g}-{self.candidates[-1].d:g}, {secure} with a secure lattice plan"]
+        own = next((c for c in self.candidates if math.isclose(c.d, self.own_d, abs_tol=1e-9)), None)
+        for label, c, missing in (("chosen, B slides least", self.best, "no start has a secure plan"),
+                                  ("the scene's own start", own, "not among the candidates")):
+            if c is None:
+                lines.append(f"  {label}: {missing}")
+            elif c.b_slide_m is None:
+                lines.append(f"  {label}: d {c.d:g}: {c.error}")
+            else:
+                lines.append(f"  {label}: d {c.d:g}: B slides {c.b_slide_m * 1000:.2f} mm along the thumb, "
+                             f"friction margin {c.min_margin_deg:.2f} deg, cost {c.cost:.2f}")
+        return "\n".join(lines)
+
+    def rows(self) -> list[list[object]]:
+        """starts.csv's rows (START_COLUMNS)."""
+        return [[repr(c.d), c.task_status.value, "" if c.outcome is None else c.outcome.value,
+                 None if c.b_slide_m is None else round(c.b_slide_m * 1000, 6), c.min_margin_deg, c.cost,
+                 int(k == self.chosen), c.error.replace("\n", " ")] for k, c in enumerate(self.candidates)]
+
+    def scene_yaml(self) -> str:
+        """The scene file with the chosen start's d, headed by what it was chosen by."""
+        c = self.best
+        if c is None or self.document is None:
+            raise InputError("starts", "no start has a secure plan: no scene to recommend")
+        doc = copy.deepcopy(self.document)
+        doc["start"]["d"] = c.d
+        head = (f"# Start chosen by `ungrasp-ompl starts` for {self.scene}: d {c.d:g}, from which B slides "
+                f"{c.b_slide_m * 1000:.2f} mm along the thumb\n# (the scene's own d {self.own_d:g}); friction "
+                f"margin {c.min_margin_deg:.2f} deg.\n")
+        return head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+
+    def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
+        """Write starts.csv and (with a chosen start) starts_scene.yaml atomically into directory;
+        returns them by role."""
+        out = Path(directory)
+        out.mkdir(parents=True, exist_ok=True)
+        text = io.StringIO()
+        w = csv.writer(text, lineterminator="\n")
+        w.writerow(START_COLUMNS)
+        w.writerows([["" if v is None else v for v in row] for row in self.rows()])
+        files = {"csv": out / "starts.csv"}
+        write_text_atomic(files["csv"], text.getvalue())
+        if self.best is not None:
+            files["scene"] = out / "starts_scene.yaml"
+            write_text_atomic(files["scene"], self.scene_yaml())
+        return files
+
+
+def choose_start(scene_path: str | os.PathLike[str], options: StartOptions = StartOptions(),
+                 progress: Callable[[int, int], None] | None = None) -> StartChoice:
+    """The scene file's (or shipped scene's) candidate starts planned and one chosen
+    (search_starts), with the file's YAML for starts_scene.yaml."""
+    path = resolve(scene_path, "scene")
+    return replace(search_starts(Scene.from_file(path), options, progress), document=read_yaml(path, "scene"))
+
+
+def search_starts(scene: Scene, options: StartOptions = StartOptions(),
+                  progress: Callable[[int, int], None] | None = None) -> StartChoice:
+    """Plan every candidate start of scene (see the module) on a runner and choose one. Raises
+    InputError naming the option before anything runs; writes nothing (see StartChoice.write).
+    progress(done, total) after each candidate."""
+    ds = options.candidates(scene)
+    tasks = [StartTask(k, d, replace(scene, start=np.array([scene.start[0], d, scene.start[2]])), options.run.seed)
+             for k, d in enumerate(ds)]
+    found: dict[int, StartCandidate] = {}
+    with open_runner(options.run.workers, options.run.cluster, fresh=False) as runner:
+        for outcome in runner.run(start_cell, tasks, CANDIDATE_DEADLINE_S):
+            task = tasks[outcome.index]
+            found[task.index] = outcome.value if outcome.status is TaskStatus.DONE else StartCandidate(
+                task.d, task_status=outcome.status, error=f"the candidate's task {outcome.status.value}")
+            if progress:
+                progress(len(found), len(tasks))
+    ordered = [found[t.index] for t in tasks]
+    secure = [k for k, c in enumerate(ordered) if c.b_slide_m is not None]
+    chosen = min(secure, key=lambda k: (ordered[k].b_slide_m, -ordered[k].d)) if secure else None
+    return StartChoice(scene.name, float(scene.start[1]), ordered, chosen, scene.object_length)
