@@ -16,6 +16,8 @@ from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics.kinematics import s_b
 from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.planning import plan
+from ungrasp_ompl.planning.plan_tolerance import tolerance
+from ungrasp_ompl.planning.predicted_landing import predict_landing
 from ungrasp_ompl.scene import Scene
 from test_cli import assert_one_line_error
 
@@ -48,7 +50,8 @@ def test_the_chosen_start_is_the_secure_one_that_slides_b_least(chosen):
 
 def test_a_candidates_row_is_its_scenes_own_lattice_plan(chosen):
     """The candidate at d is the scene moved to that start and planned exactly (planning.plan, the
-    lattice), its slide b_slide of that plan."""
+    lattice); its slide, tolerance and landing spread are b_slide's, plan_tolerance's and
+    predicted_landing's of that plan."""
     result, _ = chosen
     c = result.best
     scene = Scene.from_file("guitar_pick")
@@ -57,6 +60,8 @@ def test_a_candidates_row_is_its_scenes_own_lattice_plan(chosen):
     assert found.cost == pytest.approx(c.cost, abs=1e-12)
     assert found.min_margin_deg == pytest.approx(c.min_margin_deg, abs=1e-12)
     assert b_slide(moved, found) == pytest.approx(c.b_slide_m, abs=1e-15)
+    assert tolerance(moved, found).scale == c.tolerance
+    assert predict_landing(moved, found).spread == pytest.approx(c.landing_spread_m, abs=1e-15)
 
 
 def test_b_slides_only_while_psi_or_d_moves():

@@ -4,8 +4,11 @@ In each P_psi B slides along the thumb's face, and how far is set by the start's
 (docs/model.md 11.18): a shorter slide leaves less for a push across the plane to walk B across
 the face when the world's friction is not the model's (docs/decisions/0118). Per candidate d, in
 steps of StartOptions.d_step over l within the goal's d range (the scene's theta and psi kept), as
-one task on a runner: the exact lattice plan with the scene's planning options, and B's slide
-along the thumb summed over the plan's legs (b_slide). The chosen start is the one whose plan is
+one task on a runner: the exact lattice plan with the scene's planning options, B's slide
+along the thumb summed over the plan's legs (b_slide), and what else a start trades: the plan's
+friction margin, its tolerance of the `paper` errors (planning.plan_tolerance) and the spread of
+its predicted landing over the scene's friction range and both cones (planning.predicted_landing).
+The chosen start is the one whose plan is
 secure and slides B least (the larger d on a tie). ``StartChoice.write`` writes starts.csv and
 starts_scene.yaml (the scene file with the chosen start, loadable by every command).
 """
@@ -29,9 +32,12 @@ from ..errors import InputError
 from ..io import write_text_atomic
 from ..mechanics.kinematics import s_b
 from ..mechanics.pincer import pincer_s_b
+from ..mechanics.release import ReleaseModelError
 from ..parallel.options import RunOptions
 from ..parallel.runner import TaskStatus, open_runner
 from ..planning import plan
+from ..planning.plan_tolerance import tolerance
+from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan, PlanOutcome
 from ..scene import Scene
 from ..scene.loader import read_yaml
@@ -43,7 +49,8 @@ CANDIDATE_DEADLINE_S = 300.0
 #: The most candidates a search may have.
 MAX_CANDIDATES = 1000
 #: starts.csv's columns.
-START_COLUMNS = ("d", "task_status", "outcome", "b_slide_mm", "min_margin_deg", "cost", "chosen", "error")
+START_COLUMNS = ("d", "task_status", "outcome", "b_slide_mm", "min_margin_deg", "cost", "tolerance",
+                 "landing_spread_mm", "chosen", "error")
 
 
 @dataclass(frozen=True)
@@ -113,6 +120,11 @@ class StartCandidate:
     """The plan's smallest friction margin (deg); None without a secure plan."""
     cost: float | None = None
     """The plan's cost; None without a secure plan."""
+    tolerance: float | None = None
+    """The largest scale of the `paper` error box under which every state of the plan stays secure."""
+    landing_spread_m: float | None = None
+    """How far the predicted landing moves over the friction range and both cones (m); None
+    without a secure plan, a thickness, or a termination the model of the fall covers."""
     error: str = ""
     """Why the candidate has no plan, for a person ("" when it has one)."""
 
@@ -135,8 +147,15 @@ def start_cell(task: StartTask) -> StartCandidate:
         return StartCandidate(task.d, error=f"{exc.field}: {exc.reason}")
     if not result.solved:
         return StartCandidate(task.d, outcome=result.outcome, error=result.reason or result.outcome.value)
+    spread = None
+    if task.scene.object_thickness > 0.0:
+        try:
+            spread = predict_landing(task.scene, result).spread
+        except ReleaseModelError:  # a termination the model of the fall does not cover (rotate)
+            pass
     return StartCandidate(task.d, outcome=result.outcome, b_slide_m=b_slide(task.scene, result),
-                          min_margin_deg=result.min_margin_deg, cost=result.cost)
+                          min_margin_deg=result.min_margin_deg, cost=result.cost,
+                          tolerance=tolerance(task.scene, result).scale, landing_spread_m=spread)
 
 
 @dataclass(frozen=True)
@@ -174,14 +193,18 @@ class StartChoice:
             elif c.b_slide_m is None:
                 lines.append(f"  {label}: d {c.d:g}: {c.error}")
             else:
+                spread = "" if c.landing_spread_m is None else \
+                    f", predicted landing spread {c.landing_spread_m * 1000:.2f} mm"
                 lines.append(f"  {label}: d {c.d:g}: B slides {c.b_slide_m * 1000:.2f} mm along the thumb, "
-                             f"friction margin {c.min_margin_deg:.2f} deg, cost {c.cost:.2f}")
+                             f"friction margin {c.min_margin_deg:.2f} deg, tolerance {c.tolerance:.3f}{spread}, "
+                             f"cost {c.cost:.2f}")
         return "\n".join(lines)
 
     def rows(self) -> list[list[object]]:
         """starts.csv's rows (START_COLUMNS)."""
         return [[repr(c.d), c.task_status.value, "" if c.outcome is None else c.outcome.value,
                  None if c.b_slide_m is None else round(c.b_slide_m * 1000, 6), c.min_margin_deg, c.cost,
+                 c.tolerance, None if c.landing_spread_m is None else round(c.landing_spread_m * 1000, 6),
                  int(k == self.chosen), c.error.replace("\n", " ")] for k, c in enumerate(self.candidates)]
 
     def scene_yaml(self) -> str:
