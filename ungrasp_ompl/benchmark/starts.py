@@ -8,9 +8,9 @@ one task on a runner: the exact lattice plan with the scene's planning options, 
 along the thumb summed over the plan's legs (b_slide), and what else a start trades: the plan's
 friction margin, its tolerance of the `paper` errors (planning.plan_tolerance) and the spread of
 its predicted landing over the scene's friction range and both cones (planning.predicted_landing).
-The chosen start is the one whose plan is
-secure and slides B least (the larger d on a tie). ``StartChoice.write`` writes starts.csv and
-starts_scene.yaml (the scene file with the chosen start, loadable by every command).
+The chosen start is the one whose plan is secure and slides B least (the larger d on a tie).
+``StartChoice.write`` writes starts.csv and starts_scene.yaml (the scene file with the chosen
+start, loadable by every command).
 """
 
 from __future__ import annotations
@@ -170,8 +170,6 @@ class StartChoice:
     """Every candidate, by increasing d."""
     chosen: int | None
     """Index of the chosen candidate; None: no candidate has a secure plan."""
-    length: float
-    """The object's length l (m)."""
     document: Any = field(default=None, repr=False)
     """The scene file's parsed YAML, which starts_scene.yaml rewrites."""
 
@@ -263,4 +261,4 @@ def search_starts(scene: Scene, options: StartOptions = StartOptions(),
     ordered = [found[t.index] for t in tasks]
     secure = [k for k, c in enumerate(ordered) if c.b_slide_m is not None]
     chosen = min(secure, key=lambda k: (ordered[k].b_slide_m, -ordered[k].d)) if secure else None
-    return StartChoice(scene.name, float(scene.start[1]), ordered, chosen, scene.object_length)
+    return StartChoice(scene.name, float(scene.start[1]), ordered, chosen)
