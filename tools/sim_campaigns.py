@@ -144,6 +144,8 @@ HEADER = ("| campaign | ours: success (95 % interval) | placed by the paper's cr
 MUJOCO_RESULTS = ROOT / "docs" / "results" / "campaigns.json"
 #: MuJoCo's tangram rows, beside which a Drake file of tangram rows alone is set.
 MUJOCO_TANGRAM = ROOT / "docs" / "results" / "campaigns_tangram.json"
+#: MuJoCo's rows from the least-slide starts (record 0118), beside which Drake's from them are set.
+MUJOCO_LEAST_SLIDE = ROOT / "docs" / "results" / "campaigns_least_slide.json"
 GROUP_ORDER = ("base", "edge", "control", "tangram")
 #: The --only name of each row group.
 GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram": "tangram"}
@@ -725,13 +727,15 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
 
 def paired_with_mujoco(doc: dict) -> dict:
     """A Drake results file's rows, each with MuJoCo's row of the same key and the two-sided Fisher
-    test's p of the two counts, from MUJOCO_TANGRAM when every row is the tangram's, else from
-    MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both); the file names its MuJoCo file."""
+    test's p of the two counts, from MUJOCO_TANGRAM when every row is the tangram's, from
+    MUJOCO_LEAST_SLIDE with --start least-slide, else from MUJOCO_RESULTS (a row MuJoCo's file lacks
+    gets None for both); the file names its MuJoCo file."""
     import json
 
     from campaign_results import fisher_p
 
-    source = MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else MUJOCO_RESULTS
+    source = MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
+        MUJOCO_LEAST_SLIDE if START == "least-slide" else MUJOCO_RESULTS)
     mujoco = json.loads(source.read_text())
     theirs = {r["key"]: r for r in mujoco["rows"]}
     for r in doc["rows"]:
@@ -761,12 +765,14 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
     groups = ",".join(GROUP_OPTION[g] for g in GROUP_ORDER if any(_group(r) == g for r in merged))
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
     command = (f"python tools/sim_campaigns.py --engine drake --drake-hull {args.drake_hull} --trials {args.trials} "
-               f"--jobs {args.jobs} --seed {args.seed} --table {rel} --only {groups}")
+               f"--jobs {args.jobs} --seed {args.seed} --table {rel} --only {groups}"
+               + ("" if START == "scene" else f" --start {START}"))
     doc = paired_with_mujoco({**table_json(table, command, date.today().isoformat()), "runs": runs})
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
     print(f"wrote {table}\nwrote {path}")
-    draw_engines(doc["rows"], args.figure)
-    print(f"wrote {args.figure}")
+    if not args.no_figure:
+        draw_engines(doc["rows"], args.figure)
+        print(f"wrote {args.figure}")
 
 
 #: The ticks (2 ms each) over which the table's friction use sums its forces: SAP's force on a
