@@ -13,7 +13,8 @@ from conftest import run_cli
 from ungrasp_ompl.benchmark.starts import StartOptions, b_slide, choose_start, search_starts
 from ungrasp_ompl.cli.exits import EXIT_NO_SOLUTION
 from ungrasp_ompl.errors import InputError
-from ungrasp_ompl.mechanics.kinematics import s_b
+from ungrasp_ompl.mechanics.kinematics import object_axis, s_b
+from ungrasp_ompl.mechanics.pincer import pincer_pose
 from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.plan_tolerance import tolerance
@@ -120,3 +121,16 @@ def test_the_command_names_its_flag_and_exits_3_without_a_secure_start(tmp_path)
     rows = _rows(out / "starts.csv")
     assert [r["outcome"] for r in rows] == ["no_secure_path", "no_secure_path"]
     assert not (out / "starts_scene.yaml").exists()
+
+
+def test_a_pincers_slide_is_how_far_b_moves_from_its_thumbs_tip():
+    """On a pincer B's slide is the change of B's distance from the thumb's tip, both on the thumb's
+    face (mechanics.pincer.pincer_pose), summed over the plan's waypoints."""
+    scene = Scene.from_file("pincer_puzzle_piece")
+    found = plan(scene, planner="lattice", seed=1)
+    assert found.solved
+    q = np.array([w for p in found.primitives for w in p.waypoints], dtype=float)
+    pose = pincer_pose(q[:, 0], q[:, 1], q[:, 2], scene.digits, *scene.robot.gripper.scaled(scene.object_length))
+    apart = np.linalg.norm(pose.thumb_tip - object_axis(q[:, 0]), axis=-1)
+    assert b_slide(scene, found) == pytest.approx(np.sum(np.abs(np.diff(apart))) * scene.object_length, rel=1e-9)
+    assert b_slide(scene, found) > 0.0
