@@ -98,7 +98,7 @@ def b_slide(scene: Scene, result: Plan) -> float:
     dg, l = scene.digits, scene.object_length
     ways = np.array([w for p in result.primitives for w in p.waypoints], dtype=float)
     if scene.robot.gripper is not None:
-        along = np.array([pincer_s_b(*q, dg, *scene.robot.gripper.scaled(l)) for q in ways], dtype=float)
+        along = pincer_s_b(ways[:, 0], ways[:, 1], ways[:, 2], dg, *scene.robot.gripper.scaled(l))
     else:
         along = s_b(ways[:, 1], ways[:, 2], dg.alpha, dg.object_thickness, dg.finger_tip_radius, dg.section)
     return float(np.sum(np.abs(np.diff(along)))) * l  # each leg begins where the last ended: joins add nothing
@@ -141,10 +141,7 @@ class StartTask:
 
 def start_cell(task: StartTask) -> StartCandidate:
     """Plan one candidate start exactly (the scene's planning options) and measure B's slide."""
-    try:
-        result = plan(task.scene, planner="lattice", seed=task.seed)
-    except InputError as exc:  # a start the scene's checks refuse (outside the bounds, not force-closed ...)
-        return StartCandidate(task.d, error=f"{exc.field}: {exc.reason}")
+    result = plan(task.scene, planner="lattice", seed=task.seed)  # a start not held: an outcome, not an error
     if not result.solved:
         return StartCandidate(task.d, outcome=result.outcome, error=result.reason or result.outcome.value)
     spread = None

@@ -239,13 +239,11 @@ def starts_command(args: argparse.Namespace) -> int:
 
     bounds = None
     if args.d is not None:
-        parts = args.d.split(":")
-        try:
-            bounds = tuple(float(x) for x in parts)
+        try:  # a word that is no number, or other than two parts
+            low, high = (float(x) for x in args.d.split(":"))
         except ValueError:
             raise InputError("--d", f"must be LOW:HIGH, two numbers over l, got {args.d!r}") from None
-        if len(bounds) != 2:
-            raise InputError("--d", f"must be LOW:HIGH, two numbers over l, got {args.d!r}")
+        bounds = (low, high)
     options = StartOptions(d_range=bounds, d_step=args.step, run=_run(args), out=args.out)
     bar = Progress("starts", "starts")
     result = choose_start(args.scene, options, progress=bar.show)
