@@ -14,6 +14,7 @@ from ungrasp_ompl.parallel import RunOptions
 from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.planning.setup import lattice_plan
 from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.shipped import resolve
 from test_cli import assert_one_line_error
 
 GRID = DesignOptions(alphas=(0.42, 0.47), tip_radii=(0.0005, 0.001), run=RunOptions(jobs=2))
@@ -64,6 +65,8 @@ def test_the_recommended_scene_file_has_the_chosen_digits_and_plans(designed):
     plan = lattice_plan(scene, 1)  # the goal it was designed to comes with it
     assert plan.solved and plan.cost == pytest.approx(best.cost, abs=1e-9)
     assert tolerance(scene, plan).scale == pytest.approx(best.tolerance, rel=1e-9)
+    comments = [s for s in resolve("guitar_pick", "scene").read_text().splitlines() if s.lstrip().startswith("#")]
+    assert [s for s in files["scene"].read_text().splitlines()[2:] if s.lstrip().startswith("#")] == comments
 
 
 @pytest.mark.slow

@@ -20,6 +20,7 @@ from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.plan_tolerance import tolerance
 from ungrasp_ompl.planning.predicted_landing import predict_landing
 from ungrasp_ompl.scene import Scene
+from ungrasp_ompl.shipped import resolve
 from test_cli import assert_one_line_error
 
 #: Four candidates about the pick's lowest secure start: two below the goal's d range, two in it.
@@ -95,6 +96,10 @@ def test_the_recommended_scene_file_has_the_chosen_start_and_plans(chosen):
     assert scene.start[0] == shipped.start[0] and scene.start[2] == shipped.start[2]
     assert scene.digits == shipped.digits and scene.goal == shipped.goal
     assert plan(scene, planner="lattice", seed=1).cost == pytest.approx(result.best.cost, abs=1e-12)
+    own = resolve("guitar_pick", "scene").read_text().splitlines()
+    written = files["scene"].read_text().splitlines()
+    body = [s for s in written if s not in own]  # the head's two lines and the start's: every other line kept
+    assert len(written) == len(own) + 2 and len(body) == 3 and body[2].startswith("start:")
 
 
 @pytest.mark.parametrize("options, field", [

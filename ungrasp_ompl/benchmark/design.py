@@ -20,7 +20,6 @@ design_scene.yaml (the scene file with the chosen digits, loadable by every comm
 
 from __future__ import annotations
 
-import copy
 import csv
 import io
 import math
@@ -31,10 +30,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from ..errors import InputError
-from ..io import write_text_atomic
+from ..io import edited_yaml, parse_yaml, write_text_atomic
 from ..parallel.options import RunOptions
 from ..parallel.runner import TaskStatus, open_runner
 from ..planning.plan_tolerance import tolerance
@@ -42,7 +40,7 @@ from ..planning.result import PlanOutcome
 from ..planning.setup import lattice_plan
 from ..plots.common import cell_edges, pyplot, save_png
 from ..scene import Scene
-from ..scene.loader import read_yaml
+from ..scene.loader import read_yaml_text
 from ..scene.perturbation import preset
 from ..scene.tolerance import ToleranceReason
 from ..shipped import resolve
@@ -233,8 +231,8 @@ class DesignResult:
     """The scene's own (alpha, tip radius m)."""
     length: float
     """The object's length l (m), over which alpha is measured."""
-    document: Any = field(default=None, repr=False)
-    """The scene file's parsed YAML, which design_scene.yaml rewrites."""
+    source: str | None = field(default=None, repr=False)
+    """The scene file's text, which design_scene.yaml is edited from (io.edited_yaml)."""
     goal: Any = None
     """The goal region the designs were planned to (GoalSpec)."""
 
@@ -294,10 +292,10 @@ class DesignResult:
         """The scene file with the chosen digits (alpha; the tip's kind, radius and thickness in
         metres), headed by the digits to print in millimetres."""
         d = self.best
-        if d is None or self.document is None:
+        if d is None or self.source is None:
             raise InputError("design", "no design has a secure plan: no scene to recommend")
-        doc = copy.deepcopy(self.document)
-        dig = doc["digits"]
+        dig = parse_yaml(self.source)["digits"]
+        goal: dict = {}
         dig.pop("finger_length", None)
         dig["alpha"] = d.alpha
         dig["finger_tip"] = self.options.finger_tip
@@ -309,8 +307,8 @@ class DesignResult:
                 dig["finger_tip_thickness"] = 2 * d.tip_radius
         if self.options.goal == "free" and self.goal is not None:  # the goal the chosen plan was found with
             g = self.goal
-            doc["goal"] = {"theta_max_deg": round(math.degrees(g.theta_max), 9), "d": [g.d[0], g.d[1]],
-                           "psi_deg": [round(math.degrees(g.psi[0]), 9), round(math.degrees(g.psi[1]), 9)]}
+            goal = {"goal": {"theta_max_deg": round(math.degrees(g.theta_max), 9), "d": [g.d[0], g.d[1]],
+                             "psi_deg": [round(math.degrees(g.psi[0]), 9), round(math.degrees(g.psi[1]), 9)]}}
         thumb = float(dig["thumb_length"])
         finger = thumb + d.alpha * self.length
         head = [f"# Digits chosen by `ungrasp-ompl design` for {self.scene} (to print, in mm): thumb {thumb * 1000:.2f} long, "
@@ -319,7 +317,7 @@ class DesignResult:
                 + f"); tolerance {d.tolerance:.3f} of the paper error box, cost {d.cost:.2f}"
                 + (f"; {d.successes}/{d.trials} simulated trials placed ({self.options.perturb} errors, seed "
                    f"{self.options.run.seed})." if d.successes is not None else ".")]
-        return "\n".join(head) + "\n" + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+        return "\n".join(head) + "\n" + edited_yaml(self.source, {"digits": dig, **goal})
 
     def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
         """Write design.csv, design.png and (with a chosen design) design_scene.yaml atomically
@@ -358,7 +356,7 @@ def run_design(scene_path: str | os.PathLike[str], options: DesignOptions = Desi
     DesignResult.write)."""
     path = resolve(scene_path, "scene")
     scene_file = Scene.from_file(path)
-    document = read_yaml(path, "scene")
+    source = read_yaml_text(path, "scene")
     opts = options.validated(scene_file)
     base = scene_file.with_free_goal() if opts.goal == "free" else scene_file
     tasks = []
@@ -388,7 +386,7 @@ def run_design(scene_path: str | os.PathLike[str], options: DesignOptions = Desi
     candidates = [k for k, d in enumerate(ordered) if d.outcome is PlanOutcome.SOLVED]
     chosen = max(candidates, key=lambda k: ordered[k].rank(simulated)) if candidates else None
     own_radius = 0.0 if base.digits.flat_finger_tip else base.digits.finger_tip_radius * base.object_length
-    return DesignResult(base.name, opts, ordered, chosen, (base.digits.alpha, own_radius), base.object_length, document,
+    return DesignResult(base.name, opts, ordered, chosen, (base.digits.alpha, own_radius), base.object_length, source,
                         base.goal)
 
 

@@ -15,7 +15,6 @@ start, loadable by every command).
 
 from __future__ import annotations
 
-import copy
 import csv
 import io
 import math
@@ -23,13 +22,10 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
-
 from ..errors import InputError
-from ..io import write_text_atomic
+from ..io import edited_yaml, parse_yaml, write_text_atomic
 from ..mechanics.kinematics import s_b
 from ..mechanics.pincer import pincer_s_b
 from ..mechanics.release import ReleaseModelError
@@ -40,7 +36,7 @@ from ..planning.plan_tolerance import tolerance
 from ..planning.predicted_landing import predict_landing
 from ..planning.result import Plan, PlanOutcome
 from ..scene import Scene
-from ..scene.loader import read_yaml
+from ..scene.loader import read_yaml_text
 from ..shipped import resolve
 from .options import check_out
 
@@ -167,8 +163,8 @@ class StartChoice:
     """Every candidate, by increasing d."""
     chosen: int | None
     """Index of the chosen candidate; None: no candidate has a secure plan."""
-    document: Any = field(default=None, repr=False)
-    """The scene file's parsed YAML, which starts_scene.yaml rewrites."""
+    source: str | None = field(default=None, repr=False)
+    """The scene file's text, which starts_scene.yaml is edited from (io.edited_yaml)."""
 
     @property
     def best(self) -> StartCandidate | None:
@@ -203,16 +199,16 @@ class StartChoice:
                  int(k == self.chosen), c.error.replace("\n", " ")] for k, c in enumerate(self.candidates)]
 
     def scene_yaml(self) -> str:
-        """The scene file with the chosen start's d, headed by what it was chosen by."""
+        """The scene file with the chosen start's d, headed by what it was chosen by; its other
+        lines, comments included, as they were (io.edited_yaml)."""
         c = self.best
-        if c is None or self.document is None:
+        if c is None or self.source is None:
             raise InputError("starts", "no start has a secure plan: no scene to recommend")
-        doc = copy.deepcopy(self.document)
-        doc["start"]["d"] = c.d
+        start = {**parse_yaml(self.source)["start"], "d": c.d}
         head = (f"# Start chosen by `ungrasp-ompl starts` for {self.scene}: d {c.d:g}, from which B slides "
                 f"{c.b_slide_m * 1000:.2f} mm along the thumb\n# (the scene's own d {self.own_d:g}); friction "
                 f"margin {c.min_margin_deg:.2f} deg.\n")
-        return head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+        return head + edited_yaml(self.source, {"start": start})
 
     def write(self, directory: str | os.PathLike[str]) -> dict[str, Path]:
         """Write starts.csv and (with a chosen start) starts_scene.yaml atomically into directory;
@@ -234,9 +230,9 @@ class StartChoice:
 def choose_start(scene_path: str | os.PathLike[str], options: StartOptions = StartOptions(),
                  progress: Callable[[int, int], None] | None = None) -> StartChoice:
     """The scene file's (or shipped scene's) candidate starts planned and one chosen
-    (search_starts), with the file's YAML for starts_scene.yaml."""
+    (search_starts), with the file's text for starts_scene.yaml."""
     path = resolve(scene_path, "scene")
-    return replace(search_starts(Scene.from_file(path), options, progress), document=read_yaml(path, "scene"))
+    return replace(search_starts(Scene.from_file(path), options, progress), source=read_yaml_text(path, "scene"))
 
 
 def search_starts(scene: Scene, options: StartOptions = StartOptions(),

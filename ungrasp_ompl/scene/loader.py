@@ -41,16 +41,24 @@ MAX_TORQUE = 100.0
 
 def read_yaml(path: str | os.PathLike[str], what: str) -> Any:
     """The parsed YAML of a file; InputError naming what (scene, layout) when it is missing or malformed."""
+    src = str(path)
+    try:
+        return parse_yaml(read_yaml_text(path, what))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark else ""
+        raise InputError(what, f"not valid YAML{where}", src) from None
+
+
+def read_yaml_text(path: str | os.PathLike[str], what: str) -> str:
+    """The text of a YAML file, as it is (comments included); InputError naming what (scene, layout)
+    when it is missing or cannot be read."""
     path = Path(path)
     src = str(path)
     if not path.is_file():
         raise InputError(what, "no such file" if not path.exists() else "not a file", src)
     try:
-        return parse_yaml(path.read_text())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else ""
-        raise InputError(what, f"not valid YAML{where}", src) from None
+        return path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(what, f"cannot be read ({exc.__class__.__name__})", src) from None
 
