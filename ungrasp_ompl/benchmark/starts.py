@@ -26,8 +26,7 @@ from pathlib import Path
 import numpy as np
 from ..errors import InputError
 from ..io import edited_yaml, parse_yaml, write_text_atomic
-from ..mechanics.kinematics import s_b
-from ..mechanics.pincer import pincer_s_b
+from ..mechanics.pincer import hand_s_b
 from ..mechanics.release import ReleaseModelError
 from ..parallel.options import RunOptions
 from ..parallel.runner import TaskStatus, open_runner
@@ -89,14 +88,11 @@ class StartOptions:
 
 def b_slide(scene: Scene, result: Plan) -> float:
     """How far B slides along the thumb's face over a solved plan (m): |delta s_B| summed over the
-    waypoints of every leg (a pincer's s_B by mechanics.pincer.pincer_s_b; a curved section's by
-    its own)."""
-    dg, l = scene.digits, scene.object_length
+    waypoints of every leg (mechanics.pincer.hand_s_b: a pincer's own, a curved section's own)."""
+    l = scene.object_length
     ways = np.array([w for p in result.primitives for w in p.waypoints], dtype=float)
-    if scene.robot.gripper is not None:
-        along = pincer_s_b(ways[:, 0], ways[:, 1], ways[:, 2], dg, *scene.robot.gripper.scaled(l))
-    else:
-        along = s_b(ways[:, 1], ways[:, 2], dg.alpha, dg.object_thickness, dg.finger_tip_radius, dg.section)
+    pincer = None if scene.robot.gripper is None else scene.robot.gripper.scaled(l)
+    along = hand_s_b(ways[:, 0], ways[:, 1], ways[:, 2], scene.digits, pincer)
     return float(np.sum(np.abs(np.diff(along)))) * l  # each leg begins where the last ended: joins add nothing
 
 

@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InputError
-from .kinematics import DigitGeometry, digit_axis, dome_centre, object_axis, outlines_clearance, thumb_normal
+from .kinematics import DigitGeometry, digit_axis, dome_centre, object_axis, outlines_clearance, s_b, thumb_normal
 
 
 @dataclass(frozen=True)
@@ -262,6 +262,16 @@ def pincer_s_b(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeom
     theta = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (theta, d, psi)))[0]
     pose = pincer_pose(theta, d, psi, digits, radius, offset)
     return np.sum((pose.thumb_tip - object_axis(theta)) * pose.thumb_z, axis=-1)
+
+
+def hand_s_b(theta: ArrayLike, d: ArrayLike, psi: ArrayLike, digits: DigitGeometry,
+             pincer: tuple[float, float] | None = None) -> NDArray[np.float64]:
+    """How far B lies from the thumb's tip along its face, over l, at states (theta, d, psi): a
+    pincer's (pincer_s_b; pincer its joint's radius and offset over l) or, without one, the
+    parallel jaws' (kinematics.s_b, on the digits' curved section where they have one)."""
+    if pincer is not None:
+        return pincer_s_b(theta, d, psi, digits, *pincer)
+    return s_b(d, psi, digits.alpha, digits.object_thickness, digits.finger_tip_radius, digits.section)
 
 
 def pincer_pressed_state(theta: float, d: float, psi: float, depth: float, digits: DigitGeometry, radius: float,

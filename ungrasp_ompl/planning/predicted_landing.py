@@ -10,8 +10,8 @@ from dataclasses import astuple
 
 import numpy as np
 
-from ..mechanics.kinematics import digit_axis, pressed_state, release_travel, s_b, thumb_tip
-from ..mechanics.pincer import pincer_links, pincer_pose, pincer_pressed_state, pincer_s_b
+from ..mechanics.kinematics import digit_axis, pressed_state, release_travel, thumb_tip
+from ..mechanics.pincer import hand_s_b, pincer_links, pincer_pose, pincer_pressed_state
 from ..mechanics.release import (GRIPPER_ACCELERATION, GRIPPER_SPEED, TIMING_MARGIN, HandMotion, ReleaseBody,
                                  ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, pincer_hand,
                                  predict_release)
@@ -92,20 +92,18 @@ def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart
     P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.17):
     B keeps its place on the thumb over each P_dpsi (s_B does not shrink as the plan has it, and the
     finger does not slide either), so that G slides on the table with the hand; the other primitives
-    go as planned (B slides in P_psi, nothing slides in P_theta; a pincer's B by its own s_B,
-    mechanics.pincer.pincer_s_b). At the end the thumb is where
+    go as planned (B slides in P_psi, nothing slides in P_theta; B's place by mechanics.pincer.hand_s_b,
+    a pincer's and a curved section's their own). At the end the thumb is where
     setup's hand puts it, B lies the kept s_B up its face and G on the table: theta = asin(B_z / l),
     G = B_x - l cos(theta). The plan's own start (setup.start) for a plan without a P_dpsi."""
     kept = [p for p in plan.primitives if str(p.type) == "P_dpsi"]
     if not kept:
         return setup.start
-    dg, l = scene.digits, scene.object_length
-    t_l, r_l = dg.object_thickness, dg.finger_tip_radius
+    l = scene.object_length
+    pincer = None if scene.robot.gripper is None else scene.robot.gripper.scaled(l)
 
-    def sb(q) -> float:  # B's distance from the thumb's tip: a pincer's own (mechanics.pincer)
-        if scene.robot.gripper is not None:
-            return float(pincer_s_b(*q, dg, *scene.robot.gripper.scaled(l))) * l
-        return float(s_b(q[1], q[2], dg.alpha, t_l, r_l)) * l
+    def sb(q) -> float:  # B's distance from the thumb's tip
+        return float(hand_s_b(*q, scene.digits, pincer)) * l
 
     hand, body = setup.hand, setup.body
     bx0, bz0 = setup.start.g + l * math.cos(setup.start.theta), l * math.sin(setup.start.theta)
