@@ -1,0 +1,159 @@
+"""How much of the tangram's gaps its landings use: the shipped layout tiled with lattice plans and
+run attempt by attempt under the `paper` errors, as the campaign's lattice row is (seed 1, 10
+attempts), and from each piece's trial the clearance its resting footprint leaves to the walls and
+to the pieces already down where they then lie.
+
+Per piece (in the tiling's order): its trials (the attempts that reached it), how far it came to
+rest from its target (the outline centroid's offset, world x and y: the means, and the root mean
+square of the two axes' standard deviations, mm), the clearance the layout gives it at the targets
+(mm) and the narrowest clearance its landings left (mm; negative where the footprints overlap: the
+piece rests on a wall or a neighbour's edge), each clearance measured as the layout's spread
+measures its gaps (geometry.spread.separation: along the separating edge normal). Per attempt that
+failed: the piece, its cause, the clearance it left, and how far its trial pushed a piece already
+down (mm) and which. The footprints are the outlines seen from above (a tilted piece's drawn flat),
+so a clearance is that of the shapes on the table. It asserts nothing.
+
+    python tools/tangram_gaps.py [--attempts 10] [--seed 1] [--jobs 2] [--results]
+
+--results writes the study into docs/results/tangram_gaps.json (the markdown beside it rendered
+from it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
+
+from ungrasp_ompl.geometry.spread import separation  # noqa: E402
+from ungrasp_ompl.layout.model import Layout  # noqa: E402
+from ungrasp_ompl.layout.tiler import TilingOptions  # noqa: E402
+from ungrasp_ompl.parallel import RunOptions  # noqa: E402
+from ungrasp_ompl.planning.setup import PlannerOptions  # noqa: E402
+from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
+from ungrasp_ompl.shipped import resolve  # noqa: E402
+from ungrasp_ompl.sim.tiling import simulate_tiling, tile_aimed  # noqa: E402
+from ungrasp_ompl.sim.trial import placement_offset  # noqa: E402
+
+RESULTS = ROOT / "docs" / "results" / "tangram_gaps.json"
+FORMATS = {"attempts": "{}", "trials": "{}", "offset_x_mean_mm": "{:.2f}", "offset_y_mean_mm": "{:.2f}",
+           "offset_sd_mm": "{:.2f}", "designed_mm": "{:.2f}", "narrowest_mm": "{:.2f}", "clearance_mm": "{:.2f}",
+           "narrowest_success_mm": "{:.2f}", "pushed_mm": "{:.2f}"}
+
+
+#: A piece down that moved less than this (mm) in another piece's trial is not named as pushed.
+PUSHED_MM = 0.01
+
+
+def _footprint(outline: NDArray, pose: NDArray) -> NDArray:
+    """The outline (N, 2, body frame) at pose (4 x 4) seen from above: world (x, y)."""
+    pose = np.asarray(pose, dtype=float)
+    return outline @ pose[:2, :2].T + pose[:2, 3]
+
+
+def _hull2d(vertices: NDArray) -> NDArray:
+    from scipy.spatial import ConvexHull
+
+    xy = np.asarray(vertices, dtype=float)[:, :2]
+    return xy[ConvexHull(xy).vertices]
+
+
+def _narrowest(own: NDArray, others: list[NDArray]) -> float:
+    """The smallest clearance (m) between outline own and any of others, as the layout's spread
+    measures it (geometry.spread.separation)."""
+    return min(separation(own, o)[0] for o in others)
+
+
+def _pushed(attempt, k: int, names: list[str]) -> tuple[float, str | None]:
+    """How far (mm) piece k's trial moved the pieces already down, and which it moved furthest: the
+    largest shift of one (its centroid, in 3D), from where the trial before left it to where this
+    one does (None: none moved PUSHED_MM or more)."""
+    pieces = attempt.pieces
+    if k == 0:
+        return 0.0, None
+    before = [*pieces[k - 1].placed_poses, pieces[k - 1].final_pose]
+    shifts = [float(np.linalg.norm(np.asarray(p)[:3, 3] - np.asarray(q)[:3, 3])) * 1000
+              for p, q in zip(pieces[k].placed_poses, before)]
+    j = int(np.argmax(shifts))
+    return shifts[j], names[j] if shifts[j] >= PUSHED_MM else None
+
+
+def study(attempts: int, seed: int, jobs: int) -> list[dict]:
+    """The study's rows: the layout tiled and run as the campaign's lattice row is, then measured."""
+    layout = Layout.from_file(resolve("tangram", "layout"))
+    tiling, aimed = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=seed)))
+    if aimed is None:
+        raise SystemExit("the tangram found no tiling")
+    results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, RunOptions(seed=seed, jobs=jobs))
+    return measured(layout, tiling, aimed, results)
+
+
+def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
+    """Per piece, per failed attempt and over the attempts: the landings' offsets and clearances."""
+    walls = [_hull2d(w.vertices) for w in layout.frame.walls()]
+    names = [p.name for p in tiling.placements]
+    index = {p.name: k for k, p in enumerate(layout.pieces)}
+    setups = dict(aimed.setups)
+    outlines = {n: np.asarray(setups[n].spec.obj.outline, dtype=float) for n in names}
+    per: dict[str, dict[str, list]] = {n: {"offsets": [], "narrowest": []} for n in names}
+    failures, success_narrowest = [], []
+    for a in results:
+        lows = []
+        for k, (name, t) in enumerate(zip(names, a.pieces)):
+            s = setups[name]
+            per[name]["offsets"].append(placement_offset(np.array(t.final_pose), s.target_pose, outlines[name]) * 1000)
+            others = walls + [_footprint(outlines[n], pose) for n, pose in zip(names[:k], t.placed_poses)]
+            low = _narrowest(_footprint(outlines[name], t.final_pose), others) * 1000
+            per[name]["narrowest"].append(low)
+            lows.append(low)
+            if not t.success:
+                pushed, moved = _pushed(a, k, names)
+                failures.append({"label": f"attempt {a.attempt}", "piece": name, "cause": t.cause(),
+                                 "clearance_mm": round(low, 3), "pushed_mm": round(pushed, 3), "pushed_piece": moved})
+        if a.success:
+            success_narrowest.append(min(lows))
+    rows = []
+    for k, name in enumerate(names):
+        own = layout.footprint(index[name])
+        designed = _narrowest(own, walls + [layout.footprint(index[n]) for n in names[:k]]) * 1000
+        o = np.array(per[name]["offsets"])
+        rows.append({"label": name, "trials": len(o), "offset_x_mean_mm": round(float(o[:, 0].mean()), 3),
+                     "offset_y_mean_mm": round(float(o[:, 1].mean()), 3),
+                     "offset_sd_mm": round(float(np.sqrt(np.mean(o.var(axis=0, ddof=1)))), 3) if len(o) > 1 else None,
+                     "designed_mm": round(designed, 3), "narrowest_mm": round(min(per[name]["narrowest"]), 3)})
+    rows.append({"label": "attempts", "attempts": len(results), "successes": sum(a.success for a in results),
+                 "narrowest_success_mm": round(min(success_narrowest), 3) if success_narrowest else None})
+    return rows + failures
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--attempts", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--results", action="store_true", help="write docs/results/tangram_gaps.json")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    rows = study(args.attempts, args.seed, args.jobs)
+    for r in rows:
+        print(r)
+    if args.results:
+        from campaign_results import merge_study
+
+        command = "python tools/tangram_gaps.py " + shlex.join(sys.argv[1:])
+        merge_study(RESULTS, "gaps", command, time.perf_counter() - t0, rows, FORMATS,
+                    "How much of the tangram's gaps its landings use")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
