@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+
 from ..errors import InputError
 from ..io import edited_yaml, parse_yaml, write_text_atomic
 from ..mechanics.pincer import hand_s_b

@@ -92,10 +92,11 @@ def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart
     P_dpsi legs instead of sliding over it (the simulated execution does: docs/model.md 11.13, 11.17):
     B keeps its place on the thumb over each P_dpsi (s_B does not shrink as the plan has it, and the
     finger does not slide either), so that G slides on the table with the hand; the other primitives
-    go as planned (B slides in P_psi, nothing slides in P_theta; B's place by mechanics.pincer.hand_s_b,
-    a pincer's and a curved section's their own). At the end the thumb is where
-    setup's hand puts it, B lies the kept s_B up its face and G on the table: theta = asin(B_z / l),
-    G = B_x - l cos(theta). The plan's own start (setup.start) for a plan without a P_dpsi."""
+    go as planned (B slides in P_psi, nothing slides in P_theta; B's place by
+    mechanics.pincer.hand_s_b, a pincer's and a curved section's their own). At the end the thumb is
+    where setup's hand puts it, B lies the kept s_B up its face and G on the table: theta =
+    asin(B_z / l), G = B_x - l cos(theta). The plan's own start (setup.start) for a plan without a
+    P_dpsi."""
     kept = [p for p in plan.primitives if str(p.type) == "P_dpsi"]
     if not kept:
         return setup.start
