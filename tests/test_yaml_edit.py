@@ -15,11 +15,6 @@ def _comments(text: str) -> list[str]:
     return [s for s in text.splitlines() if s.lstrip().startswith("#")]
 
 
-def _is_subsequence(short: list[str], long: list[str]) -> bool:
-    it = iter(long)
-    return all(any(s == x for x in it) for s in short)
-
-
 @pytest.mark.parametrize("path", FILES, ids=[p.stem for p in FILES])
 def test_an_edit_reads_back_as_the_updates_and_keeps_every_comment(path):
     text = path.read_text()

@@ -60,13 +60,6 @@ def _footprint(outline: NDArray, pose: NDArray) -> NDArray:
     return outline @ pose[:2, :2].T + pose[:2, 3]
 
 
-def _hull2d(vertices: NDArray) -> NDArray:
-    from scipy.spatial import ConvexHull
-
-    xy = np.asarray(vertices, dtype=float)[:, :2]
-    return xy[ConvexHull(xy).vertices]
-
-
 def _narrowest(own: NDArray, others: list[NDArray]) -> float:
     """The smallest clearance (m) between outline own and any of others, as the layout's spread
     measures it (geometry.spread.separation)."""
@@ -99,7 +92,7 @@ def study(attempts: int, seed: int, jobs: int) -> list[dict]:
 
 def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
     """Per piece, per failed attempt and over the attempts: the landings' offsets and clearances."""
-    walls = [_hull2d(w.vertices) for w in layout.frame.walls()]
+    walls = [np.asarray(w.vertices, dtype=float)[:, :2] for w in layout.frame.walls()]  # separation takes hulls
     names = [p.name for p in tiling.placements]
     index = {p.name: k for k, p in enumerate(layout.pieces)}
     setups = dict(aimed.setups)
