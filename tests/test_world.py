@@ -187,6 +187,7 @@ def test_simulate_runs_a_kept_plan_in_another_world_and_records_it(tmp_path):
     assert summary["world"] == World(friction=0.7, cone=Cone.PYRAMIDAL).to_dict()
     assert json.loads((nominal / "summary.json").read_text())["world"] == World().to_dict()
     assert summary["aim_m"] == json.loads((nominal / "summary.json").read_text())["aim_m"]
+    assert summary["environment"]["packages"]["mujoco"] == mujoco.__version__  # what the trials ran on
     rows = list(csv.DictReader((other / "trials.csv").open()))
     assert len(rows) == 2 and all(float(r["world_friction"]) == 0.7 and r["world_cone"] == "pyramidal" for r in rows)
     model = mujoco.MjModel.from_xml_path(str(other / "model.xml"))  # trial 0's world, as it ran

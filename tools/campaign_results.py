@@ -153,9 +153,13 @@ def last_commit_day(path: Path) -> str:
 
 
 def table_json(table: Path, command: str, produced: str) -> dict:
-    """The results file of a campaign table: where it is, the command that wrote it, the day, its rows."""
+    """The results file of a campaign table: where it is, the command that wrote it, the day, the
+    environment it was written in (ungrasp_ompl.provenance), its rows."""
+    from ungrasp_ompl.provenance import environment
+
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
-    return {"table": str(rel), "command": command, "produced": produced, **parse_table(table.read_text())}
+    return {"table": str(rel), "command": command, "produced": produced, "environment": environment(),
+            **parse_table(table.read_text())}
 
 
 def write_json(table: Path, command: str, produced: str | None = None) -> Path:
@@ -722,15 +726,19 @@ def table(spec: str) -> str:
 # --- a study's results file ----------------------------------------------------------------------
 
 def study_markdown(doc: dict) -> str:
-    """The markdown of a study's results file: its title, then per study its command, day and wall
-    time and a table of its rows (every field, as the file's formats show it)."""
+    """The markdown of a study's results file: its title, then per study its command, day, wall
+    time and environment (where recorded) and a table of its rows (every field, as the file's
+    formats show it)."""
+    from ungrasp_ompl.provenance import describe
+
     lines = [f"# {doc['title']}", "", "Rendered from the JSON beside this file (tools/campaign_results.py); "
              "the JSON is the source.", ""]
     for meta in (r for r in doc["rows"] if r["label"].startswith("study: ")):
         name = meta["label"].removeprefix("study: ")
         rows = [r for r in doc["rows"] if r.get("study") == name and r is not meta]
+        where = f" With {describe(meta['environment'])}." if "environment" in meta else ""
         lines += [f"## {name}", "",
-                  f"`{meta['command']}`, {meta['produced']}, {meta['seconds']:.0f} s of wall time.", ""]
+                  f"`{meta['command']}`, {meta['produced']}, {meta['seconds']:.0f} s of wall time.{where}", ""]
         kinds: dict[tuple, list[dict]] = {}  # the rows with the same fields make one table
         for r in rows:
             kinds.setdefault(tuple(k for k in r if k not in ("key", "study", "label")), []).append(r)
@@ -748,14 +756,17 @@ def merge_study(path: Path, study: str, command: str, seconds: float, rows: list
                 title: str, produced: str | None = None) -> Path:
     """Write one study's rows into the results file at path (JSON; the rows of its other studies
     kept, this study's earlier ones replaced), with its row "study: NAME" (command, wall time, day),
-    and the markdown rendered from it beside it; both atomically. Each row needs a label; its key is
-    made from it and must be new in the file."""
+    and the markdown rendered from it beside it; both atomically. The study's row records the
+    environment it ran in (ungrasp_ompl.provenance). Each row needs a label; its key is made from it
+    and must be new in the file."""
     from ungrasp_ompl.io import write_text_atomic
+    from ungrasp_ompl.provenance import environment
 
     doc = json.loads(path.read_text()) if path.exists() else {"title": title, "formats": {}, "rows": []}
     kept = [r for r in doc["rows"] if r.get("study") != study and r["label"] != f"study: {study}"]
     meta = {"label": f"study: {study}", "study": study, "command": command, "seconds": round(seconds, 1),
-            "minutes": round(seconds / 60), "produced": produced or date.today().isoformat()}
+            "minutes": round(seconds / 60), "produced": produced or date.today().isoformat(),
+            "environment": environment()}
     new = [{"key": row_key(r["label"]), **r, "study": study} for r in (meta, *rows)]
     keys = [r["key"] for r in kept + new]
     if len(set(keys)) != len(keys):

@@ -113,6 +113,7 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.parallel import RunOptions  # noqa: E402
 from ungrasp_ompl.planning import PlannerOptions, plan  # noqa: E402
 from ungrasp_ompl.planning.deviate import plan_problems, steeper_start  # noqa: E402
+from ungrasp_ompl.provenance import environment  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
@@ -679,7 +680,8 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     runs = {name: {**run, "rows": [k for k in run["rows"] if k not in keys]} for name, run in runs.items()}
     runs = {name: run for name, run in runs.items() if run["rows"]}
     runs[_run_name(only)] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
-                             "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new]}
+                             "seconds": parse_footer(footer)["seconds"], "rows": [r["key"] for r in new],
+                             "environment": environment()}
     _, tail = footer.split(" s in all; ", 1)
     footer = f"{sum(r['seconds'] for r in runs.values())} s in all; {tail}"
     return merged, runs, footer, first

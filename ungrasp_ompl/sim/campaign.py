@@ -19,6 +19,7 @@ from ..errors import InputError
 from ..planning.deviate import PlanProblem
 from ..parallel.options import RunOptions
 from ..parallel.runner import InlineRunner, LocalRunner, Runner, open_runner
+from ..provenance import environment
 from .outcome import TrialResult
 from ..scene.perturbation import Perturbation, TrialParams, trial_params
 from ..robot.pipeline import Aim
@@ -85,6 +86,7 @@ class SimulationReport:
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
             "aim_m": [self.aim.x, self.aim.y], "aim_turn_rad": self.aim.turn,
+            "environment": environment(),
         }
 
 

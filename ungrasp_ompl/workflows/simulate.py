@@ -26,6 +26,7 @@ from ..planning.deviate import PlanProblem, check_psi_offset, deviated_plan, pla
 from ..planning.margins import Objective
 from ..planning.result import Plan
 from ..planning.setup import LATTICE, PlannerOptions
+from ..provenance import environment
 from ..plots.trials import draw_trials
 from ..robot.export import export_all
 from ..robot.touch_off import touch_off
@@ -361,7 +362,7 @@ class LayoutSimulation:
                "placed_paper_criterion": self.placed,
                "results": [{"attempt": a.attempt, "success": a.success, "placed": a.placed, "cause": a.cause(),
                             "pieces": [dict(name=n, **t.to_row()) for n, t in zip(a.names, a.pieces)]}
-                           for a in self.attempts]}
+                           for a in self.attempts], "environment": environment()}
         files["summary"] = out / "summary.json"
         write_text_atomic(files["summary"], json.dumps(doc, indent=1) + "\n")
         return files
