@@ -1,22 +1,29 @@
 """How much of the tangram's gaps its landings use: the shipped layout tiled with lattice plans and
-run attempt by attempt under the `paper` errors, as the campaign's lattice row is (seed 1, 10
-attempts), and from each piece's trial the clearance its resting footprint leaves to the walls and
-to the pieces already down where they then lie.
+run attempt by attempt under an error preset (`paper` unless --errors names another), as the
+campaign's lattice row is (seed 1, 10 attempts), and from each piece's trial the clearance its
+resting footprint leaves to the walls and to the pieces already down where they then lie.
 
-Per piece (in the tiling's order): its trials (the attempts that reached it), how far it came to
-rest from its target (the outline centroid's offset, world x and y: the means, and the root mean
-square of the two axes' standard deviations, mm), the clearance the layout gives it at the targets
-(mm) and the narrowest clearance its landings left (mm; negative where the footprints overlap: the
-piece rests on a wall or a neighbour's edge), each clearance measured as the layout's spread
-measures its gaps (geometry.spread.separation: along the separating edge normal). Per attempt that
-failed: the piece, its cause, the clearance it left, and how far its trial pushed a piece already
-down (mm) and which. The footprints are the outlines seen from above (a tilted piece's drawn flat),
-so a clearance is that of the shapes on the table. It asserts nothing.
+Per piece (in the tiling's order): its trials (the attempts that reached it); how far it came to
+rest from its target (the outline centroid's offset, in the piece's own manipulation plane: along
+GB, + toward B, and across it, + to GB's left seen from above; the means and standard deviations,
+mm, and the root mean square of the two standard deviations); where it lands along GB with no error
+drawn, alone on the table (mm: what the aim leaves); the clearance the layout gives it at the
+targets (mm) and the narrowest clearance its landings left (mm; negative where the footprints
+overlap: the piece rests on a wall or a neighbour's edge), each clearance measured as the layout's
+spread measures its gaps (geometry.spread.separation: along the separating edge normal). Per
+attempt that failed: the piece, its cause, the clearance it left, and how far its trial pushed a
+piece already down (mm) and which. The footprints are the outlines seen from above (a tilted piece's
+drawn flat), so a clearance is that of the shapes on the table. It asserts nothing.
 
-    python tools/tangram_gaps.py [--attempts 10] [--seed 1] [--jobs 2] [--results]
+The presets split the `paper` errors (scene.perturbation.PRESETS): `grasp` draws the object's
+place and turn in the grasp alone, `calibration` the arm's calibration (the palm's position and
+turn, one draw per attempt as one per set-up, and the table's height found by the touch-off) alone.
+
+    python tools/tangram_gaps.py [--errors paper] [--attempts 10] [--seed 1] [--jobs 2] [--results]
 
 --results writes the study into docs/results/tangram_gaps.json (the markdown beside it rendered
-from it).
+from it): "gaps" under `paper`, "gaps, NAME errors" under another preset, whose rows' labels begin
+with its name.
 """
 
 from __future__ import annotations
@@ -42,11 +49,13 @@ from ungrasp_ompl.planning.setup import PlannerOptions  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.shipped import resolve  # noqa: E402
 from ungrasp_ompl.sim.tiling import simulate_tiling, tile_aimed  # noqa: E402
-from ungrasp_ompl.sim.trial import placement_offset  # noqa: E402
+from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
+from ungrasp_ompl.sim.trial import placement_offset, run_trial  # noqa: E402
 
 RESULTS = ROOT / "docs" / "results" / "tangram_gaps.json"
-FORMATS = {"attempts": "{}", "trials": "{}", "offset_x_mean_mm": "{:.2f}", "offset_y_mean_mm": "{:.2f}",
-           "offset_sd_mm": "{:.2f}", "designed_mm": "{:.2f}", "narrowest_mm": "{:.2f}", "clearance_mm": "{:.2f}",
+FORMATS = {"attempts": "{}", "trials": "{}", "along_mean_mm": "{:.2f}", "along_sd_mm": "{:.2f}",
+           "across_mean_mm": "{:.2f}", "across_sd_mm": "{:.2f}", "offset_sd_mm": "{:.2f}",
+           "no_error_along_mm": "{:.2f}", "designed_mm": "{:.2f}", "narrowest_mm": "{:.2f}", "clearance_mm": "{:.2f}",
            "narrowest_success_mm": "{:.2f}", "pushed_mm": "{:.2f}"}
 
 
@@ -80,14 +89,24 @@ def _pushed(attempt, k: int, names: list[str]) -> tuple[float, str | None]:
     return shifts[j], names[j] if shifts[j] >= PUSHED_MM else None
 
 
-def study(attempts: int, seed: int, jobs: int) -> list[dict]:
-    """The study's rows: the layout tiled and run as the campaign's lattice row is, then measured."""
+def _plane_axes(placement) -> NDArray:
+    """The piece's manipulation plane seen from above: rows along GB (toward B) and across it (GB
+    turned a quarter left), world (x, y)."""
+    u = np.asarray(placement.approach.b, dtype=float) - np.asarray(placement.approach.g, dtype=float)
+    u /= np.linalg.norm(u)
+    return np.array([u, [-u[1], u[0]]])
+
+
+def study(errors: str, attempts: int, seed: int, jobs: int) -> list[dict]:
+    """The study's rows: the layout tiled and run as the campaign's lattice row is, under the error
+    preset named, then measured; row labels begin with the preset's name unless it is `paper`."""
     layout = Layout.from_file(resolve("tangram", "layout"))
     tiling, aimed = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=seed)))
     if aimed is None:
         raise SystemExit("the tangram found no tiling")
-    results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, RunOptions(seed=seed, jobs=jobs))
-    return measured(layout, tiling, aimed, results)
+    results = simulate_tiling(layout, aimed.setups, PRESETS[errors], attempts, RunOptions(seed=seed, jobs=jobs))
+    rows = measured(layout, tiling, aimed, results)
+    return rows if errors == "paper" else [{**r, "label": f"{errors}: {r['label']}"} for r in rows]
 
 
 def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
@@ -115,13 +134,20 @@ def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
         if a.success:
             success_narrowest.append(min(lows))
     rows = []
-    for k, name in enumerate(names):
+    for k, (name, placement) in enumerate(zip(names, tiling.placements)):
         own = layout.footprint(index[name])
         designed = _narrowest(own, walls + [layout.footprint(index[n]) for n in names[:k]]) * 1000
-        o = np.array(per[name]["offsets"])
-        rows.append({"label": name, "trials": len(o), "offset_x_mean_mm": round(float(o[:, 0].mean()), 3),
-                     "offset_y_mean_mm": round(float(o[:, 1].mean()), 3),
-                     "offset_sd_mm": round(float(np.sqrt(np.mean(o.var(axis=0, ddof=1)))), 3) if len(o) > 1 else None,
+        axes = _plane_axes(placement)
+        o = np.array(per[name]["offsets"]) @ axes.T  # (along, across) per trial
+        sd = o.std(axis=0, ddof=1) if len(o) > 1 else None
+        alone = run_trial(setups[name], TrialParams())
+        no_error = axes[0] @ placement_offset(np.array(alone.final_pose), setups[name].target_pose, outlines[name]) * 1000
+        rows.append({"label": name, "trials": len(o), "along_mean_mm": round(float(o[:, 0].mean()), 3),
+                     "along_sd_mm": None if sd is None else round(float(sd[0]), 3),
+                     "across_mean_mm": round(float(o[:, 1].mean()), 3),
+                     "across_sd_mm": None if sd is None else round(float(sd[1]), 3),
+                     "offset_sd_mm": None if sd is None else round(float(np.sqrt(np.mean(sd ** 2))), 3),
+                     "no_error_along_mm": round(float(no_error), 3),
                      "designed_mm": round(designed, 3), "narrowest_mm": round(min(per[name]["narrowest"]), 3)})
     rows.append({"label": "attempts", "attempts": len(results), "successes": sum(a.success for a in results),
                  "narrowest_success_mm": round(min(success_narrowest), 3) if success_narrowest else None})
@@ -130,20 +156,23 @@ def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--errors", choices=[n for n in PRESETS if n != "none"], default="paper",
+                    help="the error preset the attempts draw from (default: paper)")
     ap.add_argument("--attempts", type=int, default=10)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--results", action="store_true", help="write docs/results/tangram_gaps.json")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    rows = study(args.attempts, args.seed, args.jobs)
+    rows = study(args.errors, args.attempts, args.seed, args.jobs)
     for r in rows:
         print(r)
     if args.results:
         from campaign_results import merge_study
 
         command = "python tools/tangram_gaps.py " + shlex.join(sys.argv[1:])
-        merge_study(RESULTS, "gaps", command, time.perf_counter() - t0, rows, FORMATS,
+        name = "gaps" if args.errors == "paper" else f"gaps, {args.errors} errors"
+        merge_study(RESULTS, name, command, time.perf_counter() - t0, rows, FORMATS,
                     "How much of the tangram's gaps its landings use")
     return 0
 
