@@ -86,6 +86,10 @@ how far G moves along the table before the termination (and in which phase most)
 begins, and the finger's mean force on the object in the termination. With `--tip flat` the
 trials are the edge rows' (the flat finger tip).
 
+`--pair FILE.json` sets the Drake rows a run wrote into FILE beside MuJoCo's rows of the same keys
+as MuJoCo's file has them now, with the Fisher test again, and runs no trial: after a MuJoCo file
+is written again, its Drake counterpart is compared with the new rows.
+
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
 """
@@ -421,8 +425,14 @@ def main() -> None:
                          "centroids (record 0116, the builder's), Drake's Convex, or record 0115's (refused)")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
+    ap.add_argument("--pair", type=Path, default=None, metavar="FILE",
+                    help="set the Drake rows of FILE (a results file --engine drake wrote) beside MuJoCo's rows as "
+                         "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
     global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
+    if args.pair is not None:
+        pair_again(args.pair)
+        return
     ENGINE = args.engine
     WORLD_TIP, START = args.tip, args.start
     drake = ENGINE == "drake"
@@ -748,6 +758,27 @@ def paired_with_mujoco(doc: dict) -> dict:
         r["fisher_p"] = None if m is None else fisher_p(r, m)
     return {**doc, "mujoco_source": str(source.relative_to(ROOT)), "mujoco_command": mujoco["command"],
             "mujoco_produced": mujoco["produced"]}
+
+
+def pair_again(path: Path) -> None:
+    """Set the Drake rows of the results file at path beside MuJoCo's rows of the same keys as
+    MuJoCo's file has them now, with the Fisher test again (paired_with_mujoco, from the MuJoCo file
+    the rows' start and group choose), the file's other fields kept; no trial runs. The command is
+    recorded in the file (`paired`)."""
+    import json
+    import shlex
+    from datetime import date
+
+    from ungrasp_ompl.io import write_text_atomic
+
+    global START
+    doc = json.loads(path.read_text())
+    START = "least-slide" if "--start least-slide" in doc["command"] else "scene"
+    fresh = paired_with_mujoco({k: v for k, v in doc.items() if not k.startswith("mujoco_")})
+    fresh["paired"] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
+                       "produced": date.today().isoformat()}
+    write_text_atomic(path, json.dumps(fresh, indent=1, ensure_ascii=False) + "\n")
+    print(f"wrote {path}")
 
 
 def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
