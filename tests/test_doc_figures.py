@@ -96,7 +96,7 @@ def _fisher_two_sided(a: int, n: int, b: int, m: int) -> float:
 
 
 @pytest.mark.parametrize("name, tangram", [("campaigns_drake", False), ("campaigns_drake_fanned_hull", False),
-                                           ("campaigns_drake_tangram_fanned_hull", True)])
+                                           ("campaigns_drake_tangram", True), ("campaigns_drake_tangram_fanned_hull", True)])
 def test_the_drake_campaign_sets_each_row_beside_mujoco_s(name, tangram):
     """Each Drake row holds MuJoCo's row of the same key in the MuJoCo file it names, figure for
     figure, and the two-sided Fisher test's p of the two counts (each over its own trials); the
@@ -413,3 +413,32 @@ def test_a_merged_run_of_some_worlds_keeps_the_other_worlds_rows(tmp_path, monke
     kept = [r for r in worlds if r not in pyramidal]
     assert all(by_key[r["key"]] == results.parse_row(results.row_line(r)) for r in kept)
     assert "worlds: pyramidal cones" in runs
+
+
+def test_pairing_again_sets_drake_s_rows_beside_mujoco_s_rows_as_they_are_now(tmp_path, monkeypatch):
+    """sim_campaigns --pair: a Drake file whose MuJoCo rows are stale (another count, another p)
+    gets MuJoCo's rows as its MuJoCo file has them and the Fisher test of the two counts again,
+    and keeps its own rows' figures; no trial runs."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    doc = results.load("campaigns_drake_tangram")
+    stale = json.loads(json.dumps(doc))
+    row = stale["rows"][0]
+    row["mujoco"]["successes"] = row["mujoco"]["successes"] - 1
+    row["fisher_p"] = 0.5
+    path = tmp_path / "drake.json"
+    path.write_text(json.dumps(stale))
+    monkeypatch.setattr(sys, "argv", ["sim_campaigns.py", "--pair", str(path)])
+    campaigns.pair_again(path)
+    again = json.loads(path.read_text())
+    mujoco = {r["key"]: r for r in results.load("campaigns_tangram")["rows"]}
+    for r, before in zip(again["rows"], doc["rows"]):
+        m = mujoco[r["key"]]
+        assert r["mujoco"] == {k: m[k] for k in r["mujoco"]}
+        assert r["fisher_p"] == pytest.approx(_fisher_two_sided(r["successes"], r["trials"], m["successes"],
+                                                                m["trials"]), rel=1e-9)
+        assert {k: v for k, v in r.items() if k not in ENGINE_KEYS} == {k: v for k, v in before.items()
+                                                                        if k not in ENGINE_KEYS}
+    assert again["paired"]["command"].endswith(f"--pair {path}")

@@ -46,10 +46,9 @@ from ungrasp_ompl.layout.model import Layout  # noqa: E402
 from ungrasp_ompl.layout.tiler import TilingOptions  # noqa: E402
 from ungrasp_ompl.parallel import RunOptions  # noqa: E402
 from ungrasp_ompl.planning.setup import PlannerOptions  # noqa: E402
-from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
+from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams  # noqa: E402
 from ungrasp_ompl.shipped import resolve  # noqa: E402
 from ungrasp_ompl.sim.tiling import simulate_tiling, tile_aimed  # noqa: E402
-from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim.trial import placement_offset, run_trial  # noqa: E402
 
 RESULTS = ROOT / "docs" / "results" / "tangram_gaps.json"
