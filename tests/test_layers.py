@@ -22,7 +22,7 @@ PACKAGE = Path(ungrasp_ompl.__file__).parent
 #: The floors, lowest first, as docs/architecture.md's table has them: module or package names
 #: relative to ungrasp_ompl.
 FLOORS = (
-    ("errors", "io", "shipped", "parallel", "_lazy"),
+    ("errors", "io", "shipped", "provenance", "parallel", "_lazy"),
     ("mechanics",),
     ("geometry",),
     ("scene",),

@@ -40,7 +40,7 @@ from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams, trial_params
 from ungrasp_ompl.sim.setup import Variant, trial_setup
 from ungrasp_ompl.sim.model import model_ids
 from ungrasp_ompl.sim.world import World
-from ungrasp_ompl.sim.trial import (MAX_CONTACT_GAP, placement_turn, _move_palm, _palm_quats, _start, calibration_offset, perturbed_start,
+from ungrasp_ompl.sim.trial import (MAX_CONTACT_GAP, STILL_SPEED, STILL_SPIN, STILL_WINDOW, placement_turn, _move_palm, _palm_quats, _start, calibration_offset, perturbed_start,
                                     run_trial, digits_lowest, touch_off_shift, touch_down, trial_mjcf, trial_spec)
 
 
@@ -532,14 +532,16 @@ def test_halving_the_timestep_keeps_the_outcomes(pick, pick_nominal, pick_fifth_
 
 def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick, pick_nominal):
     """Once the palm lifts away and the object lies still, untouched, the trial is read off there:
-    the same verdict, error and tilt as simulating the retreat and the rest to the end."""
+    the same verdict as simulating the retreat and the rest to the end, and the same error and tilt
+    to within what a body counted still may move over the stillness window (STILL_SPEED and
+    STILL_SPIN for STILL_WINDOW: the soft table lets a body at rest creep by less)."""
     setup = _setup(pick)
     early = pick_nominal
     full = run_trial(setup, TrialParams(), record=[])  # a recorded trial runs every phase
     assert early.success and full.success
     assert early.sim_time_s < full.sim_time_s - setup.sim.rest_time  # it stopped during the retreat
-    assert early.position_error_mm == pytest.approx(full.position_error_mm, abs=1e-6)
-    assert early.tilt_deg == pytest.approx(full.tilt_deg, abs=1e-6)
+    assert early.position_error_mm == pytest.approx(full.position_error_mm, abs=STILL_SPEED * STILL_WINDOW * 1000)
+    assert early.tilt_deg == pytest.approx(full.tilt_deg, abs=math.degrees(STILL_SPIN * STILL_WINDOW))
 
 
 @pytest.mark.slow
