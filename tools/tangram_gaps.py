@@ -104,12 +104,14 @@ def study(errors: str, attempts: int, seed: int, jobs: int) -> list[dict]:
     if aimed is None:
         raise SystemExit("the tangram found no tiling")
     results = simulate_tiling(layout, aimed.setups, PRESETS[errors], attempts, RunOptions(seed=seed, jobs=jobs))
-    rows = measured(layout, tiling, aimed, results)
+    alone = {name: run_trial(setup, TrialParams()) for name, setup in aimed.setups}  # no error, no piece down
+    rows = measured(layout, tiling, aimed, results, alone)
     return rows if errors == "paper" else [{**r, "label": f"{errors}: {r['label']}"} for r in rows]
 
 
-def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
-    """Per piece, per failed attempt and over the attempts: the landings' offsets and clearances."""
+def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[dict]:
+    """Per piece, per failed attempt and over the attempts: the landings' offsets and clearances;
+    alone holds each piece's trial with no error drawn, on the table by itself (by name)."""
     walls = [np.asarray(w.vertices, dtype=float)[:, :2] for w in layout.frame.walls()]  # separation takes hulls
     names = [p.name for p in tiling.placements]
     index = {p.name: k for k, p in enumerate(layout.pieces)}
@@ -139,8 +141,8 @@ def measured(layout: Layout, tiling, aimed, results: list) -> list[dict]:
         axes = _plane_axes(placement)
         o = np.array(per[name]["offsets"]) @ axes.T  # (along, across) per trial
         sd = o.std(axis=0, ddof=1) if len(o) > 1 else None
-        alone = run_trial(setups[name], TrialParams())
-        no_error = axes[0] @ placement_offset(np.array(alone.final_pose), setups[name].target_pose, outlines[name]) * 1000
+        no_error = axes[0] @ placement_offset(np.array(alone[name].final_pose), setups[name].target_pose,
+                                              outlines[name]) * 1000
         rows.append({"label": name, "trials": len(o), "along_mean_mm": round(float(o[:, 0].mean()), 3),
                      "along_sd_mm": None if sd is None else round(float(sd[0]), 3),
                      "across_mean_mm": round(float(o[:, 1].mean()), 3),
