@@ -468,6 +468,18 @@ def goal_behind_start(scene: Scene) -> list[str]:
     return [AXIS_NAMES[a] for a in range(3) if box[0, a] > box[1, a]]
 
 
+def goal_cut_by_start(scene: Scene) -> list[str]:
+    """The coordinates (names as in AXIS_NAMES) along which part of the goal region lies behind
+    the start, so that primitives moving only forward reach the rest alone: a goal whose d range
+    reaches above the start's d, or whose psi range begins below the start's psi."""
+    if scene.options.reverse_primitives:
+        return []
+    glo, ghi = scene.goal.box()
+    start = scene.start
+    return [AXIS_NAMES[a] for a, sign in enumerate(FORWARD)
+            if (ghi[a] > start[a] if sign < 0 else glo[a] < start[a])]
+
+
 def _forward_box(scene: Scene) -> NDArray[np.float64]:
     """planning_box before an empty coordinate range is replaced by the start's value."""
     box = scene.bounds.copy()

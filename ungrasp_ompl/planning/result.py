@@ -142,12 +142,13 @@ class StartNotHeld(TypedDict):
 
 class GoalEmpty(TypedDict, total=False):
     """PlanOutcome.GOAL_EMPTY's evidence: outside_box and behind_start (the coordinates along
-    which the goal lies wholly behind the start), or holdable and termination."""
+    which the goal lies wholly behind the start), or holdable, termination and cut_by_start."""
 
     outside_box: bool
     behind_start: list[str]
     holdable: bool  #: some goal state can be held, but not let go
     termination: str  #: how the gripper lets go (a Termination value)
+    cut_by_start: list[str]  #: the coordinates along which part of the goal lies behind the start, unsearched
 
 
 class NoSecurePath(TypedDict):
@@ -220,13 +221,17 @@ def describe_outcome(outcome: PlanOutcome, evidence: PlanEvidence, planner: str 
                     "(theta and d down, psi up; planning.reverse_primitives allows both)")
         if e.get("outside_box"):
             return "goal region lies outside the planning box"
+        where = "goal region is empty"
+        if e.get("cut_by_start"):
+            axes = " and ".join(e["cut_by_start"])
+            where = (f"goal region is empty where the start reaches it (along {axes} part of it lies behind the "
+                     "start, which the forward primitives move one way only: theta and d down, psi up)")
         if e.get("holdable"):
             how = e.get("termination", "open")
             how = Termination(how).describe() if how in tuple(Termination) else how
-            return (f"goal region is empty: the gripper cannot let go ({how}) at any goal state without a "
-                    "collision")
-        return ("goal region is empty: no lattice state inside it is kinematically valid, collision-free and "
-                "force-closed")
+            return f"{where}: the gripper cannot let go ({how}) at any goal state without a collision"
+        there = "there" if e.get("cut_by_start") else "inside it"
+        return f"{where}: no lattice state {there} is kinematically valid, collision-free and force-closed"
     if outcome is PlanOutcome.NO_SECURE_PATH:
         return f"no secure path exists: the exact search over the primitive lattice ({_at(e)}) reaches no goal state"
     if outcome is PlanOutcome.NOT_FOUND:

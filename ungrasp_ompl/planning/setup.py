@@ -34,7 +34,7 @@ from ..parallel.options import check_seed
 from ..parallel.runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
 from ..scene.stability import analyse
-from .atlas import Leg, SecurityAtlas, goal_behind_start, planning_box
+from .atlas import Leg, SecurityAtlas, goal_behind_start, goal_cut_by_start, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search, optimum_cost
 from .margins import OBJECTIVES, LatticeMargins, Objective
@@ -408,8 +408,10 @@ def ends_problem(scene: Scene, atlas: SecurityAtlas, goal_reachable: bool | None
     if goal_reachable is None:
         goal_reachable = atlas.can_let_go_in(box)
     if not goal_reachable:
+        cut = goal_cut_by_start(scene)
         return EndsProblem(PlanOutcome.GOAL_EMPTY, dict(holdable=bool(atlas.holdable_in(box).any()),
-                                                        termination=scene.robot.termination))
+                                                        termination=scene.robot.termination,
+                                                        **({"cut_by_start": cut} if cut else {})))
     return None
 
 
