@@ -193,3 +193,25 @@ def test_plan_reports_the_objectives_margin(chalk_margin_setup):
     assert level > 0  # below the bottleneck: the level's margin is the path's
     assert math.degrees(obj.smallest_margin(cost)) == pytest.approx(result.min_margin_deg, abs=1e-9)
     assert result.min_margin_deg < result.margin_bottleneck_deg and result.margin_forced is False
+
+
+def test_a_margin_plan_the_planner_does_not_find_is_the_lattices_widest():
+    """The chalk from d 0.64, where the secure states lie in thin bands: with seed 3 RRT* finds no
+    path in the default budget under either objective; the cost plan says so, and the margin plan
+    is the exact lattice search's widest path (the lattice planner's own margin plan, state for
+    state), at the bottleneck, its planner and seed the ones asked for (docs/decisions/0120)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from ungrasp_ompl.planning.result import PathSource, PlanOutcome
+
+    chalk = Scene.from_file(SCENES / "fabric_chalk.yaml")
+    low = replace(chalk, start=np.array([chalk.start[0], 0.64, chalk.start[2]]))
+    assert plan(low, planner="RRTstar", seed=3, objective="cost").outcome is PlanOutcome.NOT_FOUND
+    kept = plan(low, planner="RRTstar", seed=3, objective="margin")
+    widest = plan(low, planner="lattice", objective="margin")
+    assert kept.solved and kept.path_from is PathSource.LATTICE_FALLBACK
+    assert (kept.planner, kept.seed) == ("RRTstar", 3)
+    assert np.array_equal(np.array(kept.states), np.array(widest.states))
+    assert kept.margin_forced and kept.min_margin_deg == pytest.approx(kept.margin_bottleneck_deg)

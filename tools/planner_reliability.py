@@ -1,8 +1,10 @@
 """How often the default planner solves a scene: seeds 1..N of `plan SCENE --seed S` (RRT*, the
 default budget), each scene at its own planner range and, with --ranges, at others; the lattice
-optimum beside the costs found. With --objective margin, also how many plans keep the widest
-margin the lattice holds: the kept plans, and those whose path is the planner's own (the rest
-took the lattice's widest path, docs/decisions/0104).
+optimum beside the costs found. A margin plan whose planner finds no path in its budget takes the
+lattice's widest (docs/decisions/0120): `found` counts the seeds whose planner found one itself.
+With --objective margin, also how many plans keep the widest margin the lattice holds: the kept
+plans, and those whose path is the planner's own (the rest took the lattice's widest path,
+docs/decisions/0104).
 
     python tools/planner_reliability.py go_stone coin [--seeds 20] [--ranges 0.3,0.1] [--objective margin]
         [--results [--study NAME]]
@@ -27,13 +29,14 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning.result import PathSource  # noqa: E402
 from ungrasp_ompl.planning.setup import DEFAULT_RANGE, plan  # noqa: E402
 
-FORMATS = {"range": "{:.2f}", "solved": "{}", "seeds": "{}", "cost": "{:.2f}", "lattice_optimum": "{:.2f}",
+FORMATS = {"range": "{:.2f}", "solved": "{}", "found": "{}", "seeds": "{}", "cost": "{:.2f}", "lattice_optimum": "{:.2f}",
            "widest": "{}", "planner_widest": "{}", "bottleneck_deg": "{:.3f}"}
 
 
 def reliability(name: str, seeds: int, planner_range: float | None, objective: str) -> dict:
     """The row of one scene at one range (None: the scene's own) under objective (cost: the
-    scene's own where it names one): solved of seeds, the costs found; with the margin objective,
+    scene's own where it names one): solved of seeds, found (by the planner itself), the costs
+    found; with the margin objective,
     how many keep the lattice's widest margin (widest), and of those how many by the planner's own
     path (planner_widest)."""
     scene = Scene.from_file(name)
@@ -43,13 +46,16 @@ def reliability(name: str, seeds: int, planner_range: float | None, objective: s
     optimum = next((p.lattice_optimum for p in plans if p.lattice_optimum is not None), None)
     if optimum is None:
         optimum = next((p.evidence.get("lattice_optimum") for p in plans if not p.solved), None)
-    row = {"label": f"{name} range {used:.2f}", "scene": name, "range": used, "solved": len(costs), "seeds": seeds,
+    found = sum(p.solved and p.path_from is not PathSource.LATTICE_FALLBACK for p in plans)
+    row = {"label": f"{name} range {used:.2f}", "scene": name, "range": used, "solved": len(costs), "found": found,
+           "seeds": seeds,
            "cost": [min(costs), max(costs)] if costs else None, "lattice_optimum": optimum,
            "own_range": planner_range is None}
     if objective == "margin":
         forced = [p for p in plans if p.solved and p.margin_forced]
         row.update(label=f"{name} range {used:.2f}, margin", widest=len(forced),
-                   planner_widest=sum(p.path_from != PathSource.LATTICE for p in forced),
+                   planner_widest=sum(p.path_from not in (PathSource.LATTICE, PathSource.LATTICE_FALLBACK)
+                                      for p in forced),
                    bottleneck_deg=next((p.margin_bottleneck_deg for p in plans if p.solved), None))
     return row
 
@@ -74,7 +80,7 @@ def main() -> int:
         rows += new
         for r in new:
             widest = f", widest margin {r['widest']} ({r['planner_widest']} the planner's own)" if "widest" in r else ""
-            print(f"{r['label']}: {r['solved']}/{r['seeds']}, cost {r['cost']}, optimum {r['lattice_optimum']}{widest}",
+            print(f"{r['label']}: {r['solved']}/{r['seeds']} ({r['found']} found by the planner), cost {r['cost']}, optimum {r['lattice_optimum']}{widest}",
                   flush=True)
     if args.results:
         from campaign_results import merge_study

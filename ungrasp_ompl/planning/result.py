@@ -37,6 +37,9 @@ class PathSource(StrEnum):
     COST_BASELINE = "cost_baseline"
     #: the exact lattice search's widest-margin path, where the planner's kept less (docs/decisions/0104)
     LATTICE = "lattice"
+    #: the exact lattice search's widest-margin path, where the planner found none in its budget
+    #: (docs/decisions/0120)
+    LATTICE_FALLBACK = "lattice_fallback"
 
     def describe(self) -> str:
         """Where the path came from, in words for a person (plan.json keeps the value)."""
@@ -44,7 +47,9 @@ class PathSource(StrEnum):
                 PathSource.COST_BASELINE: "the cost objective's search of the same planner and seed, which kept more "
                                           "margin",
                 PathSource.LATTICE: "the exact lattice search's widest-margin path, as the planner's path kept "
-                                    "less"}[self]
+                                    "less",
+                PathSource.LATTICE_FALLBACK: "the exact lattice search's widest-margin path, as the planner found "
+                                             "none in its budget"}[self]
 
 
 class StoppedBy(StrEnum):

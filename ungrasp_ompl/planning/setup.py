@@ -527,7 +527,8 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     scene, planner, seed and budget (docs/model.md, section 6.1): both are planned, each through
     every check above, and the cost objective's is kept only where it is solved and keeps more
     margin (with_cost_baseline); nor narrower than the lattice's widest secure path, where that
-    passes the same checks (with_widest_path, docs/decisions/0104).
+    passes the same checks (with_widest_path, docs/decisions/0104); and where the planner finds no
+    path in its budget but the lattice holds one, the lattice's widest is the plan (0120).
     """
     options["objective"] = scene_objective(options.get("objective"), scene, planner)
     if options["objective"] == Objective.MARGIN:
@@ -599,20 +600,25 @@ def with_cost_baseline(own: Plan, baseline: Plan, atlas: SecurityAtlas | None = 
 
 
 def with_widest_path(result: Plan, widest: Callable[[], Plan]) -> Plan:
-    """A margin plan held to the lattice's bottleneck (docs/decisions/0104): kept where it keeps the
-    widest margin any secure lattice path keeps (margin_forced), or where that is not known; else
-    the plan widest() returns (the exact lattice search's widest path, through the checks any plan
-    passes) in its place when that is solved and keeps more margin, its planner and seed the
-    planner's, its times both searches', its path_from PathSource.LATTICE."""
-    if result.planner == LATTICE or not result.solved or result.margin_forced is not False:
+    """A margin plan held to the lattice's bottleneck (docs/decisions/0104, 0120): kept where it
+    keeps the widest margin any secure lattice path keeps (margin_forced), or where that is not
+    known; else the plan widest() returns (the exact lattice search's widest path, through the
+    checks any plan passes) in its place when that is solved and keeps more margin than the
+    planner's path, or when the planner found no path in its budget (NOT_FOUND: it keeps none);
+    its planner and seed the planner's, its times both searches', its path_from
+    PathSource.LATTICE (LATTICE_FALLBACK where the planner found none)."""
+    found_none = result.outcome is PlanOutcome.NOT_FOUND
+    if result.planner == LATTICE or (not result.solved and not found_none) or \
+            (result.solved and result.margin_forced is not False):
         return result
     other = widest()
     if not other.solved or other.min_margin_deg is None or \
-            other.min_margin_deg <= result.min_margin_deg + FORCED_TOLERANCE_DEG:
+            (result.solved and other.min_margin_deg <= result.min_margin_deg + FORCED_TOLERANCE_DEG):
         return result
     kept = replace(other, planner=result.planner, seed=result.seed)
-    return kept.with_diagnostics(path_from=PathSource.LATTICE, iterations=result.iterations,
-                                 stopped_by=result.stopped_by, lattice_optimum=result.lattice_optimum,
+    return kept.with_diagnostics(path_from=PathSource.LATTICE if result.solved else PathSource.LATTICE_FALLBACK,
+                                 iterations=result.iterations, stopped_by=result.stopped_by,
+                                 lattice_optimum=result.lattice_optimum,
                                  time_to_first_solution_s=result.time_to_first_solution_s,
                                  setup_time_s=result.setup_time_s + other.setup_time_s,
                                  planning_time_s=result.planning_time_s + other.planning_time_s)
