@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 import yaml
 
@@ -25,19 +26,26 @@ def _bounded(name: str, bound: float | None) -> Scene:
     return _with_bound(Scene.from_file(SCENES / f"{name}.yaml"), bound)
 
 
+def _puzzle_piece_from_0_8(bound: float | None) -> Scene:
+    """The puzzle piece from the reference's start d 0.8 (its start before decision 0121), with
+    planning.max_landing_spread BOUND (m, None: unbounded)."""
+    scene = _bounded("puzzle_piece", bound)
+    return replace(scene, start=np.array([scene.start[0], 0.8, scene.start[2]]))
+
+
 def _with_bound(scene: Scene, bound: float | None) -> Scene:
     """SCENE with planning.max_landing_spread BOUND (m, None: unbounded)."""
     return replace(scene, options=replace(scene.options, max_landing_spread=bound))
 
 
 def test_a_bound_on_the_spread_plans_the_puzzle_piece_without_p_dpsi():
-    """Unbounded, the puzzle piece's RRT* plan of seed 1 has a P_dpsi and its landing spreads more
-    than 4 mm over the friction's range; bounded at 4 mm, the plan has no P_dpsi, keeps the bound,
-    and carries its predicted landing, which is the model's for that plan."""
-    free = plan(_bounded("puzzle_piece", None), planner="RRTstar", time=1.0, seed=1)
+    """Unbounded, the puzzle piece's RRT* plan of seed 1 from d 0.8 has a P_dpsi and its landing
+    spreads more than 4 mm over the friction's range; bounded at 4 mm, the plan has no P_dpsi, keeps
+    the bound, and carries its predicted landing, which is the model's for that plan."""
+    free = plan(_puzzle_piece_from_0_8(None), planner="RRTstar", time=1.0, seed=1)
     assert free.solved and Primitive.DPSI in [p.type for p in free.primitives]
-    assert predict_landing(_bounded("puzzle_piece", None), free).spread > 0.004
-    scene = _bounded("puzzle_piece", 0.004)
+    assert predict_landing(_puzzle_piece_from_0_8(None), free).spread > 0.004
+    scene = _puzzle_piece_from_0_8(0.004)
     kept = plan(scene, planner="RRTstar", time=1.0, seed=1)
     assert kept.solved and Primitive.DPSI not in [p.type for p in kept.primitives]
     assert kept.predicted_landing["spread_m"] <= 0.004

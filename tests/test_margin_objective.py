@@ -31,9 +31,15 @@ def _plans(name: str, seed: int, objective: str):
 def assert_margin_plan_not_narrower(name: str, seed: int) -> None:
     """RRT*, seeded, the default time budget: where the cost objective plans a path, the margin
     objective plans one too, and its smallest friction margin (as `plan` reports it, the start
-    included) is at least the cost plan's and at most the lattice's bottleneck."""
+    included) is at least the cost plan's and at most the lattice's bottleneck; where the planner
+    finds none under the cost objective, the margin plan is solved all the same (docs/decisions/0120)."""
+    from ungrasp_ompl.planning.result import PlanOutcome
+
     cost_plan = _plans(name, seed, "cost")
     margin_plan = _plans(name, seed, "margin")
+    if cost_plan.outcome is PlanOutcome.NOT_FOUND:
+        assert margin_plan.solved and margin_plan.margin_forced, margin_plan.reason
+        return cost_plan, margin_plan
     assert cost_plan.solved, cost_plan.reason
     assert margin_plan.solved, (f"{name} seed {seed}: the cost objective plans a smallest margin of "
                                 f"{cost_plan.min_margin_deg:.3f} deg, the margin objective no plan: "
@@ -48,8 +54,9 @@ def assert_margin_plan_not_narrower(name: str, seed: int) -> None:
 @pytest.mark.parametrize("seed", [1, 2])
 def test_margin_plan_not_narrower_than_cost_plan_quick(seed):
     """The quick tier's variant: one object scene, two seeds. On both the margin plan is wider than
-    the cost plan's (1.943 deg against 0.522), so it is not the cost plan kept by with_cost_baseline."""
-    cost_plan, margin_plan = assert_margin_plan_not_narrower("fabric_chalk", seed)
+    the cost plan's, so it is not the cost plan kept by with_cost_baseline."""
+    cost_plan, margin_plan = assert_margin_plan_not_narrower("guitar_pick", seed)
+    assert cost_plan.solved
     assert margin_plan.min_margin_deg > cost_plan.min_margin_deg + 0.1 and margin_plan.states != cost_plan.states
 
 
@@ -89,7 +96,8 @@ def test_a_margin_plan_keeps_the_lattices_widest_margin(chalk_margin_setup):
     than the lattice's bottleneck, so plan keeps the exact lattice search's widest path instead: its
     smallest margin, measured along the path, is the bottleneck and the lattice planner's plan's;
     it re-validated (solved), names the planner and seed asked for, and says where it came from,
-    also through plan.json. Seed 1's tree reaches the bottleneck, and its plan is the planner's own."""
+    also through plan.json. The pick's tree of seed 1 reaches its bottleneck, and its plan is the
+    planner's own."""
     from ungrasp_ompl.errors import InputError
     from ungrasp_ompl.planning.result import PathSource, Plan
 
@@ -105,7 +113,7 @@ def test_a_margin_plan_keeps_the_lattices_widest_margin(chalk_margin_setup):
     with pytest.raises(InputError) as bad:
         Plan.from_dict({**kept.to_dict(), "path_from": "elsewhere"})
     assert bad.value.field == "path_from"
-    first = _plans("fabric_chalk", 1, "margin")
+    first = _plans("guitar_pick", 1, "margin")
     assert first.path_from is PathSource.PLANNER and first.margin_forced
 
 

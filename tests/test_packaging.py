@@ -124,7 +124,7 @@ def test_scene_repr_is_one_line_in_si_units():
     text = repr(scene)
     assert "\n" not in text and len(text) < 300, text
     assert f"length_m={scene.object_length:.4g}," in text and "thickness_m=0.00096," in text
-    assert "thumb_m=0.06," in text and "start=(theta_deg=30, d=0.65, psi_deg=0)" in text
+    assert "thumb_m=0.06," in text and f"start=(theta_deg=30, d={scene.start[1]:g}, psi_deg=0)" in text
 
 
 def test_commands_take_a_shipped_name_from_any_directory(tmp_path):

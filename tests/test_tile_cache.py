@@ -171,13 +171,13 @@ def test_a_landing_predicted_again_is_the_first_one(tangram):
 ])
 def test_legs_checked_at_once_fail_where_they_fail_alone(theta_deg, slide, failing):
     """first_failing_leg: the first leg verify_leg refuses, with verify_leg's reason; None when
-    every leg passes (the guitar pick from its start: turned down, the thumb turned, then the
-    finger slid toward B)."""
+    every leg passes (the guitar pick from d 0.65, its start before decision 0121: turned down, the
+    thumb turned, then the finger slid toward B)."""
     from ungrasp_ompl import Scene
 
     scene = Scene.from_file("guitar_pick")
     res = np.asarray(scene.options.resolution) / 2
-    q = np.asarray(scene.start, dtype=float)
+    q = np.array([scene.start[0], 0.65, scene.start[2]])
     down = q + [-np.radians(theta_deg), 0.0, 0.0]
     up = down + [0.0, 0.0, np.radians(20)]
     slid = up + [0.0, -slide, 0.0]

@@ -659,8 +659,9 @@ class Plan:
                          f"with friction 0.7 to 1.3 times the scene's and either friction-cone model (a spread of "
                          f"{1000 * p['spread_m']:.2f} mm)")
         first = self.time_to_first_solution_s
+        first = f"the first path after {first:.3f} s" if first is not None else "the planner found no path"
         why = self.stopped_by.describe() if self.stopped_by is not None else "it did not run"
-        lines.append(f"  planning took {self.planning_time_s:.2f} s, the first path after {first:.3f} s; it stopped "
+        lines.append(f"  planning took {self.planning_time_s:.2f} s, {first}; it stopped "
                      f"after {self.iterations} iterations because {why}; building the lattice took "
                      f"{self.setup_time_s:.2f} s")
         lines.append("  the primitives (theta: the object's angle to the table; d: how far the finger's contact A lies "
