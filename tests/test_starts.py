@@ -139,3 +139,24 @@ def test_a_pincers_slide_is_how_far_b_moves_from_its_thumbs_tip():
     apart = np.linalg.norm(pose.thumb_tip - object_axis(q[:, 0]), axis=-1)
     assert b_slide(scene, found) == pytest.approx(np.sum(np.abs(np.diff(apart))) * scene.object_length, rel=1e-9)
     assert b_slide(scene, found) > 0.0
+
+
+def test_both_tips_counts_a_start_only_where_the_flat_tip_plans_from_it_too():
+    """The chalk from d 0.66 and 0.67: the rounded tip plans from both and B slides less from 0.66;
+    the flat tip reaches no goal state from 0.66 (its own lattice plan, planned here: the goal cut by
+    the start along d) and plans from 0.67, so with both_tips the choice is 0.67 (docs/decisions/0121)."""
+    from ungrasp_ompl.planning.result import PlanOutcome
+
+    options = StartOptions(d_range=(0.66, 0.67), run=RunOptions(jobs=1))
+    scene = Scene.from_file("fabric_chalk")
+    one = search_starts(scene, options)
+    both = search_starts(scene, replace(options, both_tips=True))
+    assert [c.outcome for c in one.candidates] == [PlanOutcome.SOLVED] * 2 and one.best.d == 0.66
+    assert one.candidates[0].b_slide_m < one.candidates[1].b_slide_m
+    flat = scene.with_digits(finger_tip="flat")
+    at = [plan(replace(flat, start=np.array([flat.start[0], d, flat.start[2]])), planner="lattice", seed=1)
+          for d in (0.66, 0.67)]
+    assert at[0].outcome is PlanOutcome.GOAL_EMPTY and at[0].evidence["cut_by_start"] == ["d"] and at[1].solved
+    assert [c.other_tip_outcome for c in both.candidates] == [PlanOutcome.GOAL_EMPTY, PlanOutcome.SOLVED]
+    assert both.candidates[0].b_slide_m is None and both.best.d == 0.67
+    assert both.candidates[1] == replace(one.candidates[1], other_tip_outcome=PlanOutcome.SOLVED)

@@ -8,7 +8,10 @@ one task on a runner: the exact lattice plan with the scene's planning options, 
 along the thumb summed over the plan's legs (b_slide), and what else a start trades: the plan's
 friction margin, its tolerance of the `paper` errors (planning.plan_tolerance) and the spread of
 its predicted landing over the scene's friction range and both cones (planning.predicted_landing).
-The chosen start is the one whose plan is secure and slides B least (the larger d on a tie).
+The chosen start is the one whose plan is secure and slides B least (the larger d on a tie). With
+StartOptions.both_tips a candidate counts only where the scene with the other finger tip (flat for
+a rounded tip, rounded for a flat one: Scene.with_digits) has a secure lattice plan from it too,
+the rule of docs/decisions/0121: the lowest starts may leave one tip no goal state to reach.
 ``StartChoice.write`` writes starts.csv and starts_scene.yaml (the scene file with the chosen
 start, loadable by every command).
 """
@@ -46,7 +49,7 @@ CANDIDATE_DEADLINE_S = 300.0
 MAX_CANDIDATES = 1000
 #: starts.csv's columns.
 START_COLUMNS = ("d", "task_status", "outcome", "b_slide_mm", "min_margin_deg", "cost", "tolerance",
-                 "landing_spread_mm", "chosen", "error")
+                 "landing_spread_mm", "other_tip_outcome", "chosen", "error")
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,9 @@ class StartOptions:
     cores); run.cluster a Ray cluster's address (None: this machine)."""
     out: str | os.PathLike[str] = "starts"
     """Output directory for starts.csv and starts_scene.yaml."""
+    both_tips: bool = False
+    """Count a candidate only where the other finger tip's lattice plan from it is secure too
+    (docs/decisions/0121)."""
 
     def candidates(self, scene: Scene) -> tuple[float, ...]:
         """The candidate d (over l) for scene, these options checked; InputError naming the option
@@ -118,25 +124,38 @@ class StartCandidate:
     landing_spread_m: float | None = None
     """How far the predicted landing moves over the friction range and both cones (m); None
     without a secure plan, a thickness, or a termination the model of the fall covers."""
+    other_tip_outcome: PlanOutcome | None = None
+    """With both_tips, the other finger tip's lattice plan's outcome; None when not planned."""
     error: str = ""
     """Why the candidate has no plan, for a person ("" when it has one)."""
 
 
 @dataclass(frozen=True)
 class StartTask:
-    """One candidate's work: the scene from that start, and the lattice's seed."""
+    """One candidate's work: the scene from that start, and the lattice's seed; with both_tips, the
+    same scene with the other finger tip (other), which must plan too."""
 
     index: int
     d: float
     scene: Scene
     seed: int
+    other: Scene | None = None
 
 
 def start_cell(task: StartTask) -> StartCandidate:
-    """Plan one candidate start exactly (the scene's planning options) and measure B's slide."""
+    """Plan one candidate start exactly (the scene's planning options) and measure B's slide; with
+    the other finger tip's scene, plan that too, and count the candidate only where both plans are
+    secure."""
     result = plan(task.scene, planner="lattice", seed=task.seed)  # a start not held: an outcome, not an error
     if not result.solved:
         return StartCandidate(task.d, outcome=result.outcome, error=result.reason or result.outcome.value)
+    if task.other is not None:
+        other = plan(task.other, planner="lattice", seed=task.seed)
+        if not other.solved:
+            tip = "flat" if task.other.digits.flat_finger_tip else "rounded"
+            return StartCandidate(task.d, outcome=result.outcome, other_tip_outcome=other.outcome,
+                                  error=f"with a {tip} finger tip: {other.reason or other.outcome.value}")
+    outcome = None if task.other is None else PlanOutcome.SOLVED
     spread = None
     if task.scene.object_thickness > 0.0:
         try:
@@ -145,7 +164,8 @@ def start_cell(task: StartTask) -> StartCandidate:
             pass
     return StartCandidate(task.d, outcome=result.outcome, b_slide_m=b_slide(task.scene, result),
                           min_margin_deg=result.min_margin_deg, cost=result.cost,
-                          tolerance=tolerance(task.scene, result).scale, landing_spread_m=spread)
+                          tolerance=tolerance(task.scene, result).scale, landing_spread_m=spread,
+                          other_tip_outcome=outcome)
 
 
 @dataclass(frozen=True)
@@ -193,6 +213,7 @@ class StartChoice:
         return [[repr(c.d), c.task_status.value, "" if c.outcome is None else c.outcome.value,
                  None if c.b_slide_m is None else round(c.b_slide_m * 1000, 6), c.min_margin_deg, c.cost,
                  c.tolerance, None if c.landing_spread_m is None else round(c.landing_spread_m * 1000, 6),
+                 "" if c.other_tip_outcome is None else c.other_tip_outcome.value,
                  int(k == self.chosen), c.error.replace("\n", " ")] for k, c in enumerate(self.candidates)]
 
     def scene_yaml(self) -> str:
@@ -238,8 +259,14 @@ def search_starts(scene: Scene, options: StartOptions = StartOptions(),
     InputError naming the option before anything runs; writes nothing (see StartChoice.write).
     progress(done, total) after each candidate."""
     ds = options.candidates(scene)
-    tasks = [StartTask(k, d, replace(scene, start=np.array([scene.start[0], d, scene.start[2]])), options.run.seed)
-             for k, d in enumerate(ds)]
+    other = None
+    if options.both_tips:
+        other = scene.with_digits(finger_tip="rounded" if scene.digits.flat_finger_tip else "flat")
+
+    def at(s: Scene | None, d: float) -> Scene | None:
+        return None if s is None else replace(s, start=np.array([s.start[0], d, s.start[2]]))
+
+    tasks = [StartTask(k, d, at(scene, d), options.run.seed, at(other, d)) for k, d in enumerate(ds)]
     found: dict[int, StartCandidate] = {}
     with open_runner(options.run.workers, options.run.cluster, fresh=False) as runner:
         for outcome in runner.run(start_cell, tasks, CANDIDATE_DEADLINE_S):

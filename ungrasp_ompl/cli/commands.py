@@ -244,7 +244,7 @@ def starts_command(args: argparse.Namespace) -> int:
         except ValueError:
             raise InputError("--d", f"must be LOW:HIGH, two numbers over l, got {args.d!r}") from None
         bounds = (low, high)
-    options = StartOptions(d_range=bounds, d_step=args.step, run=_run(args), out=args.out)
+    options = StartOptions(d_range=bounds, d_step=args.step, run=_run(args), out=args.out, both_tips=args.both_tips)
     bar = Progress("starts", "starts")
     result = choose_start(args.scene, options, progress=bar.show)
     files = result.write(options.out)

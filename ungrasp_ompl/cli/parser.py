@@ -203,6 +203,9 @@ def _add_starts(sub: argparse._SubParsersAction) -> None:
                     help="the candidates' d bounds over l, both included (default: the goal region's d range)")
     sr.add_argument("--step", type=float, default=0.01, help="spacing of the candidates' d over l (default 0.01)")
     sr.add_argument("--seed", type=int, default=1, help="seed of the lattice plans (default 1)")
+    sr.add_argument("--both-tips", action="store_true",
+                    help="count a start only where the other finger tip (flat for a rounded one, rounded for a "
+                         "flat one) plans from it too, as the shipped object scenes' starts are chosen")
     sr.add_argument("--jobs", type=int, default=None, help="candidates at a time on this machine (default: all cores)")
     _add_cluster(sr)
     sr.add_argument("--out", default="starts", help="output directory (default ./starts): starts.csv, starts_scene.yaml")
