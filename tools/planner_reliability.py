@@ -29,8 +29,8 @@ from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning.result import PathSource  # noqa: E402
 from ungrasp_ompl.planning.setup import DEFAULT_RANGE, plan  # noqa: E402
 
-FORMATS = {"range": "{:.2f}", "solved": "{}", "found": "{}", "seeds": "{}", "cost": "{:.2f}", "lattice_optimum": "{:.2f}",
-           "widest": "{}", "planner_widest": "{}", "bottleneck_deg": "{:.3f}"}
+FORMATS = {"range": "{:.2f}", "solved": "{}", "found": "{}", "seeds": "{}", "cost": "{:.2f}",
+           "lattice_optimum": "{:.2f}", "widest": "{}", "planner_widest": "{}", "bottleneck_deg": "{:.3f}"}
 
 
 def reliability(name: str, seeds: int, planner_range: float | None, objective: str) -> dict:
@@ -80,8 +80,8 @@ def main() -> int:
         rows += new
         for r in new:
             widest = f", widest margin {r['widest']} ({r['planner_widest']} the planner's own)" if "widest" in r else ""
-            print(f"{r['label']}: {r['solved']}/{r['seeds']} ({r['found']} found by the planner), cost {r['cost']}, optimum {r['lattice_optimum']}{widest}",
-                  flush=True)
+            print(f"{r['label']}: {r['solved']}/{r['seeds']} ({r['found']} found by the planner), cost {r['cost']}, "
+                  f"optimum {r['lattice_optimum']}{widest}", flush=True)
     if args.results:
         from campaign_results import merge_study
 

@@ -155,7 +155,7 @@ def start_cell(task: StartTask) -> StartCandidate:
             tip = "flat" if task.other.digits.flat_finger_tip else "rounded"
             return StartCandidate(task.d, outcome=result.outcome, other_tip_outcome=other.outcome,
                                   error=f"with a {tip} finger tip: {other.reason or other.outcome.value}")
-    outcome = None if task.other is None else PlanOutcome.SOLVED
+    other_outcome = None if task.other is None else PlanOutcome.SOLVED
     spread = None
     if task.scene.object_thickness > 0.0:
         try:
@@ -165,7 +165,7 @@ def start_cell(task: StartTask) -> StartCandidate:
     return StartCandidate(task.d, outcome=result.outcome, b_slide_m=b_slide(task.scene, result),
                           min_margin_deg=result.min_margin_deg, cost=result.cost,
                           tolerance=tolerance(task.scene, result).scale, landing_spread_m=spread,
-                          other_tip_outcome=outcome)
+                          other_tip_outcome=other_outcome)
 
 
 @dataclass(frozen=True)
