@@ -21,7 +21,8 @@ STEP_TABLES = ("campaigns_step_0.1ms", "campaigns_step_0.05ms", "campaigns_step_
                "campaigns_step_0.00625ms")
 #: The campaign tables tools/sim_campaigns.py wrote, each with its JSON beside it.
 TABLES = ("campaigns", "campaigns_at_0.1ms", "campaigns_curved_at_0.1ms", "campaigns_curved_worlds_at_0.1ms",
-          "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_curved", "campaigns_curved_worlds",
+          "campaigns_previous_grip_rule", "campaigns_drake", "campaigns_drake_base", "campaigns_previous_starts",
+          "campaigns_curved", "campaigns_curved_worlds",
           "campaigns_margin", "campaigns_margin_seed2", "campaigns_cost_seed2", "campaigns_margin_seed2_planner_only",
           "campaigns_curved_previous", "campaigns_pick_previous_start", "campaigns_curved_with_p_dpsi",
           "campaigns_curved_worlds_with_p_dpsi", "campaigns_drake_pick_previous_start",
@@ -96,6 +97,7 @@ def _fisher_two_sided(a: int, n: int, b: int, m: int) -> float:
 
 
 @pytest.mark.parametrize("name, tangram", [("campaigns_drake", False), ("campaigns_drake_fanned_hull", False),
+                                           ("campaigns_drake_base", False),
                                            ("campaigns_drake_tangram", True), ("campaigns_drake_tangram_fanned_hull", True)])
 def test_the_drake_campaign_sets_each_row_beside_mujoco_s(name, tangram):
     """Each Drake row holds MuJoCo's row of the same key in the MuJoCo file it names, figure for
