@@ -12,10 +12,11 @@ mm); per object and cone it reports how far B moved across over the P_psi legs (
 trials' absolute drifts, the largest), how the landings spread across GB (standard deviation) and
 their mean, and how many trials succeeded by the strict verdict. It asserts nothing.
 
-    python tools/sliding_drift.py [--objects guitar_pick,puzzle_piece] [--trials 16] [--jobs 2] [--results]
+    python tools/sliding_drift.py [--objects guitar_pick,puzzle_piece] [--trials 16] [--jobs 2]
+        [--results [--study NAME]]
 
 --results writes the study into docs/results/sliding_drift.json (the markdown beside it rendered
-from it).
+from it); a study named otherwise than `drift` prefixes its rows' labels with its name.
 """
 
 from __future__ import annotations
@@ -101,6 +102,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1, help="the trials' seed")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--results", action="store_true", help="write docs/results/sliding_drift.json")
+    ap.add_argument("--study", default="drift", help="the study's name in the results file (default drift)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     rows: list[dict] = []
@@ -111,7 +113,9 @@ def main() -> int:
         from campaign_results import merge_study
 
         command = "python tools/sliding_drift.py " + shlex.join(sys.argv[1:])
-        merge_study(RESULTS, "drift", command, time.perf_counter() - t0, rows, FORMATS,
+        if args.study != "drift":  # a row's key is unique in the file: another study's rows say whose they are
+            rows = [{**r, "label": f"{args.study}: {r['label']}"} for r in rows]
+        merge_study(RESULTS, args.study, command, time.perf_counter() - t0, rows, FORMATS,
                     "How far the sliding contact walks across the plane, by friction cone")
     return 0
 
