@@ -279,7 +279,7 @@ def test_the_drift_rows_pair_the_two_cones_on_the_same_trials():
 
 def test_merging_a_study_keeps_the_others(tmp_path):
     """A study written again replaces its own rows and keeps the other studies'; two rows with one
-    key are refused."""
+    key are refused, and a prefixed study's labels begin with its name."""
     path = tmp_path / "study.json"
     results.merge_study(path, "a", "python x --results", 1.0, [{"label": "a: one", "v": 1.0}], {"v": "{:.1f}"}, "t")
     results.merge_study(path, "b", "python x --results", 2.0, [{"label": "b: one", "v": 2.0}], {}, "t")
@@ -289,6 +289,8 @@ def test_merging_a_study_keeps_the_others(tmp_path):
     assert path.with_suffix(".md").read_text() == results.study_markdown(doc) + "\n"
     with pytest.raises(ValueError):
         results.merge_study(path, "c", "python x --results", 1.0, [{"label": "b: one"}], {}, "t")
+    results.merge_study(path, "c", "python x --results", 1.0, [{"label": "one"}], {}, "t", prefixed=True)
+    assert [r["label"] for r in json.loads(path.read_text())["rows"]][-1] == "c: one"
 
 
 def test_the_model_s_release_and_world_sections_quote_their_files():

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 import pytest
 import yaml
 
@@ -29,8 +28,7 @@ def _bounded(name: str, bound: float | None) -> Scene:
 def _puzzle_piece_from_0_8(bound: float | None) -> Scene:
     """The puzzle piece from the reference's start d 0.8 (its start before decision 0121), with
     planning.max_landing_spread BOUND (m, None: unbounded)."""
-    scene = _bounded("puzzle_piece", bound)
-    return replace(scene, start=np.array([scene.start[0], 0.8, scene.start[2]]))
+    return _bounded("puzzle_piece", bound).with_start_d(0.8)
 
 
 def _with_bound(scene: Scene, bound: float | None) -> Scene:

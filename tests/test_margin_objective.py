@@ -208,14 +208,12 @@ def test_a_margin_plan_the_planner_does_not_find_is_the_lattices_widest():
     path in the default budget under either objective; the cost plan says so, and the margin plan
     is the exact lattice search's widest path (the lattice planner's own margin plan, state for
     state), at the bottleneck, its planner and seed the ones asked for (docs/decisions/0120)."""
-    from dataclasses import replace
-
     import numpy as np
 
     from ungrasp_ompl.planning.result import PathSource, PlanOutcome
 
     chalk = Scene.from_file(SCENES / "fabric_chalk.yaml")
-    low = replace(chalk, start=np.array([chalk.start[0], 0.64, chalk.start[2]]))
+    low = chalk.with_start_d(0.64)
     assert plan(low, planner="RRTstar", seed=3, objective="cost").outcome is PlanOutcome.NOT_FOUND
     kept = plan(low, planner="RRTstar", seed=3, objective="margin")
     widest = plan(low, planner="lattice", objective="margin")

@@ -306,18 +306,15 @@ def test_a_goal_that_the_start_cuts_says_along_which_coordinate():
     """The puzzle piece with a flat finger tip: from d 0.62 the part of the goal region at or below
     the start's d (the forward primitives only lower d) holds no state that can be let go, and the
     outcome says that d cut it; from d 0.8 the same goal region is reached, at a d above 0.62."""
-    from dataclasses import replace
-
     from ungrasp_ompl.planning import plan
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
 
-    scene = Scene.from_file(ROOT / "scenes" / "puzzle_piece.yaml")
-    flat = replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
-    low = replace(flat, start=np.array([flat.start[0], 0.62, flat.start[2]]))
+    flat = Scene.from_file(ROOT / "scenes" / "puzzle_piece.yaml").with_digits(finger_tip="flat")
+    low = flat.with_start_d(0.62)
     cut = plan(low, planner="lattice")
     assert cut.outcome is PlanOutcome.GOAL_EMPTY and cut.evidence["cut_by_start"] == ["d"]
     assert describe_outcome(cut.outcome, cut.evidence) != describe_outcome(
         cut.outcome, {k: v for k, v in cut.evidence.items() if k != "cut_by_start"})
-    whole = plan(replace(flat, start=np.array([flat.start[0], 0.8, flat.start[2]])), planner="lattice")
+    whole = plan(flat.with_start_d(0.8), planner="lattice")
     assert whole.solved and whole.states[-1][1] > 0.62
     assert flat.goal.box()[0][1] <= 0.62 < flat.goal.box()[1][1]  # the goal's d range holds the low start

@@ -57,7 +57,7 @@ def test_a_candidates_row_is_its_scenes_own_lattice_plan(chosen):
     result, _ = chosen
     c = result.best
     scene = Scene.from_file("guitar_pick")
-    moved = replace(scene, start=np.array([scene.start[0], c.d, scene.start[2]]))
+    moved = scene.with_start_d(c.d)
     found = plan(moved, planner="lattice", seed=1)
     assert found.cost == pytest.approx(c.cost, abs=1e-12)
     assert found.min_margin_deg == pytest.approx(c.min_margin_deg, abs=1e-12)
@@ -154,8 +154,7 @@ def test_both_tips_counts_a_start_only_where_the_flat_tip_plans_from_it_too():
     assert [c.outcome for c in one.candidates] == [PlanOutcome.SOLVED] * 2 and one.best.d == 0.66
     assert one.candidates[0].b_slide_m < one.candidates[1].b_slide_m
     flat = scene.with_digits(finger_tip="flat")
-    at = [plan(replace(flat, start=np.array([flat.start[0], d, flat.start[2]])), planner="lattice", seed=1)
-          for d in (0.66, 0.67)]
+    at = [plan(flat.with_start_d(d), planner="lattice", seed=1) for d in (0.66, 0.67)]
     assert at[0].outcome is PlanOutcome.GOAL_EMPTY and at[0].evidence["cut_by_start"] == ["d"] and at[1].solved
     assert [c.other_tip_outcome for c in both.candidates] == [PlanOutcome.GOAL_EMPTY, PlanOutcome.SOLVED]
     assert both.candidates[0].b_slide_m is None and both.best.d == 0.67

@@ -145,8 +145,7 @@ def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pic
     if name == "guitar_pick":
         scene, result = pick
     else:
-        scene = Scene.from_file(name)
-        scene = replace(scene, start=np.array([scene.start[0], 0.8, scene.start[2]]))
+        scene = Scene.from_file(name).with_start_d(0.8)
         result = plan(scene, planner="lattice")
     tol = tolerance(scene, result)
     assert 0 < tol.scale < 1 and tol.reason is binds

@@ -753,12 +753,13 @@ def study_markdown(doc: dict) -> str:
 
 
 def merge_study(path: Path, study: str, command: str, seconds: float, rows: list[dict], formats: dict[str, str],
-                title: str, produced: str | None = None) -> Path:
+                title: str, produced: str | None = None, prefixed: bool = False) -> Path:
     """Write one study's rows into the results file at path (JSON; the rows of its other studies
     kept, this study's earlier ones replaced), with its row "study: NAME" (command, wall time, day),
     and the markdown rendered from it beside it; both atomically. The study's row records the
     environment it ran in (ungrasp_ompl.provenance). Each row needs a label; its key is made from it
-    and must be new in the file."""
+    and must be new in the file: prefixed puts "STUDY: " before each label, so that a second study
+    of the same rows (a tool's --study) keeps keys of its own."""
     from ungrasp_ompl.io import write_text_atomic
     from ungrasp_ompl.provenance import environment
 
@@ -767,6 +768,8 @@ def merge_study(path: Path, study: str, command: str, seconds: float, rows: list
     meta = {"label": f"study: {study}", "study": study, "command": command, "seconds": round(seconds, 1),
             "minutes": round(seconds / 60), "produced": produced or date.today().isoformat(),
             "environment": environment()}
+    if prefixed:
+        rows = [{**r, "label": f"{study}: {r['label']}"} for r in rows]
     new = [{"key": row_key(r["label"]), **r, "study": study} for r in (meta, *rows)]
     keys = [r["key"] for r in kept + new]
     if len(set(keys)) != len(keys):

@@ -86,10 +86,9 @@ def main() -> int:
         from campaign_results import merge_study
 
         command = "python tools/planner_reliability.py " + shlex.join(sys.argv[1:])
-        if args.study != "reliability":  # a row's key is unique in the file: another study's rows say whose they are
-            rows = [{**r, "label": f"{args.study}: {r['label']}"} for r in rows]
         merge_study(ROOT / "docs" / "results" / "planner_reliability.json", args.study, command,
-                    time.perf_counter() - t0, rows, FORMATS, "How often the default planner solves a scene")
+                    time.perf_counter() - t0, rows, FORMATS, "How often the default planner solves a scene",
+                    prefixed=args.study != "reliability")
     return 0
 
 

@@ -239,7 +239,7 @@ def _started(scene: Scene) -> tuple[Scene, str]:
     if key not in _LEAST_SLIDE:
         _LEAST_SLIDE[key] = least_slide_start(scene)
     d = _LEAST_SLIDE[key]
-    return replace(scene, start=np.array([scene.start[0], d, scene.start[2]])), f", least-slide start d {d:.2f}"
+    return scene.with_start_d(d), f", least-slide start d {d:.2f}"
 
 
 def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:

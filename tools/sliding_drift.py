@@ -113,10 +113,9 @@ def main() -> int:
         from campaign_results import merge_study
 
         command = "python tools/sliding_drift.py " + shlex.join(sys.argv[1:])
-        if args.study != "drift":  # a row's key is unique in the file: another study's rows say whose they are
-            rows = [{**r, "label": f"{args.study}: {r['label']}"} for r in rows]
         merge_study(RESULTS, args.study, command, time.perf_counter() - t0, rows, FORMATS,
-                    "How far the sliding contact walks across the plane, by friction cone")
+                    "How far the sliding contact walks across the plane, by friction cone",
+                    prefixed=args.study != "drift")
     return 0
 
 

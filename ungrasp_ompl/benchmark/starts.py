@@ -262,11 +262,8 @@ def search_starts(scene: Scene, options: StartOptions = StartOptions(),
     other = None
     if options.both_tips:
         other = scene.with_digits(finger_tip="rounded" if scene.digits.flat_finger_tip else "flat")
-
-    def at(s: Scene | None, d: float) -> Scene | None:
-        return None if s is None else replace(s, start=np.array([s.start[0], d, s.start[2]]))
-
-    tasks = [StartTask(k, d, at(scene, d), options.run.seed, at(other, d)) for k, d in enumerate(ds)]
+    tasks = [StartTask(k, d, scene.with_start_d(d), options.run.seed, other and other.with_start_d(d))
+             for k, d in enumerate(ds)]
     found: dict[int, StartCandidate] = {}
     with open_runner(options.run.workers, options.run.cluster, fresh=False) as runner:
         for outcome in runner.run(start_cell, tasks, CANDIDATE_DEADLINE_S):

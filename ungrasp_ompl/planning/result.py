@@ -226,16 +226,16 @@ def describe_outcome(outcome: PlanOutcome, evidence: PlanEvidence, planner: str 
                     "(theta and d down, psi up; planning.reverse_primitives allows both)")
         if e.get("outside_box"):
             return "goal region lies outside the planning box"
-        where = "goal region is empty"
+        where, there = "goal region is empty", "inside it"
         if e.get("cut_by_start"):
-            axes = " and ".join(e["cut_by_start"])
-            where = (f"goal region is empty where the start reaches it (along {axes} part of it lies behind the "
-                     "start, which the forward primitives move one way only: theta and d down, psi up)")
+            where = (f"goal region is empty where the start reaches it (along {' and '.join(e['cut_by_start'])} part "
+                     "of it lies behind the start, which the forward primitives move one way only: theta and d down, "
+                     "psi up)")
+            there = "there"
         if e.get("holdable"):
             how = e.get("termination", "open")
             how = Termination(how).describe() if how in tuple(Termination) else how
             return f"{where}: the gripper cannot let go ({how}) at any goal state without a collision"
-        there = "there" if e.get("cut_by_start") else "inside it"
         return f"{where}: no lattice state {there} is kinematically valid, collision-free and force-closed"
     if outcome is PlanOutcome.NO_SECURE_PATH:
         return f"no secure path exists: the exact search over the primitive lattice ({_at(e)}) reaches no goal state"

@@ -270,6 +270,11 @@ class Scene:
         goal = replace(self.goal, d=(float(lo[1]), float(hi[1])), psi=(float(lo[2]), float(hi[2])))
         return replace(self, goal=goal)
 
+    def with_start_d(self, d: float) -> "Scene":
+        """The scene started at d (over l), its start's theta and psi kept: where the hand takes
+        the object along GB (`ungrasp-ompl starts` weighs the candidates)."""
+        return replace(self, start=np.array([self.start[0], float(d), self.start[2]]))
+
     def with_digits(self, alpha: float | None = None, finger_tip: str | None = None,
                     finger_tip_radius: float | None = None) -> "Scene":
         """The scene with other digits, checked as the scene file's are (InputError naming the
