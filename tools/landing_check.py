@@ -22,7 +22,12 @@ drawn trials draw no friction error, and the model at such a draw takes the worl
 --results writes the study into docs/results/landing_check.json (the markdown beside it rendered
 from it; a study's earlier rows replaced, the other studies' kept): "landing", with --forbid-partial
 "landing, no P_dpsi", with --no-spread-bound (the scenes' plans without planning.max_landing_spread,
-which keep their P_dpsi) "landing, no spread bound".
+which keep their P_dpsi) "landing, no spread bound"; --study NAME names it otherwise, its rows'
+labels then starting with the name.
+
+--scene-starts reads every object's shipped scene, the pick's too, and plans under the scene's own
+planning.objective, as tools/sim_campaigns.py plans the campaign's rows; without it the pick starts
+where its scene started before decision 0107 and every plan optimises the cost.
 """
 
 from __future__ import annotations
@@ -113,16 +118,19 @@ STEP_CHECK = (1e-3, 1e-4)
 
 
 def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False,
-          spread_bound: bool = True) -> dict:
+          spread_bound: bool = True, scene_start: bool = False) -> dict:
     """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
-    False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi)."""
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{STUDY_SCENES.get(name, name)}.yaml"))
+    False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi;
+    scene_start: the shipped scene and its own objective, as the campaign plans it)."""
+    stem = name if scene_start else STUDY_SCENES.get(name, name)
+    scene = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
     scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)
     if not spread_bound:
         scene = scene.with_options(max_landing_spread=None)
-    plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1, objective="cost")
+    plan = make_plan(scene, planner="RRTstar", time=planning_time, seed=1,
+                     objective=None if scene_start else "cost")
     if not plan.solved:
         return {"object": name, "unsolved": plan.reason}
     wall = time.perf_counter()
@@ -226,6 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--forbid-partial", action="store_true", help="plan without P_dpsi (planning.forbid_partial)")
     parser.add_argument("--no-spread-bound", action="store_true",
                         help="plan without the scene's planning.max_landing_spread (its plan may keep a P_dpsi)")
+    parser.add_argument("--scene-starts", action="store_true",
+                        help="the shipped scenes and their own objective, as the campaign plans them")
+    parser.add_argument("--study", help="the study's name in the results file, which starts its rows' labels")
     parser.add_argument("--json", help="write the results there")
     parser.add_argument("--results", action="store_true", help="also write the study into "
                                                                "docs/results/landing_check.json and .md")
@@ -234,7 +245,8 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.perf_counter()
     results = []
     for name in args.objects.split(","):
-        res = check(name, args.draws, args.seed, args.time, args.forbid_partial, not args.no_spread_bound)
+        res = check(name, args.draws, args.seed, args.time, args.forbid_partial, not args.no_spread_bound,
+                    args.scene_starts)
         results.append(res)
         if "unsolved" in res:
             print(f"{name}: no plan ({res['unsolved']})", flush=True)
@@ -251,8 +263,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
     if args.results:
-        study = ("landing" + (", no P_dpsi" if args.forbid_partial else "")
-                 + (", no spread bound" if args.no_spread_bound else ""))
+        study = args.study or ("landing" + (", no P_dpsi" if args.forbid_partial else "")
+                               + (", no spread bound" if args.no_spread_bound else ""))
         print(f"wrote {write_results(study, command, time.perf_counter() - wall, study_rows(study, results))}")
     return 0
 
