@@ -410,6 +410,9 @@ def main() -> None:
                     help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
                                                      "their contact forces logged in both engines")
+    ap.add_argument("--contacts-study", default=None, metavar="NAME",
+                    help="with --contacts: the study's name in the results file (default contacts, "
+                         "contacts_thumb_point, ..._flat_tip); a name given starts its rows' labels")
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
                     help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
                          "--contacts of the rows whose trials are run (flat: the edge rows')")
@@ -447,7 +450,7 @@ def main() -> None:
     if drake and args.table is None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
-        contact_forces(args.contacts, args.seed, args.thumb, args.tip)
+        contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study)
         return
     TIMESTEP = args.timestep
     if args.worlds is not None:
@@ -918,11 +921,12 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
             "g_moved_most_mm": per_phase.get(phase) if phase else None}
 
 
-def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded") -> None:
+def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None) -> None:
     """Trials of the base rows (OBJECT:TRIAL,...; with tip "flat" the edge rows') in both engines
     with their contact forces logged; their summaries into
     docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches the object in Drake
-    (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made."""
+    (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made. study: the study's name
+    in the file, its rows' labels then starting with it (None: named by thumb and tip)."""
     import shlex
 
     from campaign_results import merge_study
@@ -969,10 +973,11 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
                "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
                "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
                "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}"}
-    path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json",
-                       ("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""),
+    name = study or (("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""))
+    path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", name,
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
-                       rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials")
+                       rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials",
+                       prefixed=study is not None)
     print(f"wrote {path}")
 
 
