@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shlex
 import sys
 import time
 from dataclasses import replace
@@ -241,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", action="store_true", help="also write the study into "
                                                                "docs/results/landing_check.json and .md")
     args = parser.parse_args(argv)
-    command = " ".join(["python tools/landing_check.py", *(sys.argv[1:] if argv is None else argv)])
+    command = shlex.join(["python", "tools/landing_check.py", *(sys.argv[1:] if argv is None else argv)])
     wall = time.perf_counter()
     results = []
     for name in args.objects.split(","):
