@@ -530,18 +530,47 @@ def test_halving_the_timestep_keeps_the_outcomes(pick, pick_nominal, pick_fifth_
             assert abs(coarse.position_error_mm - fine.position_error_mm) < 1.0
 
 
-def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick, pick_nominal):
+@pytest.fixture(scope="module")
+def pick_logged(pick):
+    """The positive control's trial with no error drawn, its poses recorded and its contact forces
+    logged, which runs every phase to the end: (result, contact log)."""
+    log: list = []
+    return run_trial(_setup(pick), TrialParams(), record=[], contact_log=log), log
+
+
+def test_a_placed_trial_ends_once_everything_lies_still_with_the_full_verdict(pick, pick_nominal, pick_logged):
     """Once the palm lifts away and the object lies still, untouched, the trial is read off there:
     the same verdict as simulating the retreat and the rest to the end, and the same error and tilt
     to within what a body counted still may move over the stillness window (STILL_SPEED and
     STILL_SPIN for STILL_WINDOW: the soft table lets a body at rest creep by less)."""
     setup = _setup(pick)
     early = pick_nominal
-    full = run_trial(setup, TrialParams(), record=[])  # a recorded trial runs every phase
+    full, _ = pick_logged  # a recorded trial runs every phase
     assert early.success and full.success
     assert early.sim_time_s < full.sim_time_s - setup.sim.rest_time  # it stopped during the retreat
     assert early.position_error_mm == pytest.approx(full.position_error_mm, abs=STILL_SPEED * STILL_WINDOW * 1000)
     assert early.tilt_deg == pytest.approx(full.tilt_deg, abs=math.degrees(STILL_SPIN * STILL_WINDOW))
+
+
+def test_the_contact_log_is_dated_by_the_drive_and_weighs_the_object(pick, pick_logged):
+    """A trial's contact log has one entry per control tick at the drive's own times (not the
+    simulator's clock, which runs on from the settling): until the termination begins both digits
+    press the object and the table bears it; once the retreat has lifted the hand no digit
+    touches it; at the end it lies on the table, which then bears its weight and no more (to 1 %)."""
+    setup = _setup(pick)
+    drive = setup.drive
+    _, log = pick_logged
+    assert [t for t, _ in log] == [float(t) for t in drive.times[1:]]
+    forces = {t: f for t, f in log}
+    release = drive.phase_start("termination")
+    held = forces[max(t for t in forces if t < release)]
+    digit = lambda f, kinds: sum(np.linalg.norm(f[k]) for k in kinds if k in f)  # noqa: E731
+    assert digit(held, ("finger", "finger_tip")) > 1.0 and digit(held, ("thumb",)) > 1.0 and held["table"][2] > 0.0
+    lifted = [f for t, f in log if t >= drive.phase_start("retreat") + 0.1]
+    assert lifted and all(digit(f, ("finger", "finger_tip", "thumb")) == 0.0 for f in lifted)
+    _, model, _, ids, _, _ = _start(setup, TrialParams(), [])
+    weight = model.body_mass[ids.object_body] * np.linalg.norm(model.opt.gravity)
+    assert log[-1][1]["table"] == pytest.approx([0.0, 0.0, weight], abs=0.01 * weight)
 
 
 @pytest.mark.slow

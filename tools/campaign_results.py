@@ -451,7 +451,7 @@ def table_landing(doc: dict) -> str:
 def table_landing_scenes(doc: dict) -> str:
     """table_landing of the plans the campaign runs, from the scenes' own starts and under their own
     objective (tools/landing_check.py --scene-starts)."""
-    return _landing_table(doc, (("landing, scenes' starts", "the scene's plan"),))
+    return _landing_table(doc, (("record-0121-starts", "the scene's plan"),))
 
 
 def _landing_table(doc: dict, studies: tuple[tuple[str, str], ...]) -> str:

@@ -26,6 +26,7 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
   with --start least-slide the base, worlds, unaimed and controls rows from each object's start
   from which B slides least along the thumb (record 0118, least_slide_start), the labels saying so;
+  with --start previous from the object scenes' starts before record 0121 (PREVIOUS_STARTS);
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
@@ -78,7 +79,8 @@ trial in Drake, the pieces already down in it (sim.tiling.simulate_tiling's engi
 rows alone, with the rounded and the flat tip, since an attempt costs minutes there.
 
 `--engine drake --contacts guitar_pick:1,...` runs trial 1 (and so on) of an object's base row in
-both engines, logs the forces on the object at every control tick, and writes what they show per
+both engines (from the start --start chooses), logs the forces on the object at every control tick
+(each engine's trial's contact_log), and writes what they show per
 engine into docs/results/campaigns_drake_contacts.json (.md beside): while both digits and the
 table hold the object, the table's friction use (its tangential over its normal force) against the
 trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
@@ -230,11 +232,17 @@ def least_slide_start(scene: Scene) -> float:
 
 _LEAST_SLIDE: dict[tuple, float] = {}  # least_slide_start's answers by scene name and finger tip
 
+#: The object scenes' starts (d) before record 0121 (--start previous).
+PREVIOUS_STARTS = {"guitar_pick": 0.65, "puzzle_piece": 0.8, "fabric_chalk": 0.8}
+
 
 def _started(scene: Scene) -> tuple[Scene, str]:
     """The scene from the start --start chooses, and the words its base row's label ends with."""
     if START == "scene":
         return scene, ""
+    if START == "previous":
+        d = PREVIOUS_STARTS[scene.name]
+        return scene.with_start_d(d), f", previous start d {d:.2f}"
     key = (scene.name, scene.digits.flat_finger_tip)
     if key not in _LEAST_SLIDE:
         _LEAST_SLIDE[key] = least_slide_start(scene)
@@ -416,9 +424,10 @@ def main() -> None:
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
                     help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
                          "--contacts of the rows whose trials are run (flat: the edge rows')")
-    ap.add_argument("--start", choices=("scene", "least-slide"), default="scene",
-                    help="where the base and worlds rows start: the scenes' own start, or each object's start "
-                         "from which B slides least along the thumb (record 0118; labels end ', least-slide start')")
+    ap.add_argument("--start", choices=("scene", "least-slide", "previous"), default="scene",
+                    help="where the base and worlds rows (and --contacts' trials) start: the scenes' own start, each "
+                         "object's start from which B slides least along the thumb (record 0118; labels end "
+                         "', least-slide start'), or the object scenes' starts before record 0121")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
@@ -816,41 +825,6 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
 WINDOW = 5
 
 
-def _mujoco_forces(log: list):
-    """sim.trial._Watch, logging the forces (N, world, 3) on the object by kind at each look into log."""
-    import mujoco
-
-    from ungrasp_ompl.sim import trial as mj_trial
-
-    class Logged(mj_trial._Watch):
-        def __init__(self, model, ids):
-            super().__init__(model, ids)
-            self.model, self.body, self.named = model, {}, {ids.table_geom: "table"}
-            for g in ids.thumb_geoms:
-                self.named[g] = "thumb"
-            for g in ids.finger_geoms:
-                self.named[g] = "finger"
-
-        def look(self, data, *args):
-            tick = super().look(data, *args)
-            out, f6 = {}, np.zeros(6)
-            for i in range(data.ncon):
-                g1, g2 = int(data.contact.geom1[i]), int(data.contact.geom2[i])
-                if self.object not in (g1, g2):
-                    continue
-                mujoco.mj_contactForce(self.model, data, i, f6)
-                world = data.contact.frame[i].reshape(3, 3).T @ f6[:3]  # on geom2, along the normal geom1 -> geom2
-                other, on_object = (g2, -world) if g1 == self.object else (g1, world)
-                kind = self.named.get(other)
-                if kind is not None:
-                    out[kind] = out.get(kind, np.zeros(3)) + on_object
-            if not log or log[-1][0] != data.time:
-                log.append((float(data.time), out))
-            return tick
-
-    return Logged
-
-
 def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
     """What a trial's log of contact forces shows: while both digits press the object and the table
     holds it up, the table's friction use (its tangential over its normal force, each summed over
@@ -859,7 +833,7 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
     origin), how far G moves along the table before the termination and in which phase of the
     drive (sim.drive.GripperDrive) it moves furthest, and what the termination does (_release)."""
     log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
-           for t, f in log]  # Drake names the finger's dome apart; MuJoCo's finger is one
+           for t, f in log]  # each engine names the finger's dome apart
     held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
     times, g_track = _g_track(poses)
     g = np.array([f["table"] for _, f in held]) if held else np.zeros((1, 3))
@@ -942,7 +916,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
     rows = []
     for item in which.split(","):
         name, k = item.split(":")
-        scene = _scene(name, tip)
+        scene, _ = _started(_scene(name, tip))
         setup = replace(placement(scene, _plan(scene, seed))[1], max_contact_gap=MAX_GAP)
         params = trial_params(PRESETS["paper"], seed, int(k) + 1)[int(k)]
         mu_g = mj_trial.trial_spec(setup, params).friction.table
@@ -950,12 +924,8 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
         poses: dict[str, list] = {"mujoco": [], "drake": []}
         results = {}
         if "mujoco" in engines:
-            watch = mj_trial._Watch
-            mj_trial._Watch = _mujoco_forces(logs["mujoco"])
-            try:
-                results["mujoco"] = mj_trial.run_trial(setup, params, int(k), seed, record=poses["mujoco"])
-            finally:
-                mj_trial._Watch = watch
+            results["mujoco"] = mj_trial.run_trial(setup, params, int(k), seed, record=poses["mujoco"],
+                                                   contact_log=logs["mujoco"])
         results["drake"] = run_drake_trial(setup, params, int(k), seed, record=poses["drake"],
                                            contact_log=logs["drake"])
         for engine in engines:

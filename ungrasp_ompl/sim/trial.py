@@ -412,6 +412,25 @@ class _Watch:
         # tangent, so their normal parts add up)
         self.rows = 1 if model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else 2 * (3 - 1)
 
+    def forces(self, model, data) -> dict[str, NDArray[np.float64]]:
+        """The force (N, world frame, 3) each kind of geometry (table, thumb, finger, finger_tip,
+        solid) exerts on the object now, summed over its contacts, as Drake's watch gives it
+        (sim.drake_trial)."""
+        import mujoco
+
+        out: dict[str, NDArray[np.float64]] = {}
+        f6 = np.zeros(6)
+        for i, (g1, g2) in enumerate(data.contact.geom.tolist()):
+            if self.object not in (g1, g2):
+                continue
+            kind = self.kind[g2 if g1 == self.object else g1]
+            if kind is None:
+                continue
+            mujoco.mj_contactForce(model, data, i, f6)
+            on_g2 = data.contact.frame[i].reshape(3, 3).T @ f6[:3]  # along the normal from geom1 to geom2
+            out[kind] = out.get(kind, np.zeros(3)) + (-on_g2 if g1 == self.object else on_g2)
+        return out
+
     def _normal(self, force, adr: int) -> float:
         """The normal force (N) of the contact whose constraint rows start at adr (-1: none)."""
         if adr < 0:
@@ -705,10 +724,14 @@ def trial_mjcf(setup: TrialSetup, params: TrialParams) -> str:
 
 
 def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int | None = None,
-              record: list | None = None, stop_at_failure: bool = True) -> TrialResult:
+              record: list | None = None, stop_at_failure: bool = True,
+              contact_log: list | None = None) -> TrialResult:
     """Simulate one trial of a placement and judge it (see Outcome). record: when a list is given,
     (time s from the drive's start, 4x4 world pose of the object) is appended after the settling
-    (time 0), after every control tick, and once after the rest (the 3D view shows it). Without
+    (time 0), after every control tick, and once after the rest (the 3D view shows it).
+    contact_log: when a list is given, (time s from the drive's start, the forces on the object by
+    kind at the end of the tick, _Watch.forces) after every control tick, as Drake's trial logs
+    them (sim.drake_trial.run_drake_trial); a trial that logs runs to its end. Without
     it a trial stops once its grip is lost, since nothing after it can change the verdicts (a failed
     trial's final pose is where the object was then; stop_at_failure=False goes on, as a
     benchmark of a whole trial does), and once the world is still during the retreat
@@ -741,19 +764,22 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     def look() -> _Tick:
         return watch.look(data, ids.object_body, ids.finger_body, setup.b_point)
 
+    watching = record is not None or contact_log is not None  # a trial that records runs to its end
     for k in range(1, len(drive.times)):
-        if judge.lost is not None and record is None and stop_at_failure:  # nothing after it changes either verdict
+        if judge.lost is not None and not watching and stop_at_failure:  # nothing after it changes either verdict
             break
         data.ctrl[ids.actuator] = max(drive.opening[k] - setup.servo_squeeze, 0.0)
         _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         t = float(drive.times[k])
         if record is not None:
             record.append((t, _pose(data, ids.object_body)))
-        if record is None and t >= judge.lifting and stillness.settled(data, t):
+        if contact_log is not None:
+            contact_log.append((t, watch.forces(model, data)))
+        if not watching and t >= judge.lifting and stillness.settled(data, t):
             settled = True  # nothing left can move what lies on the table
             break
         judge.tick(k, t, look, frame)
-    if ((judge.lost is None or not stop_at_failure) and not settled) or record is not None:
+    if ((judge.lost is None or not stop_at_failure) and not settled) or watching:
         mujoco.mj_step(model, data, nstep=max(1, round(setup.sim.rest_time / spec.timestep)))
 
     final = _pose(data, ids.object_body)
