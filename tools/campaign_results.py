@@ -721,9 +721,9 @@ def table_steps_pooled(*docs: dict) -> str:
 
 TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worlds, "readme": table_readme,
           "readme_worlds": table_readme_worlds, "grip_rule": table_grip_rule, "landing": table_landing,
-          "landing_scenes": table_landing_scenes, "wf_trials": table_wf_trials, "wf_needed": table_wf_needed, "wf_cage": table_wf_cage,
-          "wf_forces": table_wf_forces, "engines": table_engines, "versus": table_versus, "steps": table_steps,
-          "steps_pooled": table_steps_pooled}
+          "landing_scenes": table_landing_scenes, "wf_trials": table_wf_trials, "wf_needed": table_wf_needed,
+          "wf_cage": table_wf_cage, "wf_forces": table_wf_forces, "engines": table_engines, "versus": table_versus,
+          "steps": table_steps, "steps_pooled": table_steps_pooled}
 
 
 def table(spec: str) -> str:
