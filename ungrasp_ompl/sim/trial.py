@@ -731,8 +731,8 @@ def run_trial(setup: TrialSetup, params: TrialParams, trial: int = 0, seed: int 
     (time 0), after every control tick, and once after the rest (the 3D view shows it).
     contact_log: when a list is given, (time s from the drive's start, the forces on the object by
     kind at the end of the tick, _Watch.forces) after every control tick, as Drake's trial logs
-    them (sim.drake_trial.run_drake_trial); a trial that logs runs to its end. Without
-    it a trial stops once its grip is lost, since nothing after it can change the verdicts (a failed
+    them (sim.drake_trial.run_drake_trial). A trial that records or logs runs to its end; without
+    either it stops once its grip is lost, since nothing after it can change the verdicts (a failed
     trial's final pose is where the object was then; stop_at_failure=False goes on, as a
     benchmark of a whole trial does), and once the world is still during the retreat
     (Stillness), where nothing after it can either. A failure of the strict verdict alone (a
