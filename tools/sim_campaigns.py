@@ -421,6 +421,9 @@ def main() -> None:
     ap.add_argument("--contacts-study", default=None, metavar="NAME",
                     help="with --contacts: the study's name in the results file (default contacts, "
                          "contacts_thumb_point, ..._flat_tip); a name given starts its rows' labels")
+    ap.add_argument("--contacts-world", action="append", default=[], metavar="KEY=VALUE",
+                    help="with --contacts: run the trials in this world (simulate --world's keys, repeatable; "
+                         "e.g. friction=0.2, the control's), each row's label saying so")
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
                     help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
                          "--contacts of the rows whose trials are run (flat: the edge rows')")
@@ -459,7 +462,8 @@ def main() -> None:
     if drake and args.table is None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
-        contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study)
+        contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study,
+                       World.parse(args.contacts_world))
         return
     TIMESTEP = args.timestep
     if args.worlds is not None:
@@ -895,12 +899,14 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
             "g_moved_most_mm": per_phase.get(phase) if phase else None}
 
 
-def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None) -> None:
+def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
+                   world: World = World()) -> None:
     """Trials of the base rows (OBJECT:TRIAL,...; with tip "flat" the edge rows') in both engines
     with their contact forces logged; their summaries into
     docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches the object in Drake
     (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made. study: the study's name
-    in the file, its rows' labels then starting with it (None: named by thumb and tip)."""
+    in the file, its rows' labels then starting with it (None: named by thumb and tip); world: the
+    world the trials run in (the nominal one: the base rows' own)."""
     import shlex
 
     from campaign_results import merge_study
@@ -917,7 +923,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
     for item in which.split(","):
         name, k = item.split(":")
         scene, _ = _started(_scene(name, tip))
-        setup = replace(placement(scene, _plan(scene, seed))[1], max_contact_gap=MAX_GAP)
+        setup = replace(placement(scene, _plan(scene, seed))[1], max_contact_gap=MAX_GAP, world=world)
         params = trial_params(PRESETS["paper"], seed, int(k) + 1)[int(k)]
         mu_g = mj_trial.trial_spec(setup, params).friction.table
         logs: dict[str, list] = {"mujoco": [], "drake": []}
@@ -933,7 +939,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
             # how far the object lies out of the manipulation plane when the drive starts, the settling done
             row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
             label = (f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
-                     + (", flat tip" if tip == "flat" else ""))
+                     + (", flat tip" if tip == "flat" else "") + ("" if world.nominal else f", {world.describe()}"))
             rows.append({"label": label, "object": name, "trial": int(k),
                          "engine": engine if thumb == "pad" else f"{engine} (thumb point)", **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
