@@ -86,7 +86,9 @@ table hold the object, the table's friction use (its tangential over its normal 
 trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
 how far G moves along the table before the termination (and in which phase most) and after it
 begins, and the finger's mean force on the object in the termination. With `--tip flat` the
-trials are the edge rows' (the flat finger tip).
+trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
+that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
+study beside the others in the file.
 
 `--pair FILE.json` sets the Drake rows a run wrote into FILE beside MuJoCo's rows of the same keys
 as MuJoCo's file has them now, with the Fisher test again, and runs no trial: after a MuJoCo file
