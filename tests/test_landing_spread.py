@@ -4,6 +4,7 @@ model's mean landing, and the scene file refuses what the model cannot do."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import pytest
@@ -60,19 +61,30 @@ def test_a_bound_no_plan_keeps_fails_with_both_spreads():
     assert isinstance(result.evidence["without_p_dpsi"], str)
 
 
-def test_the_modelled_aim_moves_the_hand_back_by_the_mean_predicted_landing():
-    """robot.landing modelled: the aim is minus the model's mean landing in the world's x, y, no turn."""
+def test_the_modelled_aim_moves_the_hand_back_by_the_mean_predicted_landing_and_the_kept_offset():
+    """robot.landing modelled: the aim is minus the model's mean landing in the world's x, y, no
+    turn; robot.landing_offset moves it back that much further along GB, GB's direction being the
+    one along which the prediction's world offset lies."""
     scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
     assert scene.robot.landing is Landing.MODELLED
     result = plan(scene, planner="lattice")
-    x, y = predict_landing(scene, result).world
-    assert modelled_aim(scene, result) == Aim(-x, -y, 0.0) and (x, y) != (0.0, 0.0)
+    prediction = predict_landing(scene, result)
+    (x, y), (ux, uy) = prediction.world, prediction.direction
+    assert math.hypot(ux, uy) == pytest.approx(1.0, abs=1e-12)
+    assert (x, y) == pytest.approx((prediction.along * ux, prediction.along * uy), abs=1e-15)
+    for offset in (0.0, 0.0012, -0.0007):
+        aimed = replace(scene, robot=replace(scene.robot, landing_offset=offset))
+        aim = modelled_aim(aimed, result)
+        assert (aim.x, aim.y, aim.turn) == pytest.approx((-x - offset * ux, -y - offset * uy, 0.0), abs=1e-15)
+    assert (x, y) != (0.0, 0.0)
 
 
 @pytest.mark.parametrize("edit, field", [
     ({"robot": {"landing": "modelled", "termination": "rotate"}}, "robot.landing"),
     ({"planning": {"max_landing_spread": -0.001}}, "planning.max_landing_spread"),
     ({"planning": {"max_landing_spread": "wide"}}, "planning.max_landing_spread"),
+    ({"robot": {"landing": "planned", "landing_offset": -0.001}}, "robot.landing_offset"),
+    ({"robot": {"landing": "modelled", "landing_offset": -1.2}}, "robot.landing_offset"),
 ])
 def test_the_scene_file_refuses_what_the_model_cannot_do(edit, field):
     doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())

@@ -741,6 +741,8 @@ class ReleasePrediction:
     """The fall starts where the pinch leaves the object if it carries it through the plan's P_dpsi legs."""
     start: ReleaseStart = ReleaseStart(0.0, 0.0)
     """The object's pose when the termination begins."""
+    direction: tuple[float, float] = (1.0, 0.0)
+    """GB's direction in the world's x, y (a unit vector)."""
 
     @property
     def low(self) -> float:
@@ -800,4 +802,5 @@ def predict_release(setup: ReleaseSetup, mu_g: float, mu_b: float, termination: 
     world = frame[:2, 0] * along
     return ReleasePrediction(along, 0.0, (float(world[0]), float(world[1])), nominal.offset,
                              max(w.along for w in worlds) - min(w.along for w in worlds), nominal.carried,
-                             tuple(worlds), nominal.over_tip, termination, carried, setup.start)
+                             tuple(worlds), nominal.over_tip, termination, carried, setup.start,
+                             (float(frame[0, 0]), float(frame[1, 0])))

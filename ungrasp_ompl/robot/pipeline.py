@@ -189,9 +189,11 @@ def _pincer_termination(scene: Scene, pose: NDArray, angle: float, links: Pincer
 def modelled_aim(scene: Scene, plan: Plan) -> Aim:
     """The aim of robot.landing modelled: the hand moved back by the offset at which the model of
     the fall (planning.predicted_landing.predict_landing) lands the object on average over the friction's
-    range and both cones, in the world's x, y (m); no turn (the planar model has none)."""
-    x, y = predict_landing(scene, plan).world
-    return Aim(-x, -y, 0.0)
+    range and both cones, and by robot.landing_offset along GB beyond it, in the world's x, y (m);
+    no turn (the planar model has none)."""
+    prediction = predict_landing(scene, plan)
+    x, y = np.add(prediction.world, np.multiply(prediction.direction, scene.robot.landing_offset))
+    return Aim(-float(x), -float(y), 0.0)
 
 
 def execute(scene: Scene, plan: Plan, aim: Aim | None = None) -> Execution:

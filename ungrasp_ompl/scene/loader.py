@@ -35,6 +35,10 @@ MAX_LENGTH = 10.0
 MAX_FRICTION = 10.0
 #: Largest magnitude of any number in a scene: no field means anything beyond it.
 MAX_MAGNITUDE = 1e6
+#: Largest landing offset a scene may give (m): a release that lands a centimetre from where the
+#: model of the fall puts it is not one an offset should correct, and millimetres typed as metres
+#: are caught.
+MAX_LANDING_OFFSET = 0.01
 #: Largest joint torque a pincer may give, N m: a hand-sized gripper's motor, beyond it a typo.
 MAX_TORQUE = 100.0
 
@@ -202,7 +206,8 @@ class SceneReader:
         m = self.mapping(value, "robot")
         self.known(m, "robot", {"base", "palm_depth", "home_deg", "contact_speed", "termination",
                                 "termination_opening", "termination_angle_deg", "retreat_height", "start_press",
-                                "end_press", "touch_off", "landing", "landing_pairs", "object", "gripper"})
+                                "end_press", "touch_off", "landing", "landing_offset", "landing_pairs", "object",
+                                "gripper"})
         d = RobotOptions()
         base = d.base
         if "base" in m:
@@ -231,6 +236,11 @@ class SceneReader:
         if landing == Landing.MODELLED and term == Termination.ROTATE:
             self.fail("robot.landing", "modelled needs an opening termination (open, open_symmetric or open_lift): "
                       "the model of the fall has no turn about the thumb's tip")
+        offset = self.number(m, "robot.landing_offset", "landing_offset", minimum=-MAX_LANDING_OFFSET,
+                             maximum=MAX_LANDING_OFFSET, unit=" m", default=d.landing_offset)
+        if offset and landing != Landing.MODELLED:
+            self.fail("robot.landing_offset", f"only with landing modelled (got landing {landing}): the other "
+                      "aims measure the whole landing, so an offset on top would count it twice")
         pairs = m.get("landing_pairs", d.landing_pairs)
         if isinstance(pairs, bool) or not isinstance(pairs, int) or not 1 <= pairs <= 64:
             self.fail("robot.landing_pairs", f"must be a whole number from 1 to 64, got {pairs!r}")
@@ -265,6 +275,7 @@ class SceneReader:
             end_press=end_press,
             touch_off=self.flag(m, "robot.touch_off", "touch_off"),
             landing=Landing(landing),
+            landing_offset=offset,
             landing_pairs=pairs,
             object_position=obj_pos,
             object_yaw=obj_yaw,

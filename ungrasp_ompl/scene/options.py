@@ -180,6 +180,11 @@ class RobotOptions:
     it: robot.pipeline.Aim), expected (corrected by where it puts it on average under the
     `paper` errors, over a range of worlds) or modelled (corrected by where the model of the fall
     puts it on average over the friction's range and both cones)."""
+    landing_offset: float = 0.0
+    """With landing modelled: how far along GB the release lands beyond where the model of the fall
+    puts it, on average over the errors and worlds it is measured in (m, + toward B; measured on the
+    cell by a few releases, or in the simulator by tools/landing_offset.py); the aim moves the hand
+    back by it too (docs/model.md 11.17)."""
     landing_pairs: int = 4
     """Antithetic pairs of `paper` draws whose simulated releases landing expected averages
     (count); each pair costs two trials when the plan is executed."""

@@ -178,7 +178,8 @@ class SceneSimulation:
         if scene.robot.landing is Landing.MODELLED:
             lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to where the model of the "
                          "object's fall puts it on average over friction 0.7 to 1.3 times the scene's and either "
-                         "friction-cone model")
+                         "friction-cone model" + (f", and {1000 * scene.robot.landing_offset:+.2f} mm along GB beyond it "
+                                                  "(robot.landing_offset)" if scene.robot.landing_offset else ""))
         elif scene.robot.landing is not Landing.PLANNED:
             where = ("with no error put the object" if scene.robot.landing is Landing.SIMULATED else
                      f"put the object on average over {scene.robot.landing_pairs} pairs of draws of the paper's "
