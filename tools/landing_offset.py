@@ -62,7 +62,8 @@ def measured(name: str, seed: int, pairs: int, jobs: int) -> dict:
     setup = placement(scene, result)[1]
     landing = expected_landing(setup, pairs, RunOptions(jobs=jobs))
     along = float(np.dot(landing.offset, model.direction))
-    across = float(np.cross(model.direction, landing.offset))
+    (ux, uy), (ox, oy) = model.direction, landing.offset
+    across = ux * oy - uy * ox
     return {"label": f"{name}, plan seed {seed}", "scene": name, "plan_seed": seed,
             "primitives": " ".join(str(p.type) for p in result.primitives), "pairs": landing.pairs,
             "model_mm": model.along * 1e3, "sim_mm": along * 1e3, "sim_across_mm": across * 1e3,
