@@ -451,13 +451,15 @@ def table_landing(doc: dict) -> str:
 def table_landing_scenes(doc: dict) -> str:
     """table_landing of the plans the campaign runs, from the scenes' own starts and under their own
     objective (tools/landing_check.py --scene-starts)."""
-    return _landing_table(doc, (("record-0121-starts", "the scene's plan"),))
+    return _landing_table(doc, (("record-0121-starts", "the scene's plan"),), kept=True)
 
 
-def _landing_table(doc: dict, studies: tuple[tuple[str, str], ...]) -> str:
-    """The landing table of the studies given, each as (study, how its plans are named)."""
+def _landing_table(doc: dict, studies: tuple[tuple[str, str], ...], kept: bool = False) -> str:
+    """The landing table of the studies given, each as (study, how its plans are named); kept: with
+    a last column, the model's mean with the scene's robot.landing_offset less the simulated mean."""
     lines = ["| plan | world | planned | model | simulated (along / across) | model - simulated "
-             "| model mean / simulated mean (n) |", "|---|---|---|---|---|---|---|"]
+             "| model mean / simulated mean (n) |" + (" with the offset - simulated mean |" if kept else ""),
+             "|---|---|---|---|---|---|---|" + ("---|" if kept else "")]
     for study, plan in studies:
         first = None
         for r in _study(doc, study):
@@ -473,9 +475,18 @@ def _landing_table(doc: dict, studies: tuple[tuple[str, str], ...]) -> str:
                 simulated, diff = r["sim_outcome"].replace("_", " "), ""
             means = "" if r["n"] == 0 else f"{_f(doc, r, 'model_mean_mm')} / {_f(doc, r, 'sim_mean_mm')} ({r['n']})"
             lines.append(f"| {'' if name == first else name} | {r['world']} | {_f(doc, r, 'planned_mm')} | "
-                         f"{_f(doc, r, 'model_mm')} | {simulated} | {diff} | {means} |")
+                         f"{_f(doc, r, 'model_mm')} | {simulated} | {diff} | {means} |"
+                         + (f" {_kept_diff(doc, r)} |" if kept else ""))
             first = name
     return "\n".join(lines)
+
+
+def _kept_diff(doc: dict, r: dict) -> str:
+    """The model's mean with the scene's offset less the simulated mean (mm), bold past the target."""
+    if r.get("mean_kept_minus_sim_mm") is None:
+        return ""
+    text = _f(doc, r, "mean_kept_minus_sim_mm")
+    return f"**{text}**" if abs(r["mean_kept_minus_sim_mm"]) > LANDING_TARGET_MM else text
 
 
 def _leg(name: str) -> str:

@@ -125,7 +125,8 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
     scene_start: the shipped scene and its own objective, as the campaign plans it)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
     scene = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
-    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+    offset = scene.robot.landing_offset
+    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED, landing_offset=0.0))
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)
     if not spread_bound:
@@ -181,7 +182,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
                      "model_planned_mm": [x * 1e3 for x in planned], "model_mm": [x * 1e3 for x in through],
                      "model_from_sim_start_mm": [x * 1e3 for x in from_sim],
                      "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3})
-    return {"object": name, "predict_s": predict_s, "primitives": [str(p.type) for p in plan.primitives],
+    return {"object": name, "predict_s": predict_s, "landing_offset_mm": offset * 1e3, "primitives": [str(p.type) for p in plan.primitives],
             "carried_start_g_mm": carried.start.g * 1e3, "carried_start_theta_deg": math.degrees(carried.start.theta),
             "plan_start_theta_deg": math.degrees(base.start.theta),
             "plan_sb_mm": float(np.dot(np.subtract(base.hand.tip, (base.body.length * math.cos(base.start.theta),
@@ -277,7 +278,8 @@ FORMATS = {**{k: "{:.2f}" for k in ("planned_mm", "model_mm", "from_sim_start_mm
                                     "carried_g_mm", "carried_theta_deg", "plan_theta_deg", "plan_sb_mm",
                                     "model_span_mm", "sim_span_mm", "sim_across_abs_mm", "carried_mm")},
            "step_change_mm": "{:.3f}",
-           **{k: "{:+.2f}" for k in ("model_minus_sim_mm", "mean_model_minus_sim_mm", "from_sim_start_minus_sim_mm")},
+           **{k: "{:+.2f}" for k in ("model_minus_sim_mm", "mean_model_minus_sim_mm", "from_sim_start_minus_sim_mm",
+                                    "mean_kept_minus_sim_mm", "landing_offset_mm")},
            "predict_ms": "{:.0f}", "seconds": "{:.0f}", "minutes": "{:.0f}"}
 #: The worlds over which a plan's landing spreads (the model's Coulomb worlds of the scenes' range).
 SPREAD_WORLDS = ("nominal", "friction x0.7", "friction x1.3")
@@ -303,6 +305,7 @@ def study_rows(study: str, results: list[dict]) -> list[dict]:
                      "predict_ms": res["predict_s"] * 1e3, "carried_g_mm": res["carried_start_g_mm"],
                      "carried_theta_deg": res["carried_start_theta_deg"], "plan_theta_deg": res["plan_start_theta_deg"],
                      "plan_sb_mm": res["plan_sb_mm"], "carried_mm": p["carried_m"] * 1e3,
+                     "landing_offset_mm": res["landing_offset_mm"],
                      "step_change_mm": max(w["step_change_mm"] for w in res["worlds"]),
                      "model_span_mm": max(model) - min(model),
                      "sim_span_mm": max(placed) - min(placed) if len(placed) == len(spread) else None})
@@ -322,6 +325,8 @@ def study_rows(study: str, results: list[dict]) -> list[dict]:
                 "sim_mean_mm": w["sim_mean_along_mm"],
                 "mean_model_minus_sim_mm": (None if w["sim_mean_along_mm"] is None
                                             else w["model_mean_mm"] - w["sim_mean_along_mm"]),
+                "mean_kept_minus_sim_mm": (None if w["sim_mean_along_mm"] is None else
+                                           w["model_mean_mm"] + res["landing_offset_mm"] - w["sim_mean_along_mm"]),
                 "draw_outcomes": w["draw_outcomes"], "sim_start_g_mm": w["sim_start_g_mm"],
                 "sim_start_theta_deg": w["sim_start_theta_deg"], "sim_start_sb_mm": w["sim_start_sb_mm"]})
     return rows
