@@ -13,7 +13,8 @@ the simulation reached), sim 0-err (the simulated landing along GB with no error
 across (the simulated landing across GB), outcome (the no-error trial's), model mean and sim mean
 (over the no-error trial and the drawn ones that placed the object, the model at each draw's
 friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
-thumb tip) when the termination began. A pyramidal world's model is the pyramid's two bounds.
+thumb tip) when the termination began. The results file also holds each scene's
+robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A pyramidal world's model is the pyramid's two bounds.
 A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
 drawn trials draw no friction error, and the model at such a draw takes the world's friction alone.
 
