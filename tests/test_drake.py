@@ -194,23 +194,43 @@ def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_en
         assert math.degrees(math.acos(min(1.0, final[2, 2]))) < 0.05, engine
 
 
-@pytest.mark.slow
-def test_a_fifth_of_the_friction_fails_in_both_engines():
-    """The negative control: the puzzle piece's lattice plan, executed and aimed as simulate runs it,
-    no error drawn, in a world with a fifth of every friction coefficient, fails in MuJoCo and in
-    Drake: the grip is lost (both verdicts), or the piece is dragged along the table and put down
-    more than sim.max_error from its target (as tests/test_simulation.py's control allows)."""
+def _fifth_friction_control():
+    """The puzzle piece's lattice plan, executed and aimed as simulate runs it, in a world with a
+    fifth of every friction coefficient (the trial setup)."""
     from ungrasp_ompl.planning import plan
-    from ungrasp_ompl.sim.outcome import Outcome
     from ungrasp_ompl.sim.plan_trials import placement
-    from ungrasp_ompl.sim.trial import run_trial
 
     scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
     _, setup = placement(scene, plan(scene, planner="lattice"))
-    setup = replace(setup, world=World(friction=0.2))
-    for trial in (run_trial(setup, TrialParams()), run_drake_trial(setup, TrialParams())):
-        assert not trial.success, trial.cause()
-        assert trial.outcome is Outcome.OFF_TARGET or not trial.placed, trial.cause()
+    return replace(setup, world=World(friction=0.2))
+
+
+def _fails_the_control(trial) -> bool:
+    """The negative control's verdict: the grip is lost (both verdicts), or the piece is dragged
+    along the table and put down more than sim.max_error from its target (as
+    tests/test_simulation.py's control allows)."""
+    from ungrasp_ompl.sim.outcome import Outcome
+
+    return not trial.success and (trial.outcome is Outcome.OFF_TARGET or not trial.placed)
+
+
+@pytest.mark.slow
+def test_a_fifth_of_the_friction_fails_in_mujoco():
+    """The negative control, no error drawn, fails in MuJoCo."""
+    from ungrasp_ompl.sim.trial import run_trial
+
+    trial = run_trial(_fifth_friction_control(), TrialParams())
+    assert _fails_the_control(trial), trial.cause()
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="Drake's table holds G beyond its friction coefficient (docs/model.md 11.19): "
+                   "aimed with the puzzle piece's landing offset, the control places the piece in Drake")
+def test_a_fifth_of_the_friction_fails_in_drake():
+    """The same negative control in Drake. It does not hold there: the trial keeps its grip where
+    MuJoCo's loses it, and puts the piece down on its target (strict: an unexpected pass fails)."""
+    trial = run_drake_trial(_fifth_friction_control(), TrialParams())
+    assert _fails_the_control(trial), trial.cause()
 
 
 def test_a_flat_finger_pushes_the_pick_along_the_picks_face_normal():
