@@ -17,8 +17,9 @@ from ungrasp_ompl.mechanics.contact import Primitive
 from ungrasp_ompl.planning.predicted_landing import predict_landing
 from ungrasp_ompl.planning import plan
 from ungrasp_ompl.planning.result import PlanOutcome
-from ungrasp_ompl.robot.pipeline import Aim, modelled_aim
+from ungrasp_ompl.robot.pipeline import modelled_aim
 from ungrasp_ompl.scene.options import Landing
+from ungrasp_ompl.sim.plan_trials import placement
 
 
 def _bounded(name: str, bound: float | None) -> Scene:
@@ -63,15 +64,15 @@ def test_a_bound_no_plan_keeps_fails_with_both_spreads():
 
 def test_the_modelled_aim_moves_the_hand_back_by_the_mean_predicted_landing_and_the_kept_offset():
     """robot.landing modelled: the aim is minus the model's mean landing in the world's x, y, no
-    turn; robot.landing_offset moves it back that much further along GB, GB's direction being the
-    one along which the prediction's world offset lies."""
+    turn; robot.landing_offset moves it back that much further along GB, whose direction is the
+    x axis of the target frame the trials judge the landing in."""
     scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
     assert scene.robot.landing is Landing.MODELLED
     result = plan(scene, planner="lattice")
     prediction = predict_landing(scene, result)
     (x, y), (ux, uy) = prediction.world, prediction.direction
     assert math.hypot(ux, uy) == pytest.approx(1.0, abs=1e-12)
-    assert (x, y) == pytest.approx((prediction.along * ux, prediction.along * uy), abs=1e-15)
+    assert (ux, uy) == pytest.approx(tuple(placement(scene, result)[1].target_pose[:2, 0]), abs=1e-12)
     for offset in (0.0, 0.0012, -0.0007):
         aimed = replace(scene, robot=replace(scene.robot, landing_offset=offset))
         aim = modelled_aim(aimed, result)

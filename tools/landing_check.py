@@ -14,7 +14,8 @@ across (the simulated landing across GB), outcome (the no-error trial's), model 
 (over the no-error trial and the drawn ones that placed the object, the model at each draw's
 friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
 thumb tip) when the termination began. The results file also holds each scene's
-robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A pyramidal world's model is the pyramid's two bounds.
+robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A
+pyramidal world's model is the pyramid's two bounds.
 A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
 drawn trials draw no friction error, and the model at such a draw takes the world's friction alone.
 
@@ -119,15 +120,21 @@ def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[flo
 STEP_CHECK = (1e-3, 1e-4)
 
 
+def unaimed_scene(stem: str) -> Scene:
+    """scenes/STEM.yaml with the hand as planned (robot.landing planned, no landing offset): the
+    release the studies measure, where no aim moves it."""
+    scene = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
+    return replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED, landing_offset=0.0))
+
+
 def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False,
           spread_bound: bool = True, scene_start: bool = False) -> dict:
     """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
     False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi;
     scene_start: the shipped scene and its own objective, as the campaign plans it)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
-    offset = scene.robot.landing_offset
-    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED, landing_offset=0.0))
+    offset = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml")).robot.landing_offset
+    scene = unaimed_scene(stem)
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)
     if not spread_bound:
@@ -183,7 +190,8 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
                      "model_planned_mm": [x * 1e3 for x in planned], "model_mm": [x * 1e3 for x in through],
                      "model_from_sim_start_mm": [x * 1e3 for x in from_sim],
                      "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3})
-    return {"object": name, "predict_s": predict_s, "landing_offset_mm": offset * 1e3, "primitives": [str(p.type) for p in plan.primitives],
+    return {"object": name, "predict_s": predict_s, "landing_offset_mm": offset * 1e3,
+            "primitives": [str(p.type) for p in plan.primitives],
             "carried_start_g_mm": carried.start.g * 1e3, "carried_start_theta_deg": math.degrees(carried.start.theta),
             "plan_start_theta_deg": math.degrees(base.start.theta),
             "plan_sb_mm": float(np.dot(np.subtract(base.hand.tip, (base.body.length * math.cos(base.start.theta),

@@ -38,10 +38,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from landing_check import OBJECTS, WORLDS, in_plane  # noqa: E402
+from landing_check import OBJECTS, WORLDS, in_plane, unaimed_scene  # noqa: E402
 from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
-from ungrasp_ompl.scene import Scene  # noqa: E402
-from ungrasp_ompl.scene.options import Landing  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS, TrialParams  # noqa: E402
 from ungrasp_ompl.sim.campaign import run_each  # noqa: E402
 from ungrasp_ompl.sim.landing import landing_offset  # noqa: E402
@@ -85,8 +83,7 @@ def draws(kind: str, pairs: int, seed: int) -> list[TrialParams]:
 
 def object_setup(name: str):
     """The object scene's placement as the campaign plans it, the hand as planned (no aim)."""
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{name}.yaml"))
-    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED))
+    scene = unaimed_scene(name)
     result = make_plan(scene, planner="RRTstar", time=1.0, seed=1)
     if not result.solved:
         raise SystemExit(f"{name}: no plan ({result.reason})")

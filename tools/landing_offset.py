@@ -26,7 +26,6 @@ import argparse
 import shlex
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,12 +34,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
+from landing_check import unaimed_scene  # noqa: E402
 from ungrasp_ompl.io import edited_yaml, parse_yaml, write_text_atomic  # noqa: E402
 from ungrasp_ompl.parallel import RunOptions  # noqa: E402
 from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
 from ungrasp_ompl.planning.predicted_landing import predict_landing  # noqa: E402
-from ungrasp_ompl.scene import Scene  # noqa: E402
-from ungrasp_ompl.scene.options import Landing  # noqa: E402
 from ungrasp_ompl.sim.landing import expected_landing  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
 
@@ -53,17 +51,15 @@ FORMATS = {**{k: "{:+.2f}" for k in ("model_mm", "sim_mm", "residual_mm", "offse
 
 def measured(name: str, seed: int, pairs: int, jobs: int) -> dict:
     """One plan's row: the model's mean landing along GB, the simulated mean, their difference (mm)."""
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{name}.yaml"))
-    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED, landing_offset=0.0))
+    scene = unaimed_scene(name)
     result = make_plan(scene, planner="RRTstar", time=1.0, seed=seed)
     if not result.solved:
         return {"label": f"{name}, plan seed {seed}", "scene": name, "plan_seed": seed, "unsolved": result.reason}
     model = predict_landing(scene, result)
     setup = placement(scene, result)[1]
     landing = expected_landing(setup, pairs, RunOptions(jobs=jobs))
-    along = float(np.dot(landing.offset, model.direction))
     (ux, uy), (ox, oy) = model.direction, landing.offset
-    across = ux * oy - uy * ox
+    along, across = ux * ox + uy * oy, ux * oy - uy * ox
     return {"label": f"{name}, plan seed {seed}", "scene": name, "plan_seed": seed,
             "primitives": " ".join(str(p.type) for p in result.primitives), "pairs": landing.pairs,
             "model_mm": model.along * 1e3, "sim_mm": along * 1e3, "sim_across_mm": across * 1e3,

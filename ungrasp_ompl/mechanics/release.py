@@ -723,8 +723,8 @@ class ReleasePrediction:
     spread: each friction factor alike, within one Coulomb's cone 1/2 and the pyramid's bounds 1/4 each."""
     across: float
     """The landed offset across GB (m): 0, the planar model says nothing across the plane."""
-    world: tuple[float, float]
-    """(along, across) in the world's x, y (m)."""
+    direction: tuple[float, float]
+    """GB's direction in the world's x, y (a unit vector)."""
     nominal: float
     """The offset along GB with the scene's friction and Coulomb's cone (m)."""
     spread: float
@@ -741,8 +741,11 @@ class ReleasePrediction:
     """The fall starts where the pinch leaves the object if it carries it through the plan's P_dpsi legs."""
     start: ReleaseStart = ReleaseStart(0.0, 0.0)
     """The object's pose when the termination begins."""
-    direction: tuple[float, float] = (1.0, 0.0)
-    """GB's direction in the world's x, y (a unit vector)."""
+
+    @property
+    def world(self) -> tuple[float, float]:
+        """(along, across) in the world's x, y (m): the offset along GB's direction (across is 0)."""
+        return self.along * self.direction[0], self.along * self.direction[1]
 
     @property
     def low(self) -> float:
@@ -799,8 +802,6 @@ def predict_release(setup: ReleaseSetup, mu_g: float, mu_b: float, termination: 
     nominal = kept.get((round(mu_g, 12), round(mu_b, 12))) or fall(setup, mu_g, mu_b)
     along = float(np.dot(weights, [w.along for w in worlds]) / np.sum(weights))
     frame = np.array(setup.frame) if setup.frame is not None else np.eye(4)
-    world = frame[:2, 0] * along
-    return ReleasePrediction(along, 0.0, (float(world[0]), float(world[1])), nominal.offset,
+    return ReleasePrediction(along, 0.0, (float(frame[0, 0]), float(frame[1, 0])), nominal.offset,
                              max(w.along for w in worlds) - min(w.along for w in worlds), nominal.carried,
-                             tuple(worlds), nominal.over_tip, termination, carried, setup.start,
-                             (float(frame[0, 0]), float(frame[1, 0])))
+                             tuple(worlds), nominal.over_tip, termination, carried, setup.start)
