@@ -62,22 +62,26 @@ def test_a_bound_no_plan_keeps_fails_with_both_spreads():
     assert isinstance(result.evidence["without_p_dpsi"], str)
 
 
-def test_the_modelled_aim_moves_the_hand_back_by_the_mean_predicted_landing_and_the_kept_offset():
-    """robot.landing modelled: the aim is minus the model's mean landing in the world's x, y, no
-    turn; robot.landing_offset moves it back that much further along GB, whose direction is the
-    x axis of the target frame the trials judge the landing in."""
+def test_the_modelled_aim_moves_the_hand_back_by_the_middle_of_the_predicted_landings_and_the_kept_offset():
+    """robot.landing modelled: the aim is minus the middle of the model's landings over its worlds
+    (the lowest and the highest alike far from it, record 0123) in the world's x, y, no turn;
+    robot.landing_offset moves it back that much further along GB, whose direction is the x axis of
+    the target frame the trials judge the landing in."""
     scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
     assert scene.robot.landing is Landing.MODELLED
     result = plan(scene, planner="lattice")
     prediction = predict_landing(scene, result)
-    (x, y), (ux, uy) = prediction.world, prediction.direction
+    alongs = [w.along for w in prediction.worlds]
+    middle = (min(alongs) + max(alongs)) / 2
+    (ux, uy) = prediction.direction
+    x, y = middle * ux, middle * uy
     assert math.hypot(ux, uy) == pytest.approx(1.0, abs=1e-12)
     assert (ux, uy) == pytest.approx(tuple(placement(scene, result)[1].target_pose[:2, 0]), abs=1e-12)
     for offset in (0.0, 0.0012, -0.0007):
         aimed = replace(scene, robot=replace(scene.robot, landing_offset=offset))
         aim = modelled_aim(aimed, result)
         assert (aim.x, aim.y, aim.turn) == pytest.approx((-x - offset * ux, -y - offset * uy, 0.0), abs=1e-15)
-    assert (x, y) != (0.0, 0.0)
+    assert (x, y) != (0.0, 0.0) and abs(middle - prediction.along) > 1e-5  # the middle, not the mean
 
 
 @pytest.mark.parametrize("edit, field", [

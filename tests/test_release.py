@@ -272,6 +272,8 @@ def test_the_prediction_of_a_plan(pick):
     p = predict_landing(scene, plan)
     alongs = [w.along for w in p.worlds]
     assert p.spread == pytest.approx(max(alongs) - min(alongs), abs=1e-15) and p.low <= p.along <= p.high
+    # the middle: no world's landing lies further from it than half the spread, and both ends that far
+    assert max(abs(a - p.middle) for a in alongs) == pytest.approx(p.spread / 2, abs=1e-15)
     nominal = [w for w in p.worlds if w.friction == 1.0 and w.cone == "elliptic"]
     assert nominal and nominal[0].along == p.nominal
     assert all(w.landed for w in p.worlds)

@@ -654,7 +654,7 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
 def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
     """The shipped tangram (robot.landing modelled, planning.max_landing_spread 4 mm): every piece's
     plan keeps its predicted landing within the bound over the friction range and both cones, and
-    every piece takes its whole modelled aim (the hand moved back by the mean predicted landing, no
+    every piece takes its whole modelled aim (the hand moved back by the middle of the predicted landings, no
     turn), which fits between the walls and the pieces down, with lattice plans and with RRT*."""
     from ungrasp_ompl.planning.predicted_landing import predict_landing
     from ungrasp_ompl.robot.pipeline import modelled_aim
@@ -717,6 +717,12 @@ def test_modelled_aims_are_executed_once_and_as_modelled(two_shipped, monkeypatc
         assert len(calls) == 1 and calls[0]["aims"] is not None
         for name in ("times", "positions", "velocities", "accelerations"):
             assert np.array_equal(getattr(aimed.execution.trajectory, name), getattr(fresh.trajectory, name)), name
+    # a scene's landing offset moves the aim alike whether it is made from the plan's record or not
+    for p in tiling.placements:
+        kept = replace(p.scene, robot=replace(p.scene.robot, landing_offset=4e-4))
+        bare_plan = replace(p.plan, predicted_landing=None)
+        assert tuple(sim_tiling._modelled_aim(kept, p.plan)) == tuple(modelled_aim(kept, bare_plan))
+        assert tuple(modelled_aim(kept, bare_plan)) != tuple(modelled_aim(p.scene, bare_plan))
 
 
 _TIMINGS = {"time_to_first_solution_s", "planning_time_s", "setup_time_s", "time_s"}

@@ -748,6 +748,13 @@ class ReleasePrediction:
         return self.along * self.direction[0], self.along * self.direction[1]
 
     @property
+    def middle(self) -> float:
+        """The middle of the offsets along GB over the worlds, (low + high) / 2 (m): the point from
+        which the farthest world's landing lies least far, what robot.landing modelled aims by
+        (record 0123)."""
+        return (self.low + self.high) / 2
+
+    @property
     def low(self) -> float:
         """The smallest offset along GB over the worlds (m)."""
         return min(w.along for w in self.worlds)
@@ -760,7 +767,7 @@ class ReleasePrediction:
     def to_dict(self) -> dict[str, Any]:
         """plan.json's predicted_landing (docs/plan-json.md)."""
         return {"along_m": self.along, "across_m": self.across, "world_m": list(self.world),
-                "nominal_m": self.nominal, "spread_m": self.spread, "low_m": self.low, "high_m": self.high,
+                "middle_m": self.middle, "direction": list(self.direction), "nominal_m": self.nominal, "spread_m": self.spread, "low_m": self.low, "high_m": self.high,
                 "carried_m": self.carried, "over_tip": self.over_tip, "termination": self.termination,
                 "carried_through_p_dpsi": self.carried_through, "start_g_m": self.start.g,
                 "start_theta_rad": self.start.theta,

@@ -187,13 +187,18 @@ def _pincer_termination(scene: Scene, pose: NDArray, angle: float, links: Pincer
 
 
 def modelled_aim(scene: Scene, plan: Plan) -> Aim:
-    """The aim of robot.landing modelled: the hand moved back by the offset at which the model of
-    the fall (planning.predicted_landing.predict_landing) lands the object on average over the friction's
-    range and both cones, and by robot.landing_offset along GB beyond it, in the world's x, y (m);
-    no turn (the planar model has none)."""
+    """The aim of robot.landing modelled: the hand moved back along GB by the middle of the range
+    over which the model of the fall (planning.predicted_landing.predict_landing) lands the object
+    with the friction's range and both cones (record 0123), and by robot.landing_offset beyond it,
+    in the world's x, y (m); no turn (the planar model has none)."""
     prediction = predict_landing(scene, plan)
-    x, y = np.add(prediction.world, np.multiply(prediction.direction, scene.robot.landing_offset))
-    return Aim(-float(x), -float(y), 0.0)
+    return aim_along(prediction.middle + scene.robot.landing_offset, prediction.direction)
+
+
+def aim_along(along: float, direction: tuple[float, float]) -> Aim:
+    """The aim that moves the hand back by along (m) in the direction (a unit vector in the world's
+    x, y): undoes a landing that far along it; no turn."""
+    return Aim(-float(along * direction[0]), -float(along * direction[1]), 0.0)
 
 
 def execute(scene: Scene, plan: Plan, aim: Aim | None = None) -> Execution:

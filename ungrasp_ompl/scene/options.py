@@ -62,9 +62,9 @@ class Landing(StrEnum):
     #: the mean landing of robot.landing_pairs antithetic pairs of simulated releases
     #: (docs/model.md 11.12).
     EXPECTED = "expected"
-    #: Where the model of the fall (mechanics.release) puts it on average over friction 0.7-1.3 times
-    #: the scene's and both friction cones: the hand is moved back by that offset, no release
-    #: simulated (docs/model.md 11.17); an opening termination only.
+    #: Where the model of the fall (mechanics.release) puts it over friction 0.7-1.3 times the
+    #: scene's and both friction cones: the hand is moved back by the middle of that range (record
+    #: 0123), no release simulated (docs/model.md 11.17); an opening termination only.
     MODELLED = "modelled"
 
 
@@ -178,8 +178,8 @@ class RobotOptions:
     """Where the hand aims the object: planned (the plan's last state turned flat about G),
     simulated (corrected by where the release, simulated with no error, puts it and how it turns
     it: robot.pipeline.Aim), expected (corrected by where it puts it on average under the
-    `paper` errors, over a range of worlds) or modelled (corrected by where the model of the fall
-    puts it on average over the friction's range and both cones)."""
+    `paper` errors, over a range of worlds) or modelled (corrected by the middle of where the model
+    of the fall puts it over the friction's range and both cones)."""
     landing_offset: float = 0.0
     """With landing modelled: how far along GB the release lands beyond where the model of the fall
     puts it, on average over the errors and worlds it is measured in (m, + toward B; measured on the

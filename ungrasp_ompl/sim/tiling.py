@@ -32,7 +32,7 @@ from ..parallel import RunOptions
 from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
 from ..planning.result import Plan
 from ..robot.model import RobotModel
-from ..robot.pipeline import Aim, CollisionError, Execution, execute_sequence, modelled_aim
+from ..robot.pipeline import Aim, CollisionError, Execution, aim_along, execute_sequence, modelled_aim
 from ..robot.placement import densify
 from ..robot.trajectory import JointTrajectory
 from ..scene import Scene
@@ -197,12 +197,11 @@ def _modelled_aim(scene: Scene, plan: Plan) -> Aim:
     """robot.pipeline.modelled_aim of the plan: from the predicted landing planning recorded in the
     plan (planning.max_landing_spread predicts it for the plan as it is, with the same object,
     contacts, robot and table), else predicted here. The record's world offset is the prediction's
-    own floats, so the aim is the one modelled_aim computes."""
+    own floats, so the aim is the one modelled_aim computes, the scene's landing offset included."""
     record = plan.predicted_landing
     if isinstance(record, dict) and record.get("carried_through_p_dpsi") is True \
-            and record.get("termination") == str(scene.robot.termination) and "world_m" in record:
-        x, y = record["world_m"]
-        return Aim(-x, -y, 0.0)
+            and record.get("termination") == str(scene.robot.termination) and "middle_m" in record:
+        return aim_along(record["middle_m"] + scene.robot.landing_offset, tuple(record["direction"]))
     return modelled_aim(scene, plan)
 
 

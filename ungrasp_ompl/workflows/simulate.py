@@ -176,8 +176,8 @@ class SceneSimulation:
                          f"most) and turned {yaw['mean']:.2f} deg on average ({yaw['max']:.2f} deg at most)"
                          if report.successes else ""))
         if scene.robot.landing is Landing.MODELLED:
-            lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to where the model of the "
-                         "object's fall puts it on average over friction 0.7 to 1.3 times the scene's and either "
+            lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to the middle of where the "
+                         "model of the object's fall puts it over friction 0.7 to 1.3 times the scene's and either "
                          "friction-cone model" + (f", and {1000 * scene.robot.landing_offset:+.2f} mm along GB beyond it "
                                                   "(robot.landing_offset)" if scene.robot.landing_offset else ""))
         elif scene.robot.landing is not Landing.PLANNED:
