@@ -92,7 +92,9 @@ study beside the others in the file.
 
 `--pair FILE.json` sets the Drake rows a run wrote into FILE beside MuJoCo's rows of the same keys
 as MuJoCo's file has them now, with the Fisher test again, and runs no trial: after a MuJoCo file
-is written again, its Drake counterpart is compared with the new rows.
+is written again, its Drake counterpart is compared with the new rows. `--mujoco FILE.json` names
+the MuJoCo file to set them beside (a run of the same code and scenes); the default is
+docs/results/campaigns.json.
 
 The landings the hands are aimed by are kept for the run (UNGRASP_OMPL_CACHE, a temporary
 directory unless it is set), so that a plan's rows in several worlds share one aim.
@@ -155,6 +157,9 @@ MUJOCO_RESULTS = ROOT / "docs" / "results" / "campaigns.json"
 MUJOCO_TANGRAM = ROOT / "docs" / "results" / "campaigns_tangram.json"
 #: MuJoCo's rows from the least-slide starts (record 0118), beside which Drake's from them are set.
 MUJOCO_LEAST_SLIDE = ROOT / "docs" / "results" / "campaigns_least_slide.json"
+#: The MuJoCo results file the Drake rows are set beside (--mujoco), or None for the one their rows
+#: choose (paired_with_mujoco).
+MUJOCO_SOURCE: Path | None = None
 GROUP_ORDER = ("base", "edge", "control", "tangram")
 #: The --only name of each row group.
 GROUP_OPTION = {"base": "base", "edge": "edge", "control": "controls", "tangram": "tangram"}
@@ -442,10 +447,19 @@ def main() -> None:
                          "centroids (record 0116, the builder's), Drake's Convex, or record 0115's (refused)")
     ap.add_argument("--engine", choices=("mujoco", "drake"), default="mujoco",
                     help="the physics engine of every row; drake: beside MuJoCo's rows of docs/results/campaigns.json")
+    ap.add_argument("--mujoco", type=Path, default=None, metavar="FILE",
+                    help="with --engine drake or --pair: the MuJoCo results file (docs/results/*.json) whose rows "
+                         "of the same keys the Drake rows are set beside; default: docs/results/campaigns.json "
+                         "(the tangram's and the least-slide starts' their own)")
     ap.add_argument("--pair", type=Path, default=None, metavar="FILE",
                     help="set the Drake rows of FILE (a results file --engine drake wrote) beside MuJoCo's rows as "
                          "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
+    global MUJOCO_SOURCE
+    if args.mujoco is not None:
+        MUJOCO_SOURCE = args.mujoco.resolve()
+        if not MUJOCO_SOURCE.is_file() or not MUJOCO_SOURCE.is_relative_to(ROOT):
+            ap.error(f"--mujoco: {args.mujoco} is not a results file of this repository")
     global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
     if args.pair is not None:
         pair_again(args.pair)
@@ -757,15 +771,15 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
 
 def paired_with_mujoco(doc: dict) -> dict:
     """A Drake results file's rows, each with MuJoCo's row of the same key and the two-sided Fisher
-    test's p of the two counts, from MUJOCO_TANGRAM when every row is the tangram's, from
-    MUJOCO_LEAST_SLIDE with --start least-slide, else from MUJOCO_RESULTS (a row MuJoCo's file lacks
-    gets None for both); the file names its MuJoCo file."""
+    test's p of the two counts, from MUJOCO_SOURCE when --mujoco names it, else from MUJOCO_TANGRAM
+    when every row is the tangram's, from MUJOCO_LEAST_SLIDE with --start least-slide, else from
+    MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both); the file names its MuJoCo file."""
     import json
 
     from campaign_results import fisher_p
 
-    source = MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
-        MUJOCO_LEAST_SLIDE if START == "least-slide" else MUJOCO_RESULTS)
+    source = MUJOCO_SOURCE or (MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
+        MUJOCO_LEAST_SLIDE if START == "least-slide" else MUJOCO_RESULTS))
     mujoco = json.loads(source.read_text())
     theirs = {r["key"]: r for r in mujoco["rows"]}
     for r in doc["rows"]:
@@ -789,9 +803,11 @@ def pair_again(path: Path) -> None:
 
     from ungrasp_ompl.io import write_text_atomic
 
-    global START
+    global START, MUJOCO_SOURCE
     doc = json.loads(path.read_text())
     START = "least-slide" if "--start least-slide" in doc["command"] else "scene"
+    if MUJOCO_SOURCE is None and "--mujoco " in doc["command"]:  # the file the run was set beside
+        MUJOCO_SOURCE = ROOT / doc["mujoco_source"]
     fresh = paired_with_mujoco({k: v for k, v in doc.items() if not k.startswith("mujoco_")})
     fresh["paired"] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
                        "produced": date.today().isoformat()}
@@ -817,7 +833,8 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
     rel = table.resolve().relative_to(ROOT) if table.resolve().is_relative_to(ROOT) else table
     command = (f"python tools/sim_campaigns.py --engine drake --drake-hull {args.drake_hull} --trials {args.trials} "
                f"--jobs {args.jobs} --seed {args.seed} --table {rel} --only {groups}"
-               + ("" if START == "scene" else f" --start {START}"))
+               + ("" if START == "scene" else f" --start {START}")
+               + ("" if MUJOCO_SOURCE is None else f" --mujoco {MUJOCO_SOURCE.relative_to(ROOT)}"))
     doc = paired_with_mujoco({**table_json(table, command, date.today().isoformat()), "runs": runs})
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
     print(f"wrote {table}\nwrote {path}")
