@@ -455,12 +455,12 @@ def main() -> None:
                     help="set the Drake rows of FILE (a results file --engine drake wrote) beside MuJoCo's rows as "
                          "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
     global MUJOCO_SOURCE
     if args.mujoco is not None:
         MUJOCO_SOURCE = args.mujoco.resolve()
         if not MUJOCO_SOURCE.is_file() or not MUJOCO_SOURCE.is_relative_to(ROOT):
             ap.error(f"--mujoco: {args.mujoco} is not a results file of this repository")
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
     if args.pair is not None:
         pair_again(args.pair)
         return

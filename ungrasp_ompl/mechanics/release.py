@@ -767,7 +767,8 @@ class ReleasePrediction:
     def to_dict(self) -> dict[str, Any]:
         """plan.json's predicted_landing (docs/plan-json.md)."""
         return {"along_m": self.along, "across_m": self.across, "world_m": list(self.world),
-                "middle_m": self.middle, "direction": list(self.direction), "nominal_m": self.nominal, "spread_m": self.spread, "low_m": self.low, "high_m": self.high,
+                "middle_m": self.middle, "direction": list(self.direction), "nominal_m": self.nominal,
+                "spread_m": self.spread, "low_m": self.low, "high_m": self.high,
                 "carried_m": self.carried, "over_tip": self.over_tip, "termination": self.termination,
                 "carried_through_p_dpsi": self.carried_through, "start_g_m": self.start.g,
                 "start_theta_rad": self.start.theta,

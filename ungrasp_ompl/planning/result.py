@@ -657,8 +657,9 @@ class Plan:
             lines.append(f"  where the object lands, by the model of its fall (docs/model.md 11.17): "
                          f"on average {_along(p['along_m'])}; {_span(p['low_m'], p['high_m'])} "
                          f"with friction 0.7 to 1.3 times the scene's and either friction-cone model (a spread of "
-                         f"{1000 * p['spread_m']:.2f} mm)" + (f"; the middle of that range, where robot.landing modelled "
-                                                           f"aims, {_along(p['middle_m'])}" if "middle_m" in p else ""))
+                         f"{1000 * p['spread_m']:.2f} mm)"
+                         + (f"; the middle of that range, where robot.landing modelled aims, {_along(p['middle_m'])}"
+                            if "middle_m" in p else ""))
         first = self.time_to_first_solution_s
         first = f"the first path after {first:.3f} s" if first is not None else "the planner found no path"
         why = self.stopped_by.describe() if self.stopped_by is not None else "it did not run"
