@@ -449,3 +449,25 @@ def test_pairing_again_sets_drake_s_rows_beside_mujoco_s_rows_as_they_are_now(tm
         assert {k: v for k, v in r.items() if k not in ENGINE_KEYS} == {k: v for k, v in before.items()
                                                                         if k not in ENGINE_KEYS}
     assert again["paired"]["command"].endswith(f"--pair {path}")
+
+
+def test_pairing_again_keeps_the_mujoco_file_a_drake_run_was_set_beside(tmp_path, monkeypatch):
+    """sim_campaigns --pair on a Drake file set beside a MuJoCo file other than the one its rows
+    would choose today (the base rows from the previous starts, beside
+    campaigns_previous_starts.json): it is paired again with that same file's rows."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    doc = results.load("campaigns_drake")
+    assert doc["mujoco_source"] == "docs/results/campaigns_previous_starts.json"
+    path = tmp_path / "drake.json"
+    path.write_text(json.dumps(doc))
+    monkeypatch.setattr(sys, "argv", ["sim_campaigns.py", "--pair", str(path)])
+    campaigns.pair_again(path)
+    again = json.loads(path.read_text())
+    assert again["mujoco_source"] == doc["mujoco_source"]
+    mujoco = {r["key"]: r for r in results.load("campaigns_previous_starts")["rows"]}
+    for r in again["rows"]:
+        m = mujoco.get(r["key"])
+        assert r["mujoco"] == (None if m is None else {k: m[k] for k in r["mujoco"]}), r["key"]

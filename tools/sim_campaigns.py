@@ -769,16 +769,17 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
     return doc
 
 
-def paired_with_mujoco(doc: dict) -> dict:
+def paired_with_mujoco(doc: dict, source: Path | None = None) -> dict:
     """A Drake results file's rows, each with MuJoCo's row of the same key and the two-sided Fisher
-    test's p of the two counts, from MUJOCO_SOURCE when --mujoco names it, else from MUJOCO_TANGRAM
-    when every row is the tangram's, from MUJOCO_LEAST_SLIDE with --start least-slide, else from
-    MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both); the file names its MuJoCo file."""
+    test's p of the two counts, from source when given, else from MUJOCO_SOURCE when --mujoco names
+    it, else from MUJOCO_TANGRAM when every row is the tangram's, from MUJOCO_LEAST_SLIDE with
+    --start least-slide, else from MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both);
+    the file names its MuJoCo file."""
     import json
 
     from campaign_results import fisher_p
 
-    source = MUJOCO_SOURCE or (MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
+    source = source or MUJOCO_SOURCE or (MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
         MUJOCO_LEAST_SLIDE if START == "least-slide" else MUJOCO_RESULTS))
     mujoco = json.loads(source.read_text())
     theirs = {r["key"]: r for r in mujoco["rows"]}
@@ -795,20 +796,20 @@ def paired_with_mujoco(doc: dict) -> dict:
 def pair_again(path: Path) -> None:
     """Set the Drake rows of the results file at path beside MuJoCo's rows of the same keys as
     MuJoCo's file has them now, with the Fisher test again (paired_with_mujoco, from the MuJoCo file
-    the rows' start and group choose), the file's other fields kept; no trial runs. The command is
-    recorded in the file (`paired`)."""
+    --mujoco names, else the one the file was set beside, else the one the rows' start and group
+    choose), the file's other fields kept; no trial runs. The command is recorded in the file
+    (`paired`)."""
     import json
     import shlex
     from datetime import date
 
     from ungrasp_ompl.io import write_text_atomic
 
-    global START, MUJOCO_SOURCE
+    global START
     doc = json.loads(path.read_text())
     START = "least-slide" if "--start least-slide" in doc["command"] else "scene"
-    if MUJOCO_SOURCE is None and "--mujoco " in doc["command"]:  # the file the run was set beside
-        MUJOCO_SOURCE = ROOT / doc["mujoco_source"]
-    fresh = paired_with_mujoco({k: v for k, v in doc.items() if not k.startswith("mujoco_")})
+    beside = ROOT / doc["mujoco_source"] if "mujoco_source" in doc else None
+    fresh = paired_with_mujoco({k: v for k, v in doc.items() if not k.startswith("mujoco_")}, MUJOCO_SOURCE or beside)
     fresh["paired"] = {"command": shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]),
                        "produced": date.today().isoformat()}
     write_text_atomic(path, json.dumps(fresh, indent=1, ensure_ascii=False) + "\n")
