@@ -737,12 +737,23 @@ TABLES = {"objects": table_objects, "single": table_single, "worlds": table_worl
           "steps": table_steps, "steps_pooled": table_steps_pooled}
 
 
+#: The tables of one campaign file that, given several (SOURCE+SOURCE:NAME), show their rows joined,
+#: in the files' order: row groups of the same code run apart (`sim_campaigns.py --only`).
+JOINED = frozenset({"objects", "single", "worlds", "readme_worlds"})
+
+
+def joined(docs: list[dict]) -> dict:
+    """One campaign file of docs' rows, in their order; the first file's other fields."""
+    return {**docs[0], "rows": [r for doc in docs for r in doc["rows"]]}
+
+
 def table(spec: str) -> str:
-    """The table SOURCE:NAME, or SOURCE+SOURCE:NAME for a table of two files."""
+    """The table SOURCE:NAME, or SOURCE+SOURCE:NAME for a table of two files (JOINED: their rows joined)."""
     sources, name = spec.split(":")
     if name not in TABLES:
         raise KeyError(f"table {spec!r}: no table {name!r}")
-    return TABLES[name](*(load(source) for source in sources.split("+")))
+    docs = [load(source) for source in sources.split("+")]
+    return TABLES[name](joined(docs)) if name in JOINED else TABLES[name](*docs)
 
 
 # --- a study's results file ----------------------------------------------------------------------
