@@ -19,7 +19,9 @@ tests/test_doc_figures.py) compares:
   than letters, digits, `_`, `.` and `+` made one `-`), FIELD one of FIELDS; a summary.json of
   `simulate` (one row) and the whole file's own fields (`produced`, `command`) take no ROW;
 * `<!-- table SOURCE:NAME -->` ... `<!-- /table -->` a table built from the file (TABLES;
-  `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`; `steps` any number, each run at one step).
+  `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`; `steps` any number, each run at one step;
+  `objects`, `single`, `worlds` and `readme_worlds` of several files show their rows joined, the
+  row groups of one code run apart; `readme` takes a row a file lacks from the next that has it).
 
 A study's results file (`tools/landing_check.py --results`, `tools/world_failures.py --results`)
 holds rows of its own fields, with the key of their label, and `formats`: how each field is shown
