@@ -85,7 +85,9 @@ engine into docs/results/campaigns_drake_contacts.json (.md beside): while both 
 table hold the object, the table's friction use (its tangential over its normal force) against the
 trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
 how far G moves along the table before the termination (and in which phase most) and after it
-begins, and the finger's mean force on the object in the termination. With `--tip flat` the
+begins, and the finger's mean force on the object in the termination; and per object and engine
+run on three trials or more, how many fail and how the placement error ranks (Spearman) with G's
+slide from the termination on and with the table's grip over mu. With `--tip flat` the
 trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
 that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
 study beside the others in the file.
@@ -963,18 +965,57 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
             rows.append({"label": label, "object": name, "trial": int(k),
                          "engine": engine if thumb == "pad" else f"{engine} (thumb point)", **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
+    rows += _over_trials(rows)
     formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
                "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
                "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
                "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
                "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
-               "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}"}
+               "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
+               "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
+               "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}"}
     name = study or (("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""))
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", name,
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
                        rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials",
                        prefixed=study is not None)
     print(f"wrote {path}")
+
+
+def _over_trials(rows: list[dict]) -> list[dict]:
+    """Per object and engine run on more than two trials (contact_forces' rows): how many trials
+    fail, and whether the table's part tells which: the rank correlation (Spearman) of the
+    placement error with G's slide along the table from the termination on (rho_error_g_release)
+    and with the table's grip as a multiple of mu_G (rho_error_grip), and each one's mean over the
+    trials that fail and over those that succeed (None where there are none). The correlations
+    take the trials that end with the object down (an error to rank)."""
+    from scipy.stats import spearmanr
+
+    out = []
+    for name in dict.fromkeys(r["object"] for r in rows):
+        for engine in dict.fromkeys(r["engine"] for r in rows if r["object"] == name):
+            trials = [r for r in rows if r["object"] == name and r["engine"] == engine]
+            if len(trials) < 3:
+                continue
+            landed = [r for r in trials if r["error_mm"] is not None]  # a trial that ends held has no error
+            error = [r["error_mm"] for r in landed]
+            failed = [r for r in trials if r["outcome"] != "success"]
+            success = [r for r in trials if r["outcome"] == "success"]
+
+            def mean(group: list[dict], field: str) -> float | None:
+                return float(np.mean([r[field] for r in group])) if group else None
+
+            def rho(field: str) -> float | None:  # None where either side does not vary
+                value = float(spearmanr(error, [r[field] for r in landed])[0])
+                return None if math.isnan(value) else value
+
+            out.append({"label": f"{name}, {engine}: the trials", "object": name, "engine": engine,
+                        "trials": len(trials), "failed": len(failed),
+                        "rho_error_g_release": rho("g_moved_release_mm"), "rho_error_grip": rho("g_use_over_mu"),
+                        "g_release_failed_mm": mean(failed, "g_moved_release_mm"),
+                        "g_release_success_mm": mean(success, "g_moved_release_mm"),
+                        "grip_failed": mean(failed, "g_use_over_mu"), "grip_success": mean(success, "g_use_over_mu")})
+    return out
 
 
 def draw_engines(records: list[dict], path: Path) -> None:
