@@ -86,8 +86,9 @@ table hold the object, the table's friction use (its tangential over its normal 
 trial's mu at G, the mean size of each digit's force on the object and the table's normal force,
 how far G moves along the table before the termination (and in which phase most) and after it
 begins, and the finger's mean force on the object in the termination; and per object and engine
-run on three trials or more, how many fail and how the placement error ranks (Spearman) with G's
-slide from the termination on and with the table's grip over mu. With `--tip flat` the
+run on three trials or more, how many fail, how the placement error ranks (Spearman) with G's
+slide from the termination on and with the table's grip over mu, and where the object lands along
+GB and across it (each trial's landing is in its row). With `--tip flat` the
 trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
 that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
 study beside the others in the file.
@@ -933,8 +934,11 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
 
     from campaign_results import merge_study
 
+    from landing_check import in_plane
+
     from ungrasp_ompl.scene.perturbation import trial_params
     from ungrasp_ompl.sim import trial as mj_trial
+    from ungrasp_ompl.sim.landing import landing_offset
     from ungrasp_ompl.sim import drake_world
     from ungrasp_ompl.sim.drake_trial import run_drake_trial
 
@@ -958,6 +962,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
                                            contact_log=logs["drake"])
         for engine in engines:
             row = _summary(logs[engine], mu_g, results[engine], poses[engine], setup.drive)
+            # where it landed, in the plane's frame: along GB (+ toward B) and across it (mm)
+            along, across = in_plane(setup.target_pose, landing_offset(setup, np.array(results[engine].final_pose)))
+            row.update(landing_along_mm=1000 * along, landing_across_mm=1000 * across)
             # how far the object lies out of the manipulation plane when the drive starts, the settling done
             row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
             label = (f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
@@ -973,7 +980,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
                "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
                "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
                "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
-               "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}"}
+               "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
+               "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
+               "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}"}
     name = study or (("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""))
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", name,
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
@@ -987,8 +996,9 @@ def _over_trials(rows: list[dict]) -> list[dict]:
     fail, and whether the table's part tells which: the rank correlation (Spearman) of the
     placement error with G's slide along the table from the termination on (rho_error_g_release)
     and with the table's grip as a multiple of mu_G (rho_error_grip), and each one's mean over the
-    trials that fail and over those that succeed (None where there are none). The correlations
-    take the trials that end with the object down (an error to rank)."""
+    trials that fail and over those that succeed (None where there are none); and where the object
+    lands in the plane's frame, along GB and across it, its mean and standard deviation. These take
+    the trials that end with the object down (an error to rank, a landing)."""
     from scipy.stats import spearmanr
 
     out = []
@@ -1014,7 +1024,11 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "rho_error_g_release": rho("g_moved_release_mm"), "rho_error_grip": rho("g_use_over_mu"),
                         "g_release_failed_mm": mean(failed, "g_moved_release_mm"),
                         "g_release_success_mm": mean(success, "g_moved_release_mm"),
-                        "grip_failed": mean(failed, "g_use_over_mu"), "grip_success": mean(success, "g_use_over_mu")})
+                        "grip_failed": mean(failed, "g_use_over_mu"), "grip_success": mean(success, "g_use_over_mu"),
+                        "landing_along_mean_mm": mean(landed, "landing_along_mm"),
+                        "landing_along_sd_mm": float(np.std([r["landing_along_mm"] for r in landed])),
+                        "landing_across_mean_mm": mean(landed, "landing_across_mm"),
+                        "landing_across_sd_mm": float(np.std([r["landing_across_mm"] for r in landed]))})
     return out
 
 
