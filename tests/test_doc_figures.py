@@ -477,3 +477,21 @@ def test_a_table_of_two_campaign_files_shows_both_files_rows_in_order():
         both = _rows(results.table(f"{first}+{second}:{name}"))
         assert both == _rows(results.table(f"{first}:{name}")) + _rows(results.table(f"{second}:{name}"))
         assert len(both) > len(_rows(results.table(f"{first}:{name}")))
+
+
+def test_the_contacts_study_runs_the_drake_campaign_s_own_trials():
+    """The trials of the base rows run again with their forces logged are the campaign's: as many of
+    each object's fail in each engine as its campaign row (Drake's and the MuJoCo one set beside it)
+    lost of the same seed's trials."""
+    study = {r["key"]: r for r in results.load("campaigns_drake_contacts")["rows"]}
+    campaign = {r["key"]: r for r in results.load("campaigns_drake_middle_aim")["rows"]}
+    for name in ("guitar_pick", "puzzle_piece"):
+        row = campaign[f"base-{name}-rounded-tip"]
+        trials = [r for r in study.values() if r["key"].startswith(f"middle-aim-base-{name}-trial-")
+                  and r["engine"] == "drake"]
+        assert len(trials) == row["trials"]
+        assert sum(r["outcome"] != "success" for r in trials) == row["trials"] - row["successes"]
+        mujoco = [r for r in study.values() if r["key"].startswith(f"middle-aim-base-{name}-trial-")
+                  and r["engine"] == "mujoco"]
+        assert sum(r["outcome"] == "success" for r in mujoco) == len(mujoco)  # MuJoCo's row placed all of its 40
+        assert row["mujoco"]["successes"] == row["mujoco"]["trials"]
