@@ -298,7 +298,7 @@ def test_each_run_gets_the_planner_options_whole_and_keeps_its_runs_csv_key(monk
         ("reference_asymmetric", "RRTstar", "0", "5", "0.4", "1500", "margin"),
         ("reference_asymmetric", "RRTstar", "1", "6", "0.4", "1500", "margin"),
         ("reference_asymmetric", LATTICE, "-1", "5", "0.4", "", "margin")]
-    assert [t.deadline for t in built] == [62.0, 62.0, 60.4]  # 5 x 0.4 s with a budget, else 0.4 s; + 60 s grace
+    assert [t.deadline for t in built] == [72.0, 72.0, 60.4]  # 30 x 0.4 s with a budget, else 0.4 s; + 60 s grace
 
 
 def test_a_task_needs_a_seed():

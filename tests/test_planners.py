@@ -149,3 +149,16 @@ def test_bench_says_why_a_planner_cannot_succeed():
     assert len(notes) == 2 and notes[0].startswith("FMT: lazy-roadmap: ") and "goal tree" in notes[1]
     column = next(c for c in SUMMARY_COLUMNS if c.csv_name == "known_limitation")
     assert column.value(fmt) == "lazy-roadmap"
+
+
+def test_a_seeded_run_stops_at_its_time_cap_only_beyond_its_budget_and_says_so():
+    """A seeded run stops on its iteration budget; only a budget it cannot reach in SEEDED_TIME_CAP
+    times its --time stops it on time, and then the plan records it (stopped_by "time", fewer
+    iterations than the budget)."""
+    from ungrasp_ompl.planning.setup import SEEDED_TIME_CAP
+
+    time = 0.002
+    setup = UngraspSetup(Scene.from_file(REFERENCE), PlannerOptions(time=time, seed=1, iterations=10**8))
+    plan = setup.solve()
+    assert plan.stopped_by == "time" and plan.iterations < 10**8
+    assert SEEDED_TIME_CAP * time <= plan.planning_time_s < SEEDED_TIME_CAP * time + 1.0

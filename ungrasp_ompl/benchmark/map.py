@@ -35,7 +35,8 @@ from ..parallel.options import RunOptions, check_seed
 from ..parallel.runner import TaskStatus, open_runner
 from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
-from ..planning.setup import HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, lattice_plan, scene_objective
+from ..planning.setup import (HANG_GRACE_S, LATTICE, SEEDED_TIME_CAP, PlannerOptions, UngraspSetup, lattice_plan,
+                              scene_objective)
 from ..plots.common import cell_edges, pyplot, save_png
 from ..scene import Scene
 from ..scene.loader import read_yaml
@@ -390,7 +391,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     todo = [t for t in tasks if cell_key(t.alpha, t.friction_scale) not in kept]
     cells: dict[int, MapCell] = {}
     failed = 0
-    deadline = 5.0 * options.planner.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
+    deadline = SEEDED_TIME_CAP * options.planner.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
     with open_runner(options.run.jobs, options.run.cluster, fresh=False) as runner, stream:
         if progress:
             progress(MapProgress(resumed, len(tasks), resumed, 0, None))

@@ -121,7 +121,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     bn.add_argument("--jobs", type=int, default=None, help="parallel worker processes (default: all cores)")
     bn.add_argument("--seed", type=int, default=1, help="seed of the first run; run k gets seed + k")
     bn.add_argument("--iterations", type=int, default=None,
-                    help="planner iterations per run: runs become reproducible like plan --seed (5x --time as a "
+                    help="planner iterations per run: runs become reproducible like plan --seed (30x --time as a "
                          "hard cap); default: stop on wall time, like OMPL's Benchmark")
     bn.add_argument("--out", default="benchmark", help="output directory (default ./benchmark)")
     _add_cluster(bn)

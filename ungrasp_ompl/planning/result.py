@@ -663,6 +663,8 @@ class Plan:
         first = self.time_to_first_solution_s
         first = f"the first path after {first:.3f} s" if first is not None else "the planner found no path"
         why = self.stopped_by.describe() if self.stopped_by is not None else "it did not run"
+        if self.stopped_by is StoppedBy.TIME and self.seed is not None:
+            why += " before its iteration budget did, so the same seed may plan otherwise on a faster machine"
         lines.append(f"  planning took {self.planning_time_s:.2f} s, {first}; it stopped "
                      f"after {self.iterations} iterations because {why}; building the lattice took "
                      f"{self.setup_time_s:.2f} s")

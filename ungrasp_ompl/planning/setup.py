@@ -110,6 +110,10 @@ ITERATIONS_PER_SECOND = 6000
 #: share the time with their search rounds (measured: 1,000 calls take 0.45-0.85 s, 5,000 take
 #: 3.5-7.6 s on reference_asymmetric and guitar_pick on 2 cores).
 PLANNER_ITERATIONS_PER_SECOND = {"PRM": 1000, "PRMstar": 1000}
+#: A seeded run's hard cap on its time, as a multiple of its --time: a guard against a runaway, not a
+#: limit a slower or busier machine meets (the budget above takes 0.7-1.5 of --time on the reference
+#: machine), since a run the cap stops is not the plan its seed gives elsewhere.
+SEEDED_TIME_CAP = 30.0
 
 
 @dataclass(frozen=True)
@@ -119,7 +123,7 @@ class PlannerOptions:
     planner: str = "RRTstar"
     """An OMPL geometric planner by name (PLANNERS)."""
     time: float = 1.0
-    """Planning time (s); a seeded run: the size of its iteration budget, with 5x as a hard cap."""
+    """Planning time (s); a seeded run: the size of its iteration budget, with SEEDED_TIME_CAP times it as a hard cap."""
     seed: int | None = None
     """Seed of OMPL's random numbers: the same seed gives the same plan. None: not reproducible."""
     iterations: int | None = None
@@ -264,7 +268,7 @@ class UngraspSetup:
         if opts.seed is not None:
             rate = PLANNER_ITERATIONS_PER_SECOND.get(opts.planner, ITERATIONS_PER_SECOND)
             budget = budget or max(1, int(rate * opts.time))
-            cap = 5.0 * opts.time
+            cap = SEEDED_TIME_CAP * opts.time
         best_cost = getattr(self.planner, "bestCost", None)
         state = {"n": 0, "first": None, "stop": "", "best": math.inf}
         optimum = self.lattice_optimum if self.stop_at_optimum and opts.planner in TREE_PLANNERS else None
@@ -555,7 +559,7 @@ def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, i
     else:
         opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
         if planner in UNRULY_PLANNERS:
-            result = _plan_in_child(scene, opts, deadline=5.0 * time + HANG_GRACE_S)
+            result = _plan_in_child(scene, opts, deadline=SEEDED_TIME_CAP * time + HANG_GRACE_S)
         else:
             result = _plan_here(scene, opts, atlas)
     result = with_tolerance_floor(scene, result)
