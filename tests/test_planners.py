@@ -151,7 +151,7 @@ def test_bench_says_why_a_planner_cannot_succeed():
     assert column.value(fmt) == "lazy-roadmap"
 
 
-def test_a_seeded_run_stops_at_its_time_cap_only_beyond_its_budget_and_says_so():
+def test_a_seeded_run_stops_at_its_time_cap_only_beyond_its_budget_and_records_it():
     """A seeded run stops on its iteration budget; only a budget it cannot reach in SEEDED_TIME_CAP
     times its --time stops it on time, and then the plan records it (stopped_by "time", fewer
     iterations than the budget)."""

@@ -123,7 +123,7 @@ class PlannerOptions:
     planner: str = "RRTstar"
     """An OMPL geometric planner by name (PLANNERS)."""
     time: float = 1.0
-    """Planning time (s); a seeded run: the size of its iteration budget, with SEEDED_TIME_CAP times it as a hard cap."""
+    """Planning time (s); a seeded run: the size of its iteration budget, SEEDED_TIME_CAP times it its hard cap."""
     seed: int | None = None
     """Seed of OMPL's random numbers: the same seed gives the same plan. None: not reproducible."""
     iterations: int | None = None
@@ -559,7 +559,8 @@ def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, i
     else:
         opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
         if planner in UNRULY_PLANNERS:
-            result = _plan_in_child(scene, opts, deadline=SEEDED_TIME_CAP * time + HANG_GRACE_S)
+            result = _plan_in_child(scene, opts, deadline=(SEEDED_TIME_CAP if seed is not None else 1.0) * time
+                                    + HANG_GRACE_S)
         else:
             result = _plan_here(scene, opts, atlas)
     result = with_tolerance_floor(scene, result)
