@@ -982,7 +982,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
                "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
                "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
                "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
-               "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}"}
+               "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}",
+               "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
+               "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}"}
     name = study or (("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""))
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", name,
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
@@ -997,8 +999,10 @@ def _over_trials(rows: list[dict]) -> list[dict]:
     placement error with G's slide along the table from the termination on (rho_error_g_release)
     and with the table's grip as a multiple of mu_G (rho_error_grip), and each one's mean over the
     trials that fail and over those that succeed (None where there are none); and where the object
-    lands in the plane's frame, along GB and across it, its mean and standard deviation. These take
-    the trials that end with the object down (an error to rank, a landing)."""
+    lands in the plane's frame, along GB and across it, its mean and standard deviation; the mean
+    slide of G and the thumb's and the table's mean impulses along it from the termination on, and
+    how each impulse ranks with the landing along GB. These take the trials that end with the object
+    down (an error to rank, a landing)."""
     from scipy.stats import spearmanr
 
     out = []
@@ -1008,15 +1012,16 @@ def _over_trials(rows: list[dict]) -> list[dict]:
             if len(trials) < 3:
                 continue
             landed = [r for r in trials if r["error_mm"] is not None]  # a trial that ends held has no error
-            error = [r["error_mm"] for r in landed]
             failed = [r for r in trials if r["outcome"] != "success"]
             success = [r for r in trials if r["outcome"] == "success"]
 
-            def mean(group: list[dict], field: str) -> float | None:
-                return float(np.mean([r[field] for r in group])) if group else None
+            def mean(group: list[dict], field: str) -> float | None:  # over the rows that have the field
+                values = [r[field] for r in group if r.get(field) is not None]
+                return float(np.mean(values)) if values else None
 
-            def rho(field: str) -> float | None:  # None where either side does not vary
-                value = float(spearmanr(error, [r[field] for r in landed])[0])
+            def rho(field: str, against: str = "error_mm") -> float | None:  # None where either side does not vary
+                both = [r for r in landed if r.get(field) is not None]
+                value = float(spearmanr([r[against] for r in both], [r[field] for r in both])[0]) if len(both) > 2 else math.nan
                 return None if math.isnan(value) else value
 
             out.append({"label": f"{name}, {engine}: the trials", "object": name, "engine": engine,
@@ -1028,7 +1033,12 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "landing_along_mean_mm": mean(landed, "landing_along_mm"),
                         "landing_along_sd_mm": float(np.std([r["landing_along_mm"] for r in landed])),
                         "landing_across_mean_mm": mean(landed, "landing_across_mm"),
-                        "landing_across_sd_mm": float(np.std([r["landing_across_mm"] for r in landed]))})
+                        "landing_across_sd_mm": float(np.std([r["landing_across_mm"] for r in landed])),
+                        "g_release_mean_mm": mean(landed, "g_moved_release_mm"),
+                        "thumb_push_mean_mns": mean(landed, "thumb_push_release_mns"),
+                        "table_push_mean_mns": mean(landed, "table_push_release_mns"),
+                        "rho_along_thumb_push": rho("thumb_push_release_mns", "landing_along_mm"),
+                        "rho_along_table_push": rho("table_push_release_mns", "landing_along_mm")})
     return out
 
 
