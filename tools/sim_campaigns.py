@@ -1021,7 +1021,8 @@ def _over_trials(rows: list[dict]) -> list[dict]:
 
             def rho(field: str, against: str = "error_mm") -> float | None:  # None where either side does not vary
                 both = [r for r in landed if r.get(field) is not None]
-                value = float(spearmanr([r[against] for r in both], [r[field] for r in both])[0]) if len(both) > 2 else math.nan
+                value = (float(spearmanr([r[against] for r in both], [r[field] for r in both])[0])
+                         if len(both) > 2 else math.nan)
                 return None if math.isnan(value) else value
 
             out.append({"label": f"{name}, {engine}: the trials", "object": name, "engine": engine,
