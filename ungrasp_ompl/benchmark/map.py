@@ -35,7 +35,7 @@ from ..parallel.options import RunOptions, check_seed
 from ..parallel.runner import TaskStatus, open_runner
 from ..parallel.stream import RowStream
 from ..planning.result import PlanOutcome
-from ..planning.setup import (HANG_GRACE_S, LATTICE, SEEDED_TIME_CAP, PlannerOptions, UngraspSetup, lattice_plan,
+from ..planning.setup import (LATTICE, PlannerOptions, UngraspSetup, hang_deadline, lattice_plan,
                               scene_objective)
 from ..plots.common import cell_edges, pyplot, save_png
 from ..scene import Scene
@@ -391,7 +391,7 @@ def run_map(scene_path: str | os.PathLike[str], options: MapOptions,
     todo = [t for t in tasks if cell_key(t.alpha, t.friction_scale) not in kept]
     cells: dict[int, MapCell] = {}
     failed = 0
-    deadline = SEEDED_TIME_CAP * options.planner.time + HANG_GRACE_S + SIM_TRIAL_GRACE_S * options.simulate
+    deadline = hang_deadline(options.planner.time, budgeted=True) + SIM_TRIAL_GRACE_S * options.simulate
     with open_runner(options.run.jobs, options.run.cluster, fresh=False) as runner, stream:
         if progress:
             progress(MapProgress(resumed, len(tasks), resumed, 0, None))

@@ -23,7 +23,7 @@ from ..parallel.stream import RowStream
 from ..planning.margins import Objective
 from ..planning.plan_tolerance import tolerance
 from ..planning.result import Plan, PlanOutcome
-from ..planning.setup import (HANG_GRACE_S, LATTICE, SEEDED_TIME_CAP, PlannerOptions, UngraspSetup, lattice_plan,
+from ..planning.setup import (HANG_GRACE_S, LATTICE, PlannerOptions, UngraspSetup, hang_deadline, lattice_plan,
                               seed_ompl)
 from ..scene import Scene
 
@@ -90,7 +90,7 @@ class Task:
     def deadline(self) -> float:
         """Seconds after which the run's process is killed and the run counted as hung."""
         p = self.planner
-        return (SEEDED_TIME_CAP * p.time if p.iterations else p.time) + HANG_GRACE_S
+        return hang_deadline(p.time, bool(p.iterations))
 
 
 @dataclass(frozen=True)

@@ -116,6 +116,13 @@ PLANNER_ITERATIONS_PER_SECOND = {"PRM": 1000, "PRMstar": 1000}
 SEEDED_TIME_CAP = 30.0
 
 
+def hang_deadline(time: float, budgeted: bool) -> float:
+    """Seconds after which a planning process is killed and counted as hung: its run's hard cap
+    (SEEDED_TIME_CAP times time for a run that stops on an iteration budget, else time) and
+    HANG_GRACE_S."""
+    return (SEEDED_TIME_CAP * time if budgeted else time) + HANG_GRACE_S
+
+
 @dataclass(frozen=True)
 class PlannerOptions:
     """How to run the planner."""
@@ -559,8 +566,7 @@ def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, i
     else:
         opts = PlannerOptions(planner=planner, time=time, seed=seed, iterations=iterations, **options).validated()
         if planner in UNRULY_PLANNERS:
-            result = _plan_in_child(scene, opts, deadline=(SEEDED_TIME_CAP if seed is not None else 1.0) * time
-                                    + HANG_GRACE_S)
+            result = _plan_in_child(scene, opts, deadline=hang_deadline(time, seed is not None))
         else:
             result = _plan_here(scene, opts, atlas)
     result = with_tolerance_floor(scene, result)
