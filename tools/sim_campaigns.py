@@ -91,7 +91,8 @@ slide from the termination on and with the table's grip over mu, and where the o
 GB and across it (each trial's landing is in its row). With `--tip flat` the
 trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
 that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
-study beside the others in the file.
+study beside the others in the file. `--drake-step S` and `--drake-table PA_PER_M` run Drake's
+trials alone at another step or on a table of another stiffness (record 0125).
 
 `--pair FILE.json` sets the Drake rows a run wrote into FILE beside MuJoCo's rows of the same keys
 as MuJoCo's file has them now, with the Fisher test again, and runs no trial: after a MuJoCo file
@@ -444,6 +445,12 @@ def main() -> None:
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
+    ap.add_argument("--drake-step", type=float, default=None, metavar="S",
+                    help="with --contacts: Drake's time step (s) instead of sim.drake_trial.DRAKE_TIME_STEP; only "
+                         "Drake's rows are made, their labels saying so (record 0125)")
+    ap.add_argument("--drake-table", type=float, default=None, metavar="PA_PER_M",
+                    help="with --contacts: how fast the table's pressure rises with depth in Drake (Pa/m) instead of "
+                         "sim.drake_world's TABLE_MODULUS / TABLE_SLAB; only Drake's rows are made (record 0125)")
     ap.add_argument("--drake-hull", choices=("large-fanned", "convex", "fanned"), default="large-fanned",
                     help="with --engine drake: how the object's and the pieces' hulls reach Drake "
                          "(sim.drake_world.HULLS): Drake's division with large faces fanned from their "
@@ -482,7 +489,7 @@ def main() -> None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
         contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study,
-                       World.parse(args.contacts_world))
+                       World.parse(args.contacts_world), args.drake_step, args.drake_table)
         return
     TIMESTEP = args.timestep
     if args.worlds is not None:
@@ -923,13 +930,15 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
 
 
 def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
-                   world: World = World()) -> None:
+                   world: World = World(), drake_step: float | None = None, table_gradient: float | None = None) -> None:
     """Trials of the base rows (OBJECT:TRIAL,...; with tip "flat" the edge rows') in both engines
     with their contact forces logged; their summaries into
     docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches the object in Drake
     (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made. study: the study's name
     in the file, its rows' labels then starting with it (None: named by thumb and tip); world: the
-    world the trials run in (the nominal one: the base rows' own)."""
+    world the trials run in (the nominal one: the base rows' own); drake_step (s) and table_gradient
+    (Pa/m): Drake's time step and its table's stiffness instead of the builder's, only Drake's rows
+    then made (record 0125)."""
     import shlex
 
     from campaign_results import merge_study
@@ -939,11 +948,19 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
     from ungrasp_ompl.scene.perturbation import trial_params
     from ungrasp_ompl.sim import trial as mj_trial
     from ungrasp_ompl.sim.landing import landing_offset
-    from ungrasp_ompl.sim import drake_world
+    from ungrasp_ompl.sim import drake_trial, drake_world
     from ungrasp_ompl.sim.drake_trial import run_drake_trial
 
     drake_world.THUMB_PAD = thumb == "pad"
-    engines = ("mujoco", "drake") if thumb == "pad" else ("drake",)
+    changed = []  # what differs from the builder's Drake, in the rows' labels
+    if drake_step is not None:
+        drake_trial.DRAKE_TIME_STEP = drake_step
+        changed.append(f"step {drake_step * 1000:g} ms")
+    if table_gradient is not None:
+        drake_world.TABLE_MODULUS = table_gradient * drake_world.TABLE_SLAB
+        changed.append(f"table {table_gradient:g} Pa/m")
+    variant = ", ".join(([] if thumb == "pad" else ["thumb point"]) + changed)
+    engines = ("drake",) if variant else ("mujoco", "drake")
     started = time.perf_counter()
     rows = []
     for item in which.split(","):
@@ -968,9 +985,10 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
             # how far the object lies out of the manipulation plane when the drive starts, the settling done
             row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
             label = (f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")
+                     + "".join(f", {c}" for c in changed)
                      + (", flat tip" if tip == "flat" else "") + ("" if world.nominal else f", {world.describe()}"))
             rows.append({"label": label, "object": name, "trial": int(k),
-                         "engine": engine if thumb == "pad" else f"{engine} (thumb point)", **row})
+                         "engine": f"{engine} ({variant})" if variant else engine, **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
     rows += _over_trials(rows)
     formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
