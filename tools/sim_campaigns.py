@@ -91,8 +91,9 @@ slide from the termination on and with the table's grip over mu, and where the o
 GB and across it (each trial's landing is in its row). With `--tip flat` the
 trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
 that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
-study beside the others in the file. `--drake-step S` and `--drake-table PA_PER_M` run Drake's
-trials alone at another step or on a table of another stiffness (record 0125).
+study beside the others in the file. `--drake-step S`, `--drake-table PA_PER_M` and `--drake-pad
+PA_PER_M` run Drake's trials alone at another step, or with a table or pads of another stiffness
+(record 0125).
 
 `--pair FILE.json` sets the Drake rows a run wrote into FILE beside MuJoCo's rows of the same keys
 as MuJoCo's file has them now, with the Fisher test again, and runs no trial: after a MuJoCo file
@@ -451,6 +452,8 @@ def main() -> None:
     ap.add_argument("--drake-table", type=float, default=None, metavar="PA_PER_M",
                     help="with --contacts: how fast the table's pressure rises with depth in Drake (Pa/m) instead of "
                          "sim.drake_world's TABLE_MODULUS / TABLE_SLAB; only Drake's rows are made (record 0125)")
+    ap.add_argument("--drake-pad", type=float, default=None, metavar="PA_PER_M",
+                    help="with --contacts: the same for the digits' pads (sim.drake_world.PAD_GRADIENT; record 0125)")
     ap.add_argument("--drake-hull", choices=("large-fanned", "convex", "fanned"), default="large-fanned",
                     help="with --engine drake: how the object's and the pieces' hulls reach Drake "
                          "(sim.drake_world.HULLS): Drake's division with large faces fanned from their "
@@ -489,7 +492,8 @@ def main() -> None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
     if drake and args.contacts:
         contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study,
-                       World.parse(args.contacts_world), args.drake_step, args.drake_table)
+                       World.parse(args.contacts_world), args.drake_step, args.drake_table,
+                       args.drake_pad)
         return
     TIMESTEP = args.timestep
     if args.worlds is not None:
@@ -930,15 +934,16 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
 
 
 def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
-                   world: World = World(), drake_step: float | None = None, table_gradient: float | None = None) -> None:
+                   world: World = World(), drake_step: float | None = None, table_gradient: float | None = None,
+                   pad_gradient: float | None = None) -> None:
     """Trials of the base rows (OBJECT:TRIAL,...; with tip "flat" the edge rows') in both engines
     with their contact forces logged; their summaries into
     docs/results/campaigns_drake_contacts.json. thumb: how the thumb touches the object in Drake
     (sim.drake_world.THUMB_PAD); with "point" only Drake's rows are made. study: the study's name
     in the file, its rows' labels then starting with it (None: named by thumb and tip); world: the
-    world the trials run in (the nominal one: the base rows' own); drake_step (s) and table_gradient
-    (Pa/m): Drake's time step and its table's stiffness instead of the builder's, only Drake's rows
-    then made (record 0125)."""
+    world the trials run in (the nominal one: the base rows' own); drake_step (s), table_gradient and
+    pad_gradient (Pa/m): Drake's time step and its table's and pads' stiffness instead of the
+    builder's, only Drake's rows then made (record 0125)."""
     import shlex
 
     from campaign_results import merge_study
@@ -959,6 +964,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
     if table_gradient is not None:
         drake_world.TABLE_MODULUS = table_gradient * drake_world.TABLE_SLAB
         changed.append(f"table {table_gradient:g} Pa/m")
+    if pad_gradient is not None:
+        drake_world.PAD_GRADIENT = pad_gradient
+        changed.append(f"pads {pad_gradient:g} Pa/m")
     variant = ", ".join(([] if thumb == "pad" else ["thumb point"]) + changed)
     engines = ("drake",) if variant else ("mujoco", "drake")
     started = time.perf_counter()
