@@ -495,3 +495,22 @@ def test_the_contacts_study_runs_the_drake_campaign_s_own_trials():
                   and r["engine"] == "mujoco"]
         assert sum(r["outcome"] == "success" for r in mujoco) == len(mujoco)  # MuJoCo's row placed all of its 40
         assert row["mujoco"]["successes"] == row["mujoco"]["trials"]
+
+
+def test_the_contacts_studys_summaries_are_those_of_its_trials(tmp_path, monkeypatch):
+    """Every summary per object and engine in the contacts study's file is what sim_campaigns'
+    summaries make of that study's trial rows: made again (--contacts-summaries) on a copy of the
+    file, every row comes back the same, in the same order."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    doc = results.load("campaigns_drake_contacts")
+    assert any("trials" in r for r in doc["rows"])
+    (tmp_path / "docs" / "results").mkdir(parents=True)
+    path = tmp_path / "docs" / "results" / "campaigns_drake_contacts.json"
+    path.write_text(json.dumps(doc))
+    monkeypatch.setattr(campaigns, "ROOT", tmp_path)
+    campaigns.contact_summaries()
+    again = json.loads(path.read_text())
+    assert again["rows"] == doc["rows"]

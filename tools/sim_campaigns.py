@@ -433,6 +433,9 @@ def main() -> None:
     ap.add_argument("--contacts-study", default=None, metavar="NAME",
                     help="with --contacts: the study's name in the results file (default contacts, "
                          "contacts_thumb_point, ..._flat_tip); a name given starts its rows' labels")
+    ap.add_argument("--contacts-summaries", action="store_true",
+                    help="make every contacts study's summaries per object and engine again from its trials' rows "
+                         "(no trial runs), after the summaries learn a field")
     ap.add_argument("--contacts-world", action="append", default=[], metavar="KEY=VALUE",
                     help="with --contacts: run the trials in this world (simulate --world's keys, repeatable; "
                          "e.g. friction=0.2, the control's), each row's label saying so")
@@ -476,6 +479,9 @@ def main() -> None:
             ap.error(f"--mujoco: {args.mujoco} is not a results file of this repository")
     if args.pair is not None:
         pair_again(args.pair)
+        return
+    if args.contacts_summaries:
+        contact_summaries()
         return
     ENGINE = args.engine
     WORLD_TIP, START = args.tip, args.start
@@ -933,6 +939,22 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
             "g_moved_most_mm": per_phase.get(phase) if phase else None}
 
 
+#: How the contacts study's fields are shown (docs/results/campaigns_drake_contacts.md).
+CONTACT_FORMATS = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
+           "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
+           "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
+           "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
+           "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
+           "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
+           "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
+           "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
+           "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
+           "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}",
+           "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
+           "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}", "grip_mean": "{:.2f}",
+                   "landing_along_se_mm": "{:.2f}"}
+
+
 def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
                    world: World = World(), drake_step: float | None = None, table_gradient: float | None = None,
                    pad_gradient: float | None = None) -> None:
@@ -999,23 +1021,39 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
                          "engine": f"{engine} ({variant})" if variant else engine, **row})
             print(f"  {name} trial {k} in {engine}: {row}", file=sys.stderr, flush=True)
     rows += _over_trials(rows)
-    formats = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
-               "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
-               "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
-               "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
-               "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
-               "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
-               "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
-               "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
-               "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
-               "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}",
-               "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
-               "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}"}
     name = study or (("contacts" if thumb == "pad" else "contacts_thumb_point") + ("_flat_tip" if tip == "flat" else ""))
     path = merge_study(ROOT / "docs" / "results" / "campaigns_drake_contacts.json", name,
                        shlex.join(["python", "tools/sim_campaigns.py", *sys.argv[1:]]), time.perf_counter() - started,
-                       rows, formats, "The object's contact forces in MuJoCo and in Drake, the same trials",
+                       rows, CONTACT_FORMATS, "The object's contact forces in MuJoCo and in Drake, the same trials",
                        prefixed=study is not None)
+    print(f"wrote {path}")
+
+
+def contact_summaries() -> None:
+    """The summaries per object and engine in docs/results/campaigns_drake_contacts.json made again
+    from their studies' trial rows by _over_trials as it is now, nothing else changed and no trial
+    run: after _over_trials learns a field, the studies already run show it too. A study written
+    before the summaries were is left as it is."""
+    import json
+
+    from campaign_results import row_key, study_markdown
+
+    from ungrasp_ompl.io import write_text_atomic
+
+    path = ROOT / "docs" / "results" / "campaigns_drake_contacts.json"
+    doc = json.loads(path.read_text())
+    rows = []
+    for study in dict.fromkeys(r["study"] for r in doc["rows"]):
+        if not any("trials" in r for r in doc["rows"] if r["study"] == study):
+            rows += [r for r in doc["rows"] if r["study"] == study]
+            continue
+        kept = [r for r in doc["rows"] if r["study"] == study and "trials" not in r]  # its own row, its trials
+        prefix = f"{study}: " if any(r["label"].startswith(f"{study}: ") for r in kept if "trial" in r) else ""
+        summaries = [{**r, "label": prefix + r["label"]} for r in _over_trials([r for r in kept if "trial" in r])]
+        rows += kept + [{"key": row_key(r["label"]), **r, "study": study} for r in summaries]
+    doc = {**doc, "formats": {**doc["formats"], **CONTACT_FORMATS}, "rows": rows}
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+    write_text_atomic(path.with_suffix(".md"), study_markdown(doc) + "\n")
     print(f"wrote {path}")
 
 
@@ -1057,8 +1095,11 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "g_release_failed_mm": mean(failed, "g_moved_release_mm"),
                         "g_release_success_mm": mean(success, "g_moved_release_mm"),
                         "grip_failed": mean(failed, "g_use_over_mu"), "grip_success": mean(success, "g_use_over_mu"),
+                        "grip_mean": mean(trials, "g_use_over_mu"),
                         "landing_along_mean_mm": mean(landed, "landing_along_mm"),
                         "landing_along_sd_mm": float(np.std([r["landing_along_mm"] for r in landed])),
+                        "landing_along_se_mm": float(np.std([r["landing_along_mm"] for r in landed])
+                                                     / math.sqrt(len(landed))) if landed else None,
                         "landing_across_mean_mm": mean(landed, "landing_across_mm"),
                         "landing_across_sd_mm": float(np.std([r["landing_across_mm"] for r in landed])),
                         "g_release_mean_mm": mean(landed, "g_moved_release_mm"),
