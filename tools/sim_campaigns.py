@@ -941,17 +941,18 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
 
 #: How the contacts study's fields are shown (docs/results/campaigns_drake_contacts.md).
 CONTACT_FORMATS = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}", "g_use_p95": "{:.3f}",
-           "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
-           "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
-           "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
-           "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
-           "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
-           "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
-           "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
-           "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
-           "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}", "landing_across_sd_mm": "{:.2f}",
-           "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
-           "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}", "grip_mean": "{:.2f}",
+                   "g_use_over_mu": "{:.2f}", "held_until_s": "{:.3f}", "a_force_mean_n": "{:.2f}",
+                   "b_force_mean_n": "{:.2f}", "g_normal_mean_n": "{:.2f}", "roll_max_deg": "{:.2f}",
+                   "roll_start_deg": "{:.2f}", "g_moved_mm": "{:.2f}", "g_moved_most_mm": "{:.2f}",
+                   "g_moved_release_mm": "{:.2f}", "finger_release_n": "{:.2f}", "thumb_push_release_mns": "{:.2f}",
+                   "finger_push_release_mns": "{:.2f}", "table_push_release_mns": "{:.2f}",
+                   "rho_error_g_release": "{:.2f}", "rho_error_grip": "{:.2f}", "g_release_failed_mm": "{:.2f}",
+                   "g_release_success_mm": "{:.2f}", "grip_failed": "{:.2f}", "grip_success": "{:.2f}",
+                   "landing_along_mm": "{:+.2f}", "landing_across_mm": "{:+.2f}", "landing_along_mean_mm": "{:+.2f}",
+                   "landing_along_sd_mm": "{:.2f}", "landing_across_mean_mm": "{:+.2f}",
+                   "landing_across_sd_mm": "{:.2f}",
+                   "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
+                   "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}", "grip_mean": "{:.2f}",
                    "landing_along_se_mm": "{:.2f}"}
 
 
