@@ -869,13 +869,14 @@ def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None
 WINDOW = 5
 
 
-def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
+def _summary(log: list, mu_g: float, result, poses: list, drive, gb: NDArray) -> dict:
     """What a trial's log of contact forces shows: while both digits press the object and the table
     holds it up, the table's friction use (its tangential over its normal force, each summed over
     WINDOW ticks) against mu_G, the mean size of the force each digit exerts and the table's mean
     normal force; and from its poses ((time s, the object's pose 4x4) per tick, G at the body's
     origin), how far G moves along the table before the termination and in which phase of the
-    drive (sim.drive.GripperDrive) it moves furthest, and what the termination does (_release)."""
+    drive (sim.drive.GripperDrive) it moves furthest, and what the termination does (_release; gb:
+    the plane's GB in the world (2,), a unit vector toward B)."""
     log = [(t, {**f, "finger": f.get("finger", 0) + f.get("finger_tip", 0)} if "finger_tip" in f else f)
            for t, f in log]  # each engine names the finger's dome apart
     held = [(t, f) for t, f in log if "finger" in f and "thumb" in f and "table" in f and f["table"][2] > 0.01]
@@ -892,7 +893,7 @@ def _summary(log: list, mu_g: float, result, poses: list, drive) -> dict:
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
             "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg,
-            **_g_travel(times, g_track, drive), **_release(log, times, g_track, drive)}
+            **_g_travel(times, g_track, drive), **_release(log, times, g_track, drive, gb)}
 
 
 def _g_track(poses: list) -> tuple[NDArray, NDArray]:
@@ -901,22 +902,26 @@ def _g_track(poses: list) -> tuple[NDArray, NDArray]:
     return np.array([t for t, _ in poses]), np.array([np.asarray(pose)[:2, 3] for _, pose in poses])
 
 
-def _release(log: list, times: NDArray, g: NDArray, drive) -> dict:
+def _release(log: list, times: NDArray, g: NDArray, drive, gb: NDArray) -> dict:
     """What the termination does to the object: how far (mm) G (at times, _g_track) moves along the
-    table from the termination's start to the trial's end, the finger's mean force (N) on the
-    object over the termination's ticks (log: _summary's, the finger's dome counted with it), and
-    the impulse (mN s) of the thumb's, the finger's and the table's forces along G's travel over
-    the logged ticks from the termination on."""
+    table from the termination's start to the trial's end, and how far of it along GB (gb, a unit
+    vector toward B; + toward B), the finger's mean force (N) on the object over the termination's
+    ticks (log: _summary's, the finger's dome counted with it), and the impulse (mN s) of the
+    thumb's, the finger's and the table's forces over the logged ticks from the termination on,
+    along G's travel and along GB (+ toward B: the same way in either engine)."""
     start = drive.phase_start("termination")
     end = next((b for name, _, b in drive.phases if name == "termination"), start)
     g = g[times >= start]
     finger = [np.linalg.norm(f.get("finger", np.zeros(3))) for t, f in log if start <= t <= end]
     out = {"g_moved_release_mm": float(np.linalg.norm(g[-1] - g[0]) * 1000) if len(g) else None,
+           "g_release_along_mm": float((g[-1] - g[0]) @ gb * 1000) if len(g) else None,
            "finger_release_n": float(np.mean(finger)) if finger else None}
+    ticks = [(t, f) for t, f in log if t >= start]
+    dt = float(drive.times[1] - drive.times[0])
+    for kind in ("thumb", "finger", "table"):
+        out[f"{kind}_gb_release_mns"] = 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ gb) for _, f in ticks)
     if len(g) > 1 and np.linalg.norm(g[-1] - g[0]) > 0:  # each kind's push along G's travel, from the termination on
         way = (g[-1] - g[0]) / np.linalg.norm(g[-1] - g[0])
-        ticks = [(t, f) for t, f in log if t >= start]
-        dt = float(drive.times[1] - drive.times[0])
         for kind in ("thumb", "finger", "table"):
             out[f"{kind}_push_release_mns"] = 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ way) for _, f in ticks)
     return out
@@ -953,7 +958,10 @@ CONTACT_FORMATS = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}"
                    "landing_across_sd_mm": "{:.2f}",
                    "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
                    "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}", "grip_mean": "{:.2f}",
-                   "landing_along_se_mm": "{:.2f}"}
+                   "landing_along_se_mm": "{:.2f}", "g_release_along_mm": "{:+.2f}",
+                   "g_release_along_mean_mm": "{:+.2f}", "thumb_gb_release_mns": "{:+.1f}",
+                   "finger_gb_release_mns": "{:+.1f}", "table_gb_release_mns": "{:+.1f}",
+                   "thumb_gb_mean_mns": "{:+.1f}", "finger_gb_mean_mns": "{:+.1f}", "table_gb_mean_mns": "{:+.1f}"}
 
 
 def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
@@ -1009,7 +1017,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
         results["drake"] = run_drake_trial(setup, params, int(k), seed, record=poses["drake"],
                                            contact_log=logs["drake"])
         for engine in engines:
-            row = _summary(logs[engine], mu_g, results[engine], poses[engine], setup.drive)
+            row = _summary(logs[engine], mu_g, results[engine], poses[engine], setup.drive, setup.target_pose[:2, 0])
             # where it landed, in the plane's frame: along GB (+ toward B) and across it (mm)
             along, across = in_plane(setup.target_pose, landing_offset(setup, np.array(results[engine].final_pose)))
             row.update(landing_along_mm=1000 * along, landing_across_mm=1000 * across)
@@ -1064,10 +1072,12 @@ def _over_trials(rows: list[dict]) -> list[dict]:
     placement error with G's slide along the table from the termination on (rho_error_g_release)
     and with the table's grip as a multiple of mu_G (rho_error_grip), and each one's mean over the
     trials that fail and over those that succeed (None where there are none); and where the object
-    lands in the plane's frame, along GB and across it, its mean and standard deviation; the mean
-    slide of G and the thumb's and the table's mean impulses along it from the termination on, and
-    how each impulse ranks with the landing along GB. These take the trials that end with the object
-    down (an error to rank, a landing)."""
+    lands in the plane's frame, along GB and across it, its mean and standard deviation, and the
+    standard error of the mean along GB; the mean grip over mu of every trial; the mean slide of G
+    and the thumb's and the table's mean impulses along it from the termination on, and how each
+    impulse ranks with the landing along GB; and G's mean slide along GB and each contact's mean
+    impulse along GB from the termination on (+ toward B). These take the trials that end with the
+    object down (an error to rank, a landing), but for the grip."""
     from scipy.stats import spearmanr
 
     out = []
@@ -1107,7 +1117,10 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "thumb_push_mean_mns": mean(landed, "thumb_push_release_mns"),
                         "table_push_mean_mns": mean(landed, "table_push_release_mns"),
                         "rho_along_thumb_push": rho("thumb_push_release_mns", "landing_along_mm"),
-                        "rho_along_table_push": rho("table_push_release_mns", "landing_along_mm")})
+                        "rho_along_table_push": rho("table_push_release_mns", "landing_along_mm"),
+                        "g_release_along_mean_mm": mean(landed, "g_release_along_mm"),
+                        **{f"{kind}_gb_mean_mns": mean(landed, f"{kind}_gb_release_mns")
+                           for kind in ("thumb", "finger", "table")}})
     return out
 
 
