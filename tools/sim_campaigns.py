@@ -893,7 +893,7 @@ def _summary(log: list, mu_g: float, result, poses: list, drive, gb: NDArray) ->
             "a_force_mean_n": float(np.mean([np.linalg.norm(f["finger"]) for _, f in held])) if held else None,
             "b_force_mean_n": float(np.mean([np.linalg.norm(f["thumb"]) for _, f in held])) if held else None,
             "g_normal_mean_n": float(np.mean(g[:, 2])) if held else None, "roll_max_deg": result.roll_deg,
-            **_g_travel(times, g_track, drive), **_release(log, times, g_track, drive, gb)}
+            **_g_travel(times, g_track, drive, gb), **_release(log, times, g_track, drive, gb)}
 
 
 def _g_track(poses: list) -> tuple[NDArray, NDArray]:
@@ -927,9 +927,10 @@ def _release(log: list, times: NDArray, g: NDArray, drive, gb: NDArray) -> dict:
     return out
 
 
-def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
+def _g_travel(times: NDArray, g: NDArray, drive, gb: NDArray) -> dict:
     """How far (mm) G (at times, _g_track) moves along the table from the drive's start to its
-    termination's, and the phase of the drive in which it moves furthest (its name and mm)."""
+    termination's, and how far of it along GB (gb, a unit vector toward B; + toward B), and the
+    phase of the drive in which it moves furthest (its name and mm)."""
     end = drive.phase_start("termination")
     held = times <= end
     steps = np.linalg.norm(np.diff(g, axis=0), axis=1) * 1000
@@ -940,7 +941,8 @@ def _g_travel(times: NDArray, g: NDArray, drive) -> dict:
             per_phase[name] = per_phase.get(name, 0.0) + float(step)
     phase = max(per_phase, key=per_phase.get) if per_phase else None
     last = int(np.flatnonzero(held)[-1]) if held.any() else 0
-    return {"g_moved_mm": float(np.linalg.norm(g[last] - g[0]) * 1000), "g_moved_most_in": phase,
+    return {"g_moved_mm": float(np.linalg.norm(g[last] - g[0]) * 1000),
+            "g_held_along_mm": float((g[last] - g[0]) @ gb * 1000), "g_moved_most_in": phase,
             "g_moved_most_mm": per_phase.get(phase) if phase else None}
 
 
@@ -958,8 +960,8 @@ CONTACT_FORMATS = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}"
                    "landing_across_sd_mm": "{:.2f}",
                    "g_release_mean_mm": "{:.2f}", "thumb_push_mean_mns": "{:+.1f}", "table_push_mean_mns": "{:+.1f}",
                    "rho_along_thumb_push": "{:.2f}", "rho_along_table_push": "{:.2f}", "grip_mean": "{:.2f}",
-                   "landing_along_se_mm": "{:.2f}", "g_release_along_mm": "{:+.2f}",
-                   "g_release_along_mean_mm": "{:+.2f}", "thumb_gb_release_mns": "{:+.1f}",
+                   "landing_along_se_mm": "{:.2f}", "g_release_along_mm": "{:+.2f}", "g_held_along_mm": "{:+.2f}",
+                   "g_held_along_mean_mm": "{:+.2f}", "g_release_along_mean_mm": "{:+.2f}", "thumb_gb_release_mns": "{:+.1f}",
                    "finger_gb_release_mns": "{:+.1f}", "table_gb_release_mns": "{:+.1f}",
                    "thumb_gb_mean_mns": "{:+.1f}", "finger_gb_mean_mns": "{:+.1f}", "table_gb_mean_mns": "{:+.1f}"}
 
@@ -1075,9 +1077,10 @@ def _over_trials(rows: list[dict]) -> list[dict]:
     lands in the plane's frame, along GB and across it, its mean and standard deviation, and the
     standard error of the mean along GB; the mean grip over mu of every trial; the mean slide of G
     and the thumb's and the table's mean impulses along it from the termination on, and how each
-    impulse ranks with the landing along GB; and G's mean slide along GB and each contact's mean
-    impulse along GB from the termination on (+ toward B). These take the trials that end with the
-    object down (an error to rank, a landing), but for the grip."""
+    impulse ranks with the landing along GB; and G's mean slide along GB while held and from the
+    termination on, and each contact's mean impulse along GB from the termination on (+ toward B).
+    These take the trials that end with the object down (an error to rank, a landing), but for the
+    grip."""
     from scipy.stats import spearmanr
 
     out = []
@@ -1118,6 +1121,7 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "table_push_mean_mns": mean(landed, "table_push_release_mns"),
                         "rho_along_thumb_push": rho("thumb_push_release_mns", "landing_along_mm"),
                         "rho_along_table_push": rho("table_push_release_mns", "landing_along_mm"),
+                        "g_held_along_mean_mm": mean(landed, "g_held_along_mm"),
                         "g_release_along_mean_mm": mean(landed, "g_release_along_mm"),
                         **{f"{kind}_gb_mean_mns": mean(landed, f"{kind}_gb_release_mns")
                            for kind in ("thumb", "finger", "table")}})
