@@ -120,10 +120,10 @@ def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[flo
 STEP_CHECK = (1e-3, 1e-4)
 
 
-def unaimed_scene(stem: str) -> Scene:
-    """scenes/STEM.yaml with the hand as planned (robot.landing planned, no landing offset): the
-    release the studies measure, where no aim moves it."""
-    scene = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
+def unaimed_scene(stem: str | Scene) -> Scene:
+    """scenes/STEM.yaml (or that scene, read already) with the hand as planned (robot.landing
+    planned, no landing offset): the release the studies measure, where no aim moves it."""
+    scene = stem if isinstance(stem, Scene) else Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
     return replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED, landing_offset=0.0))
 
 
@@ -133,8 +133,9 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
     False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi;
     scene_start: the shipped scene and its own objective, as the campaign plans it)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
-    offset = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml")).robot.landing_offset
-    scene = unaimed_scene(stem)
+    shipped = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
+    offset = shipped.robot.landing_offset
+    scene = unaimed_scene(shipped)
     if forbid_partial:
         scene = scene.with_options(forbid_partial=True)
     if not spread_bound:
