@@ -795,7 +795,6 @@ def merge_study(path: Path, study: str, command: str, seconds: float, rows: list
     environment it ran in (ungrasp_ompl.provenance). Each row needs a label; its key is made from it
     and must be new in the file: prefixed puts "STUDY: " before each label, so that a second study
     of the same rows (a tool's --study) keeps keys of its own."""
-    from ungrasp_ompl.io import write_text_atomic
     from ungrasp_ompl.provenance import environment
 
     doc = json.loads(path.read_text()) if path.exists() else {"title": title, "formats": {}, "rows": []}
@@ -805,14 +804,26 @@ def merge_study(path: Path, study: str, command: str, seconds: float, rows: list
             "environment": environment()}
     if prefixed:
         rows = [{**r, "label": f"{study}: {r['label']}"} for r in rows]
-    new = [{"key": row_key(r["label"]), **r, "study": study} for r in (meta, *rows)]
+    new = [study_row(study, r) for r in (meta, *rows)]
     keys = [r["key"] for r in kept + new]
     if len(set(keys)) != len(keys):
         raise ValueError(f"{path}: two rows share a key: {sorted(k for k in keys if keys.count(k) > 1)}")
-    doc = {**doc, "title": title, "formats": {**doc["formats"], **formats}, "rows": kept + new}
+    write_study_file(path, {**doc, "title": title, "formats": {**doc["formats"], **formats}, "rows": kept + new})
+    return path
+
+
+def study_row(study: str, row: dict) -> dict:
+    """A row as a study's results file keeps it: its key made from its label, then its fields and
+    the study's name."""
+    return {"key": row_key(row["label"]), **row, "study": study}
+
+
+def write_study_file(path: Path, doc: dict) -> None:
+    """A study's results file (JSON) at path and its markdown rendered from it beside it, both atomically."""
+    from ungrasp_ompl.io import write_text_atomic
+
     write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
     write_text_atomic(path.with_suffix(".md"), study_markdown(doc) + "\n")
-    return path
 
 
 # --- the pages ---------------------------------------------------------------------------------

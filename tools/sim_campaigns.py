@@ -918,12 +918,15 @@ def _release(log: list, times: NDArray, g: NDArray, drive, gb: NDArray) -> dict:
            "finger_release_n": float(np.mean(finger)) if finger else None}
     ticks = [(t, f) for t, f in log if t >= start]
     dt = float(drive.times[1] - drive.times[0])
-    for kind in ("thumb", "finger", "table"):
-        out[f"{kind}_gb_release_mns"] = 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ gb) for _, f in ticks)
-    if len(g) > 1 and np.linalg.norm(g[-1] - g[0]) > 0:  # each kind's push along G's travel, from the termination on
-        way = (g[-1] - g[0]) / np.linalg.norm(g[-1] - g[0])
-        for kind in ("thumb", "finger", "table"):
-            out[f"{kind}_push_release_mns"] = 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ way) for _, f in ticks)
+
+    def impulses(direction: NDArray, field: str) -> dict:  # each kind's impulse along direction, mN s
+        return {f"{kind}_{field}_release_mns": 1000 * dt * sum(float(f.get(kind, np.zeros(3))[:2] @ direction)
+                                                               for _, f in ticks)
+                for kind in ("thumb", "finger", "table")}
+
+    out.update(impulses(gb, "gb"))
+    if len(g) > 1 and np.linalg.norm(g[-1] - g[0]) > 0:  # along G's travel, from the termination on
+        out.update(impulses((g[-1] - g[0]) / np.linalg.norm(g[-1] - g[0]), "push"))
     return out
 
 
@@ -1047,9 +1050,7 @@ def contact_summaries() -> None:
     before the summaries were is left as it is."""
     import json
 
-    from campaign_results import row_key, study_markdown
-
-    from ungrasp_ompl.io import write_text_atomic
+    from campaign_results import study_row, write_study_file
 
     path = ROOT / "docs" / "results" / "campaigns_drake_contacts.json"
     doc = json.loads(path.read_text())
@@ -1061,10 +1062,8 @@ def contact_summaries() -> None:
         kept = [r for r in doc["rows"] if r["study"] == study and "trials" not in r]  # its own row, its trials
         prefix = f"{study}: " if any(r["label"].startswith(f"{study}: ") for r in kept if "trial" in r) else ""
         summaries = [{**r, "label": prefix + r["label"]} for r in _over_trials([r for r in kept if "trial" in r])]
-        rows += kept + [{"key": row_key(r["label"]), **r, "study": study} for r in summaries]
-    doc = {**doc, "formats": {**doc["formats"], **CONTACT_FORMATS}, "rows": rows}
-    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
-    write_text_atomic(path.with_suffix(".md"), study_markdown(doc) + "\n")
+        rows += kept + [study_row(study, r) for r in summaries]
+    write_study_file(path, {**doc, "formats": {**doc["formats"], **CONTACT_FORMATS}, "rows": rows})
     print(f"wrote {path}")
 
 
