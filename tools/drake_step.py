@@ -1,0 +1,115 @@
+"""Drake's step by record 0126's rule, read off the contacts study's rows: the same base trials of
+the pick and the puzzle piece, Drake alone on the builder's table, at each step of the study
+(docs/results/campaigns_drake_contacts.json). Per object and step: the trials, how many failed, the
+mean landing along GB (mm, + toward B) and its standard deviation (as the study's summaries
+take them), and against the finest step the
+two-sided p of Fisher's exact test of the failures, Welch's t-test of the mean landing and the
+Brown-Forsythe test (Levene's about the median) of its spread; then the step the rule gives: the
+coarsest step that agrees with the finest (every p >= 0.05 for both objects) and every finer one of
+which agrees too. No trial runs.
+
+    python tools/drake_step.py [--results]
+
+--results writes docs/results/drake_step.json (the markdown beside it rendered from it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+from campaign_results import CHANCE_P, merge_study  # noqa: E402
+
+CONTACTS = ROOT / "docs" / "results" / "campaigns_drake_contacts.json"
+RESULTS = ROOT / "docs" / "results" / "drake_step.json"
+#: the study's arms per step (ms): the contacts study's name holding each object's Drake trials
+ARMS = {0.1: {"guitar_pick": "middle-aim-base", "puzzle_piece": "middle-aim-base"},
+        0.05: {"guitar_pick": "step-0.05-pick", "puzzle_piece": "step-0.05-puzzle"},
+        0.025: {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle"}}
+FORMATS = {"step_ms": "{:g}", "trials": "{}", "failed": "{}", "landing_along_mean_mm": "{:+.2f}",
+           "landing_along_sd_mm": "{:.2f}", "fisher_p": "{:.2g}", "welch_p": "{:.2g}",
+           "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}"}
+
+
+def arm_trials(rows: list[dict], study: str, name: str) -> list[dict]:
+    """The Drake trial rows of one object in one study (its per-trial rows, not its summaries)."""
+    return [r for r in rows if r.get("study") == study and r.get("object") == name and "trial" in r
+            and r["engine"].startswith("drake")]
+
+
+def landings(trials: list[dict]) -> np.ndarray:
+    """Where the trials that end with the object down landed along GB (mm), as the contacts study's
+    summaries take them (a trial that ends held has no landing)."""
+    return np.array([r["landing_along_mm"] for r in trials if r["error_mm"] is not None])
+
+
+def compare(arm: list[dict], finest: list[dict]) -> dict[str, float]:
+    """The three two-sided p of record 0126 for an arm's trials against the finest step's."""
+    failed = [sum(r["outcome"] != "success" for r in t) for t in (arm, finest)]
+    table = [[failed[0], len(arm) - failed[0]], [failed[1], len(finest) - failed[1]]]
+    a, b = landings(arm), landings(finest)
+    return {"fisher_p": float(stats.fisher_exact(table)[1]),
+            "welch_p": float(stats.ttest_ind(a, b, equal_var=False).pvalue),
+            "brown_forsythe_p": float(stats.levene(a, b, center="median").pvalue)}
+
+
+def step_rows(rows: list[dict]) -> list[dict]:
+    """One row per object and step, then the row of the step the rule gives."""
+    steps = sorted(ARMS, reverse=True)
+    finest = steps[-1]
+    out, agrees = [], {}
+    for step in steps:
+        agrees[step] = True
+        for name, study in ARMS[step].items():
+            trials = arm_trials(rows, study, name)
+            if not trials:
+                raise SystemExit(f"drake_step: {CONTACTS.name} has no Drake trials of {name} in study {study!r}")
+            landing = landings(trials)
+            row = {"label": f"{name} at {step:g} ms", "object": name, "step_ms": step, "study_name": study,
+                   "trials": len(trials), "failed": sum(r["outcome"] != "success" for r in trials),
+                   "landing_along_mean_mm": float(landing.mean()),
+                   "landing_along_sd_mm": float(landing.std())}
+            if step != finest:
+                p = compare(trials, arm_trials(rows, ARMS[finest][name], name))
+                row |= p
+                row["agrees"] = "yes" if min(p.values()) >= CHANCE_P else "no"
+                agrees[step] &= row["agrees"] == "yes"
+            out.append(row)
+    chosen = finest
+    for step in steps[:-1]:
+        if all(agrees[s] for s in steps[:-1] if s <= step):
+            chosen = step
+            break
+    out.append({"label": "the step the rule gives", "chosen_step_ms": chosen,
+                "agrees": (f"the coarsest step agreeing with {finest:g} ms" if chosen != finest
+                           else "no coarser step agrees: convergence not shown")})
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--results", action="store_true", help=f"write {RESULTS.relative_to(ROOT)}")
+    args = ap.parse_args()
+    started = time.perf_counter()
+    rows = step_rows(json.loads(CONTACTS.read_text())["rows"])
+    for r in rows:
+        print(", ".join(f"{k} {v}" for k, v in r.items()))
+    if args.results:
+        merge_study(RESULTS, "drake-step", shlex.join(["python", "tools/drake_step.py", *sys.argv[1:]]),
+                    time.perf_counter() - started, rows, FORMATS,
+                    "Drake's step by record 0126's rule: the same base trials at each step")
+        print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()
