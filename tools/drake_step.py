@@ -4,9 +4,11 @@ the pick and the puzzle piece, Drake alone on the builder's table, at each step 
 mean landing along GB (mm, + toward B) and its standard deviation (as the study's summaries
 take them), and against the finest step the
 two-sided p of Fisher's exact test of the failures, Welch's t-test of the mean landing and the
-Brown-Forsythe test (Levene's about the median) of its spread; then the step the rule gives: the
-coarsest step that agrees with the finest (every p >= 0.05 for both objects) and every finer one of
-which agrees too. No trial runs.
+Brown-Forsythe test (Levene's about the median) of its spread; the table's positive control at each
+step, each object scene's object dropped flat from 1 mm (how far it moved in 0.3 s, against the
+0.05 mm tests/test_drake.py allows); then the step the rule gives: the coarsest step that agrees
+with the finest (every p >= 0.05 for both objects) and passes the control, every finer one of
+which does both too. No trial runs; the drops take a minute.
 
     python tools/drake_step.py [--results]
 
@@ -28,7 +30,7 @@ from scipy import stats
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 
-from campaign_results import CHANCE_P, merge_study  # noqa: E402
+from campaign_results import CHANCE_P, OBJECTS, merge_study  # noqa: E402
 
 CONTACTS = ROOT / "docs" / "results" / "campaigns_drake_contacts.json"
 RESULTS = ROOT / "docs" / "results" / "drake_step.json"
@@ -36,7 +38,10 @@ RESULTS = ROOT / "docs" / "results" / "drake_step.json"
 ARMS = {0.1: {"guitar_pick": "middle-aim-base", "puzzle_piece": "middle-aim-base"},
         0.05: {"guitar_pick": "step-0.05-pick", "puzzle_piece": "step-0.05-puzzle"},
         0.025: {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle"}}
-FORMATS = {"step_ms": "{:g}", "trials": "{}", "failed": "{}", "landing_along_mean_mm": "{:+.2f}",
+#: the table's positive control (tests/test_drake.py): dropped flat from DROP_HEIGHT (m) at DROP_AT
+#: (m, the table's frame), the object lies within DROP_BOUND (m) of below it after DROP_TIME (s)
+DROP_HEIGHT, DROP_AT, DROP_BOUND, DROP_TIME = 0.001, (0.45, 0.10), 5e-5, 0.3
+FORMATS = {"moved_mm": "{:.4f}", "step_ms": "{:g}", "trials": "{}", "failed": "{}", "landing_along_mean_mm": "{:+.2f}",
            "landing_along_sd_mm": "{:.2f}", "fisher_p": "{:.2g}", "welch_p": "{:.2g}",
            "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}"}
 
@@ -63,13 +68,37 @@ def compare(arm: list[dict], finest: list[dict]) -> dict[str, float]:
             "brown_forsythe_p": float(stats.levene(a, b, center="median").pvalue)}
 
 
+def drops(steps: list[float]) -> dict[float, list[dict]]:
+    """The table's positive control at each step (ms): each object scene's object (the world of
+    its lattice plan's trials) dropped flat from DROP_HEIGHT, its row with how far it moved."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.planning import plan
+    from ungrasp_ompl.sim.drake_trial import settle_object
+    from ungrasp_ompl.sim.plan_trials import placement
+
+    out: dict[float, list[dict]] = {step: [] for step in steps}
+    for name in OBJECTS:
+        scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
+        spec = placement(scene, plan(scene, planner="lattice"))[1].spec
+        pose = np.eye(4)
+        pose[:3, 3] = [*DROP_AT, DROP_HEIGHT]
+        for step in steps:
+            final = settle_object(spec, pose, DROP_TIME, time_step=step / 1000)
+            moved = float(np.linalg.norm(final[:2, 3] - pose[:2, 3]))
+            out[step].append({"label": f"drop: {name} at {step:g} ms", "object": name, "step_ms": step,
+                              "moved_mm": 1000 * moved, "agrees": "yes" if moved < DROP_BOUND else "no"})
+    return out
+
+
 def step_rows(rows: list[dict]) -> list[dict]:
-    """One row per object and step, then the row of the step the rule gives."""
+    """One row per object and step and one per drop, then the row of the step the rule gives."""
     steps = sorted(ARMS, reverse=True)
     finest = steps[-1]
     out, agrees = [], {}
+    dropped = drops(steps)
     for step in steps:
-        agrees[step] = True
+        out += dropped[step]
+        agrees[step] = all(r["agrees"] == "yes" for r in dropped[step])
         for name, study in ARMS[step].items():
             trials = arm_trials(rows, study, name)
             if not trials:
@@ -85,14 +114,11 @@ def step_rows(rows: list[dict]) -> list[dict]:
                 row["agrees"] = "yes" if min(p.values()) >= CHANCE_P else "no"
                 agrees[step] &= row["agrees"] == "yes"
             out.append(row)
-    chosen = finest
-    for step in steps[:-1]:
-        if all(agrees[s] for s in steps[:-1] if s <= step):
-            chosen = step
-            break
-    out.append({"label": "the step the rule gives", "chosen_step_ms": chosen,
-                "agrees": (f"the coarsest step agreeing with {finest:g} ms" if chosen != finest
-                           else "no coarser step agrees: convergence not shown")})
+    chosen = next((step for step in steps if all(agrees[s] for s in steps if s <= step)), None)
+    out.append({"label": "the step the rule gives", "chosen_step_ms": chosen or float("nan"),
+                "agrees": ("no step passes the table's control" if chosen is None else
+                           f"the coarsest step agreeing with {finest:g} ms" if chosen != finest else
+                           "no coarser step agrees and passes the control: convergence not shown")})
     return out
 
 
