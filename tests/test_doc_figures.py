@@ -479,22 +479,45 @@ def test_a_table_of_two_campaign_files_shows_both_files_rows_in_order():
         assert len(both) > len(_rows(results.table(f"{first}:{name}")))
 
 
-def test_the_contacts_study_runs_the_drake_campaign_s_own_trials():
+@pytest.mark.parametrize("campaign, studies", [
+    ("campaigns_drake_middle_aim", {"guitar_pick": "middle-aim-base", "puzzle_piece": "middle-aim-base"}),
+    ("campaigns_drake_0.025ms", {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle",
+                                 "fabric_chalk": "table-step-chalk"})])
+def test_the_contacts_study_runs_the_drake_campaign_s_own_trials(campaign, studies):
     """The trials of the base rows run again with their forces logged are the campaign's: as many of
-    each object's fail in each engine as its campaign row (Drake's and the MuJoCo one set beside it)
-    lost of the same seed's trials."""
-    study = {r["key"]: r for r in results.load("campaigns_drake_contacts")["rows"]}
-    campaign = {r["key"]: r for r in results.load("campaigns_drake_middle_aim")["rows"]}
-    for name in ("guitar_pick", "puzzle_piece"):
-        row = campaign[f"base-{name}-rounded-tip"]
-        trials = [r for r in study.values() if r["key"].startswith(f"middle-aim-base-{name}-trial-")
-                  and r["engine"] == "drake"]
-        assert len(trials) == row["trials"]
-        assert sum(r["outcome"] != "success" for r in trials) == row["trials"] - row["successes"]
-        mujoco = [r for r in study.values() if r["key"].startswith(f"middle-aim-base-{name}-trial-")
-                  and r["engine"] == "mujoco"]
+    each object's fail in Drake, at the campaign's step, as its campaign row lost of the same seed's
+    trials (at 0.1 ms and at Drake's step, record 0126); and in MuJoCo, where the study ran there
+    too, as MuJoCo's row set beside it."""
+    rows = results.load("campaigns_drake_contacts")["rows"]
+    campaign_rows = {r["key"]: r for r in results.load(campaign)["rows"]}
+    for name, study in studies.items():
+        row = campaign_rows[f"base-{name}-rounded-tip"]
+        trials = [r for r in rows if r["study"] == study and r.get("object") == name and "trial" in r]
+        drake = [r for r in trials if r["engine"].startswith("drake")]
+        assert len(drake) == row["trials"]
+        assert sum(r["outcome"] != "success" for r in drake) == row["trials"] - row["successes"]
+        mujoco = [r for r in trials if r["engine"] == "mujoco"]
         assert sum(r["outcome"] == "success" for r in mujoco) == len(mujoco)  # MuJoCo's row placed all of its 40
         assert row["mujoco"]["successes"] == row["mujoco"]["trials"]
+
+
+def test_drake_s_step_is_what_record_0126_s_rule_reads_off_the_study():
+    """tools/drake_step.py's file holds what its rule makes of the contacts study's trial rows as
+    they are now, with its own drops: every row, the chosen step among them, comes back the same."""
+    import sys
+
+    from ungrasp_ompl.sim import drake_trial
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    drake_step = importlib.import_module("drake_step")
+    kept = [r for r in results.load("drake_step")["rows"] if not r["label"].startswith("study: ")]
+    dropped: dict[float, list[dict]] = {}
+    for r in kept:
+        if r["label"].startswith("drop: "):
+            dropped.setdefault(r["step_ms"], []).append({k: v for k, v in r.items() if k not in ("key", "study")})
+    made = drake_step.step_rows(results.load("campaigns_drake_contacts")["rows"], dropped)
+    assert [{k: v for k, v in r.items() if k not in ("key", "study")} for r in kept] == made
+    assert made[-1]["chosen_step_ms"] * 1e-3 == pytest.approx(drake_trial.DRAKE_TIME_STEP, rel=1e-12)
 
 
 def test_the_contacts_studys_summaries_are_those_of_its_trials(tmp_path, monkeypatch):

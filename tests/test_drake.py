@@ -224,10 +224,10 @@ def test_a_fifth_of_the_friction_fails_in_mujoco():
 
 @pytest.mark.slow
 def test_a_fifth_of_the_friction_fails_in_drake():
-    """The same negative control in Drake. It holds there by the drag alone: Drake's table holds G
-    beyond its friction coefficient, so the trial keeps its grip where MuJoCo's loses it, and the
-    piece is dragged off its target; where the drag ends hangs on the aim by hundredths of a
-    millimetre (docs/model.md 11.19)."""
+    """The same negative control in Drake. It holds there by where the piece ends, not by a grip
+    lost: Drake's table holds G beyond its friction coefficient, so the trial keeps its grip where
+    MuJoCo's loses it, and the piece is put down just beyond the verdict's bound at Drake's step;
+    how it ends hangs on the step and the aim (docs/model.md 11.19)."""
     trial = run_drake_trial(_fifth_friction_control(), TrialParams())
     assert _fails_the_control(trial), trial.cause()
 

@@ -90,12 +90,12 @@ def drops(steps: list[float]) -> dict[float, list[dict]]:
     return out
 
 
-def step_rows(rows: list[dict]) -> list[dict]:
-    """One row per object and step and one per drop, then the row of the step the rule gives."""
+def step_rows(rows: list[dict], dropped: dict[float, list[dict]]) -> list[dict]:
+    """One row per object and step of the study's trial rows (the contacts study's) and the drops'
+    rows of each step (drops()), then the row of the step the rule gives."""
     steps = sorted(ARMS, reverse=True)
     finest = steps[-1]
     out, agrees = [], {}
-    dropped = drops(steps)
     for step in steps:
         out += dropped[step]
         agrees[step] = all(r["agrees"] == "yes" for r in dropped[step])
@@ -127,7 +127,7 @@ def main() -> None:
     ap.add_argument("--results", action="store_true", help=f"write {RESULTS.relative_to(ROOT)}")
     args = ap.parse_args()
     started = time.perf_counter()
-    rows = step_rows(json.loads(CONTACTS.read_text())["rows"])
+    rows = step_rows(json.loads(CONTACTS.read_text())["rows"], drops(sorted(ARMS, reverse=True)))
     for r in rows:
         print(", ".join(f"{k} {v}" for k, v in r.items()))
     if args.results:
