@@ -1,14 +1,14 @@
 """Drake's step by record 0126's rule, read off the contacts study's rows: the same base trials of
 the pick and the puzzle piece, Drake alone on the builder's table, at each step of the study
-(docs/results/campaigns_drake_contacts.json). Per object and step: the trials, how many failed, the
-mean landing along GB (mm, + toward B) and its standard deviation (as the study's summaries
-take them), and against the finest step the
-two-sided p of Fisher's exact test of the failures, Welch's t-test of the mean landing and the
-Brown-Forsythe test (Levene's about the median) of its spread; the table's positive control at each
-step, each object scene's object dropped flat from 1 mm (how far it moved in 0.3 s, against the
-0.05 mm tests/test_drake.py allows); then the step the rule gives: the coarsest step that agrees
-with the finest (every p >= 0.05 for both objects) and passes the control, every finer one of
-which does both too. No trial runs; the drops take a minute.
+(docs/results/campaigns_drake_contacts.json). Per object and step: the trials, how many failed,
+the mean landing along GB (mm, + toward B) and its standard deviation (as the study's summaries
+take them), and against the finest step the two-sided p of Fisher's exact test of the failures,
+Welch's t-test of the mean landing and the Brown-Forsythe test (Levene's about the median) of its
+spread; the table's positive control at each step, each object scene's object dropped flat from
+1 mm (how far it moved in 0.3 s, against the 0.05 mm tests/test_drake.py allows); then the step
+the rule gives: the coarsest step that agrees with the finest (every p >= 0.05 for both objects)
+and passes the control, every finer one of which does both too. No trial runs; the drops take
+half a minute.
 
     python tools/drake_step.py [--results]
 

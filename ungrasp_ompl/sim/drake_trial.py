@@ -33,9 +33,9 @@ from .trial import DIGIT_KINDS, Judge, StillWindow, Touch, TrialSetup, _pose, _s
 from .world_description import describe
 
 
-#: SAP's time step (s): the coarsest at which the base trials' landings agree with a finer step's
-#: and a dropped object rests (record 0126, docs/model.md 11.19); None: the scene's sim.timestep,
-#: MuJoCo's. SAP is implicit: MuJoCo's convergence (record 0112) is not Drake's.
+#: SAP's time step (s), record 0126's: no coarser step of its study both fails, lands and spreads
+#: the base trials as this one does and keeps a dropped object still (docs/model.md 11.19); None:
+#: the scene's sim.timestep, MuJoCo's. SAP is implicit: MuJoCo's convergence (record 0112) is not Drake's.
 DRAKE_TIME_STEP: float | None = 2.5e-5
 
 
