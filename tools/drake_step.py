@@ -1,8 +1,8 @@
 """Drake's step by record 0126's rule, read off the contacts study's rows: the same base trials of
 the pick and the puzzle piece, Drake alone on the builder's table, at each step of the study
 (docs/results/campaigns_drake_contacts.json). Per object and step: the trials, how many failed,
-the mean landing along GB (mm, + toward B) and its standard deviation (as the study's summaries
-take them), and against the finest step the two-sided p of Fisher's exact test of the failures,
+the mean landing along GB (mm, + toward B) and its standard deviation (the study's own summaries),
+and against the finest step the two-sided p of Fisher's exact test of the failures,
 Welch's t-test of the mean landing and the Brown-Forsythe test (Levene's about the median) of its
 spread; the table's positive control at each step, each object scene's object dropped flat from
 1 mm (how far it moved in 0.3 s, against the 0.05 mm tests/test_drake.py allows); then the step
@@ -46,23 +46,23 @@ FORMATS = {"moved_mm": "{:.4f}", "step_ms": "{:g}", "trials": "{}", "failed": "{
            "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}"}
 
 
-def arm_trials(rows: list[dict], study: str, name: str) -> list[dict]:
-    """The Drake trial rows of one object in one study (its per-trial rows, not its summaries)."""
-    return [r for r in rows if r.get("study") == study and r.get("object") == name and "trial" in r
+def arm(rows: list[dict], study: str, name: str) -> tuple[dict, np.ndarray]:
+    """One object's Drake arm in one study: the study's own summary of its trials (how many, how many
+    failed, the mean landing along GB and its standard deviation) and where each trial that ends
+    with the object down landed along GB (mm), the trials the summary's landing figures take."""
+    mine = [r for r in rows if r.get("study") == study and r.get("object") == name
             and r["engine"].startswith("drake")]
+    summary = next((r for r in mine if "trials" in r), None)
+    if summary is None:
+        raise SystemExit(f"drake_step: {CONTACTS.name} has no Drake trials of {name} in study {study!r}")
+    landed = [r["landing_along_mm"] for r in mine if "trial" in r and r["error_mm"] is not None]
+    return summary, np.array(landed)
 
 
-def landings(trials: list[dict]) -> np.ndarray:
-    """Where the trials that end with the object down landed along GB (mm), as the contacts study's
-    summaries take them (a trial that ends held has no landing)."""
-    return np.array([r["landing_along_mm"] for r in trials if r["error_mm"] is not None])
-
-
-def compare(arm: list[dict], finest: list[dict]) -> dict[str, float]:
-    """The three two-sided p of record 0126 for an arm's trials against the finest step's."""
-    failed = [sum(r["outcome"] != "success" for r in t) for t in (arm, finest)]
-    table = [[failed[0], len(arm) - failed[0]], [failed[1], len(finest) - failed[1]]]
-    a, b = landings(arm), landings(finest)
+def compare(arm: tuple[dict, np.ndarray], finest: tuple[dict, np.ndarray]) -> dict[str, float]:
+    """The three two-sided p of record 0126 for an arm (arm()) against the finest step's."""
+    (s, a), (f, b) = arm, finest
+    table = [[s["failed"], s["trials"] - s["failed"]], [f["failed"], f["trials"] - f["failed"]]]
     return {"fisher_p": float(stats.fisher_exact(table)[1]),
             "welch_p": float(stats.ttest_ind(a, b, equal_var=False).pvalue),
             "brown_forsythe_p": float(stats.levene(a, b, center="median").pvalue)}
@@ -100,16 +100,11 @@ def step_rows(rows: list[dict], dropped: dict[float, list[dict]]) -> list[dict]:
         out += dropped[step]
         agrees[step] = all(r["agrees"] == "yes" for r in dropped[step])
         for name, study in ARMS[step].items():
-            trials = arm_trials(rows, study, name)
-            if not trials:
-                raise SystemExit(f"drake_step: {CONTACTS.name} has no Drake trials of {name} in study {study!r}")
-            landing = landings(trials)
+            this = arm(rows, study, name)
             row = {"label": f"{name} at {step:g} ms", "object": name, "step_ms": step, "study_name": study,
-                   "trials": len(trials), "failed": sum(r["outcome"] != "success" for r in trials),
-                   "landing_along_mean_mm": float(landing.mean()),
-                   "landing_along_sd_mm": float(landing.std())}
+                   **{k: this[0][k] for k in ("trials", "failed", "landing_along_mean_mm", "landing_along_sd_mm")}}
             if step != finest:
-                p = compare(trials, arm_trials(rows, ARMS[finest][name], name))
+                p = compare(this, arm(rows, ARMS[finest][name], name))
                 row |= p
                 row["agrees"] = "yes" if min(p.values()) >= CHANCE_P else "no"
                 agrees[step] &= row["agrees"] == "yes"
