@@ -179,6 +179,19 @@ def test_a_geometrys_friction_combines_with_the_objects_to_the_pairs(mu):
     assert drake_world.combined_friction(a, b) == pytest.approx(mu, rel=1e-12)
 
 
+def test_a_world_s_first_steps_say_nothing_of_deformable_bodies_and_drake_s_other_warnings_pass(caplog):
+    """Drake warns at a plant's first step that its half space would not touch a deformable body;
+    the worlds hold none, so the logger drops that warning, and that one alone."""
+    import logging
+
+    spec = _spec("guitar_pick")
+    with caplog.at_level(logging.WARNING, logger="drake"):
+        settle_object(spec, _flat_pose(spec, 0.0002), 0.001)
+        logging.getLogger("drake").warning("any other warning")
+    said = [r.getMessage() for r in caplog.records if r.name == "drake"]
+    assert said == ["any other warning"]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [*OBJECTS, "go_stone"])
 def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_engines(name):

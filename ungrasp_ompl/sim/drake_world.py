@@ -67,6 +67,7 @@ MuJoCo's model (the larger of the solids' and the table's, both mu_G)."""
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -142,14 +143,28 @@ def combined_friction(a: float, b: float) -> float:
     return 2.0 * a * b / (a + b) if a + b > 0 else 0.0
 
 
+#: Drake's warning, at a plant's first step, that a rigid half space would not touch a deformable
+#: body: the worlds built here hold no deformable body, so it says nothing of them.
+_NO_DEFORMABLES = "Rigid (non-deformable) half spaces are not currently supported for deformable contact"
+
+
+def _not_about_deformables(record: logging.LogRecord) -> bool:
+    """False for Drake's warning about deformable contact (_NO_DEFORMABLES), True for any other record."""
+    return not record.getMessage().startswith(_NO_DEFORMABLES)
+
+
 def require_drake():
-    """pydrake, or ToolError (exit 1, one line) naming the extra that installs it."""
+    """pydrake, or ToolError (exit 1, one line) naming the extra that installs it. Drake's logger
+    then drops its warning about deformable contact (_NO_DEFORMABLES), and nothing else."""
     try:
         import pydrake  # noqa: F401
     except ImportError:
         raise ToolError("--engine drake needs Drake: pip install 'ungrasp-ompl[drake]' (the drake wheel)") from None
     import pydrake.all as drake
 
+    logger = logging.getLogger("drake")
+    if _not_about_deformables not in logger.filters:
+        logger.addFilter(_not_about_deformables)
     return drake
 
 
