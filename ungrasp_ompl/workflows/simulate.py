@@ -195,7 +195,7 @@ class SceneSimulation:
                          f"({placed['max']:.2f} mm at most)")
         lines += [f"  {k} {'trial' if k == 1 else 'trials'}: {what}" for what, k in failure_words(report.trials)]
         wall = sum(t.wall_time_s for t in report.trials) / n
-        lines.append(f"the simulation ran at {report.real_time_factor():.1f} times real time per worker process "
+        lines.append(f"the simulation ran at {report.real_time_factor():.2g} times real time per worker process "
                      f"({wall:.2f} s of computing per trial); the object sank at most {s['max_penetration_mm']:.3f} mm "
                      "into a digit or the table (the simulated contacts are slightly soft)")
         tracking = [(t.palm_tracking_mm, t.palm_tracking_deg) for t in report.trials if hasattr(t, "palm_tracking_mm")]
