@@ -501,6 +501,23 @@ def test_the_contacts_study_runs_the_drake_campaign_s_own_trials(campaign, studi
         assert row["mujoco"]["successes"] == row["mujoco"]["trials"]
 
 
+def test_the_fifth_friction_study_runs_the_drake_control_s_own_trials():
+    """The control's 20 trials (a fifth of the friction) run again at Drake's step with their forces
+    logged are the control row's: as many place in Drake as the row placed, and as many leave the
+    plane as the row's failures say did; none places in MuJoCo, as none of MuJoCo's 40 did."""
+    row = next(r for r in results.load("campaigns_drake_0.025ms_rows")["rows"]
+               if r["key"] == "control-pick-a-fifth-of-the-friction")
+    trials = [r for r in results.load("campaigns_drake_contacts")["rows"]
+              if r["study"] == "fifth-friction-at-step" and "trial" in r]
+    drake = [r for r in trials if r["engine"] == "drake"]
+    assert len(drake) == row["trials"]
+    assert sum(r["outcome"] == "success" for r in drake) == row["successes"]
+    left = sum(n for n, cause in row["failures"] if cause.startswith("object left the plane"))
+    assert sum(r["outcome"] == "object left the plane" for r in drake) == left
+    assert not any(r["outcome"] == "success" for r in trials if r["engine"] == "mujoco")
+    assert row["mujoco"]["successes"] == 0
+
+
 def test_drake_s_step_is_what_record_0126_s_rule_reads_off_the_study():
     """tools/drake_step.py's file holds what its rule makes of the contacts study's trial rows as
     they are now, with its own drops: every row, the chosen step among them, comes back the same."""

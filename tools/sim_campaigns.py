@@ -88,7 +88,8 @@ how far G moves along the table before the termination (and in which phase most)
 begins, and the finger's mean force on the object in the termination; and per object and engine
 run on three trials or more, how many fail, how the placement error ranks (Spearman) with G's
 slide from the termination on and with the table's grip over mu, and where the object lands along
-GB and across it (each trial's landing is in its row). With `--tip flat` the
+GB and across it (each trial's landing is in its row), and in how many the object already lay out of
+the plane when the drive began. With `--tip flat` the
 trials are the edge rows' (the flat finger tip); with `--contacts-world KEY=VALUE` they run in
 that world (`--contacts-world friction=0.2`: the control's); `--contacts-study NAME` keeps the
 study beside the others in the file. `--drake-step S`, `--drake-table PA_PER_M` and `--drake-pad
@@ -966,7 +967,8 @@ CONTACT_FORMATS = {"error_mm": "{:.2f}", "mu_g": "{:.3f}", "g_use_max": "{:.3f}"
                    "landing_along_se_mm": "{:.2f}", "g_release_along_mm": "{:+.2f}", "g_held_along_mm": "{:+.2f}",
                    "g_held_along_mean_mm": "{:+.2f}", "g_release_along_mean_mm": "{:+.2f}", "thumb_gb_release_mns": "{:+.1f}",
                    "finger_gb_release_mns": "{:+.1f}", "table_gb_release_mns": "{:+.1f}",
-                   "thumb_gb_mean_mns": "{:+.1f}", "finger_gb_mean_mns": "{:+.1f}", "table_gb_mean_mns": "{:+.1f}"}
+                   "thumb_gb_mean_mns": "{:+.1f}", "finger_gb_mean_mns": "{:+.1f}", "table_gb_mean_mns": "{:+.1f}",
+                   "out_at_start": "{}"}
 
 
 def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounded", study: str | None = None,
@@ -1077,10 +1079,13 @@ def _over_trials(rows: list[dict]) -> list[dict]:
     standard error of the mean along GB; the mean grip over mu of every trial; the mean slide of G
     and the thumb's and the table's mean impulses along it from the termination on, and how each
     impulse ranks with the landing along GB; and G's mean slide along GB while held and from the
-    termination on, and each contact's mean impulse along GB from the termination on (+ toward B).
-    These take the trials that end with the object down (an error to rank, a landing), but for the
-    grip."""
+    termination on, and each contact's mean impulse along GB from the termination on (+ toward B);
+    and how many trials already lay out of the plane (beyond the verdict's sim.trial.LEFT_PLANE_DEG)
+    when the drive began, the settling done (None where no row logs it). These take the trials that
+    end with the object down (an error to rank, a landing), but for the grip and the start."""
     from scipy.stats import spearmanr
+
+    from ungrasp_ompl.sim.trial import LEFT_PLANE_DEG
 
     out = []
     for name in dict.fromkeys(r["object"] for r in rows):
@@ -1091,6 +1096,7 @@ def _over_trials(rows: list[dict]) -> list[dict]:
             landed = [r for r in trials if r["error_mm"] is not None]  # a trial that ends held has no error
             failed = [r for r in trials if r["outcome"] != "success"]
             success = [r for r in trials if r["outcome"] == "success"]
+            started = [r for r in trials if r.get("roll_start_deg") is not None]
 
             def mean(group: list[dict], field: str) -> float | None:  # over the rows that have the field
                 values = [r[field] for r in group if r.get(field) is not None]
@@ -1098,9 +1104,10 @@ def _over_trials(rows: list[dict]) -> list[dict]:
 
             def rho(field: str, against: str = "error_mm") -> float | None:  # None where either side does not vary
                 both = [r for r in landed if r.get(field) is not None]
-                value = (float(spearmanr([r[against] for r in both], [r[field] for r in both])[0])
-                         if len(both) > 2 else math.nan)
-                return None if math.isnan(value) else value
+                x, y = [r[against] for r in both], [r[field] for r in both]
+                if len(both) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+                    return None
+                return float(spearmanr(x, y)[0])
 
             out.append({"label": f"{name}, {engine}: the trials", "object": name, "engine": engine,
                         "trials": len(trials), "failed": len(failed),
@@ -1123,7 +1130,8 @@ def _over_trials(rows: list[dict]) -> list[dict]:
                         "g_held_along_mean_mm": mean(landed, "g_held_along_mm"),
                         "g_release_along_mean_mm": mean(landed, "g_release_along_mm"),
                         **{f"{kind}_gb_mean_mns": mean(landed, f"{kind}_gb_release_mns")
-                           for kind in ("thumb", "finger", "table")}})
+                           for kind in ("thumb", "finger", "table")},
+                        "out_at_start": sum(r["roll_start_deg"] > LEFT_PLANE_DEG for r in started) if started else None})
     return out
 
 
