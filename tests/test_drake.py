@@ -23,7 +23,7 @@ from ungrasp_ompl.robot.model import load_ur5e  # noqa: E402
 from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec  # noqa: E402
 from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim import drake_world  # noqa: E402
-from ungrasp_ompl.sim.drake_trial import run_drake_trial, settle_object  # noqa: E402
+from ungrasp_ompl.sim.drake_trial import FlatDrop, run_drake_trial, settle_object  # noqa: E402
 from ungrasp_ompl.sim.model import build_mjcf, model_ids  # noqa: E402
 from ungrasp_ompl.sim.spec import PairFriction, SimModelSpec, SimObject, curved_solid  # noqa: E402
 from ungrasp_ompl.sim.setup import gripper_geometry, object_outline  # noqa: E402
@@ -62,12 +62,6 @@ def _same(a, b) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return np.array_equal(np.asarray(a), np.asarray(b))
     return a == b
-
-
-def _flat_pose(spec: SimModelSpec, height: float) -> np.ndarray:
-    pose = np.eye(4)
-    pose[:3, 3] = [0.45, 0.10, height]
-    return pose
 
 
 def test_the_world_description_is_what_both_engines_build():
@@ -186,7 +180,7 @@ def test_a_world_s_first_steps_say_nothing_of_deformable_bodies_and_drake_s_othe
 
     spec = _spec("guitar_pick")
     with caplog.at_level(logging.WARNING, logger="drake"):
-        settle_object(spec, _flat_pose(spec, 0.0002), 0.001)
+        settle_object(spec, FlatDrop().pose(0.0002), 0.001)
         logging.getLogger("drake").warning("any other warning")
     said = [r.getMessage() for r in caplog.records if r.name == "drake"]
     assert said == ["any other warning"]
@@ -198,12 +192,13 @@ def test_an_object_dropped_flat_from_a_millimetre_rests_where_it_fell_in_both_en
     """The positive control of the table's contact: flat, 1 mm above the table, let go; after 0.3 s
     it lies on the table within 0.05 mm of below where it was dropped, flat, in MuJoCo and in Drake.
     The Go stone is its curved solid (on its flat face; Drake takes 15-20 s of one core over it)."""
-    spec = _spec(name)
-    pose = _flat_pose(spec, 0.001)
-    for engine, final in (("mujoco", mujoco_drop(spec, pose, 0.3)), ("drake", settle_object(spec, pose, 0.3))):
+    spec, drop = _spec(name), FlatDrop()
+    pose = drop.pose()
+    for engine, final in (("mujoco", mujoco_drop(spec, pose, drop.duration)),
+                          ("drake", settle_object(spec, pose, drop.duration))):
         moved = np.linalg.norm(final[:2, 3] - pose[:2, 3])
-        assert moved < 5e-5, f"{engine}: moved {moved * 1000:.4f} mm"
-        assert abs(final[2, 3]) < 5e-5, f"{engine}: rests {final[2, 3] * 1000:.4f} mm off the table's top"
+        assert moved < drop.bound, f"{engine}: moved {moved * 1000:.4f} mm"
+        assert abs(final[2, 3]) < drop.bound, f"{engine}: rests {final[2, 3] * 1000:.4f} mm off the table's top"
         assert math.degrees(math.acos(min(1.0, final[2, 2]))) < 0.05, engine
 
 
@@ -393,7 +388,7 @@ def test_the_table_carries_a_resting_objects_weight_and_no_more():
     x, y = spec.obj.outline.T
     mass = 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1))) * spec.obj.thickness * spec.obj.density
     log: list = []
-    settle_object(spec, _flat_pose(spec, 0.0002), 0.3, contact_log=log)
+    settle_object(spec, FlatDrop().pose(0.0002), 0.3, contact_log=log)
     assert log[-1][0] == pytest.approx(0.3)
     assert all(set(forces) == {"table"} for _, forces in log[-50:])
     fx, fy, fz = np.mean([forces["table"] for _, forces in log[-50:]], axis=0)

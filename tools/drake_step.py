@@ -5,7 +5,7 @@ the mean landing along GB (mm, + toward B) and its standard deviation (the study
 and against the finest step the two-sided p of Fisher's exact test of the failures,
 Welch's t-test of the mean landing and the Brown-Forsythe test (Levene's about the median) of its
 spread; the table's positive control at each step, each object scene's object dropped flat from
-1 mm (how far it moved in 0.3 s, against the 0.05 mm tests/test_drake.py allows); then the step
+1 mm (how far it moved in 0.3 s, against the 0.05 mm sim.drake_trial.FlatDrop allows); then the step
 the rule gives: the coarsest step that agrees with the finest (every p >= 0.05 for both objects)
 and passes the control, every finer one of which does both too. No trial runs; the drops take
 half a minute.
@@ -38,9 +38,6 @@ RESULTS = ROOT / "docs" / "results" / "drake_step.json"
 ARMS = {0.1: {"guitar_pick": "middle-aim-base", "puzzle_piece": "middle-aim-base"},
         0.05: {"guitar_pick": "step-0.05-pick", "puzzle_piece": "step-0.05-puzzle"},
         0.025: {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle"}}
-#: the table's positive control (tests/test_drake.py): dropped flat from DROP_HEIGHT (m) at DROP_AT
-#: (m, the table's frame), the object lies within DROP_BOUND (m) of below it after DROP_TIME (s)
-DROP_HEIGHT, DROP_AT, DROP_BOUND, DROP_TIME = 0.001, (0.45, 0.10), 5e-5, 0.3
 FORMATS = {"moved_mm": "{:.4f}", "step_ms": "{:g}", "trials": "{}", "failed": "{}", "landing_along_mean_mm": "{:+.2f}",
            "landing_along_sd_mm": "{:.2f}", "fisher_p": "{:.2g}", "welch_p": "{:.2g}",
            "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}"}
@@ -70,23 +67,24 @@ def compare(arm: tuple[dict, np.ndarray], finest: tuple[dict, np.ndarray]) -> di
 
 def drops(steps: list[float]) -> dict[float, list[dict]]:
     """The table's positive control at each step (ms): each object scene's object (the world of
-    its lattice plan's trials) dropped flat from DROP_HEIGHT, its row with how far it moved."""
+    its lattice plan's trials) dropped as sim.drake_trial.FlatDrop drops it, its row with how far it
+    moved."""
     from ungrasp_ompl import Scene
     from ungrasp_ompl.planning import plan
-    from ungrasp_ompl.sim.drake_trial import settle_object
+    from ungrasp_ompl.sim.drake_trial import FlatDrop, settle_object
     from ungrasp_ompl.sim.plan_trials import placement
 
+    drop = FlatDrop()
     out: dict[float, list[dict]] = {step: [] for step in steps}
     for name in OBJECTS:
         scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
         spec = placement(scene, plan(scene, planner="lattice"))[1].spec
-        pose = np.eye(4)
-        pose[:3, 3] = [*DROP_AT, DROP_HEIGHT]
+        pose = drop.pose()
         for step in steps:
-            final = settle_object(spec, pose, DROP_TIME, time_step=step / 1000)
+            final = settle_object(spec, pose, drop.duration, time_step=step / 1000)
             moved = float(np.linalg.norm(final[:2, 3] - pose[:2, 3]))
             out[step].append({"label": f"drop: {name} at {step:g} ms", "object": name, "step_ms": step,
-                              "moved_mm": 1000 * moved, "agrees": "yes" if moved < DROP_BOUND else "no"})
+                              "moved_mm": 1000 * moved, "agrees": "yes" if moved < drop.bound else "no"})
     return out
 
 

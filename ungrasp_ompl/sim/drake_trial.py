@@ -368,6 +368,28 @@ class _DrakeWatch:
         return read_contacts(touches, table, self._frame, b_point, self._depth)
 
 
+@dataclass(frozen=True)
+class FlatDrop:
+    """The table's positive control (docs/model.md 11.19): an object let go flat above the table
+    must come to rest where it fell, in either engine and at Drake's step (record 0126)."""
+
+    #: how high (m) the object's underside starts above the table's top
+    height: float = 1e-3
+    #: where (m, x and y in the world) it is let go
+    at: tuple[float, float] = (0.45, 0.10)
+    #: how long (s) it is left to gravity and the table
+    duration: float = 0.3
+    #: how far (m) it may end from below where it was let go, and off the table's top
+    bound: float = 5e-5
+
+    def pose(self, height: float | None = None) -> NDArray[np.float64]:
+        """The object's pose (4x4, world) when let go: flat, at ``at``, ``height`` (m; default the
+        control's) above the table."""
+        pose = np.eye(4)
+        pose[:3, 3] = [*self.at, self.height if height is None else height]
+        return pose
+
+
 def settle_object(spec, pose: NDArray, duration: float, time_step: float | None = None,
                   record: list | None = None, contact_log: list | None = None,
                   placed: list | None = None) -> NDArray[np.float64]:
