@@ -2,13 +2,15 @@
 the pick and the puzzle piece, Drake alone on the builder's table, at each step of the study
 (docs/results/campaigns_drake_contacts.json). Per object and step: the trials, how many failed,
 the mean landing along GB (mm, + toward B) and its standard deviation (the study's own summaries),
-and against the finest step the two-sided p of Fisher's exact test of the failures,
-Welch's t-test of the mean landing and the Brown-Forsythe test (Levene's about the median) of its
-spread; the table's positive control at each step, each object scene's object dropped flat from
-1 mm (how far it moved in 0.3 s, against the 0.05 mm sim.drake_trial.FlatDrop allows); then the step
-the rule gives: the coarsest step that agrees with the finest (every p >= 0.05 for both objects)
-and passes the control, every finer one of which does both too. No trial runs; the drops take
-half a minute.
+and against the object's finest step (record 0127: the puzzle piece has an arm at 0.0125 ms, the
+pick's finest is 0.025 ms) the two-sided p of Fisher's exact test of the failures, Welch's t-test
+of the mean landing and the Brown-Forsythe test (Levene's about the median) of its spread; the
+table's positive control at each step, each object scene's object dropped flat from 1 mm (how far
+it moved in 0.3 s, against the 0.05 mm sim.drake_trial.FlatDrop allows); then the step the rule
+gives: the coarsest step that agrees (every p >= 0.05 for every object with an arm there) and
+passes the control, every finer one of which does both too, and the objects for which a finer
+arm shows it converged. An arm whose study has not run is left out. No trial runs; the drops take
+under a minute.
 
     python tools/drake_step.py [--results]
 
@@ -37,10 +39,12 @@ RESULTS = ROOT / "docs" / "results" / "drake_step.json"
 #: the study's arms per step (ms): the contacts study's name holding each object's Drake trials
 ARMS = {0.1: {"guitar_pick": "middle-aim-base", "puzzle_piece": "middle-aim-base"},
         0.05: {"guitar_pick": "step-0.05-pick", "puzzle_piece": "step-0.05-puzzle"},
-        0.025: {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle"}}
+        0.025: {"guitar_pick": "table-step-pick", "puzzle_piece": "table-step-puzzle"},
+        0.0125: {"puzzle_piece": "step-0.0125-puzzle"}}  # record 0127: the puzzle piece alone
 FORMATS = {"moved_mm": "{:.4f}", "step_ms": "{:g}", "trials": "{}", "failed": "{}", "landing_along_mean_mm": "{:+.2f}",
            "landing_along_sd_mm": "{:.2f}", "fisher_p": "{:.2g}", "welch_p": "{:.2g}",
-           "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}"}
+           "brown_forsythe_p": "{:.2g}", "agrees": "{}", "chosen_step_ms": "{:g}", "against_ms": "{:g}",
+           "converged_for": "{}"}
 
 
 def arm(rows: list[dict], study: str, name: str) -> tuple[dict, np.ndarray]:
@@ -88,30 +92,44 @@ def drops(steps: list[float]) -> dict[float, list[dict]]:
     return out
 
 
+def arms_run(rows: list[dict]) -> dict[float, dict[str, str]]:
+    """ARMS less the arms whose study the contacts study's rows do not hold yet, and the steps left
+    with none."""
+    have = {r["study"] for r in rows if "study" in r}
+    arms = {step: {name: study for name, study in by.items() if study in have} for step, by in ARMS.items()}
+    return {step: by for step, by in arms.items() if by}
+
+
 def step_rows(rows: list[dict], dropped: dict[float, list[dict]]) -> list[dict]:
     """One row per object and step of the study's trial rows (the contacts study's) and the drops'
-    rows of each step (drops()), then the row of the step the rule gives."""
-    steps = sorted(ARMS, reverse=True)
-    finest = steps[-1]
+    rows of each step (drops()), then the row of the step the rule gives. Each object's arms are
+    set against its own finest arm (record 0127)."""
+    arms = arms_run(rows)
+    steps = sorted(arms, reverse=True)
+    finest = {name: min(step for step in steps if name in arms[step]) for step in steps for name in arms[step]}
     out, agrees = [], {}
     for step in steps:
         out += dropped[step]
         agrees[step] = all(r["agrees"] == "yes" for r in dropped[step])
-        for name, study in ARMS[step].items():
+        for name, study in arms[step].items():
             this = arm(rows, study, name)
             row = {"label": f"{name} at {step:g} ms", "object": name, "step_ms": step, "study_name": study,
                    **{k: this[0][k] for k in ("trials", "failed", "landing_along_mean_mm", "landing_along_sd_mm")}}
-            if step != finest:
-                p = compare(this, arm(rows, ARMS[finest][name], name))
-                row |= p
+            if step != finest[name]:
+                p = compare(this, arm(rows, arms[finest[name]][name], name))
+                row |= {"against_ms": finest[name], **p}
                 row["agrees"] = "yes" if min(p.values()) >= CHANCE_P else "no"
                 agrees[step] &= row["agrees"] == "yes"
             out.append(row)
     chosen = next((step for step in steps if all(agrees[s] for s in steps if s <= step)), None)
+    converged = sorted(name for name, f in finest.items() if chosen is not None and f < chosen)
     out.append({"label": "the step the rule gives", "chosen_step_ms": chosen or float("nan"),
                 "agrees": ("no step passes the table's control" if chosen is None else
-                           f"the coarsest step agreeing with {finest:g} ms" if chosen != finest else
-                           "no coarser step agrees and passes the control: convergence not shown")})
+                           "no coarser step agrees and passes the control: convergence not shown"
+                           if not converged else
+                           f"agrees with the finer arm of {', '.join(converged)} (converged for "
+                           f"{'it' if len(converged) == 1 else 'them'} alone)"),
+                "converged_for": ", ".join(converged) or "none"})
     return out
 
 
@@ -120,13 +138,15 @@ def main() -> None:
     ap.add_argument("--results", action="store_true", help=f"write {RESULTS.relative_to(ROOT)}")
     args = ap.parse_args()
     started = time.perf_counter()
-    rows = step_rows(json.loads(CONTACTS.read_text())["rows"], drops(sorted(ARMS, reverse=True)))
+    contacts = json.loads(CONTACTS.read_text())["rows"]
+    rows = step_rows(contacts, drops(sorted(arms_run(contacts), reverse=True)))
     for r in rows:
         print(", ".join(f"{k} {v}" for k, v in r.items()))
     if args.results:
         merge_study(RESULTS, "drake-step", shlex.join(["python", "tools/drake_step.py", *sys.argv[1:]]),
                     time.perf_counter() - started, rows, FORMATS,
-                    "Drake's step by record 0126's rule: the same base trials at each step")
+                    "Drake's step by record 0126's rule (each object against its finest arm, record 0127): "
+                    "the same base trials at each step")
         print(f"wrote {RESULTS}")
 
 
