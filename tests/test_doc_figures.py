@@ -537,6 +537,27 @@ def test_drake_s_step_is_what_record_0126_s_rule_reads_off_the_study():
     assert made[-1]["chosen_step_ms"] * 1e-3 == pytest.approx(drake_trial.DRAKE_TIME_STEP, rel=1e-12)
 
 
+def test_the_landing_map_is_what_the_model_of_the_fall_gives_over_the_goal_states():
+    """tools/landing_map.py's file holds what the model gives now: the puzzle piece's rows made again
+    (its plan's release, the least-moving goal state the start reaches and over the region, the
+    counts) come back the same; for every object the least-moving goal state the start reaches lands
+    no farther than the plan's release, itself such a state."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    landing_map = importlib.import_module("landing_map")
+    kept = [r for r in results.load("landing_map")["rows"] if not r["label"].startswith("study: ")]
+    made, _ = landing_map.mapped("puzzle_piece")
+    mine = [{k: v for k, v in r.items() if k not in ("key", "study")} for r in kept if r["object"] == "puzzle_piece"]
+    assert mine == made
+    for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
+        rows = {r["label"].split(": ", 1)[1]: r for r in kept if r["object"] == name}
+        assert rows["the least-moving goal state the start reaches"]["farthest_mm"] <= \
+            rows["the plan's release"]["farthest_mm"] + 1e-9
+        assert rows["the least-moving goal state"]["farthest_mm"] <= \
+            rows["the least-moving goal state the start reaches"]["farthest_mm"] + 1e-9
+
+
 def test_the_contacts_studys_summaries_are_those_of_its_trials(tmp_path, monkeypatch):
     """Every summary per object and engine in the contacts study's file is what sim_campaigns'
     summaries make of that study's trial rows: made again (--contacts-summaries) on a copy of the

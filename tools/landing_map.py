@@ -1,0 +1,161 @@
+"""Where over its goal region the release moves each object scene's object least, by the model of
+the fall (docs/model.md 11.17).
+
+For every goal state of the scene at the goal's largest theta (the lattice's states there, inside
+the goal's d and psi ranges, that the pinch holds and the gripper can let go from: the planner's
+goal states, planning.atlas.SecurityAtlas.releasable_in), the model's landing without the aim
+(mechanics.release, the fall from the state itself): with the scene's friction and Coulomb's cone
+(nominal) and over the worlds of the spread (friction 0.7-1.3 times the scene's, both cones: the
+lowest and the highest landing), along GB, + toward B. A state's farthest landing is the larger of
+the two ends' distances from the target: what an unaimed release can be off by in those worlds. A
+plan's release is reachable from the start only at or below the start's d (the forward primitives
+move d one way, down).
+
+Per object: the release of the campaign's plan (RRT*, seed 1) from the same fall, the goal state
+reachable from the start whose farthest landing is least, the same over the whole goal region, and
+how many goal states there are, how many the start reaches and how many of those land within 0.5
+mm in every world. No trial runs: a minute or two.
+
+    python tools/landing_map.py [--scenes guitar_pick,puzzle_piece,fabric_chalk] [--results]
+
+--results writes docs/results/landing_map.json (the markdown beside it rendered from it) and
+docs/figures/landing_map.png: each object's farthest landing over its goal states at that theta.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
+
+from ungrasp_ompl import Scene  # noqa: E402
+from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
+from ungrasp_ompl.planning.atlas import SecurityAtlas  # noqa: E402
+from ungrasp_ompl.planning.predicted_landing import release_setup  # noqa: E402
+from ungrasp_ompl.mechanics.release import ReleasePrediction, predict_release  # noqa: E402
+
+SCENES = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+RESULTS = ROOT / "docs" / "results" / "landing_map.json"
+FIGURE = ROOT / "docs" / "figures" / "landing_map.png"
+#: A goal state "lands within" this (m) when its landing in every world of the spread does.
+WITHIN = 5e-4
+FORMATS = {**{k: "{:+.2f}" for k in ("nominal_mm", "low_mm", "high_mm")}, "farthest_mm": "{:.2f}",
+           "spread_mm": "{:.2f}", "d": "{:.3f}", "psi_deg": "{:.1f}", "theta_deg": "{:.1f}",
+           "goal_states": "{}", "reachable": "{}", "reachable_within": "{}", "start_d": "{:.3f}"}
+
+
+def landing(scene: Scene, state) -> ReleasePrediction:
+    """The model's landing of a release from state (theta rad, d, psi rad), unaimed, not carried."""
+    mu_g, _, mu_b = scene.mu_contacts
+    return predict_release(release_setup(scene, tuple(float(x) for x in state)), float(mu_g), float(mu_b),
+                           str(scene.robot.termination))
+
+
+def farthest(p: ReleasePrediction) -> float:
+    """How far (m) from the target the release's farthest landing over the worlds lies."""
+    return max(abs(p.low), abs(p.high))
+
+
+def goal_map(scene: Scene) -> tuple[list[tuple[float, float, float]], list[ReleasePrediction]]:
+    """The goal states at the goal's largest theta (theta, d, psi) and each one's landing."""
+    lo, hi = (np.asarray(c, dtype=float) for c in scene.goal.box())
+    theta = float(hi[0])
+    box = np.array([[theta, lo[1], lo[2]], [theta, hi[1], hi[2]]])
+    atlas = SecurityAtlas(scene, box)
+    states = [tuple(float(x) for x in atlas.state(idx)) for idx in np.argwhere(atlas.releasable_in(box))]
+    return states, [landing(scene, s) for s in states]
+
+
+def row(label: str, name: str, state, p: ReleasePrediction) -> dict:
+    """One release's row: its state and its landing's figures (mm)."""
+    return {"label": label, "object": name, "theta_deg": math.degrees(state[0]), "d": state[1],
+            "psi_deg": math.degrees(state[2]), "nominal_mm": p.nominal * 1e3, "low_mm": p.low * 1e3,
+            "high_mm": p.high * 1e3, "spread_mm": p.spread * 1e3, "farthest_mm": farthest(p) * 1e3}
+
+
+def mapped(name: str) -> tuple[list[dict], dict]:
+    """An object scene's rows, and what its figure draws (states, landings, start's d, plan's end)."""
+    scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
+    states, landings = goal_map(scene)
+    if not states:
+        raise SystemExit(f"{name}: no goal state at the goal's largest theta")
+    start_d = float(scene.start[1])
+    result = make_plan(scene, planner="RRTstar", time=1.0, seed=1)
+    if not result.solved:
+        raise SystemExit(f"{name}: the campaign's plan (RRT*, seed 1) is not solved")
+    end = tuple(float(x) for x in result.states[-1])
+    reach = [k for k, s in enumerate(states) if s[1] <= start_d + 1e-9]
+    best = min(range(len(states)), key=lambda k: farthest(landings[k]))
+    rows = [row(f"{name}: the plan's release", name, end, landing(scene, end))]
+    if reach:
+        k = min(reach, key=lambda k: farthest(landings[k]))
+        rows.append(row(f"{name}: the least-moving goal state the start reaches", name, states[k], landings[k]))
+    rows.append(row(f"{name}: the least-moving goal state", name, states[best], landings[best]))
+    rows.append({"label": f"{name}: goal states", "object": name, "theta_deg": math.degrees(states[0][0]),
+                 "start_d": start_d, "goal_states": len(states), "reachable": len(reach),
+                 "reachable_within": sum(farthest(landings[k]) <= WITHIN for k in reach)})
+    return rows, {"states": states, "farthest": [farthest(p) for p in landings], "start_d": start_d, "end": end}
+
+
+def draw(maps: dict[str, dict], path: Path) -> None:
+    """Each object's farthest landing (mm) over its goal states (d, psi), the start's d and the
+    plan's release marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ungrasp_ompl.plots.common import save_png
+
+    fig, axes = plt.subplots(1, len(maps), figsize=(4.6 * len(maps), 4.6), squeeze=False)
+    for ax, (name, m) in zip(axes[0], maps.items()):
+        d = np.array([s[1] for s in m["states"]])
+        psi = np.degrees([s[2] for s in m["states"]])
+        dots = ax.scatter(d, psi, c=np.array(m["farthest"]) * 1e3, cmap="viridis", vmin=0.0, vmax=3.0, s=14,
+                          marker="s")
+        ax.axvline(m["start_d"], color="k", lw=1, ls="--", label="the start's d (reachable: left of it)")
+        ax.plot(m["end"][1], math.degrees(m["end"][2]), "r*", ms=12, label="the plan's release")
+        ax.set_title(name)
+        ax.set_xlabel("d at the release")
+        ax.set_ylabel("psi at the release (deg)")
+    fig.legend(*axes[0][0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8)
+    fig.subplots_adjust(bottom=0.2)
+    fig.colorbar(dots, ax=axes[0].tolist(), label="farthest unaimed landing over the worlds (mm)")
+    save_png(fig, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--results", action="store_true", help="write docs/results/landing_map.json and its figure")
+    args = ap.parse_args(argv)
+    command = shlex.join(["python", "tools/landing_map.py", *(sys.argv[1:] if argv is None else argv)])
+    wall = time.perf_counter()
+    rows, maps = [], {}
+    for name in args.scenes.split(","):
+        mine, maps[name] = mapped(name)
+        for r in mine:
+            print(", ".join(f"{k} {FORMATS.get(k, '{}').format(v)}" for k, v in r.items() if k != "object"), flush=True)
+        rows += mine
+    if args.results:
+        from campaign_results import merge_study
+
+        print("wrote", merge_study(RESULTS, "landing-map", command, time.perf_counter() - wall, rows, FORMATS,
+                                   "tools/landing_map.py: where over its goal region the release moves each "
+                                   "object least (docs/model.md 11.17)"))
+        draw(maps, FIGURE)
+        print("wrote", FIGURE)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
