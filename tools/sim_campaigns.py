@@ -27,6 +27,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   with --start least-slide the base, worlds, unaimed and controls rows from each object's start
   from which B slides least along the thumb (record 0118, least_slide_start), the labels saying so;
   with --start previous from the object scenes' starts before record 0121 (PREVIOUS_STARTS);
+  with --release least-moving the base, worlds, unaimed and controls rows planned to end where the
+  model of the fall moves the object least (planning.release least_moving, record 0128);
 * unaimed: the base rows with the hand as planned (robot.landing: planned), no aim at all;
 * controls: equal digits as the paper means it (the scene planned with the thumb as long as
   the finger: the exact lattice search finds no secure path; then the asymmetric plan run with
@@ -133,7 +135,7 @@ from ungrasp_ompl.provenance import environment  # noqa: E402
 from ungrasp_ompl.sim.campaign import simulate, wilson_interval  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
-from ungrasp_ompl.scene.options import Landing, SimOptions  # noqa: E402
+from ungrasp_ompl.scene.options import Landing, Release, SimOptions  # noqa: E402
 from ungrasp_ompl.sim.landing import CACHE_VARIABLE  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant  # noqa: E402
 from ungrasp_ompl.sim.trial import MAX_CONTACT_GAP  # noqa: E402
@@ -178,6 +180,10 @@ WORLD_LABELS: tuple[str, ...] | None = None
 WORLD_TIP = "rounded"
 #: Where the base and worlds rows start (--start): the scenes' own start, or "least-slide" (record 0118).
 START = "scene"
+#: Where the base, worlds and unaimed rows' plans end (--release): where the scenes' planning.release
+#: says, or "least-moving" (record 0128: planning.release least_moving, the labels ending RELEASE_WORDS).
+RELEASE = "scene"
+RELEASE_WORDS = ", least-moving release"
 #: The curved rows' scenes (--scenes), or None for all of CURVED.
 CURVED_SCENES: tuple[str, ...] | None = None
 #: Whether a world's friction factor compounds with the trials' drawn friction error (--compounded-friction).
@@ -250,6 +256,15 @@ PREVIOUS_STARTS = {"guitar_pick": 0.65, "puzzle_piece": 0.8, "fabric_chalk": 0.8
 
 
 def _started(scene: Scene) -> tuple[Scene, str]:
+    """The scene from the start --start chooses, its plans ending where --release says, and the words
+    its base row's label ends with."""
+    scene, words = _from_start(scene)
+    if RELEASE == "scene":
+        return scene, words
+    return replace(scene, options=replace(scene.options, release=Release.LEAST_MOVING)), words + RELEASE_WORDS
+
+
+def _from_start(scene: Scene) -> tuple[Scene, str]:
     """The scene from the start --start chooses, and the words its base row's label ends with."""
     if START == "scene":
         return scene, ""
@@ -447,6 +462,10 @@ def main() -> None:
                     help="where the base and worlds rows (and --contacts' trials) start: the scenes' own start, each "
                          "object's start from which B slides least along the thumb (record 0118; labels end "
                          "', least-slide start'), or the object scenes' starts before record 0121")
+    ap.add_argument("--release", choices=("scene", "least-moving"), default="scene",
+                    help="where the base, worlds and unaimed rows' plans end: where the scenes' planning.release says, "
+                         "or where the model of the fall moves the object least (planning.release least_moving, "
+                         f"record 0128; labels end '{RELEASE_WORDS}')")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
                          "point: its mesh's point contact, the builder before the thumb's pad")
@@ -473,6 +492,7 @@ def main() -> None:
                          "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
     global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
+    global RELEASE
     global MUJOCO_SOURCE
     if args.mujoco is not None:
         MUJOCO_SOURCE = args.mujoco.resolve()
@@ -485,7 +505,7 @@ def main() -> None:
         contact_summaries()
         return
     ENGINE = args.engine
-    WORLD_TIP, START = args.tip, args.start
+    WORLD_TIP, START, RELEASE = args.tip, args.start, args.release
     drake = ENGINE == "drake"
     if drake:
         from ungrasp_ompl.sim import drake_world
@@ -557,7 +577,7 @@ def main() -> None:
         objects("base: the three objects", based)
     if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
         tip = "" if WORLD_TIP == "rounded" else f", {WORLD_TIP} tip"
-        tip += "" if START == "scene" else f", {START} start"
+        tip += ("" if START == "scene" else f", {START} start") + ("" if RELEASE == "scene" else RELEASE_WORDS)
         for name in OBJECTS:
             scene, _ = _started(_scene(name, WORLD_TIP))
             result = _plan(scene, s)

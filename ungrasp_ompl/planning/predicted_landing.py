@@ -163,3 +163,34 @@ def _exact(value: object) -> object:
     if isinstance(value, tuple):
         return tuple(_exact(v) for v in value)
     return value
+
+
+def farthest_landing(p: ReleasePrediction) -> float:
+    """How far (m) from the plan's landing the release's farthest landing over the worlds lies."""
+    return max(abs(p.low), abs(p.high))
+
+
+def least_moving_goals(scene: Scene) -> list[tuple[tuple[float, float, float], ReleasePrediction]]:
+    """The goal states at the goal's largest theta that the start reaches (d at or below the start's,
+    at it where planning.forbid_partial leaves no P_dpsi to move d; psi at or above the start's) and
+    the gripper can let go from (SecurityAtlas.releasable_in), each with the
+    landing of a release from it (the fall from the state itself, not carried), the state whose
+    farthest landing over the worlds is least first (planning.release least_moving, record 0128).
+    Empty where there is none, or the termination is not modelled."""
+    from .atlas import SecurityAtlas
+
+    lo, hi = (np.asarray(c, dtype=float) for c in scene.goal.box())
+    start = np.asarray(scene.start, dtype=float)
+    low_d = start[1] if scene.options.forbid_partial else lo[1]
+    box = np.array([[hi[0], max(lo[1], low_d), max(lo[2], start[2])], [hi[0], min(hi[1], start[1]), hi[2]]])
+    if np.any(box[0] > box[1] + 1e-12):
+        return []
+    atlas = SecurityAtlas(scene, box)
+    states = [tuple(float(x) for x in atlas.state(idx)) for idx in np.argwhere(atlas.releasable_in(box))]
+    mu_g, _, mu_b = scene.mu_contacts
+    try:
+        found = [(s, _predicted(release_setup(scene, s), float(mu_g), float(mu_b), str(scene.robot.termination), False))
+                 for s in states]
+    except ReleaseModelError:
+        return []
+    return sorted(found, key=lambda f: (farthest_landing(f[1]), f[0]))

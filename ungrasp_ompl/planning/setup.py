@@ -34,6 +34,7 @@ from ..parallel.options import check_seed
 from ..parallel.runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
 from ..scene.stability import analyse
+from ..scene.options import Release
 from .atlas import Leg, SecurityAtlas, goal_behind_start, goal_cut_by_start, planning_box
 from .goal import LatticeGoalRegion
 from .lattice import lattice_search, optimum_cost
@@ -42,7 +43,7 @@ from .names import LATTICE, PLANNERS
 from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
-from .predicted_landing import predict_landing
+from .predicted_landing import least_moving_goals, predict_landing
 from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, PathSource, Plan, PlanOutcome,
                      PlaneRecord, Report3D, Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record,
                      merge_legs, sequence_cost)
@@ -541,6 +542,8 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     passes the same checks (with_widest_path, docs/decisions/0104); and where the planner finds no
     path in its budget but the lattice holds one, the lattice's widest is the plan (0120).
     """
+    if scene.options.release is Release.LEAST_MOVING:
+        return _least_moving_plan(scene, lambda s: plan(s, planner, time, seed, iterations, None, **options))
     options["objective"] = scene_objective(options.get("objective"), scene, planner)
     if options["objective"] == Objective.MARGIN:
         t0 = perf_counter()
@@ -555,6 +558,28 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
                                                                   **options))
         return result.with_diagnostics(setup_time_s=result.setup_time_s + built)
     return _plan_objective(scene, planner, time, seed, iterations, atlas, **options)
+
+
+#: How many of the least-moving goal states planning.release least_moving tries, in order (record 0128).
+LEAST_MOVING_TRIES = 5
+
+
+def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
+    """planning.release least_moving (record 0128): the plan to the goal state whose release moves the
+    object least (predicted_landing.least_moving_goals), its goal region narrowed to that lattice
+    state; where no path reaches it, to the next, up to LEAST_MOVING_TRIES; the first one's failure
+    where none is reached. Without such a goal state, the plan the whole goal region gives."""
+    whole = replace(scene, options=replace(scene.options, release=Release.OBJECTIVE))
+    half = np.asarray(scene.options.resolution, dtype=float) / 2
+    first = None
+    for state, _ in least_moving_goals(whole)[:LEAST_MOVING_TRIES]:
+        goal = replace(scene.goal, d=(state[1] - half[1], state[1] + half[1]),
+                       psi=(state[2] - half[2], state[2] + half[2]))
+        result = plan_to(replace(whole, goal=goal))
+        if result.solved:
+            return result
+        first = first or result
+    return first if first is not None else plan_to(whole)
 
 
 def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, iterations: int | None,

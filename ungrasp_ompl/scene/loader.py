@@ -12,6 +12,7 @@ import math
 import os
 from pathlib import Path
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -26,8 +27,8 @@ from ..mechanics import DigitGeometry
 from ..mechanics.force_closure import SLIDING_MODELS, SlidingModel
 from ..mechanics.pincer import PincerSpec, check_pincer
 from ..mechanics.section import SECTION_KINDS, Section, SectionError
-from .options import (GoalSpec, GripperKind, Landing, Object3D, Objective, PlanningOptions, RobotOptions, SimOptions,
-                      Termination)
+from .options import (GoalSpec, GripperKind, Landing, Object3D, Objective, PlanningOptions, Release, RobotOptions,
+                      SimOptions, Termination)
 
 #: Longest length and farthest coordinate a scene may give, m: beyond it a value is a typo.
 MAX_LENGTH = 10.0
@@ -336,10 +337,14 @@ class SceneReader:
 
     def objective(self, planning: dict) -> Objective:
         """planning.objective: one of the objectives' names (Objective), cost by default."""
-        name = planning.get("objective", Objective.COST.value)
-        if name not in tuple(Objective):
-            self.fail("planning.objective", f"must be one of {', '.join(Objective)}, got {name!r}")
-        return Objective(name)
+        return self.choice(planning, "planning.objective", "objective", Objective, Objective.COST)
+
+    def choice(self, m: dict, key: str, k: str, kind: type[StrEnum], default: StrEnum) -> StrEnum:
+        """m[k]: one of the names of the StrEnum kind (default when absent), else an error naming key."""
+        name = m.get(k, default.value)
+        if name not in tuple(kind):
+            self.fail(key, f"must be one of {', '.join(kind)}, got {name!r}")
+        return kind(name)
 
     def margin_weight(self, planning: dict) -> float:
         """planning.margin_weight: the balanced objective's weight (cost x deg), in [0, 1e4]."""
@@ -697,7 +702,7 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
     r.known(pl, "planning", {"sliding_model", "reverse_primitives", "resolution", "d_weight",
                              "mode_change_penalty", "forbid_partial", "thumb_tip_margin", "margin_weight",
                              "min_tolerance", "table_clearance", "across_margin", "max_landing_spread", "range",
-                             "objective"})
+                             "objective", "release"})
     margin = r.length(pl, "planning.thumb_tip_margin", "thumb_tip_margin", zero=True, default=0.0)
     if margin >= digits.thumb_length * length:
         raise InputError("planning.thumb_tip_margin", "must be shorter than the thumb", source)
@@ -738,5 +743,6 @@ def _planning(r: SceneReader, top: dict, part: _ObjectPart, digits: DigitGeometr
                                      minimum=0.0, maximum=1e4, default=1.0),
         range=r.number(pl, "planning.range", "range", positive=True, maximum=10.0) if "range" in pl else None,
         objective=r.objective(pl),
+        release=r.choice(pl, "planning.release", "release", Release, Release.OBJECTIVE),
     )
     return options, digits, clearance

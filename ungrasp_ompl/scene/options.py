@@ -82,6 +82,17 @@ class Objective(StrEnum):
         return self in (Objective.MARGIN, Objective.TOLERANCE)
 
 
+class Release(StrEnum):
+    """Where in the goal region a plan ends (planning.release; a member is its name as a string)."""
+
+    #: Wherever the plan's objective takes it.
+    OBJECTIVE = "objective"
+    #: At the goal state, at the goal's largest theta and reachable from the start, whose landing by
+    #: the model of the fall moves farthest least over friction 0.7-1.3 times the scene's and both
+    #: friction cones (docs/model.md 11.17, record 0128).
+    LEAST_MOVING = "least_moving"
+
+
 @dataclass(frozen=True)
 class PlanningOptions:
     """Options of the planar planner that a scene fixes (the scene's `planning` section). Costs
@@ -114,6 +125,9 @@ class PlanningOptions:
     objective: Objective = Objective.COST
     """What this scene's plans optimise where the caller names no objective (docs/model.md 6.1);
     the roadmap planners, which optimise the cost only, optimise the cost."""
+    release: Release = Release.OBJECTIVE
+    """Where in the goal region the plan ends: where its objective takes it, or where the model of
+    the fall moves the object least (record 0128)."""
 
 
 @dataclass(frozen=True)
