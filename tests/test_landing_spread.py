@@ -90,6 +90,7 @@ def test_the_modelled_aim_moves_the_hand_back_by_the_middle_of_the_predicted_lan
     ({"planning": {"max_landing_spread": "wide"}}, "planning.max_landing_spread"),
     ({"robot": {"landing": "planned", "landing_offset": -0.001}}, "robot.landing_offset"),
     ({"robot": {"landing": "modelled", "landing_offset": -1.2}}, "robot.landing_offset"),
+    ({"planning": {"release": "lowest"}}, "planning.release"),
 ])
 def test_the_scene_file_refuses_what_the_model_cannot_do(edit, field):
     doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
@@ -98,6 +99,28 @@ def test_the_scene_file_refuses_what_the_model_cannot_do(edit, field):
     with pytest.raises(InputError) as err:
         Scene.from_dict(doc)
     assert err.value.field == field
+
+
+def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_the_object_least():
+    """With planning.release least_moving the puzzle piece's lattice plan ends at the goal state the
+    start reaches that tools/landing_map.py, going over every goal state, finds the fall moves the
+    object least from, and its release's farthest landing over the friction range is no farther
+    than the plan's without it (docs/model.md 11.17, record 0128)."""
+    import json
+
+    from ungrasp_ompl.planning.predicted_landing import farthest_landing, landing_of_state
+    from ungrasp_ompl.scene.options import Release
+
+    scene = Scene.from_file(SCENES / "puzzle_piece.yaml")
+    least = replace(scene, options=replace(scene.options, release=Release.LEAST_MOVING))
+    rows = json.loads((SCENES.parent / "docs" / "results" / "landing_map.json").read_text())["rows"]
+    mapped = next(r for r in rows if r["label"] == "puzzle_piece: the least-moving goal state the start reaches")
+    ends = [plan(s, planner="lattice").states[-1] for s in (least, scene)]
+    assert ends[0][1] == pytest.approx(mapped["d"], abs=1e-9)
+    assert math.degrees(ends[0][2]) == pytest.approx(mapped["psi_deg"], abs=1e-9)
+    own, other = (farthest_landing(landing_of_state(scene, e)) for e in ends)
+    assert own * 1e3 == pytest.approx(mapped["farthest_mm"], abs=1e-9)
+    assert own <= other
 
 
 def _landing_offset_rows() -> list[dict]:

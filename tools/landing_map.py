@@ -40,8 +40,9 @@ sys.path.insert(0, str(ROOT / "tools"))
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
 from ungrasp_ompl.planning.atlas import SecurityAtlas  # noqa: E402
-from ungrasp_ompl.planning.predicted_landing import release_setup  # noqa: E402
-from ungrasp_ompl.mechanics.release import ReleasePrediction, predict_release  # noqa: E402
+from ungrasp_ompl.planning.predicted_landing import farthest_landing as farthest  # noqa: E402
+from ungrasp_ompl.planning.predicted_landing import landing_of_state as landing  # noqa: E402
+from ungrasp_ompl.mechanics.release import ReleasePrediction  # noqa: E402
 
 SCENES = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 RESULTS = ROOT / "docs" / "results" / "landing_map.json"
@@ -51,18 +52,6 @@ WITHIN = 5e-4
 FORMATS = {**{k: "{:+.2f}" for k in ("nominal_mm", "low_mm", "high_mm")}, "farthest_mm": "{:.2f}",
            "spread_mm": "{:.2f}", "d": "{:.3f}", "psi_deg": "{:.1f}", "theta_deg": "{:.1f}",
            "goal_states": "{}", "reachable": "{}", "reachable_within": "{}", "start_d": "{:.3f}"}
-
-
-def landing(scene: Scene, state) -> ReleasePrediction:
-    """The model's landing of a release from state (theta rad, d, psi rad), unaimed, not carried."""
-    mu_g, _, mu_b = scene.mu_contacts
-    return predict_release(release_setup(scene, tuple(float(x) for x in state)), float(mu_g), float(mu_b),
-                           str(scene.robot.termination))
-
-
-def farthest(p: ReleasePrediction) -> float:
-    """How far (m) from the target the release's farthest landing over the worlds lies."""
-    return max(abs(p.low), abs(p.high))
 
 
 def goal_map(scene: Scene) -> tuple[list[tuple[float, float, float]], list[ReleasePrediction]]:

@@ -165,6 +165,15 @@ def _exact(value: object) -> object:
     return value
 
 
+def landing_of_state(scene: Scene, state: tuple[float, float, float]) -> ReleasePrediction:
+    """Where a release from state (theta rad, d over l, psi rad) puts the object, unaimed, by the model
+    of the fall from the state itself (not carried through a P_dpsi), over the worlds of the spread.
+    ReleaseModelError where the termination is not an opening one."""
+    mu_g, _, mu_b = scene.mu_contacts
+    return _predicted(release_setup(scene, tuple(float(x) for x in state)), float(mu_g), float(mu_b),
+                      str(scene.robot.termination), False)
+
+
 def farthest_landing(p: ReleasePrediction) -> float:
     """How far (m) from the plan's landing the release's farthest landing over the worlds lies."""
     return max(abs(p.low), abs(p.high))
@@ -187,10 +196,8 @@ def least_moving_goals(scene: Scene) -> list[tuple[tuple[float, float, float], R
         return []
     atlas = SecurityAtlas(scene, box)
     states = [tuple(float(x) for x in atlas.state(idx)) for idx in np.argwhere(atlas.releasable_in(box))]
-    mu_g, _, mu_b = scene.mu_contacts
     try:
-        found = [(s, _predicted(release_setup(scene, s), float(mu_g), float(mu_b), str(scene.robot.termination), False))
-                 for s in states]
+        found = [(s, landing_of_state(scene, s)) for s in states]
     except ReleaseModelError:
         return []
     return sorted(found, key=lambda f: (farthest_landing(f[1]), f[0]))
