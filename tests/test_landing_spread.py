@@ -115,7 +115,9 @@ def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_
     least = replace(scene, options=replace(scene.options, release=Release.LEAST_MOVING))
     rows = json.loads((SCENES.parent / "docs" / "results" / "landing_map.json").read_text())["rows"]
     mapped = next(r for r in rows if r["label"] == "puzzle_piece: the least-moving goal state the start reaches")
-    ends = [plan(s, planner="lattice").states[-1] for s in (least, scene)]
+    plans = [plan(s, planner="lattice") for s in (least, scene)]
+    assert [p.diagnostics.release for p in plans] == ["least_moving", "objective"]
+    ends = [p.states[-1] for p in plans]
     assert ends[0][1] == pytest.approx(mapped["d"], abs=1e-9)
     assert math.degrees(ends[0][2]) == pytest.approx(mapped["psi_deg"], abs=1e-9)
     own, other = (farthest_landing(landing_of_state(scene, e)) for e in ends)

@@ -324,6 +324,9 @@ class Diagnostics:
     """The start's friction margin with every contact sticking, deg."""
     path_from: PathSource | None = None
     """Which search found the path (PathSource); None: no path."""
+    release: str = "objective"
+    """Where in the goal region the plan was asked to end (planning.release: objective or
+    least_moving, record 0128)."""
 
 
 class TargetRecord(TypedDict):
@@ -634,6 +637,10 @@ class Plan:
                      f"{'change' if self.mode_switches == 1 else 'changes'} of primitive")
         lines.append("  " + self._against_optimum())
         lines.append(f"  optimised for {_OBJECTIVE_WORDS.get(self.objective, str(self.objective))}")
+        if self.diagnostics.release == "least_moving":
+            lines.append("  ending where the model of the fall moves the object least over friction 0.7 to 1.3 times "
+                         "the scene's and either friction-cone model, of the goal states the start reaches "
+                         "(planning.release least_moving)")
         secure = self.secure_over
         over = (f", with friction anywhere from {secure[0]:.2f} to {secure[1]:.2f} times the scene's"
                 if secure is not None and secure != (1.0, 1.0) else "")

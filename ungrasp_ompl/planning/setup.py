@@ -575,11 +575,11 @@ def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
     for state, _ in least_moving_goals(whole)[:LEAST_MOVING_TRIES]:
         goal = replace(scene.goal, d=(state[1] - half[1], state[1] + half[1]),
                        psi=(state[2] - half[2], state[2] + half[2]))
-        result = plan_to(replace(whole, goal=goal))
+        result = plan_to(replace(whole, goal=goal)).with_diagnostics(release=Release.LEAST_MOVING.value)
         if result.solved:
             return result
         first = first or result
-    return first if first is not None else plan_to(whole)
+    return first if first is not None else plan_to(whole).with_diagnostics(release=Release.LEAST_MOVING.value)
 
 
 def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, iterations: int | None,
