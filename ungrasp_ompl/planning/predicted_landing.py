@@ -1,7 +1,8 @@
 """The landing a scene's plan predicts: the fall of mechanics.release (docs/model.md 11.17) set up
 from the scene and the plan's last state (release_setup), started where the pinch leaves the object
 when it carries it through the plan's P_dpsi legs (carried_start), over the worlds of the spread
-(predict_landing: plan.json's predicted_landing)."""
+(predict_landing: plan.json's predicted_landing); and the goal states a release from which the
+fall moves the object least (least_moving_goals: planning.release least_moving, record 0128)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from ..mechanics.release import (GRIPPER_ACCELERATION, GRIPPER_SPEED, TIMING_MAR
                                  ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, pincer_hand,
                                  predict_release)
 from ..scene import Scene
+from .atlas import SecurityAtlas
 from .result import Plan
 
 
@@ -186,8 +188,6 @@ def least_moving_goals(scene: Scene) -> list[tuple[tuple[float, float, float], R
     landing of a release from it (the fall from the state itself, not carried), the state whose
     farthest landing over the worlds is least first (planning.release least_moving, record 0128).
     Empty where there is none, or the termination is not modelled."""
-    from .atlas import SecurityAtlas
-
     lo, hi = (np.asarray(c, dtype=float) for c in scene.goal.box())
     start = np.asarray(scene.start, dtype=float)
     low_d = start[1] if scene.options.forbid_partial else lo[1]
