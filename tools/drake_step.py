@@ -127,8 +127,8 @@ def step_rows(rows: list[dict], dropped: dict[float, list[dict]]) -> list[dict]:
                 "agrees": ("no step passes the table's control" if chosen is None else
                            "no coarser step agrees and passes the control: convergence not shown"
                            if not converged else
-                           f"agrees with the finer arm of {', '.join(converged)} (converged for "
-                           f"{'it' if len(converged) == 1 else 'them'} alone)"),
+                           f"agrees with {', '.join(f'{finest[n]:g} ms for {n}' for n in converged)}: converged "
+                           f"for {'it' if len(converged) == 1 else 'them'} alone"),
                 "converged_for": ", ".join(converged) or "none"})
     return out
 
