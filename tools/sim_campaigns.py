@@ -180,8 +180,9 @@ WORLD_LABELS: tuple[str, ...] | None = None
 WORLD_TIP = "rounded"
 #: Where the base and worlds rows start (--start): the scenes' own start, or "least-slide" (record 0118).
 START = "scene"
-#: Where the base, worlds and unaimed rows' plans end (--release): where the scenes' planning.release
-#: says, or "least-moving" (record 0128: planning.release least_moving, the labels ending RELEASE_WORDS).
+#: Where the base, worlds, unaimed and controls rows' plans end (--release): where the scenes'
+#: planning.release says, or "least-moving" (record 0128: planning.release least_moving, the labels
+#: ending RELEASE_WORDS).
 RELEASE = "scene"
 RELEASE_WORDS = ", least-moving release"
 #: The curved rows' scenes (--scenes), or None for all of CURVED.
@@ -463,8 +464,9 @@ def main() -> None:
                          "object's start from which B slides least along the thumb (record 0118; labels end "
                          "', least-slide start'), or the object scenes' starts before record 0121")
     ap.add_argument("--release", choices=("scene", "least-moving"), default="scene",
-                    help="where the base, worlds and unaimed rows' plans end: where the scenes' planning.release says, "
-                         "or where the model of the fall moves the object least (planning.release least_moving, "
+                    help="where the base, worlds, unaimed and controls rows' plans end: where the scenes' "
+                         "planning.release says, or where the model of the fall moves the object least "
+                         "(planning.release least_moving, "
                          f"record 0128; labels end '{RELEASE_WORDS}')")
     ap.add_argument("--thumb", choices=("pad", "point"), default="pad",
                     help="with --contacts: how the thumb touches the object in Drake (docs/model.md 11.19); "
