@@ -2,14 +2,15 @@
 the fall (docs/model.md 11.17).
 
 For every goal state of the scene at the goal's largest theta (the lattice's states there, inside
-the goal's d and psi ranges, that the pinch holds and the gripper can let go from: the planner's
-goal states, planning.atlas.SecurityAtlas.releasable_in), the model's landing without the aim
+the goal's d and psi ranges, that the pinch holds and the gripper can let go from:
+planning.predicted_landing.release_goals), the model's landing without the aim
 (mechanics.release, the fall from the state itself): with the scene's friction and Coulomb's cone
 (nominal) and over the worlds of the spread (friction 0.7-1.3 times the scene's, both cones: the
 lowest and the highest landing), along GB, + toward B. A state's farthest landing is the larger of
 the two ends' distances from the target: what an unaimed release can be off by in those worlds. A
 plan's release is reachable from the start only at or below the start's d (the forward primitives
-move d one way, down).
+move d one way, down), and only at it where the scene allows no P_dpsi (planning.forbid_partial):
+the states planning.release least_moving chooses among.
 
 Per object: the release of the campaign's plan (RRT*, seed 1) from the same fall, the goal state
 reachable from the start whose farthest landing is least, the same over the whole goal region, and
@@ -39,9 +40,9 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan as make_plan  # noqa: E402
-from ungrasp_ompl.planning.atlas import SecurityAtlas  # noqa: E402
 from ungrasp_ompl.planning.predicted_landing import farthest_landing as farthest  # noqa: E402
 from ungrasp_ompl.planning.predicted_landing import landing_of_state as landing  # noqa: E402
+from ungrasp_ompl.planning.predicted_landing import release_goals  # noqa: E402
 from ungrasp_ompl.mechanics.release import ReleasePrediction  # noqa: E402
 
 SCENES = ("guitar_pick", "puzzle_piece", "fabric_chalk")
@@ -54,16 +55,6 @@ FORMATS = {**{k: "{:+.2f}" for k in ("nominal_mm", "low_mm", "high_mm")}, "farth
            "goal_states": "{}", "reachable": "{}", "reachable_within": "{}", "start_d": "{:.3f}"}
 
 
-def goal_map(scene: Scene) -> tuple[list[tuple[float, float, float]], list[ReleasePrediction]]:
-    """The goal states at the goal's largest theta (theta, d, psi) and each one's landing."""
-    lo, hi = (np.asarray(c, dtype=float) for c in scene.goal.box())
-    theta = float(hi[0])
-    box = np.array([[theta, lo[1], lo[2]], [theta, hi[1], hi[2]]])
-    atlas = SecurityAtlas(scene, box)
-    states = [tuple(float(x) for x in atlas.state(idx)) for idx in np.argwhere(atlas.releasable_in(box))]
-    return states, [landing(scene, s) for s in states]
-
-
 def row(label: str, name: str, state, p: ReleasePrediction) -> dict:
     """One release's row: its state and its landing's figures (mm)."""
     return {"label": label, "object": name, "theta_deg": math.degrees(state[0]), "d": state[1],
@@ -74,25 +65,23 @@ def row(label: str, name: str, state, p: ReleasePrediction) -> dict:
 def mapped(name: str) -> tuple[list[dict], dict]:
     """An object scene's rows, and what its figure draws (states, landings, start's d, plan's end)."""
     scene = Scene.from_file(ROOT / "scenes" / f"{name}.yaml")
-    states, landings = goal_map(scene)
-    if not states:
+    goals, reach = release_goals(scene, reachable=False), release_goals(scene)
+    if not goals:
         raise SystemExit(f"{name}: no goal state at the goal's largest theta")
-    start_d = float(scene.start[1])
     result = make_plan(scene, planner="RRTstar", time=1.0, seed=1)
     if not result.solved:
         raise SystemExit(f"{name}: the campaign's plan (RRT*, seed 1) is not solved")
     end = tuple(float(x) for x in result.states[-1])
-    reach = [k for k, s in enumerate(states) if s[1] <= start_d + 1e-9]
-    best = min(range(len(states)), key=lambda k: farthest(landings[k]))
     rows = [row(f"{name}: the plan's release", name, end, landing(scene, end))]
     if reach:
-        k = min(reach, key=lambda k: farthest(landings[k]))
-        rows.append(row(f"{name}: the least-moving goal state the start reaches", name, states[k], landings[k]))
-    rows.append(row(f"{name}: the least-moving goal state", name, states[best], landings[best]))
-    rows.append({"label": f"{name}: goal states", "object": name, "theta_deg": math.degrees(states[0][0]),
-                 "start_d": start_d, "goal_states": len(states), "reachable": len(reach),
-                 "reachable_within": sum(farthest(landings[k]) <= WITHIN for k in reach)})
-    return rows, {"states": states, "farthest": [farthest(p) for p in landings], "start_d": start_d, "end": end}
+        rows.append(row(f"{name}: the least-moving goal state the start reaches", name, *reach[0]))
+    rows.append(row(f"{name}: the least-moving goal state", name, *goals[0]))
+    start_d = float(scene.start[1])
+    rows.append({"label": f"{name}: goal states", "object": name, "theta_deg": math.degrees(goals[0][0][0]),
+                 "start_d": start_d, "goal_states": len(goals), "reachable": len(reach),
+                 "reachable_within": sum(farthest(p) <= WITHIN for _, p in reach)})
+    return rows, {"states": [s for s, _ in goals], "farthest": [farthest(p) for _, p in goals], "start_d": start_d,
+                  "end": end}
 
 
 def draw(maps: dict[str, dict], path: Path) -> None:

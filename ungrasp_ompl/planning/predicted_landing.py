@@ -2,7 +2,7 @@
 from the scene and the plan's last state (release_setup), started where the pinch leaves the object
 when it carries it through the plan's P_dpsi legs (carried_start), over the worlds of the spread
 (predict_landing: plan.json's predicted_landing); and the goal states a release from which the
-fall moves the object least (least_moving_goals: planning.release least_moving, record 0128)."""
+fall moves the object least (release_goals: planning.release least_moving, record 0128)."""
 
 from __future__ import annotations
 
@@ -181,17 +181,19 @@ def farthest_landing(p: ReleasePrediction) -> float:
     return max(abs(p.low), abs(p.high))
 
 
-def least_moving_goals(scene: Scene) -> list[tuple[tuple[float, float, float], ReleasePrediction]]:
-    """The goal states at the goal's largest theta that the start reaches (d at or below the start's,
-    at it where planning.forbid_partial leaves no P_dpsi to move d; psi at or above the start's) and
-    the gripper can let go from (SecurityAtlas.releasable_in), each with the
-    landing of a release from it (the fall from the state itself, not carried), the state whose
-    farthest landing over the worlds is least first (planning.release least_moving, record 0128).
-    Empty where there is none, or the termination is not modelled."""
+def release_goals(scene: Scene, reachable: bool = True
+                  ) -> list[tuple[tuple[float, float, float], ReleasePrediction]]:
+    """The goal states at the goal's largest theta that the gripper can let go from
+    (SecurityAtlas.releasable_in), each with the landing of a release from it (landing_of_state),
+    the state whose farthest landing over the worlds is least first. reachable: only those the start
+    reaches (d at or below the start's, at it where planning.forbid_partial leaves no P_dpsi to move
+    d; psi at or above the start's). Empty where there is none, or the termination is not modelled."""
     lo, hi = (np.asarray(c, dtype=float) for c in scene.goal.box())
-    start = np.asarray(scene.start, dtype=float)
-    low_d = start[1] if scene.options.forbid_partial else lo[1]
-    box = np.array([[hi[0], max(lo[1], low_d), max(lo[2], start[2])], [hi[0], min(hi[1], start[1]), hi[2]]])
+    box = np.array([[hi[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]]])
+    if reachable:
+        start = np.asarray(scene.start, dtype=float)
+        low_d = start[1] if scene.options.forbid_partial else lo[1]
+        box = np.array([[hi[0], max(lo[1], low_d), max(lo[2], start[2])], [hi[0], min(hi[1], start[1]), hi[2]]])
     if np.any(box[0] > box[1] + 1e-12):
         return []
     atlas = SecurityAtlas(scene, box)
