@@ -157,3 +157,21 @@ def test_the_puzzle_piece_s_landing_offset_reproduces_from_its_seed():
     residual = measured("puzzle_piece", 11, 8, 2)["residual_mm"]
     assert residual == pytest.approx(row["residual_mm"], abs=1e-6)
     assert residual < 0
+
+
+def test_a_goal_narrowed_to_the_least_moving_state_keeps_the_region_s_planning_box():
+    """Narrowing the goal to one lattice state (planning.release least_moving) says where a plan ends,
+    not where it may pass: the planning box stays the whole region's, where the same goal without
+    the region it came from would cut the box down to the state."""
+    import numpy as np
+
+    from ungrasp_ompl.planning.atlas import planning_box
+
+    scene = Scene.from_file(SCENES / "guitar_pick.yaml")
+    goal = scene.goal
+    cell = replace(goal, d=(0.605, 0.615), psi=(math.radians(34.75), math.radians(35.25)))
+    whole = planning_box(scene)
+    assert np.array_equal(planning_box(replace(scene, goal=replace(cell, within=goal))), whole)
+    assert replace(cell, within=goal).region() is goal
+    cut = planning_box(replace(scene, goal=cell))
+    assert cut[1, 2] == pytest.approx(math.radians(35.25)) and whole[1, 2] == pytest.approx(goal.psi[1])

@@ -46,6 +46,7 @@ from ..mechanics import force_closure, kinematic_validity, primitive_sliding_sig
 from ..mechanics.contact import sliding_signs
 from ..mechanics.section import finger_contact
 from ..scene import PlanningOptions, Scene
+from ..scene.options import GoalSpec
 from .verify import SAMPLES_PER_STEP, first_loss_along
 
 THETA, D, PSI = 0, 1, 2
@@ -454,8 +455,9 @@ def planning_box(scene: Scene) -> NDArray[np.float64]:
     """The states a plan can visit: the scene bounds, cut down to the box between start
     and goal when only forward primitives run (each coordinate then moves one way). Along a
     coordinate where the goal lies wholly behind the start (goal_behind_start) the box keeps the
-    start's value alone."""
-    box = _forward_box(scene)
+    start's value alone. A goal narrowed from the scene's region (GoalSpec.within) keeps the
+    region's box: narrowing says where a plan ends, not where it may pass."""
+    box = _forward_box(scene, scene.goal.region())
     behind = box[0] > box[1]
     box[:, behind] = scene.start[behind]
     return box
@@ -464,7 +466,7 @@ def planning_box(scene: Scene) -> NDArray[np.float64]:
 def goal_behind_start(scene: Scene) -> list[str]:
     """The coordinates (names as in AXIS_NAMES) along which the goal region lies wholly behind the
     start, so that primitives moving only forward (theta and d down, psi up) never reach it."""
-    box = _forward_box(scene)
+    box = _forward_box(scene, scene.goal)
     return [AXIS_NAMES[a] for a in range(3) if box[0, a] > box[1, a]]
 
 
@@ -480,12 +482,12 @@ def goal_cut_by_start(scene: Scene) -> list[str]:
             if (ghi[a] > start[a] if sign < 0 else glo[a] < start[a])]
 
 
-def _forward_box(scene: Scene) -> NDArray[np.float64]:
-    """planning_box before an empty coordinate range is replaced by the start's value."""
+def _forward_box(scene: Scene, goal: GoalSpec) -> NDArray[np.float64]:
+    """planning_box toward goal, before an empty coordinate range is replaced by the start's value."""
     box = scene.bounds.copy()
     if scene.options.reverse_primitives:
         return box
-    glo, ghi = scene.goal.box()
+    glo, ghi = goal.box()
     start = scene.start
     for a, sign in enumerate(FORWARD):
         if sign < 0:  # coordinate decreases from the start to the goal

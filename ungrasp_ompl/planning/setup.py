@@ -567,14 +567,15 @@ LEAST_MOVING_TRIES = 5
 def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
     """planning.release least_moving (record 0128): the plan to the goal state whose release moves the
     object least (predicted_landing.release_goals), its goal region narrowed to that lattice
-    state; where no path reaches it, to the next, up to LEAST_MOVING_TRIES; the first one's failure
+    state, the states the plan may visit still bounded by the whole region (GoalSpec.within);
+    where no path reaches it, to the next, up to LEAST_MOVING_TRIES; the first one's failure
     where none is reached. Without such a goal state, the plan the whole goal region gives."""
     whole = replace(scene, options=replace(scene.options, release=Release.OBJECTIVE))
     half = np.asarray(scene.options.resolution, dtype=float) / 2
     first = None
     for state, _ in release_goals(whole)[:LEAST_MOVING_TRIES]:
         goal = replace(scene.goal, d=(state[1] - half[1], state[1] + half[1]),
-                       psi=(state[2] - half[2], state[2] + half[2]))
+                       psi=(state[2] - half[2], state[2] + half[2]), within=scene.goal)
         result = plan_to(replace(whole, goal=goal)).with_diagnostics(release=Release.LEAST_MOVING.value)
         if result.solved:
             return result

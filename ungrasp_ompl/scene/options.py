@@ -266,6 +266,14 @@ class GoalSpec:
     d: tuple[float, float]
     psi: tuple[float, float]
     theta_min: float = 0.0
+    within: GoalSpec | None = None
+    """The scene's goal region this one was narrowed from (planning.release least_moving), or None.
+    A plan must end in this goal; the states it may visit on the way are still bounded by the
+    region it was narrowed from (planning.atlas.planning_box), as they are without the narrowing."""
+
+    def region(self) -> GoalSpec:
+        """The scene's own goal region: the one this goal was narrowed from, else this goal."""
+        return self.within.region() if self.within is not None else self
 
     def box(self) -> NDArray[np.float64]:
         """Lower and upper corners, shape (2, 3), in (theta, d, psi)."""
