@@ -539,9 +539,10 @@ def test_drake_s_step_is_what_record_0126_s_rule_reads_off_the_study():
 
 def test_the_landing_map_is_what_the_model_of_the_fall_gives_over_the_goal_states():
     """tools/landing_map.py's file holds what the model gives now: the puzzle piece's rows made again
-    (its plan's release, the least-moving goal state the start reaches and over the region, the
-    counts) come back the same; for every object the least-moving goal state the start reaches lands
-    no farther than the plan's release, itself such a state."""
+    (its plan's release were it to end anywhere in the goal region, the least-moving goal state the
+    start reaches and over the region, the counts) come back the same; for every object the
+    least-moving goal state the start reaches lands no farther than that release, itself such a
+    state."""
     import sys
 
     sys.path.insert(0, str(ROOT / "tools"))
@@ -553,7 +554,7 @@ def test_the_landing_map_is_what_the_model_of_the_fall_gives_over_the_goal_state
     for name in ("guitar_pick", "puzzle_piece", "fabric_chalk"):
         rows = {r["label"].split(": ", 1)[1]: r for r in kept if r["object"] == name}
         assert rows["the least-moving goal state the start reaches"]["farthest_mm"] <= \
-            rows["the plan's release"]["farthest_mm"] + 1e-9
+            rows["the release anywhere in the goal region"]["farthest_mm"] + 1e-9
         assert rows["the least-moving goal state"]["farthest_mm"] <= \
             rows["the least-moving goal state the start reaches"]["farthest_mm"] + 1e-9
 
