@@ -129,11 +129,12 @@ def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_
 
 
 def _landing_offset_rows() -> list[dict]:
-    """The rows tools/landing_offset.py wrote: one per object scene and plan seed."""
+    """The rows tools/landing_offset.py wrote for the scenes as they are (its study "landing-offset"):
+    one per object scene and plan seed."""
     import json
 
     path = SCENES.parent / "docs" / "results" / "landing_offset.json"
-    return [r for r in json.loads(path.read_text())["rows"] if "residual_mm" in r]
+    return [r for r in json.loads(path.read_text())["rows"] if "residual_mm" in r and r["study"] == "landing-offset"]
 
 
 @pytest.mark.parametrize("name", ["guitar_pick", "puzzle_piece", "fabric_chalk"])
