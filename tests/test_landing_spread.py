@@ -26,7 +26,7 @@ def _bounded(name: str, bound: float | None) -> Scene:
     """The shipped scene NAME with planning.max_landing_spread BOUND (m, None: unbounded), its plans
     ending anywhere in the goal region (planning.release objective), as the bound was set for."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
-    return _with_bound(replace(scene, options=replace(scene.options, release=Release.OBJECTIVE)), bound)
+    return _with_bound(scene.with_release(Release.OBJECTIVE), bound)
 
 
 def _puzzle_piece_from_0_8(bound: float | None) -> Scene:
@@ -115,7 +115,7 @@ def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_
 
     least = Scene.from_file(SCENES / "puzzle_piece.yaml")
     assert least.options.release is Release.LEAST_MOVING
-    scene = replace(least, options=replace(least.options, release=Release.OBJECTIVE))
+    scene = least.with_release(Release.OBJECTIVE)
     rows = json.loads((SCENES.parent / "docs" / "results" / "landing_map.json").read_text())["rows"]
     mapped = next(r for r in rows if r["label"] == "puzzle_piece: the least-moving goal state the start reaches")
     plans = [plan(s, planner="lattice") for s in (least, scene)]

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from ungrasp_ompl import Scene
+from ungrasp_ompl.scene.options import Release
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics import across_support, force_closure, kinematic_checks, s_b
 from ungrasp_ompl.mechanics.antipodal import effective_friction
@@ -135,13 +136,6 @@ def oracle_insecure(scene: Scene, result, scale: float, errors: dict[str, np.nda
     return bad.reshape(len(q), m)
 
 
-def _anywhere(scene: Scene) -> Scene:
-    """SCENE with its plans ending anywhere in the goal region (planning.release objective)."""
-    from ungrasp_ompl.scene.options import Release
-
-    return replace(scene, options=replace(scene.options, release=Release.OBJECTIVE))
-
-
 @pytest.mark.parametrize("name, binds", [("guitar_pick", ToleranceReason.NO_TERMINATION),
                                          ("puzzle_piece", ToleranceReason.G_LIFTED)])
 @pytest.mark.slow
@@ -152,7 +146,7 @@ def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pic
     if name == "guitar_pick":
         scene, result = pick
     else:
-        scene = _anywhere(Scene.from_file(name).with_start_d(0.8))
+        scene = Scene.from_file(name).with_start_d(0.8).with_release(Release.OBJECTIVE)
         result = plan(scene, planner="lattice")
     tol = tolerance(scene, result)
     assert 0 < tol.scale < 1 and tol.reason is binds
@@ -330,7 +324,7 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
     from ungrasp_ompl.planning.setup import with_tolerance_floor
 
-    scene = _anywhere(Scene.from_file("puzzle_piece"))  # handed over: the start's lift does not cap both plans alike
+    scene = Scene.from_file("puzzle_piece").with_release(Release.OBJECTIVE)  # handed over: the start's lift does not cap both plans alike
     scene = scene.with_sim(handed_over=True)  # and no bound on the landing's spread, which replans both alike
     scene = replace(scene, options=replace(scene.options, max_landing_spread=None))
     cheap = plan(scene, planner="lattice")

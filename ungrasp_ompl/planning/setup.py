@@ -570,7 +570,7 @@ def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
     state, the states the plan may visit still bounded by the whole region (GoalSpec.within);
     where no path reaches it, to the next, up to LEAST_MOVING_TRIES; the first one's failure
     where none is reached. Without such a goal state, the plan the whole goal region gives."""
-    whole = replace(scene, options=replace(scene.options, release=Release.OBJECTIVE))
+    whole = scene.with_release(Release.OBJECTIVE)
     half = np.asarray(scene.options.resolution, dtype=float) / 2
     first = None
     for state, _ in release_goals(whole)[:LEAST_MOVING_TRIES]:

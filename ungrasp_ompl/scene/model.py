@@ -30,7 +30,7 @@ from ..mechanics.force_closure import Friction, SectionContact
 from ..mechanics.margin import Margins, friction_margin, kinematic_margins
 from ..shipped import resolve, shipped_names
 from .loader import read_yaml, scene_fields
-from .options import GoalSpec, Object3D, PlanningOptions, RobotOptions, SimOptions
+from .options import GoalSpec, Object3D, PlanningOptions, Release, RobotOptions, SimOptions
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanics.cage import Cage, CageGrid
@@ -269,6 +269,11 @@ class Scene:
         lo, hi = self.bounds
         goal = replace(self.goal, d=(float(lo[1]), float(hi[1])), psi=(float(lo[2]), float(hi[2])))
         return replace(self, goal=goal)
+
+    def with_release(self, release: Release) -> "Scene":
+        """The scene whose plans end where release says (planning.release): anywhere in the goal
+        region its objective takes them, or at the least-moving goal state the start reaches."""
+        return replace(self, options=replace(self.options, release=release))
 
     def with_start_d(self, d: float) -> "Scene":
         """The scene started at d (over l), its start's theta and psi kept: where the hand takes
