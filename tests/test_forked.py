@@ -27,6 +27,13 @@ class Unpicklable:
         return self.base + self.scale(k), os.getpid()
 
 
+def _mark(path, text: str) -> None:
+    """Write a file whole in one step, so a reader that sees it exist never reads it half written."""
+    part = path.with_name(path.name + ".part")
+    part.write_text(text)
+    os.replace(part, path)
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -126,7 +133,7 @@ def test_a_streams_items_come_back_in_order_as_they_are_made(tmp_path):
 
 def test_a_call_given_up_or_a_pool_closed_leaves_no_child(tmp_path):
     def sleeper(name: str) -> None:
-        (tmp_path / name).write_text(str(os.getpid()))
+        _mark(tmp_path / name, str(os.getpid()))
         time.sleep(60)
 
     pool = Forked(2)
