@@ -58,6 +58,11 @@ unchanged: to see whether the rows hold at a finer step than the scenes' own (re
 "pyramidal cones"); with --merge the table's other worlds' rows are kept. `--scenes NAME,...` runs
 only those scenes of the curved and curved_worlds rows; with --merge the others' rows are kept.
 
+`--objects NAME,...` runs only those objects' rows of the row groups made per object (base, worlds,
+unaimed, edge, open, smooth, handed, designed), with --merge into --table: each group's row of the
+three objects then counts the other objects' rows as the table has them, and those rows stay the
+table's, made by the runs that made them.
+
 `--compounded-friction` draws the `paper` friction error on top of a world's friction factor, the
 rule before a world fixed its pairs' friction (docs/decisions/0100-a-world-fixes-its-friction.md),
 to report the worlds' rows under both.
@@ -112,6 +117,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import math
 import os
 import re
@@ -143,6 +149,10 @@ from ungrasp_ompl.sim.world import World  # noqa: E402
 
 SCENES = ROOT / "scenes"
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
+#: The objects whose rows run (--objects); the others' rows of a group's total are the table's.
+SELECTED: tuple[str, ...] = OBJECTS
+#: The row groups made per object, which --objects may choose from.
+PER_OBJECT_GROUPS = ("base", "worlds", "unaimed", "edge", "open", "smooth", "handed", "designed")
 #: The `curved` rows' scenes: the curved solids (docs/model.md 2.7) and the pincer (7).
 CURVED = ("go_stone", "coin", "pincer_puzzle_piece", "pincer_guitar_pick")
 #: The `curved_worlds` rows' scenes: the curved solids.
@@ -212,6 +222,7 @@ class Row:
     model: str  #: what the model says of the plan that ran
     causes: str
     sinking: str = "-"  #: the deepest any trial sank into a digit or the table (mm), or "-"
+    kept: bool = False  #: the table's row, not run again (--objects): counted in its group's total alone
 
     @classmethod
     def from_record(cls, r: dict) -> "Row":
@@ -439,6 +450,9 @@ def main() -> None:
                     help="MuJoCo's step for every row, in every world (s; default: the scenes' own, sim.timestep "
                          "and sim.pyramidal_timestep)")
     ap.add_argument("--no-figure", action="store_true", help="write the table alone, no figure")
+    ap.add_argument("--objects", default=None, metavar="NAME,...",
+                    help="with --merge: only these objects' rows of the groups made per object, the others' "
+                         "rows kept from the table")
     ap.add_argument("--scenes", default=None,
                     help="only these scenes in the curved and curved_worlds rows, comma-separated (e.g. go_stone)")
     ap.add_argument("--worlds", default=None,
@@ -493,7 +507,7 @@ def main() -> None:
                     help="set the Drake rows of FILE (a results file --engine drake wrote) beside MuJoCo's rows as "
                          "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
-    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES
+    global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES, SELECTED
     global RELEASE
     global MUJOCO_SOURCE
     if args.mujoco is not None:
@@ -540,6 +554,18 @@ def main() -> None:
     MAX_GAP = math.inf if args.previous_grip_rule else MAX_CONTACT_GAP
     os.environ.setdefault(CACHE_VARIABLE, tempfile.mkdtemp(prefix="landings-"))
     only = set(args.only.split(","))
+    KEPT = {}
+    if args.objects is not None:
+        SELECTED = tuple(x.strip() for x in args.objects.split(","))
+        if set(SELECTED) - set(OBJECTS):
+            ap.error(f"--objects: no object {', '.join(sorted(set(SELECTED) - set(OBJECTS)))} "
+                     f"(objects: {', '.join(OBJECTS)})")
+        if only - set(PER_OBJECT_GROUPS):
+            ap.error(f"--objects: the groups {', '.join(sorted(only - set(PER_OBJECT_GROUPS)))} are not made per "
+                     f"object (those that are: {', '.join(PER_OBJECT_GROUPS)})")
+        if not (args.merge and args.table is not None and args.table.with_suffix(".json").is_file()):
+            ap.error("--objects: needs --merge into a --table whose results file holds the other objects' rows")
+        KEPT = {r["label"]: r for r in json.loads(args.table.with_suffix(".json").read_text())["rows"]}
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
     rows: list[Row] = []
@@ -562,15 +588,28 @@ def main() -> None:
     print(HEADER)
     base_paper = "109/120 over the objects, mean < 2.6 mm"
 
+    def per_object(total: str | None, row_of) -> None:
+        """A row per object of SELECTED (row_of(name): its label, and what runs it), the others'
+        rows as the table has them (--objects), then with a total label the three objects' row."""
+        for name in OBJECTS:
+            label, make = row_of(name)
+            if name in SELECTED:
+                show(make())
+            elif label not in KEPT:
+                raise SystemExit(f"--objects: {args.table} has no row '{label}' to count in '{total}'")
+            else:
+                rows.append(replace(Row.from_record(KEPT[label]), kept=True))
+        if total is not None:
+            show(Row(total, sum(r.successes for r in rows[-3:]), sum(r.trials for r in rows[-3:]),
+                     sum(r.placed for r in rows[-3:]), "-", "-", "109/120", (109, 120), "secure", "-"))
+
     def objects(total: str | None, scene_of, paper: str = base_paper) -> None:
         """A row per object (scene_of(name): its label and scene, planned with the seed), then with
-        a total label the three objects' row."""
-        for name in OBJECTS:
+        a total label the three objects' row (per_object)."""
+        def row_of(name: str):
             label, scene = scene_of(name)
-            show(run(label, scene, _plan(scene, s), n, j, s, paper))
-        if total is not None:
-            show(Row(total, sum(r.successes for r in rows[-3:]), 3 * n, sum(r.placed for r in rows[-3:]), "-", "-",
-                     "109/120", (109, 120), "secure", "-"))
+            return label, lambda: run(label, scene, _plan(scene, s), n, j, s, paper)
+        per_object(total, row_of)
 
     if "base" in only:
         def based(name: str):
@@ -580,7 +619,7 @@ def main() -> None:
     if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
         tip = "" if WORLD_TIP == "rounded" else f", {WORLD_TIP} tip"
         tip += ("" if START == "scene" else f", {START} start") + ("" if RELEASE == "scene" else RELEASE_WORDS)
-        for name in OBJECTS:
+        for name in SELECTED:
             scene, _ = _started(_scene(name, WORLD_TIP))
             result = _plan(scene, s)
             for label, world in WORLDS:
@@ -645,25 +684,23 @@ def main() -> None:
             show(tangram(args.attempts, j, s, "rounded", planner="RRTstar"))  # the default planner
             show(tangram(args.attempts, j, s, "rounded", simulated_aim=True))  # decision 0102's comparison
     if "designed" in only:
-        first = len(rows)
-        for name in OBJECTS:
+        def designed(name: str):
             scene = _stepped(Scene.from_file(SCENES / f"{name}_designed.yaml"))
             dg = scene.digits
-            result = plan(scene, planner="lattice", objective="cost")  # the plan the design judged the digits by
-            show(run(f"designed: {name} (alpha {dg.alpha:g}, tip radius {dg.finger_tip_radius * scene.object_length * 1000:g} "
-                     f"mm; lattice plan), seed {s + 1}", scene, result, n, j, s + 1, "109/120 over the objects, mean < 2.6 mm"))
-        ok = sum(r.successes for r in rows[first:])
-        show(Row("designed: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-", "109/120",
-                 (109, 120), "secure", "-"))
-        first = len(rows)
-        for name in OBJECTS:  # what the goal alone does: the scenes' own digits, the designs' free goal
+            label = (f"designed: {name} (alpha {dg.alpha:g}, tip radius {dg.finger_tip_radius * scene.object_length * 1000:g} "
+                     f"mm; lattice plan), seed {s + 1}")
+            # the plan the design judged the digits by
+            return label, lambda: run(label, scene, plan(scene, planner="lattice", objective="cost"), n, j, s + 1,
+                                      base_paper)
+        per_object("designed: the three objects", designed)
+
+        def free_goal(name: str):  # what the goal alone does: the scenes' own digits, the designs' free goal
             scene = _scene(name).with_free_goal()
-            show(run(f"own digits, the designs' free goal: {name} (lattice plan), seed {s + 1}", scene,
-                     plan(scene, planner="lattice", objective="cost"), n, j, s + 1,
-                     "109/120 over the objects, mean < 2.6 mm"))  # the designs' objective: the digits compared alike
-        ok = sum(r.successes for r in rows[first:])
-        show(Row("own digits, free goal: the three objects", ok, 3 * n, sum(r.placed for r in rows[first:]), "-", "-",
-                 "109/120", (109, 120), "secure", "-"))
+            label = f"own digits, the designs' free goal: {name} (lattice plan), seed {s + 1}"
+            # the designs' objective: the digits compared alike
+            return label, lambda: run(label, scene, plan(scene, planner="lattice", objective="cost"), n, j, s + 1,
+                                      base_paper)
+        per_object("own digits, free goal: the three objects", free_goal)
     if "curved" in only:  # curved solids and the pincer, as shipped (docs/model.md 2.7, 7)
         for name in curved:
             scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
@@ -744,14 +781,14 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     from campaign_results import parse_footer, parse_row, row_line
 
     path = table.with_suffix(".json")
-    new = [parse_row(r.line()) for r in rows]
+    new = [parse_row(r.line()) for r in rows if not r.kept]
     first = json.loads(path.read_text()) if path.exists() else None
     old = first if first is not None else {"rows": [], "runs": {}}
     keys = {r["key"] for r in new}  # and the rows of the groups run again, whatever their labels now
     regrouped = only - {"worlds"} if WORLD_LABELS is not None else only  # --worlds: only its worlds' rows
     if CURVED_SCENES is not None:  # --scenes: only its scenes' rows
         regrouped = regrouped - {"curved", "curved_worlds"}
-    keys |= {r["key"] for r in old["rows"] if _option(r) in regrouped}
+    keys |= {r["key"] for r in old["rows"] if _option(r) in regrouped and _selected(r["label"])}
     fresh = {r["key"]: r for r in new}  # a row run again keeps its place
     merged = [fresh.pop(r["key"]) if r["key"] in fresh else parse_row(row_line(r)) for r in old["rows"]
               if r["key"] not in keys or r["key"] in fresh] + list(fresh.values())
@@ -772,11 +809,17 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     return merged, runs, footer, first
 
 
+def _selected(label: str) -> bool:
+    """Whether a row of that label is run again under --objects: a row of one of SELECTED, or a
+    row of the three objects; every row when all are selected."""
+    return SELECTED == OBJECTS or "the three objects" in label or any(name in label for name in SELECTED)
+
+
 def _run_name(only: set[str]) -> str:
-    """A run's name in a merged file's `runs`: its groups, and the worlds and scenes it ran where
-    --worlds and --scenes chose them."""
+    """A run's name in a merged file's `runs`: its groups, and the worlds, scenes and objects it ran
+    where --worlds, --scenes and --objects chose them."""
     name = ",".join(sorted(only))
-    chosen = [*(WORLD_LABELS or ()), *(CURVED_SCENES or ())]
+    chosen = [*(WORLD_LABELS or ()), *(CURVED_SCENES or ()), *(SELECTED if SELECTED != OBJECTS else ())]
     return f"{name}: {', '.join(chosen)}" if chosen else name
 
 

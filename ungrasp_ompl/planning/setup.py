@@ -30,6 +30,7 @@ from ompl import util as ou
 
 from ..errors import InputError, ToolError
 from ..mechanics.margin import friction_margin
+from ..mechanics.release import ReleaseModelError
 from ..parallel.options import check_seed
 from ..parallel.runner import TaskStatus, run_in_child
 from ..scene import Scene, StateClass
@@ -43,7 +44,7 @@ from .names import LATTICE, PLANNERS
 from .objective import PrimitiveCostObjective, make_objective, reduce_vertices
 from .path_margin import path_friction_margin
 from .plan_tolerance import tolerance
-from .predicted_landing import predict_landing, release_goals
+from .predicted_landing import farthest_landing, predict_landing, release_goals
 from .result import (AtGAB, Diagnostics, GoalEmpty, HoldableMap, ObjectRecord, PathSource, Plan, PlanOutcome,
                      PlaneRecord, Report3D, Solution, StabilityRecord, StartNotHeld, StoppedBy, friction_record,
                      merge_legs, sequence_cost)
@@ -565,22 +566,53 @@ LEAST_MOVING_TRIES = 5
 
 
 def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
-    """planning.release least_moving (record 0128): the plan to the goal state whose release moves the
-    object least (predicted_landing.release_goals), its goal region narrowed to that lattice
+    """planning.release least_moving (records 0128, 0130): the plan to the goal state whose release
+    moves the object least (predicted_landing.release_goals), its goal region narrowed to that lattice
     state, the states the plan may visit still bounded by the whole region (GoalSpec.within);
     where no path reaches it, to the next, up to LEAST_MOVING_TRIES; the first one's failure
-    where none is reached. Without such a goal state, the plan the whole goal region gives."""
+    where none is reached. Without such a goal state, the plan the whole goal region gives.
+
+    A goal state is ranked by the fall from the state itself, which is where the release starts
+    only if the plan reaches it without a P_dpsi: across a P_dpsi the pinch carries the object
+    (carried_start), so that plan's own landing is another. Where the plan found passes through a
+    P_dpsi it is weighed against the plan to the least-moving goal state the start reaches at its
+    own d, each by its own predicted landing, and the one whose farthest landing is nearer is kept."""
     whole = scene.with_release(Release.OBJECTIVE)
-    half = np.asarray(scene.options.resolution, dtype=float) / 2
+    goals = release_goals(whole)
     first = None
-    for state, _ in release_goals(whole)[:LEAST_MOVING_TRIES]:
-        goal = replace(scene.goal, d=(state[1] - half[1], state[1] + half[1]),
-                       psi=(state[2] - half[2], state[2] + half[2]), within=scene.goal)
-        result = plan_to(replace(whole, goal=goal)).with_diagnostics(release=Release.LEAST_MOVING.value)
+    for state, _ in goals[:LEAST_MOVING_TRIES]:
+        result = plan_to(_narrowed_to(whole, state))
         if result.solved:
-            return result
-        first = first or result
+            return _carried_or_level(whole, result, goals, plan_to).with_diagnostics(release=Release.LEAST_MOVING.value)
+        first = first or result.with_diagnostics(release=Release.LEAST_MOVING.value)
     return first if first is not None else plan_to(whole).with_diagnostics(release=Release.LEAST_MOVING.value)
+
+
+def _narrowed_to(whole: Scene, state: tuple[float, float, float]) -> Scene:
+    """whole with its goal region narrowed to the lattice cell of state, within the region."""
+    half = np.asarray(whole.options.resolution, dtype=float) / 2
+    return replace(whole, goal=replace(whole.goal, d=(state[1] - half[1], state[1] + half[1]),
+                                       psi=(state[2] - half[2], state[2] + half[2]), within=whole.goal))
+
+
+def _carried_or_level(whole: Scene, found: Plan, goals: list, plan_to: Callable[[Scene], Plan]) -> Plan:
+    """found, or where it passes through a P_dpsi, the plan to the least-moving goal state at the
+    start's d (goals: release_goals, ranked) when that plan's own predicted landing lies nearer at its
+    farthest (_least_moving_plan)."""
+    if not any(str(p.type) == "P_dpsi" for p in found.primitives):
+        return found
+    half_d = whole.options.resolution[1] / 2
+    level = next((state for state, _ in goals if abs(state[1] - whole.start[1]) <= half_d), None)
+    if level is None:
+        return found
+    other = plan_to(_narrowed_to(whole, level))
+    if not other.solved:
+        return found
+    try:
+        nearer = farthest_landing(predict_landing(whole, other)) < farthest_landing(predict_landing(whole, found))
+    except ReleaseModelError:
+        return found
+    return other if nearer else found
 
 
 def _plan_objective(scene: Scene, planner: str, time: float, seed: int | None, iterations: int | None,
