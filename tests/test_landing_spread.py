@@ -105,19 +105,16 @@ def test_the_scene_file_refuses_what_the_model_cannot_do(edit, field):
 
 
 def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_the_object_least():
-    """With planning.release least_moving the puzzle piece's lattice plan ends at the goal state the
-    start reaches that tools/landing_map.py, going over every goal state, finds the fall moves the
-    object least from, and its release's farthest landing over the friction range is no farther
-    than the plan's without it (docs/model.md 11.17, record 0128)."""
-    import json
-
+    """With planning.release least_moving the chalk's lattice plan ends at the goal state the start
+    reaches that tools/landing_map.py, going over every goal state, finds the fall moves the object
+    least from, and its release's farthest landing over the friction range is no farther than the
+    plan's without it (docs/model.md 11.17, record 0128)."""
     from ungrasp_ompl.planning.predicted_landing import farthest_landing, landing_of_state
 
-    least = Scene.from_file(SCENES / "puzzle_piece.yaml")
+    least = Scene.from_file(SCENES / "fabric_chalk.yaml")
     assert least.options.release is Release.LEAST_MOVING
     scene = least.with_release(Release.OBJECTIVE)
-    rows = json.loads((SCENES.parent / "docs" / "results" / "landing_map.json").read_text())["rows"]
-    mapped = next(r for r in rows if r["label"] == "puzzle_piece: the least-moving goal state the start reaches")
+    mapped = _mapped("fabric_chalk")
     plans = [plan(s, planner="lattice") for s in (least, scene)]
     assert [p.diagnostics.release for p in plans] == ["least_moving", "objective"]
     ends = [p.states[-1] for p in plans]
@@ -126,6 +123,42 @@ def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_
     own, other = (farthest_landing(landing_of_state(scene, e)) for e in ends)
     assert own * 1e3 == pytest.approx(mapped["farthest_mm"], abs=1e-9)
     assert own <= other
+
+
+def test_a_least_moving_release_reached_through_a_p_dpsi_is_weighed_by_its_plan_s_own_landing():
+    """The puzzle piece's least-moving goal state by the fall from the state (the landing map's) lies
+    below the start's d, so that the plan to it passes through a P_dpsi and its release starts where
+    the pinch's carry leaves the object. least_moving weighs that plan against the plan to the
+    least-moving goal state at the start's d, each by its own predicted landing (record 0130): the
+    scene's plan ends there, without a P_dpsi, nearer at its farthest than the carried plan, though
+    ranked from the states alone the carried one's state came first."""
+    from ungrasp_ompl.planning.predicted_landing import farthest_landing, landing_of_state, release_goals
+
+    least = Scene.from_file(SCENES / "puzzle_piece.yaml")
+    scene = least.with_release(Release.OBJECTIVE)
+    mapped = _mapped("puzzle_piece")
+    goals = [state for state, _ in release_goals(scene)]
+    first = goals[0]
+    assert first[1] == pytest.approx(mapped["d"], abs=1e-9) and first[1] < least.start[1]
+    half = [r / 2 for r in scene.options.resolution]
+    narrowed = replace(scene, goal=replace(scene.goal, d=(first[1] - half[1], first[1] + half[1]),
+                                           psi=(first[2] - half[2], first[2] + half[2]), within=scene.goal))
+    through = plan(narrowed, planner="lattice")
+    assert Primitive.DPSI in [p.type for p in through.primitives]
+    shipped = plan(least, planner="lattice")
+    level = next(state for state in goals if abs(state[1] - least.start[1]) < 1e-9)
+    assert shipped.states[-1] == pytest.approx(level, abs=1e-9)
+    assert Primitive.DPSI not in [p.type for p in shipped.primitives]
+    assert farthest_landing(landing_of_state(scene, first)) < farthest_landing(landing_of_state(scene, level))
+    assert farthest_landing(predict_landing(least, shipped)) < farthest_landing(predict_landing(scene, through))
+
+
+def _mapped(name: str) -> dict:
+    """tools/landing_map.py's least-moving goal state the start reaches, for scene NAME."""
+    import json
+
+    rows = json.loads((SCENES.parent / "docs" / "results" / "landing_map.json").read_text())["rows"]
+    return next(r for r in rows if r["label"] == f"{name}: the least-moving goal state the start reaches")
 
 
 def _landing_offset_rows() -> list[dict]:
