@@ -187,7 +187,7 @@ def test_the_readme_quotes_what_its_first_example_prints(tmp_path, monkeypatch):
 STUDIES = {"landing_check": "tools/landing_check.py", "world_failures": "tools/world_failures.py",
            "sliding_drift": "tools/sliding_drift.py", "tangram_gaps": "tools/tangram_gaps.py"}
 #: The studies docs/model.md's sections 11.17 and 11.18 quote.
-MODEL_STUDIES = {"landing_check", "landing_errors", "landing_offset", "world_failures", "sliding_drift"}
+MODEL_STUDIES = {"landing_check", "landing_errors", "landing_offset", "landing_map", "world_failures", "sliding_drift"}
 
 
 def _model_sections() -> str:
@@ -576,3 +576,36 @@ def test_the_contacts_studys_summaries_are_those_of_its_trials(tmp_path, monkeyp
     campaigns.contact_summaries()
     again = json.loads(path.read_text())
     assert again["rows"] == doc["rows"]
+
+
+def test_a_merged_run_of_one_object_keeps_the_others_rows_and_the_runs_that_made_them(tmp_path, monkeypatch):
+    """--objects with --merge replaces the rows of the objects it ran and the groups' totals, and
+    keeps the other objects' rows as they were, listed under the runs that made them; the rows it
+    counts in a total without running them (kept) are not the new run's."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    old = results.load("campaigns_least_moving_scenes")
+    table = tmp_path / "t.md"
+    table.write_text((ROOT / "docs/results/campaigns_least_moving_scenes.md").read_text())
+    (tmp_path / "t.json").write_text(json.dumps(old))
+    base = [r for r in old["rows"] if r["campaign"] == "base"]
+    puzzle = next(r for r in base if r["object"] == "puzzle_piece")
+    again = dataclasses.replace(campaigns.Row.from_record(puzzle), successes=puzzle["successes"] - 1)
+    kept = [dataclasses.replace(campaigns.Row.from_record(r), kept=True) for r in base
+            if r["object"] in ("guitar_pick", "fabric_chalk")]
+    total = campaigns.Row("base: the three objects", sum(r.successes for r in [again, *kept]), 120, 120, "-", "-",
+                          "109/120", (109, 120), "secure", "-")
+    footer = "12 s in all; " + table.read_text().strip().splitlines()[-1].split(" s in all; ", 1)[1]
+    monkeypatch.setattr(campaigns, "SELECTED", ("puzzle_piece",))
+    merged, runs, _, _ = campaigns.merge_rows(table, [again, *kept, total], footer, {"base"})
+    by_key = {r["key"]: r for r in merged}
+    assert by_key[puzzle["key"]]["successes"] == puzzle["successes"] - 1
+    assert by_key["base-the-three-objects"]["successes"] == sum(r["successes"] for r in base[:3]) - 1
+    assert [k for k in by_key if k not in {r["key"] for r in old["rows"]}] == []
+    others = [r for r in old["rows"] if r["key"] not in (puzzle["key"], "base-the-three-objects")]
+    assert all(by_key[r["key"]] == results.parse_row(results.row_line(r)) for r in others)
+    assert runs["base: puzzle_piece"]["rows"] == [puzzle["key"], "base-the-three-objects"]
+    first = next(run for name, run in runs.items() if name != "base: puzzle_piece")
+    assert {r["key"] for r in others} <= set(first["rows"])
