@@ -89,7 +89,9 @@ class Release(StrEnum):
     OBJECTIVE = "objective"
     #: At the goal state, at the goal's largest theta and reachable from the start, whose landing by
     #: the model of the fall moves farthest least over friction 0.7-1.3 times the scene's and both
-    #: friction cones (docs/model.md 11.17, record 0128).
+    #: friction cones; a plan reaching it through a P_dpsi is weighed against the plan to the
+    #: least-moving state at the start's d by each one's own carried landing (docs/model.md 11.17,
+    #: records 0128 and 0130).
     LEAST_MOVING = "least_moving"
 
 
