@@ -434,17 +434,22 @@ def test_the_papers_criterion_runs_on_past_a_failure_of_the_strict_verdict_alone
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("table_mm", [1.5, -2.5])
-def test_a_touch_off_takes_out_the_tables_height_as_the_arm_sees_it(pick, table_mm):
-    """The table 1.5 mm higher than the plan has it puts a digit on it open loop; 2.5 mm lower,
+@pytest.mark.parametrize("raised", [True, False])
+def test_a_touch_off_takes_out_the_tables_height_as_the_arm_sees_it(pick, raised):
+    """The table raised to the height the plan leaves its lowest digit at (its lowest above the
+    table over the plan's states, rounded up to 0.1 mm) puts a digit on it open loop; 2.5 mm lower,
     beyond what the start's press (robot.start_press, 1 mm) and the grip's slack (1 mm) take up,
     leaves the piece hanging under a hand that cannot press it onto the table, and the grip is
     lost. A touch-off (robot.touch_off) finds the table where it is (its ideal sensor to a control
     period's travel) and the same trial places the piece; the open-loop trial is the trial of a
     probe that found the table where the plan has it."""
+    scene, result, _ = pick
     setup = _setup(pick)
     assert setup.touch_off
     open_loop = replace(setup, touch_off=False)
+    margins = scene.margin(np.asarray(result.states)).kinematic["table"]
+    lowest_mm = (float(margins.min()) + scene.digits.table_clearance * scene.object_length) * 1e3
+    table_mm = math.ceil(lowest_mm * 10) / 10 if raised else -2.5
     table = TrialParams(table_height_mm=table_mm)
     failed = run_trial(open_loop, table)
     if table_mm > 0:
