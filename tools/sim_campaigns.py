@@ -775,7 +775,6 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
     the groups it ran (the rows of other groups kept, in GROUP_ORDER), the runs that made them (each: its command,
     seconds and the keys of the rows it still holds; a run none of whose rows is left dropped), the
     merged table's footer (its seconds the runs' sum), and the file as it was (None: no file)."""
-    import json
     import shlex
 
     from campaign_results import parse_footer, parse_row, row_line
@@ -836,7 +835,6 @@ def merged_table(table: Path, rows: list[Row], footer: str, only: set[str]) -> d
     """Merge this run's rows into table (.md and .json, merge_rows): the file keeps the command and
     day of its first run, its seconds the runs' sum, and lists every run under `runs`. Returns the
     file's content."""
-    import json
     from datetime import date
 
     from campaign_results import table_json
@@ -861,7 +859,6 @@ def paired_with_mujoco(doc: dict, source: Path | None = None) -> dict:
     it, else from MUJOCO_TANGRAM when every row is the tangram's, from MUJOCO_LEAST_SLIDE with
     --start least-slide, else from MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both);
     the file names its MuJoCo file."""
-    import json
 
     from campaign_results import fisher_p
 
@@ -885,7 +882,6 @@ def pair_again(path: Path) -> None:
     --mujoco names, else the one the file was set beside, else the one the rows' start and group
     choose), the file's other fields kept; no trial runs. The command is recorded in the file
     (`paired`)."""
-    import json
     import shlex
     from datetime import date
 
@@ -905,7 +901,6 @@ def pair_again(path: Path) -> None:
 def engines_compared(rows: list[Row], footer: str, args, only: set[str]) -> None:
     """Merge the Drake rows into args.table (.md and .json, the rows of other groups kept), each
     with MuJoCo's row of the same key and the Fisher test's p, and draw both engines."""
-    import json
     from datetime import date
 
     from campaign_results import table_json
@@ -1115,7 +1110,6 @@ def contact_summaries() -> None:
     from their studies' trial rows by _over_trials as it is now, nothing else changed and no trial
     run: after _over_trials learns a field, the studies already run show it too. A study written
     before the summaries were is left as it is."""
-    import json
 
     from campaign_results import study_row, write_study_file
 
