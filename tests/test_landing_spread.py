@@ -26,7 +26,7 @@ def _bounded(name: str, bound: float | None) -> Scene:
     """The shipped scene NAME with planning.max_landing_spread BOUND (m, None: unbounded), its plans
     ending anywhere in the goal region (planning.release objective), as the bound was set for."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
-    return _with_bound(scene.with_release(Release.OBJECTIVE), bound)
+    return _with_bound(scene.with_options(release=Release.OBJECTIVE), bound)
 
 
 def _puzzle_piece_from_0_8(bound: float | None) -> Scene:
@@ -113,7 +113,7 @@ def test_a_least_moving_release_ends_where_the_landing_map_finds_the_fall_moves_
 
     least = Scene.from_file(SCENES / "fabric_chalk.yaml")
     assert least.options.release is Release.LEAST_MOVING
-    scene = least.with_release(Release.OBJECTIVE)
+    scene = least.with_options(release=Release.OBJECTIVE)
     mapped = _mapped("fabric_chalk")
     plans = [plan(s, planner="lattice") for s in (least, scene)]
     assert [p.diagnostics.release for p in plans] == ["least_moving", "objective"]
@@ -135,15 +135,12 @@ def test_a_least_moving_release_reached_through_a_p_dpsi_is_weighed_by_its_plan_
     from ungrasp_ompl.planning.predicted_landing import farthest_landing, landing_of_state, release_goals
 
     least = Scene.from_file(SCENES / "puzzle_piece.yaml")
-    scene = least.with_release(Release.OBJECTIVE)
+    scene = least.with_options(release=Release.OBJECTIVE)
     mapped = _mapped("puzzle_piece")
     goals = [state for state, _ in release_goals(scene)]
     first = goals[0]
     assert first[1] == pytest.approx(mapped["d"], abs=1e-9) and first[1] < least.start[1]
-    half = [r / 2 for r in scene.options.resolution]
-    narrowed = replace(scene, goal=replace(scene.goal, d=(first[1] - half[1], first[1] + half[1]),
-                                           psi=(first[2] - half[2], first[2] + half[2]), within=scene.goal))
-    through = plan(narrowed, planner="lattice")
+    through = plan(scene.with_goal_cell(first), planner="lattice")
     assert Primitive.DPSI in [p.type for p in through.primitives]
     shipped = plan(least, planner="lattice")
     level = next(state for state in goals if abs(state[1] - least.start[1]) < 1e-9)

@@ -326,7 +326,7 @@ def test_the_prediction_is_the_simulated_landing(world):
 
     factor = {"nominal": 1.0, "friction x1.3": 1.3}[world]
     scene = Scene.from_file(ROOT / "scenes" / "puzzle_piece.yaml")
-    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED)).with_release(Release.OBJECTIVE)
+    scene = replace(scene, robot=replace(scene.robot, landing=Landing.PLANNED)).with_options(release=Release.OBJECTIVE)
     plan = make_plan(scene, planner="RRTstar", time=1.0, seed=1)
     base = release_setup(scene, tuple(plan.states[-1]))
     carried = replace(base, start=carried_start(scene, plan, base))

@@ -121,7 +121,7 @@ def test_object_plans_keep_their_clearances_between_lattice_states(name):
     dg = scene.digits
     assert dg.press == pytest.approx(scene.robot.start_press / scene.object_length) and dg.press > 0
     assert dg.across_margin == pytest.approx(0.001 / scene.object_length)
-    anywhere = scene.with_release(Release.OBJECTIVE)
+    anywhere = scene.with_options(release=Release.OBJECTIVE)
     nearest = math.inf
     for planned in (scene, anywhere):
         result = plan(planned, planner="lattice")

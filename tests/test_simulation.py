@@ -48,7 +48,7 @@ def _planned(name: str, tip: str | None = None, release: Release | None = None):
     """NAME's lattice plan, executed (with planning.release RELEASE where given)."""
     scene = Scene.from_file(SCENES / f"{name}.yaml")
     if release is not None:
-        scene = scene.with_release(release)
+        scene = scene.with_options(release=release)
     if tip == "flat":
         scene = replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
     result = plan(scene, planner="lattice")

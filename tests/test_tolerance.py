@@ -146,7 +146,7 @@ def test_oracle_finds_nothing_within_the_tolerance_and_something_just_beyond(pic
     if name == "guitar_pick":
         scene, result = pick
     else:
-        scene = Scene.from_file(name).with_start_d(0.8).with_release(Release.OBJECTIVE)
+        scene = Scene.from_file(name).with_start_d(0.8).with_options(release=Release.OBJECTIVE)
         result = plan(scene, planner="lattice")
     tol = tolerance(scene, result)
     assert 0 < tol.scale < 1 and tol.reason is binds
@@ -324,7 +324,8 @@ def test_the_tolerance_plan_tolerates_more_than_the_cost_plan_and_a_floor_reject
     from ungrasp_ompl.planning.result import PlanOutcome, describe_outcome
     from ungrasp_ompl.planning.setup import with_tolerance_floor
 
-    scene = Scene.from_file("puzzle_piece").with_release(Release.OBJECTIVE)  # handed over: the start's lift does not cap both plans alike
+    # handed over: the start's lift does not cap both plans alike
+    scene = Scene.from_file("puzzle_piece").with_options(release=Release.OBJECTIVE)
     scene = scene.with_sim(handed_over=True)  # and no bound on the landing's spread, which replans both alike
     scene = replace(scene, options=replace(scene.options, max_landing_spread=None))
     cheap = plan(scene, planner="lattice")

@@ -71,7 +71,7 @@ def mapped(name: str) -> tuple[list[dict], dict]:
     goals, reach = release_goals(scene, reachable=False), release_goals(scene)
     if not goals:
         raise SystemExit(f"{name}: no goal state at the goal's largest theta")
-    anywhere = scene.with_release(Release.OBJECTIVE)
+    anywhere = scene.with_options(release=Release.OBJECTIVE)
     result = make_plan(anywhere, planner="RRTstar", time=1.0, seed=1)
     if not result.solved:
         raise SystemExit(f"{name}: the campaign's plan (RRT*, seed 1) is not solved")

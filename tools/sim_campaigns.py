@@ -273,7 +273,7 @@ def _started(scene: Scene) -> tuple[Scene, str]:
     scene, words = _from_start(scene)
     if RELEASE == "scene":
         return scene, words
-    return scene.with_release(Release.LEAST_MOVING), words + RELEASE_WORDS
+    return scene.with_options(release=Release.LEAST_MOVING), words + RELEASE_WORDS
 
 
 def _from_start(scene: Scene) -> tuple[Scene, str]:

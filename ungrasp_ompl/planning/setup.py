@@ -577,22 +577,15 @@ def _least_moving_plan(scene: Scene, plan_to: Callable[[Scene], Plan]) -> Plan:
     (carried_start), so that plan's own landing is another. Where the plan found passes through a
     P_dpsi it is weighed against the plan to the least-moving goal state the start reaches at its
     own d, each by its own predicted landing, and the one whose farthest landing is nearer is kept."""
-    whole = scene.with_release(Release.OBJECTIVE)
+    whole = scene.with_options(release=Release.OBJECTIVE)
     goals = release_goals(whole)
     first = None
     for state, _ in goals[:LEAST_MOVING_TRIES]:
-        result = plan_to(_narrowed_to(whole, state))
+        result = plan_to(whole.with_goal_cell(state))
         if result.solved:
             return _carried_or_level(whole, result, goals, plan_to).with_diagnostics(release=Release.LEAST_MOVING.value)
         first = first or result.with_diagnostics(release=Release.LEAST_MOVING.value)
     return first if first is not None else plan_to(whole).with_diagnostics(release=Release.LEAST_MOVING.value)
-
-
-def _narrowed_to(whole: Scene, state: tuple[float, float, float]) -> Scene:
-    """whole with its goal region narrowed to the lattice cell of state, within the region."""
-    half = np.asarray(whole.options.resolution, dtype=float) / 2
-    return replace(whole, goal=replace(whole.goal, d=(state[1] - half[1], state[1] + half[1]),
-                                       psi=(state[2] - half[2], state[2] + half[2]), within=whole.goal))
 
 
 def _carried_or_level(whole: Scene, found: Plan, goals: list, plan_to: Callable[[Scene], Plan]) -> Plan:
@@ -605,7 +598,7 @@ def _carried_or_level(whole: Scene, found: Plan, goals: list, plan_to: Callable[
     level = next((state for state, _ in goals if abs(state[1] - whole.start[1]) <= half_d), None)
     if level is None:
         return found
-    other = plan_to(_narrowed_to(whole, level))
+    other = plan_to(whole.with_goal_cell(level))
     if not other.solved:
         return found
     try:

@@ -30,7 +30,7 @@ from ..mechanics.force_closure import Friction, SectionContact
 from ..mechanics.margin import Margins, friction_margin, kinematic_margins
 from ..shipped import resolve, shipped_names
 from .loader import read_yaml, scene_fields
-from .options import GoalSpec, Object3D, PlanningOptions, Release, RobotOptions, SimOptions
+from .options import GoalSpec, Object3D, PlanningOptions, RobotOptions, SimOptions
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..mechanics.cage import Cage, CageGrid
@@ -270,10 +270,14 @@ class Scene:
         goal = replace(self.goal, d=(float(lo[1]), float(hi[1])), psi=(float(lo[2]), float(hi[2])))
         return replace(self, goal=goal)
 
-    def with_release(self, release: Release) -> "Scene":
-        """The scene whose plans end where release says (planning.release): anywhere in the goal
-        region its objective takes them, or at the least-moving goal state the start reaches."""
-        return replace(self, options=replace(self.options, release=release))
+    def with_goal_cell(self, state: tuple[float, float, float]) -> "Scene":
+        """The scene whose goal region is narrowed to the planning lattice's cell of state (theta rad,
+        d over l, psi rad; the goal's theta range kept), the states its plans may visit still bounded
+        by the region it came from (GoalSpec.within; planning.release least_moving)."""
+        half = np.asarray(self.options.resolution, dtype=float) / 2
+        goal = replace(self.goal, d=(state[1] - half[1], state[1] + half[1]),
+                       psi=(state[2] - half[2], state[2] + half[2]), within=self.goal)
+        return replace(self, goal=goal)
 
     def with_start_d(self, d: float) -> "Scene":
         """The scene started at d (over l), its start's theta and psi kept: where the hand takes
