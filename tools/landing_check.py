@@ -13,7 +13,10 @@ the simulation reached), sim 0-err (the simulated landing along GB with no error
 across (the simulated landing across GB), outcome (the no-error trial's), model mean and sim mean
 (over the no-error trial and the drawn ones that placed the object, the model at each draw's
 friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
-thumb tip) when the termination began. The results file also holds each scene's
+thumb tip) when the termination began; and the termination's phases, the simulator's (from the
+no-error trial, its contacts logged) beside the model's: when the pinch lets go (the finger's
+force gone; ms from the termination's start), G's travel while it holds, the tilt then, and G's
+travel from then to the landing (PHASE_FIELDS). The results file also holds each scene's
 robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A
 pyramidal world's model is the pyramid's two bounds.
 A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
@@ -95,6 +98,42 @@ def termination_pose(setup, record, frame) -> tuple[float, float, float]:
     return float(pose[0, 3]), theta, s_b
 
 
+#: The kinds of geometry whose forces on the object are the finger's (sim.trial._Watch.forces).
+FINGER_KINDS = ("finger", "finger_tip")
+
+
+def let_go(setup, record, log, frame) -> tuple[float, float, float]:
+    """From a trial recorded with its contacts logged: when the pinch lets go (the first control
+    tick after the termination began at which the finger exerts no force on the object; s from the
+    termination's start), and the object's G (plane x, m) and tilt (rad) then. The termination's
+    end and the pose there where the finger never lets go."""
+    t0 = setup.drive.phase_start("termination")
+    inv = np.linalg.inv(frame)
+    poses = dict(record)
+    t = next((t for t, forces in log if t > t0 and not any(k in forces for k in FINGER_KINDS)), log[-1][0])
+    pose = inv @ np.array(poses.get(t, record[-1][1]))
+    x = pose[:3, 0]
+    return t - t0, float(pose[0, 3]), math.atan2(x[2], math.hypot(x[0], x[1]))
+
+
+def model_phases(setup, mu_g: float, mu_b: float, world: World) -> list[tuple[float, float, float, float]]:
+    """The model's phases of the termination in world (as model_worlds, one per cone bound): when
+    the pinch lets go (s from the termination's start), G's travel while it holds (m), the tilt
+    then (rad) and G's travel from then to the landing (m)."""
+    table, digits = world.friction_factors
+    g, b = table * mu_g, digits * mu_b
+    pairs = [(g, b)]
+    if world.cone is not Cone.ELLIPTIC:
+        reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis)
+        pairs = [(g * reach.table[k], b * reach.thumb[k]) for k in (0, 1)]
+    out = []
+    for mg, mb in pairs:
+        f = fall(setup, mg, mb, trace=True)
+        theta = float(f.states[0, 3]) if len(f.states) else setup.start.theta
+        out.append((setup.hand.released, f.carried, theta, f.offset - setup.start.g - f.carried))
+    return out
+
+
 def drawn_scale(world: World, params: TrialParams) -> tuple[float, float]:
     """The factors a draw puts on (mu_G, mu_B) in world: none on a pair whose friction the world
     sets (decision 0100), as sim.trial.trial_spec builds the trial."""
@@ -156,9 +195,12 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
     for label, world in WORLDS.items():
         here = replace(setup, world=world)
         record: list = []
-        nominal = run_trial(here, TrialParams(), record=record)
+        log: list = []
+        nominal = run_trial(here, TrialParams(), record=record, contact_log=log)
         along, across = in_plane(frame, landing_offset(here, np.array(nominal.final_pose)))
         g0, th0, sb0 = termination_pose(here, record, frame)
+        t_go, g_go, th_go = let_go(here, record, log, frame)
+        phases = model_phases(carried, mu_g, mu_b, world)
         # the model from the pose the simulation reached: G and theta there, the thumb's face through
         # its B at its distance from the tip
         ex, ez = base.hand.axis
@@ -190,7 +232,12 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
                      "sim_start_g_mm": g0 * 1e3, "sim_start_theta_deg": math.degrees(th0), "sim_start_sb_mm": sb0 * 1e3,
                      "model_planned_mm": [x * 1e3 for x in planned], "model_mm": [x * 1e3 for x in through],
                      "model_from_sim_start_mm": [x * 1e3 for x in from_sim],
-                     "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3})
+                     "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3,
+                     "sim_let_go_ms": t_go * 1e3, "sim_hold_mm": (g_go - g0) * 1e3,
+                     "sim_let_go_theta_deg": math.degrees(th_go), "sim_fall_mm": (along - g_go) * 1e3,
+                     "model_let_go_ms": phases[0][0] * 1e3, "model_hold_mm": [p[1] * 1e3 for p in phases],
+                     "model_let_go_theta_deg": [math.degrees(p[2]) for p in phases],
+                     "model_fall_mm": [p[3] * 1e3 for p in phases]})
     return {"object": name, "predict_s": predict_s, "landing_offset_mm": offset * 1e3,
             "primitives": [str(p.type) for p in plan.primitives],
             "carried_start_g_mm": carried.start.g * 1e3, "carried_start_theta_deg": math.degrees(carried.start.theta),
@@ -290,7 +337,15 @@ FORMATS = {**{k: "{:.2f}" for k in ("planned_mm", "model_mm", "from_sim_start_mm
            "step_change_mm": "{:.3f}",
            **{k: "{:+.2f}" for k in ("model_minus_sim_mm", "mean_model_minus_sim_mm", "from_sim_start_minus_sim_mm",
                                     "mean_kept_minus_sim_mm", "landing_offset_mm")},
-           "predict_ms": "{:.0f}", "seconds": "{:.0f}", "minutes": "{:.0f}"}
+           "predict_ms": "{:.0f}", "seconds": "{:.0f}", "minutes": "{:.0f}",
+           **{k: "{:.0f}" for k in ("sim_let_go_ms", "model_let_go_ms")},
+           **{k: "{:+.2f}" for k in ("sim_hold_mm", "model_hold_mm", "sim_fall_mm", "model_fall_mm")},
+           **{k: "{:.2f}" for k in ("sim_let_go_theta_deg", "model_let_go_theta_deg")}}
+#: The phases of the termination, the simulator's (the no-error trial) and the model's (per cone
+#: bound): when the pinch lets go (ms from the termination's start), G's travel while it holds, the
+#: tilt when it lets go, G's travel from then to the landing (mm, deg).
+PHASE_FIELDS = ("sim_let_go_ms", "model_let_go_ms", "sim_hold_mm", "model_hold_mm", "sim_let_go_theta_deg",
+                "model_let_go_theta_deg", "sim_fall_mm", "model_fall_mm")
 #: The worlds over which a plan's landing spreads (the model's Coulomb worlds of the scenes' range).
 SPREAD_WORLDS = ("nominal", "friction x0.7", "friction x1.3")
 
@@ -338,7 +393,8 @@ def study_rows(study: str, results: list[dict]) -> list[dict]:
                 "mean_kept_minus_sim_mm": (None if w["sim_mean_along_mm"] is None else
                                            w["model_mean_mm"] + res["landing_offset_mm"] - w["sim_mean_along_mm"]),
                 "draw_outcomes": w["draw_outcomes"], "sim_start_g_mm": w["sim_start_g_mm"],
-                "sim_start_theta_deg": w["sim_start_theta_deg"], "sim_start_sb_mm": w["sim_start_sb_mm"]})
+                "sim_start_theta_deg": w["sim_start_theta_deg"], "sim_start_sb_mm": w["sim_start_sb_mm"],
+                **{k: w[k] for k in PHASE_FIELDS if k in w}})
     return rows
 
 
