@@ -120,14 +120,8 @@ def model_phases(setup, mu_g: float, mu_b: float, world: World) -> list[tuple[fl
     """The model's phases of the termination in world (as model_worlds, one per cone bound): when
     the pinch lets go (s from the termination's start), G's travel while it holds (m), the tilt
     then (rad) and G's travel from then to the landing (m)."""
-    table, digits = world.friction_factors
-    g, b = table * mu_g, digits * mu_b
-    pairs = [(g, b)]
-    if world.cone is not Cone.ELLIPTIC:
-        reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis)
-        pairs = [(g * reach.table[k], b * reach.thumb[k]) for k in (0, 1)]
     out = []
-    for mg, mb in pairs:
+    for mg, mb in world_coefficients(setup, mu_g, mu_b, world):
         f = fall(setup, mg, mb, trace=True)
         theta = float(f.states[0, 3]) if len(f.states) else setup.start.theta
         out.append((setup.hand.released, f.carried, theta, f.offset - setup.start.g - f.carried))
@@ -142,17 +136,24 @@ def drawn_scale(world: World, params: TrialParams) -> tuple[float, float]:
     return (1.0 if table_fixed else fg), (1.0 if digits_fixed else fb)
 
 
-def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0),
-                 step: float = STEP) -> list[float]:
-    """The model's landings (plane x of G, m) in world, the coefficients also times scale (a draw's
-    factors on mu_G and mu_B, drawn_scale), integrated in steps of step (s): one with Coulomb's cone,
-    the pyramid's two bounds with pyramidal cones."""
+def world_coefficients(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0)
+                       ) -> list[tuple[float, float]]:
+    """The model's (mu_G, mu_B) in world, the coefficients also times scale (a draw's factors on
+    mu_G and mu_B, drawn_scale): one pair with Coulomb's cone, the pyramid's two bounds with
+    pyramidal cones."""
     table, digits = world.friction_factors
     g, b = table * mu_g * scale[0], digits * mu_b * scale[1]
     if world.cone is Cone.ELLIPTIC:
-        return [fall(setup, g, b, step).offset]
+        return [(g, b)]
     reach = PyramidReach.of(np.array(setup.frame), setup.hand.axis)
-    return [fall(setup, g * reach.table[k], b * reach.thumb[k], step).offset for k in (0, 1)]
+    return [(g * reach.table[k], b * reach.thumb[k]) for k in (0, 1)]
+
+
+def model_worlds(setup, mu_g: float, mu_b: float, world: World, scale: tuple[float, float] = (1.0, 1.0),
+                 step: float = STEP) -> list[float]:
+    """The model's landings (plane x of G, m) in world (world_coefficients), integrated in steps of
+    step (s)."""
+    return [fall(setup, g, b, step).offset for g, b in world_coefficients(setup, mu_g, mu_b, world, scale)]
 
 
 #: The coarser and the finer step against which the model's landings are checked (s).
