@@ -859,7 +859,6 @@ def paired_with_mujoco(doc: dict, source: Path | None = None) -> dict:
     it, else from MUJOCO_TANGRAM when every row is the tangram's, from MUJOCO_LEAST_SLIDE with
     --start least-slide, else from MUJOCO_RESULTS (a row MuJoCo's file lacks gets None for both);
     the file names its MuJoCo file."""
-
     from campaign_results import fisher_p
 
     source = source or MUJOCO_SOURCE or (MUJOCO_TANGRAM if all(_group(r) == "tangram" for r in doc["rows"]) else (
@@ -1110,7 +1109,6 @@ def contact_summaries() -> None:
     from their studies' trial rows by _over_trials as it is now, nothing else changed and no trial
     run: after _over_trials learns a field, the studies already run show it too. A study written
     before the summaries were is left as it is."""
-
     from campaign_results import study_row, write_study_file
 
     path = ROOT / "docs" / "results" / "campaigns_drake_contacts.json"
