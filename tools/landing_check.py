@@ -15,8 +15,9 @@ across (the simulated landing across GB), outcome (the no-error trial's), model 
 friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, from the commanded
 thumb tip) when the termination began; and the termination's phases, the simulator's (from the
 no-error trial, its contacts logged) beside the model's: when the pinch lets go (the finger's
-force gone; ms from the termination's start), G's travel while it holds, the tilt then, and G's
-travel from then to the landing (PHASE_FIELDS). The results file also holds each scene's
+force gone; ms from the termination's start), how far the servo's command has opened by then (the
+model: the squeeze it takes up), G's travel while it holds, the tilt then, and G's travel from then
+to the landing (PHASE_FIELDS). The results file also holds each scene's
 robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A
 pyramidal world's model is the pyramid's two bounds.
 A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
@@ -201,6 +202,9 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
         along, across = in_plane(frame, landing_offset(here, np.array(nominal.final_pose)))
         g0, th0, sb0 = termination_pose(here, record, frame)
         t_go, g_go, th_go = let_go(here, record, log, frame)
+        t0 = here.drive.phase_start("termination")
+        opening = here.drive.opening
+        opened = float(np.interp(t0 + t_go, here.drive.times, opening) - np.interp(t0, here.drive.times, opening))
         phases = model_phases(carried, mu_g, mu_b, world)
         # the model from the pose the simulation reached: G and theta there, the thumb's face through
         # its B at its distance from the tip
@@ -236,6 +240,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
                      "step_change_mm": max(abs(a - b) for a, b in zip(coarse, fine)) * 1e3,
                      "sim_let_go_ms": t_go * 1e3, "sim_hold_mm": (g_go - g0) * 1e3,
                      "sim_let_go_theta_deg": math.degrees(th_go), "sim_fall_mm": (along - g_go) * 1e3,
+                     "sim_let_go_opening_mm": opened * 1e3, "model_let_go_opening_mm": carried.hand.held * 1e3,
                      "model_let_go_ms": phases[0][0] * 1e3, "model_hold_mm": [p[1] * 1e3 for p in phases],
                      "model_let_go_theta_deg": [math.degrees(p[2]) for p in phases],
                      "model_fall_mm": [p[3] * 1e3 for p in phases]})
@@ -340,13 +345,15 @@ FORMATS = {**{k: "{:.2f}" for k in ("planned_mm", "model_mm", "from_sim_start_mm
                                     "mean_kept_minus_sim_mm", "landing_offset_mm")},
            "predict_ms": "{:.0f}", "seconds": "{:.0f}", "minutes": "{:.0f}",
            **{k: "{:.0f}" for k in ("sim_let_go_ms", "model_let_go_ms")},
+           **{k: "{:.2f}" for k in ("sim_let_go_opening_mm", "model_let_go_opening_mm")},
            **{k: "{:+.2f}" for k in ("sim_hold_mm", "model_hold_mm", "sim_fall_mm", "model_fall_mm")},
            **{k: "{:.2f}" for k in ("sim_let_go_theta_deg", "model_let_go_theta_deg")}}
 #: The phases of the termination, the simulator's (the no-error trial) and the model's (per cone
-#: bound): when the pinch lets go (ms from the termination's start), G's travel while it holds, the
-#: tilt when it lets go, G's travel from then to the landing (mm, deg).
-PHASE_FIELDS = ("sim_let_go_ms", "model_let_go_ms", "sim_hold_mm", "model_hold_mm", "sim_let_go_theta_deg",
-                "model_let_go_theta_deg", "sim_fall_mm", "model_fall_mm")
+#: bound): when the pinch lets go (ms from the termination's start), how far the servo's command has
+#: opened then (mm), G's travel while it holds, the tilt when it lets go, G's travel from then to the
+#: landing (mm, deg).
+PHASE_FIELDS = ("sim_let_go_ms", "model_let_go_ms", "sim_let_go_opening_mm", "model_let_go_opening_mm", "sim_hold_mm",
+                "model_hold_mm", "sim_let_go_theta_deg", "model_let_go_theta_deg", "sim_fall_mm", "model_fall_mm")
 #: The worlds over which a plan's landing spreads (the model's Coulomb worlds of the scenes' range).
 SPREAD_WORLDS = ("nominal", "friction x0.7", "friction x1.3")
 
