@@ -45,9 +45,10 @@ the table toward B, z up; metres, seconds, radians):
 
 What it leaves out: anything across the plane (no turn about the vertical is predicted: a centre of
 mass off GB turns the object a fraction of a degree as it slides, which the model does not say);
-the digits' bending and the contacts' softness (the simulator's digits give back part of the
-squeeze before the command takes it up, so that its pinch lets go some tenths of a millimetre of
-opening sooner); the finger after the pinch; the outline's extent beyond G or B along GB (G and B
+the digits' bending and the contacts' softness (the simulator's digits, bent by the final press,
+take it up instead of the object turning about G, and its pinch holds until the command has opened
+further than the squeeze, while the object turns down in it: docs/model.md 11.17); the finger after
+the pinch; the outline's extent beyond G or B along GB (G and B
 are the object's ends along GB on the shipped objects, to micrometres). Where the fall starts is
 an input (ReleaseStart): the plan's last state, or, since a force-limited pinch carries the object
 through a P_dpsi rather than sliding over it (the simulator's does: docs/model.md 11.13), where
