@@ -180,6 +180,33 @@ def test_the_hands_timing_is_the_exports():
     assert release.RETREAT_SPEED == pipeline.RETREAT_SPEED
 
 
+def test_the_pinch_holds_until_the_command_reaches_the_pressed_opening():
+    """Record 0131: the command starts the squeeze inside the planned opening, and the final press,
+    turning the object about G to meet the lowered hand, opens the digits further; the pinch holds
+    until the command has taken up both. The opening is measured here from B across the thumb's face
+    to the finger's corner (not mechanics.kinematics.aperture's closed form); without a press the
+    hold is the squeeze alone."""
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.mechanics.kinematics import finger_corner, object_axis, pressed_state, thumb_normal
+
+    scene = Scene.from_file(ROOT / "scenes" / "fabric_chalk.yaml")
+    digits, l = scene.digits, scene.object_length
+    state = (math.radians(8.0), 0.65, math.radians(33.5))
+
+    def opening(theta: float, d: float, psi: float) -> float:
+        corner = finger_corner(theta, d, psi, digits.object_thickness, digits.finger_tip_radius)
+        return float((corner - object_axis(theta)) @ thumb_normal(theta, psi)) * l
+
+    theta, d, psi, found = pressed_state(*state, scene.robot.final_press / l, digits)
+    assert found and scene.robot.final_press > 0.0
+    pressed = opening(float(theta), float(d), float(psi))
+    assert pressed > opening(*state)
+    held = release_setup(scene, state).hand.held
+    assert held == pytest.approx(scene.sim.squeeze + pressed - opening(*state), abs=1e-12)
+    unpressed = replace(scene, robot=replace(scene.robot, end_press=0.0))
+    assert release_setup(unpressed, state).hand.held == pytest.approx(scene.sim.squeeze, abs=1e-15)
+
+
 COS30 = math.cos(math.radians(30.0))
 
 

@@ -27,9 +27,10 @@ the table toward B, z up; metres, seconds, radians):
   opening grows from 0 to robot.termination_opening at the rate the export's timing gives it (a
   trapezoid: the contact-speed cap on the faster digit tip and the gripper's acceleration limit,
   both at the timing's 90 %), then the palm lifts straight up (the retreat). The jaws are held by
-  the object until the command has taken up the squeeze (sim.squeeze: the pinch's force is gone
-  when the command reaches the object's opening), and the object moves with the palm until then,
-  G sliding on the table; after that the thumb's face follows the palm and half the opening;
+  the object until the command reaches the object's opening (the pinch's force is gone then): it
+  starts the servo's squeeze inside the planned opening (sim.squeeze), and the final press, turning
+  the object about G, has opened the digits further (HandMotion.held); the object moves with the
+  palm until then, G sliding on the table; after that the thumb's face follows the palm and half the opening;
 * Coulomb friction at G (mu_G, the object on the table) and B (mu_B, the object on the thumb),
   sticking or sliding, the contacts inelastic: a time-stepping integrator (velocity-level, the
   contact impulses of each 0.5 ms step solved exactly over the contacts' modes: apart, sticking,
@@ -40,8 +41,8 @@ the table toward B, z up; metres, seconds, radians):
 * a pincer (mechanics.pincer) turns where parallel jaws slide (pincer_hand): its opening is its
   joint's angle, and the palm, the thumb and the finger turn about the joint J by
   mechanics.pincer.release_turns per radian of it, the pinch carrying the object about J with the
-  palm until the command has taken up the squeeze; its pressed state is its own
-  (mechanics.pincer.pincer_pressed_state: J lowered, the palm turned the same, the joint free).
+  palm until the command has taken up the squeeze and the press's opening; its pressed state is its
+  own (mechanics.pincer.pincer_pressed_state: J lowered, the palm turned the same, the joint free).
 
 What it leaves out: anything across the plane (no turn about the vertical is predicted: a centre of
 mass off GB turns the object a fraction of a degree as it slides, which the model does not say);
@@ -156,7 +157,8 @@ class HandMotion:
     opening: float
     """The commanded opening's growth over the termination (m)."""
     held: float
-    """How much of it the command takes before the pinch lets go (m): the squeeze."""
+    """How much of it the command takes before the pinch lets go (m): the servo's squeeze and what the
+    final press opened the digits beyond the plan (planning.predicted_landing.held_squeeze)."""
     rate: float
     """The opening's cruising rate (m/s)."""
     acceleration: float
@@ -285,7 +287,8 @@ def pincer_hand(pose: PincerPose, links: PincerLinks, length: float, termination
     the export times it, a trapezoid in the joint's angle under the contact-speed cap on the faster
     of the thumb's tip and the finger's tip corner (links.levers) and the joint's speed and
     acceleration limits (the gripper's at the joint radius, robot.model) at the timing's share; the
-    command takes up squeeze (m at the joint radius: the simulator's servo_squeeze) before the pinch
+    command takes up squeeze (m at the joint radius: the simulator's servo_squeeze and what the final
+    press opened the joint beyond the plan, planning.predicted_landing.held_squeeze) before the pinch
     lets go. Then the retreat lifts the palm by retreat (m). ReleaseModelError for any other
     termination."""
     try:

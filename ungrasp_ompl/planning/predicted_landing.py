@@ -11,7 +11,7 @@ from dataclasses import astuple
 
 import numpy as np
 
-from ..mechanics.kinematics import digit_axis, pressed_state, release_travel, thumb_tip
+from ..mechanics.kinematics import aperture, digit_axis, pressed_state, release_travel, thumb_tip
 from ..mechanics.pincer import hand_s_b, pincer_links, pincer_pose, pincer_pressed_state
 from ..mechanics.release import (GRIPPER_ACCELERATION, GRIPPER_SPEED, TIMING_MARGIN, HandMotion, ReleaseBody,
                                  ReleaseModelError, ReleasePrediction, ReleaseSetup, ReleaseStart, pincer_hand,
@@ -52,14 +52,25 @@ def release_setup(scene: Scene, state: tuple[float, float, float], start: Releas
     return ReleaseSetup(release_body(scene), hand, start or ReleaseStart(0.0, theta), frame)
 
 
+def held_squeeze(squeeze: float, opened: float) -> float:
+    """How much of the termination's opening (m; at the joint radius for a pincer) the command takes
+    before the pinch lets go (record 0131): the servo's squeeze (sim.squeeze: the command starts that
+    far inside the planned opening) and what the final press opened the digits beyond the plan
+    (opened, m: the pressed state's opening less the planned one; negative where the press closes
+    them), never less than nothing."""
+    return max(squeeze + opened, 0.0)
+
+
 def _jaws_release(scene: Scene, theta: float, d: float, psi: float) -> tuple[float, HandMotion]:
     """The parallel jaws' pressed theta (rad) and their hand's motion as they let go from the state."""
     robot, digits, l = scene.robot, scene.digits, scene.object_length
+    t_l, r_l = digits.object_thickness, digits.finger_tip_radius
+    planned = float(aperture(d, psi, t_l, r_l, digits.section))
     if robot.final_press > 0.0:
         th_p, d_p, psi_p, found = pressed_state(theta, d, psi, robot.final_press / l, digits)
         if bool(found):
             theta, d, psi = float(th_p), float(d_p), float(psi_p)
-    t_l, r_l = digits.object_thickness, digits.finger_tip_radius
+    opened = (float(aperture(d, psi, t_l, r_l, digits.section)) - planned) * l
     tip = thumb_tip(theta, d, psi, digits.alpha, t_l, r_l) * l
     axis = digit_axis(theta, psi)
     travel = release_travel(theta, psi, str(robot.termination))
@@ -71,7 +82,7 @@ def _jaws_release(scene: Scene, theta: float, d: float, psi: float) -> tuple[flo
                              thumb_length=digits.thumb_length * l,
                              palm=(float(travel["palm"][0]), float(travel["palm"][1])),
                              opening=robot.termination_opening,
-                             held=min(scene.sim.squeeze, robot.termination_opening), rate=rate,
+                             held=min(held_squeeze(scene.sim.squeeze, opened), robot.termination_opening), rate=rate,
                              acceleration=TIMING_MARGIN * GRIPPER_ACCELERATION, retreat=robot.retreat_height)
 
 
@@ -80,13 +91,16 @@ def _pincer_release(scene: Scene, theta: float, d: float, psi: float) -> tuple[f
     press, its thumb and joint there, its joint's timing."""
     robot, digits, l = scene.robot, scene.digits, scene.object_length
     radius, offset = robot.gripper.scaled(l)
+    links = pincer_links(robot.gripper, digits, l)
+    planned = float(pincer_pose(theta, d, psi, digits, radius, offset).angle)
     if robot.final_press > 0.0:
         th_p, d_p, psi_p, found = pincer_pressed_state(theta, d, psi, robot.final_press / l, digits, radius, offset)
         if found:
             theta, d, psi = th_p, d_p, psi_p
-    return theta, pincer_hand(pincer_pose(theta, d, psi, digits, radius, offset),
-                              pincer_links(robot.gripper, digits, l), l, str(robot.termination),
-                              robot.termination_opening, scene.sim.squeeze, robot.contact_speed, robot.retreat_height)
+    pose = pincer_pose(theta, d, psi, digits, radius, offset)
+    squeeze = held_squeeze(scene.sim.squeeze, (float(pose.angle) - planned) * links.radius)
+    return theta, pincer_hand(pose, links, l, str(robot.termination), robot.termination_opening, squeeze,
+                              robot.contact_speed, robot.retreat_height)
 
 
 def carried_start(scene: Scene, plan: Plan, setup: ReleaseSetup) -> ReleaseStart:
