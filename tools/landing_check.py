@@ -16,7 +16,7 @@ friction), n (how many), and the simulation's G (mm), theta (deg) and s_B (mm, f
 thumb tip) when the termination began; and the termination's phases, the simulator's (from the
 no-error trial, its contacts logged) beside the model's: when the pinch lets go (the finger's
 force gone; ms from the termination's start), how far the servo's command has opened by then (the
-model: the squeeze it takes up), G's travel while it holds, the tilt then, and G's travel from then
+model: the squeeze and what the final press opened the digits, record 0131), G's travel while it holds, the tilt then, and G's travel from then
 to the landing (PHASE_FIELDS). The results file also holds each scene's
 robot.landing_offset and the model's mean with it less the simulated mean (record 0122). A
 pyramidal world's model is the pyramid's two bounds.
@@ -103,18 +103,21 @@ def termination_pose(setup, record, frame) -> tuple[float, float, float]:
 FINGER_KINDS = ("finger", "finger_tip")
 
 
-def let_go(setup, record, log, frame) -> tuple[float, float, float]:
+def let_go(setup, record, log, frame) -> tuple[float, float, float, float]:
     """From a trial recorded with its contacts logged: when the pinch lets go (the first control
     tick after the termination began at which the finger exerts no force on the object; s from the
-    termination's start), and the object's G (plane x, m) and tilt (rad) then. The termination's
-    end and the pose there where the finger never lets go."""
-    t0 = setup.drive.phase_start("termination")
+    termination's start), how far the servo's command has opened by then (m), and the object's G
+    (plane x, m) and tilt (rad) then. The termination's end and the pose there where the finger
+    never lets go."""
+    drive = setup.drive
+    t0 = drive.phase_start("termination")
     inv = np.linalg.inv(frame)
     poses = dict(record)
     t = next((t for t, forces in log if t > t0 and not any(k in forces for k in FINGER_KINDS)), log[-1][0])
+    opened = float(np.interp(t, drive.times, drive.opening) - np.interp(t0, drive.times, drive.opening))
     pose = inv @ np.array(poses.get(t, record[-1][1]))
     x = pose[:3, 0]
-    return t - t0, float(pose[0, 3]), math.atan2(x[2], math.hypot(x[0], x[1]))
+    return t - t0, opened, float(pose[0, 3]), math.atan2(x[2], math.hypot(x[0], x[1]))
 
 
 def model_phases(setup, mu_g: float, mu_b: float, world: World) -> list[tuple[float, float, float, float]]:
@@ -201,10 +204,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
         nominal = run_trial(here, TrialParams(), record=record, contact_log=log)
         along, across = in_plane(frame, landing_offset(here, np.array(nominal.final_pose)))
         g0, th0, sb0 = termination_pose(here, record, frame)
-        t_go, g_go, th_go = let_go(here, record, log, frame)
-        t0 = here.drive.phase_start("termination")
-        opening = here.drive.opening
-        opened = float(np.interp(t0 + t_go, here.drive.times, opening) - np.interp(t0, here.drive.times, opening))
+        t_go, opened, g_go, th_go = let_go(here, record, log, frame)
         phases = model_phases(carried, mu_g, mu_b, world)
         # the model from the pose the simulation reached: G and theta there, the thumb's face through
         # its B at its distance from the tip

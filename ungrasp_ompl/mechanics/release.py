@@ -30,7 +30,8 @@ the table toward B, z up; metres, seconds, radians):
   the object until the command reaches the object's opening (the pinch's force is gone then): it
   starts the servo's squeeze inside the planned opening (sim.squeeze), and the final press, turning
   the object about G, has opened the digits further (HandMotion.held); the object moves with the
-  palm until then, G sliding on the table; after that the thumb's face follows the palm and half the opening;
+  palm until then, G sliding on the table; after that the thumb's face follows the palm and half
+  the opening;
 * Coulomb friction at G (mu_G, the object on the table) and B (mu_B, the object on the thumb),
   sticking or sliding, the contacts inelastic: a time-stepping integrator (velocity-level, the
   contact impulses of each 0.5 ms step solved exactly over the contacts' modes: apart, sticking,
@@ -49,8 +50,8 @@ mass off GB turns the object a fraction of a degree as it slides, which the mode
 the digits' bending and the contacts' softness (the simulator's digits, bent by the final press,
 take it up instead of the object turning about G, and its pinch holds until the command has opened
 further than the squeeze, while the object turns down in it: docs/model.md 11.17); the finger after
-the pinch; the outline's extent beyond G or B along GB (G and B
-are the object's ends along GB on the shipped objects, to micrometres). Where the fall starts is
+the pinch; the outline's extent beyond G or B along GB (G and B are the object's ends along GB on
+the shipped objects, to micrometres). Where the fall starts is
 an input (ReleaseStart): the plan's last state, or, since a force-limited pinch carries the object
 through a P_dpsi rather than sliding over it (the simulator's does: docs/model.md 11.13), where
 that carry leaves it (planning.predicted_landing.carried_start: B keeps its place on the thumb, G
