@@ -9,6 +9,7 @@ error drawn; the same plan with a fifth of the friction, or with equal digits, m
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import re
@@ -177,6 +178,29 @@ def test_a_placement_beyond_max_error_is_placed_off_target(pick, pick_nominal):
     assert strict.outcome is Outcome.OFF_TARGET and strict.outcome.placed and not strict.success
     assert strict.position_error_mm == pytest.approx(good.position_error_mm)
     assert f"{good.position_error_mm:.1f} mm" in strict.cause()
+
+
+def test_a_placements_offset_splits_along_and_across_gb(pick, pick_nominal):
+    """The placement offset resolved in the plane's frame at the target: a pure move of the pose by
+    a world vector gives its projections on the target's GB (x) and its quarter turn left (y); the
+    two parts of the trial's own offset make its position error (an identity of the rotation)."""
+    from ungrasp_ompl.sim.trial import placement_offset_in_plane
+
+    outline = _setup(pick).spec.obj.outline
+    yaw = 0.7
+    target = np.eye(4)
+    target[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
+    target[:3, 3] = [0.4, -0.1, 0.0]
+    moved = target.copy()
+    moved[:2, 3] += [0.002, -0.001]
+    along, across = placement_offset_in_plane(moved, target, outline)
+    gb, left = np.array([math.cos(yaw), math.sin(yaw)]), np.array([-math.sin(yaw), math.cos(yaw)])
+    assert along == pytest.approx(gb @ [0.002, -0.001], abs=1e-15)
+    assert across == pytest.approx(left @ [0.002, -0.001], abs=1e-15)
+    r = pick_nominal
+    assert math.hypot(r.offset_along_mm, r.offset_across_mm) == pytest.approx(r.position_error_mm, rel=1e-12)
+    row = r.to_row()
+    assert (row["offset_along_mm"], row["offset_across_mm"]) == (round(r.offset_along_mm, 6), round(r.offset_across_mm, 6))
 
 
 def test_a_trial_setup_holds_the_scenes_sim_options_whole(pick):
@@ -692,6 +716,10 @@ def test_simulate_command_writes_its_files(tmp_path):
     assert summary["successes"] == 2 and summary["trials"] == 2
     rows = (out / "trials.csv").read_text().splitlines()
     assert len(rows) == 3 and rows[0].startswith("outcome,")
+    trials = list(csv.DictReader(rows))
+    for part in ("along", "across"):  # the summary's mean offset is the trials' (both placed)
+        assert summary["placed_offset_mm"][f"{part}_mean"] == pytest.approx(
+            np.mean([float(t[f"offset_{part}_mm"]) for t in trials]), abs=1e-6)
     assert_picture(out / "trials.png", colours=((0.173, 0.627, 0.173),))  # the placed outlines' green
     assert (out / "trajectory.json").exists() and (out / "plan.json").exists()
 

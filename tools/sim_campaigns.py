@@ -1045,11 +1045,9 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
 
     from campaign_results import merge_study
 
-    from landing_check import in_plane
 
     from ungrasp_ompl.scene.perturbation import trial_params
     from ungrasp_ompl.sim import trial as mj_trial
-    from ungrasp_ompl.sim.landing import landing_offset
     from ungrasp_ompl.sim import drake_trial, drake_world
     from ungrasp_ompl.sim.drake_trial import run_drake_trial
 
@@ -1085,8 +1083,7 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
         for engine in engines:
             row = _summary(logs[engine], mu_g, results[engine], poses[engine], setup.drive, setup.target_pose[:2, 0])
             # where it landed, in the plane's frame: along GB (+ toward B) and across it (mm)
-            along, across = in_plane(setup.target_pose, landing_offset(setup, np.array(results[engine].final_pose)))
-            row.update(landing_along_mm=1000 * along, landing_across_mm=1000 * across)
+            row.update(landing_along_mm=results[engine].offset_along_mm, landing_across_mm=results[engine].offset_across_mm)
             # how far the object lies out of the manipulation plane when the drive starts, the settling done
             row["roll_start_deg"] = mj_trial._roll(poses[engine][0][1], setup.target_pose[:3, 1])
             label = (f"{name} trial {k}, {engine}" + (", thumb in point contact" if thumb == "point" else "")

@@ -36,13 +36,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from landing_check import in_plane  # noqa: E402
 from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS, trial_params  # noqa: E402
 from ungrasp_ompl.sim.outcome import Outcome  # noqa: E402
 from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
-from ungrasp_ompl.sim.trial import placement_offset, run_trial  # noqa: E402
+from ungrasp_ompl.sim.trial import run_trial  # noqa: E402
 from ungrasp_ompl.sim.world import Cone, World  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
@@ -68,8 +67,7 @@ def trial_drift(task: tuple) -> tuple[float, float, float, bool]:
         return float((pose @ b_body)[:3] @ normal) * 1e3
 
     drift = sum(b_across(b) - b_across(a) for name, a, b in setup.drive.phases if name == "P_psi")
-    along, across = in_plane(target, placement_offset(np.asarray(result.final_pose), target, setup.spec.obj.outline))
-    return drift, along * 1e3, across * 1e3, result.outcome is Outcome.SUCCESS
+    return drift, result.offset_along_mm, result.offset_across_mm, result.outcome is Outcome.SUCCESS
 
 
 def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor) -> list[dict]:

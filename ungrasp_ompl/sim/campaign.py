@@ -61,6 +61,11 @@ class SimulationReport:
         """Placement errors (mm) of the successful trials (of every placed trial, with placed)."""
         return np.array([t.position_error_mm for t in self.trials if (t.placed if placed else t.success)])
 
+    def placed_offsets_mm(self) -> np.ndarray:
+        """The placement offsets (mm, shape (N, 2): along GB, + toward B, and across it) of the trials
+        placed by the paper's criterion: where the release puts the object against its target."""
+        return np.array([(t.offset_along_mm, t.offset_across_mm) for t in self.trials if t.placed]).reshape(-1, 2)
+
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second, over all trials (per worker)."""
         wall = sum(t.wall_time_s for t in self.trials)
@@ -71,6 +76,7 @@ class SimulationReport:
         yaw = np.array([t.yaw_error_deg for t in self.trials if t.success])
         sink = np.array([t.max_penetration_mm for t in self.trials])
         off_dome = np.array([t.a_off_dome_share for t in self.trials if t.a_off_dome_share is not None])
+        along, across = self.placed_offsets_mm().T
         return {
             "scene": self.scene, "trials": len(self.trials), "successes": self.successes,
             "success_rate": self.successes / len(self.trials) if self.trials else None,
@@ -78,6 +84,8 @@ class SimulationReport:
             "placed_paper_criterion": self.placed,
             "position_error_mm": {"mean": _stat(errs, np.mean), "max": _stat(errs, np.max)},
             "placed_position_error_mm": {"mean": _stat(placed, np.mean), "max": _stat(placed, np.max)},
+            "placed_offset_mm": {"along_mean": _stat(along, np.mean), "along_sd": _stat(along, _sd),
+                                 "across_mean": _stat(across, np.mean), "across_sd": _stat(across, _sd)},
             "max_penetration_mm": _stat(sink, np.max),
             "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
@@ -107,6 +115,11 @@ def wilson_interval(successes: int, trials: int) -> tuple[float, float]:
 
 def _stat(values: np.ndarray, f: Callable) -> float | None:
     return float(f(values)) if len(values) else None
+
+
+def _sd(values: np.ndarray) -> float:
+    """The sample standard deviation (0 for one value)."""
+    return float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
 
 
 #: The physics engines a trial runs in: MuJoCo (sim.trial, the default) and Drake (sim.drake_trial,

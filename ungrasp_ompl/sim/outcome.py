@@ -119,6 +119,8 @@ class TrialResult:
     digit_table_force_n: float = 0.0  #: the largest normal force (N) a digit pressed the table with before the termination (0: it never touched)
     a_gap_s: float = 0.0  #: the longest stretch (s) the finger's contact A was absent before the termination (or the loss)
     b_gap_s: float = 0.0  #: the same for the thumb's contact B
+    offset_along_mm: float = float("nan")  #: the placement offset (position_error_mm's vector) along GB at the target, + toward B (mm)
+    offset_across_mm: float = float("nan")  #: ... and across GB, + to GB's left seen from above (mm)
     table_found_mm: float | None = None  #: how much higher than the plan has it the touch-off found the table (mm, the arm's z); None without one
     probe_error_mm: float | None = None  #: the touch-off's found height less the truth (mm), for the record: the trial never reads it
 

@@ -859,6 +859,7 @@ class Judge:
         failure, lost = self.failure, self.lost
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
         off_m, yaw_err = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
+        along, across = placement_offset_in_plane(final, setup.target_pose, setup.spec.obj.outline)
         if lost is None:  # the checks after the retreat, which both verdicts make
             now = look()
             if tilt > FLAT_TILT_DEG:
@@ -876,7 +877,8 @@ class Judge:
         return TrialResult(outcome, paper, phase, phase_index, when, off_m * 1000, yaw_err, tilt, self.roll, params.to_dict(),
                            trial, seed, sim_time, time.perf_counter() - wall, final.tolist(), others,
                            self.sinking * 1000, share, self.travel.travels(setup.planned), self.table_push,
-                           self.grip.a_gap, self.grip.b_gap, **(probed[0].result_fields() if probed else {}))
+                           self.grip.a_gap, self.grip.b_gap, along * 1000, across * 1000,
+                           **(probed[0].result_fields() if probed else {}))
 
 
 def _primitive_of_ticks(drive: GripperDrive) -> NDArray[np.int64]:
@@ -918,6 +920,13 @@ def placement_offset(final: NDArray, target: NDArray, outline: NDArray) -> NDArr
     less its centroid's at pose target (m, shape (2,))."""
     centre = np.append(outline.mean(axis=0), 0.0)
     return ((final[:3, :3] @ centre + final[:3, 3]) - (target[:3, :3] @ centre + target[:3, 3]))[:2]
+
+
+def placement_offset_in_plane(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
+    """placement_offset in the manipulation plane's frame at the target, seen from above (m): along
+    GB (the target pose's x axis, + toward B) and across it (its y axis, GB turned a quarter left)."""
+    offset = placement_offset(final, target, outline)
+    return float(offset @ target[:2, 0]), float(offset @ target[:2, 1])
 
 
 def placement_turn(final: NDArray, target: NDArray) -> float:

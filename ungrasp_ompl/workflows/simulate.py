@@ -188,6 +188,13 @@ class SceneSimulation:
                          f"simulated {where}" if any(report.aim) else
                          "the hand was aimed as planned: the release simulated with no error did not place the object "
                          "by the strict verdict, so there was no landing to aim by")
+        offset = s["placed_offset_mm"]
+        if report.placed:
+            lines.append(f"where the placed objects came to rest: {offset['along_mean']:+.2f} mm along GB (+ toward B) "
+                         f"and {offset['across_mean']:+.2f} mm across it from the target on average, standard "
+                         f"deviations {offset['along_sd']:.2f} and {offset['across_sd']:.2f} mm"
+                         + (" (on a cell, the mean along GB is what robot.landing_offset is short of)"
+                            if scene.robot.landing is Landing.MODELLED else ""))
         if report.placed != report.successes:
             placed = s["placed_position_error_mm"]
             lines.append(f"by the paper's criterion alone (flat, no digit touching, however far from the target) "
