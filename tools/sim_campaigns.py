@@ -385,7 +385,8 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first", 
                    f"no tiling: {tiling.failed_piece} cannot be placed ({tiling.reasons[0].kind.value if tiling.reasons else '?'})")
     results = simulate_tiling(layout, aimed.setups, PRESETS["paper"], attempts, RunOptions(seed=seed, jobs=jobs),
                               engine=ENGINE)
-    causes = collections.Counter(a.cause().split(" at ")[0] for a in results if not a.success)
+    # each cause without its time (" at 4.65 s"); "not flat inside the frame at the end: ..." keeps its pieces
+    causes = collections.Counter(re.sub(r" at [0-9.]+ s$", "", a.cause()) for a in results if not a.success)
     ok, placed = sum(a.success for a in results), sum(a.placed for a in results)
     return Row(name, ok, attempts, placed, "-", "-", "9/10", (9, 10), "secure",
                "; ".join(f"{n} {c}" for c, n in causes.most_common()) or "-")
