@@ -12,7 +12,10 @@ targets (mm) and the narrowest clearance its landings left (mm; negative where t
 overlap: the piece rests on a wall or a neighbour's edge), each clearance measured as the layout's
 spread measures its gaps (geometry.spread.separation: along the separating edge normal). Per
 attempt that failed: the piece, its cause, the clearance it left, and how far its trial pushed a
-piece already down (mm) and which. The footprints are the outlines seen from above (a tilted piece's
+piece already down (mm) and which; an attempt whose every piece was placed but which ends with one
+not flat inside the frame names that piece, its clearance at the end from the walls and every other
+piece where they then lie, how far the later pieces' trials moved it (mm) and whose trial moved it
+furthest. The footprints are the outlines seen from above (a tilted piece's
 drawn flat), so a clearance is that of the shapes on the table. It asserts nothing.
 
 The presets split the `paper` errors (scene.perturbation.PRESETS): `grasp` draws the object's
@@ -55,7 +58,7 @@ RESULTS = ROOT / "docs" / "results" / "tangram_gaps.json"
 FORMATS = {"attempts": "{}", "trials": "{}", "along_mean_mm": "{:.2f}", "along_sd_mm": "{:.2f}",
            "across_mean_mm": "{:.2f}", "across_sd_mm": "{:.2f}", "offset_sd_mm": "{:.2f}",
            "no_error_along_mm": "{:.2f}", "designed_mm": "{:.2f}", "narrowest_mm": "{:.2f}", "clearance_mm": "{:.2f}",
-           "narrowest_success_mm": "{:.2f}", "pushed_mm": "{:.2f}"}
+           "narrowest_success_mm": "{:.2f}", "pushed_mm": "{:.2f}", "moved_mm": "{:.2f}"}
 
 
 #: A piece down that moved less than this (mm) in another piece's trial is not named as pushed.
@@ -96,6 +99,33 @@ def _plane_axes(placement) -> NDArray:
     return np.array([u, [-u[1], u[0]]])
 
 
+def _not_flat_at_end(attempt, names: list[str], outlines: dict, walls: list[NDArray]) -> list[dict]:
+    """The rows of an attempt whose every piece was placed but which ends with a piece not flat
+    inside the frame: per such piece, its clearance at the end from the walls and every other piece
+    where they then lie, how far the later pieces' trials moved it, and whose moved it furthest."""
+    last = attempt.pieces[-1]
+    poses = [*last.placed_poses, last.final_pose]  # every piece where the attempt leaves it, in order
+    rows = []
+    for j, name in enumerate(names):
+        if attempt.flat_inside[j]:
+            continue
+        others = walls + [_footprint(outlines[n], pose) for i, (n, pose) in enumerate(zip(names, poses)) if i != j]
+        low = _narrowest(_footprint(outlines[name], poses[j]), others) * 1000
+        moves = [(_shift(attempt.pieces[k - 1], attempt.pieces[k], j), names[k]) for k in range(j + 1, len(names))]
+        moved, by = max(moves, default=(0.0, None))
+        rows.append({"label": f"attempt {attempt.attempt}", "piece": name, "cause": attempt.cause(),
+                     "clearance_mm": round(low, 3), "moved_mm": round(moved, 3),
+                     "moved_by": by if moved >= PUSHED_MM else None})
+    return rows
+
+
+def _shift(before, after, j: int) -> float:
+    """How far (mm) piece j, already down, moved in the trial after (its centroid, in 3D) from where
+    the trial before left it."""
+    was = [*before.placed_poses, before.final_pose][j]
+    return float(np.linalg.norm(np.asarray(after.placed_poses[j])[:3, 3] - np.asarray(was)[:3, 3])) * 1000
+
+
 def study(errors: str, attempts: int, seed: int, jobs: int) -> list[dict]:
     """The study's rows: the layout tiled and run as the campaign's lattice row is, under the error
     preset named, then measured; row labels begin with the preset's name unless it is `paper`."""
@@ -134,6 +164,8 @@ def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[
                                  "clearance_mm": round(low, 3), "pushed_mm": round(pushed, 3), "pushed_piece": moved})
         if a.success:
             success_narrowest.append(min(lows))
+        elif len(a.pieces) == len(names) and all(t.success for t in a.pieces):
+            failures.extend(_not_flat_at_end(a, names, outlines, walls))
     rows = []
     for k, (name, placement) in enumerate(zip(names, tiling.placements)):
         own = layout.footprint(index[name])
