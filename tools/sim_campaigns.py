@@ -1046,7 +1046,6 @@ def contact_forces(which: str, seed: int, thumb: str = "pad", tip: str = "rounde
 
     from campaign_results import merge_study
 
-
     from ungrasp_ompl.scene.perturbation import trial_params
     from ungrasp_ompl.sim import trial as mj_trial
     from ungrasp_ompl.sim import drake_trial, drake_world
