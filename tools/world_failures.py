@@ -45,7 +45,7 @@ Usage (about 4 minutes of one core with 6 trials; --cage about 10; --needed 1; -
     .venv/bin/python tools/world_failures.py --trials 6
     .venv/bin/python tools/world_failures.py --trials 2 --objects guitar_pick --worlds friction=0.7
     .venv/bin/python tools/world_failures.py --cage --trials 3
-    .venv/bin/python tools/world_failures.py --needed
+    .venv/bin/python tools/world_failures.py --needed [--objective margin]
     .venv/bin/python tools/world_failures.py --forces --trial 0
     .venv/bin/python tools/world_failures.py --forces --trial 1 --objects puzzle_piece --ticks 0 0.1 0.2 0.3 0.4
     .venv/bin/python tools/world_failures.py --forces --no-error --impratio 1
@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--trial", type=int, default=0, help="the trial --forces reads")
     parser.add_argument("--plan-seed", type=int, default=1, help="the seed of the RRT* plan --forces reads")
     parser.add_argument("--objective", choices=("cost", "margin"), default="cost",
-                        help="what the RRT* plan --forces reads optimises")
+                        help="what the RRT* plan --forces and --needed read optimises")
     parser.add_argument("--no-error", action="store_true", help="--forces reads a trial without any error")
     parser.add_argument("--impratio", type=float, default=None,
                         help="--forces runs a copy of the trial's model with this impratio (the simulator's is 10)")
@@ -151,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.cage:
         study, code = "cage", cage_study(args.objects, args.trials, args.seed, rows)
     elif args.needed:
-        study, code = "needed", friction_needed(args.objects, rows)
+        study, code = "needed", friction_needed(args.objects, rows, args.objective)
     elif args.forces:
         study = forces_run(args.objects[0], args.trial, args.no_error, args.impratio, args.plan_seed, args.objective)
         code = contact_forces(args.objects[0], args.trial, args.seed, tuple(args.ticks), args.no_error, args.impratio,
@@ -338,8 +338,8 @@ def cage_study(objects: list[str], trials: int, seed: int, out: list[dict] | Non
     return 0
 
 
-def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
-    """Print, per leg of each object's RRT* plan, the least factor on the contacts' coefficients at
+def friction_needed(objects: list[str], out: list[dict] | None = None, objective: str = "cost") -> int:
+    """Print, per leg of each object's RRT* plan (seed 1, the objective given), the least factor on the contacts' coefficients at
     which the out-of-plane margin (1 mm off) is at least 0, elliptic and pyramidal, and at which
     planar force closure holds (bisection to 1e-3 on [0.3, 1.5])."""
     from ungrasp_ompl.mechanics.force_closure import Friction
@@ -358,7 +358,10 @@ def friction_needed(objects: list[str], out: list[dict] | None = None) -> int:
     print("object: leg needs factor (margin elliptic / pyramidal / planar force closure; 0.30: at most that)")
     for name in objects:
         scene = Scene.from_file(STUDY_SCENES.get(name, name))
-        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective="cost")
+        plan = planning.plan(scene, planner="RRTstar", time=1.0, seed=1, objective=objective)
+        if not plan.solved:
+            print(f"  {name}: no {objective} plan at seed 1 ({plan.reason})")
+            continue
         st = plan_states(scene, plan)
         cells = []
         for leg in sorted(set(st.primitive.tolist())):
