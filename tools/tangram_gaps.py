@@ -84,9 +84,7 @@ def _pushed(attempt, k: int, names: list[str]) -> tuple[float, str | None]:
     pieces = attempt.pieces
     if k == 0:
         return 0.0, None
-    before = [*pieces[k - 1].placed_poses, pieces[k - 1].final_pose]
-    shifts = [float(np.linalg.norm(np.asarray(p)[:3, 3] - np.asarray(q)[:3, 3])) * 1000
-              for p, q in zip(pieces[k].placed_poses, before)]
+    shifts = [_shift(pieces[k - 1], pieces[k], j) for j in range(len(pieces[k].placed_poses))]
     j = int(np.argmax(shifts))
     return shifts[j], names[j] if shifts[j] >= PUSHED_MM else None
 

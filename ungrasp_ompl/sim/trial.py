@@ -858,8 +858,7 @@ class Judge:
         setup, drive = self.setup, self.setup.drive
         failure, lost = self.failure, self.lost
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(final[2, 2])))))
-        off_m, yaw_err = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
-        along, across = placement_offset_in_plane(final, setup.target_pose, setup.spec.obj.outline)
+        off_m, yaw_err, (along, across) = _placement_error(final, setup.target_pose, setup.spec.obj.outline)
         if lost is None:  # the checks after the retreat, which both verdicts make
             now = look()
             if tilt > FLAT_TILT_DEG:
@@ -925,7 +924,11 @@ def placement_offset(final: NDArray, target: NDArray, outline: NDArray) -> NDArr
 def placement_offset_in_plane(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
     """placement_offset in the manipulation plane's frame at the target, seen from above (m): along
     GB (the target pose's x axis, + toward B) and across it (its y axis, GB turned a quarter left)."""
-    offset = placement_offset(final, target, outline)
+    return _in_plane(placement_offset(final, target, outline), target)
+
+
+def _in_plane(offset: NDArray, target: NDArray) -> tuple[float, float]:
+    """A world (x, y) offset (m) along the target pose's x axis (GB) and its y axis."""
     return float(offset @ target[:2, 0]), float(offset @ target[:2, 1])
 
 
@@ -936,8 +939,10 @@ def placement_turn(final: NDArray, target: NDArray) -> float:
     return math.atan2(math.sin(yaw), math.cos(yaw))
 
 
-def _placement_error(final: NDArray, target: NDArray, outline: NDArray) -> tuple[float, float]:
-    """(m, deg): the outline centroid's distance in the table's plane from its target's, and
-    the turn of the object's x axis about the vertical against the target's."""
-    err = float(np.linalg.norm(placement_offset(final, target, outline)))
-    return err, abs(math.degrees(placement_turn(final, target)))
+def _placement_error(final: NDArray, target: NDArray,
+                     outline: NDArray) -> tuple[float, float, tuple[float, float]]:
+    """(m, deg, (m, m)): the outline centroid's distance in the table's plane from its target's,
+    the turn of the object's x axis about the vertical against the target's, and the offset along
+    GB and across it (placement_offset_in_plane), the offset computed once."""
+    offset = placement_offset(final, target, outline)
+    return float(np.linalg.norm(offset)), abs(math.degrees(placement_turn(final, target))), _in_plane(offset, target)
