@@ -132,7 +132,8 @@ def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
 @pytest.mark.slow
 def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
     """Along every planned path, the piece (its outline's prism, tilted about the plane's normal
-    through G) stays clear of the walls and of the pieces put down before it (fcl meshes)."""
+    through G) stays clear of the walls, and the layout's placed_clearance off the pieces put down
+    before it (fcl meshes and distances)."""
     proc, out, doc = tiled
     assert proc.returncode == 0, proc.stderr
     result = json.loads((out / "tiling.json").read_text())
@@ -158,8 +159,11 @@ def test_each_piece_misses_the_frame_and_earlier_pieces_in_3d(tiled):
             c, s = math.cos(theta), math.sin(theta)
             tilt = np.array([[c, 0, -s], [0, 1, 0], [s, 0, c]])
             obj.setTransform(fcl.Transform(frame[:3, :3] @ tilt, g))
-            for other, target in list(walls.items()) + list(down.items()):
+            for other, target in walls.items():
                 assert not _collides(obj, target), f"{name} hits {other} at theta {math.degrees(theta):.1f} deg"
+            for other, target in down.items():
+                gap = fcl.distance(obj, target, fcl.DistanceRequest(), fcl.DistanceResult())
+                assert gap >= layout.placed_clearance - 1e-6, f"{name} {gap * 1000:.3f} mm from {other}"
                 checked += 1
         assert scene.object_length == pytest.approx(np.linalg.norm(np.subtract(p["approach"]["B"], p["approach"]["G"])))
         down[name] = fcl.CollisionObject(_prism_mesh(outline, 0.0, thickness[name]))
@@ -674,8 +678,10 @@ def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
 @pytest.fixture(scope="module")
 def two_shipped():
     """The shipped tangram's first two pieces (robot.landing modelled, planning.max_landing_spread
-    4 mm, so that each plan carries its predicted landing) tiled with lattice plans."""
-    layout = Layout.from_dict({**_SHIPPED, "pieces": _SHIPPED["pieces"][:2]})
+    4 mm, so that each plan carries its predicted landing) tiled with lattice plans, with no
+    clearance from the piece down (alone, the two large triangles go down side by side, and the
+    second's whole aim would take the housing within 1 mm of the first)."""
+    layout = Layout.from_dict({**_SHIPPED, "placed_clearance": 0.0, "pieces": _SHIPPED["pieces"][:2]})
     tiling = tile(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)))
     assert tiling.solved and len(tiling.placements) == 2
     return layout, tiling

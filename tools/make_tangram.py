@@ -51,9 +51,12 @@ HEADER = """\
 # with the thumb at 30-65 deg (psi), opened as open_lift does, its landing moving at most 4 mm
 # over friction 0.7-1.3 times the layout's and both cones (planning.max_landing_spread, as the
 # puzzle piece's), planned for the widest friction margin (planning.objective, as the puzzle
-# piece is), and aimed by where the model of the fall lands it on average over that range
+# piece is), and aimed by the middle of where the model of the fall lands it over that range
 # (robot.landing: modelled, fitted in no simulated world; a piece whose whole aim would take it
 # or the robot into a wall or a piece is aimed as far as it fits; docs/model.md 11.15, 11.17).
+# Every plan keeps its digits, housing and piece 1 mm from the pieces down (placed_clearance): the
+# palm's 0.5 deg turn over the housing's 40 mm half-width, the touch-off's 0.5 mm and the piece's
+# 5 % of thickness, the `paper` errors' bounds (record 0132).
 """
 
 
@@ -83,6 +86,7 @@ def layout(side: float, kerf: float, wall_gap: float, thickness: float) -> dict:
         "name": "tangram",
         "description": "Seven tangram pieces put into a square frame by successive ungrasps.",
         "spread": True,
+        "placed_clearance": 0.001,
         "frame": {"center": [0.45, 0.0], "yaw_deg": 0, "inner_size": inner, "wall_height": 0.006,
                   "wall_thickness": 0.01},
         "friction": {"G": 0.35, "A": 0.45, "B": 0.45, "uncertainty": 0.3},

@@ -19,6 +19,9 @@ A layout file holds:
 * ``spread`` (optional, default false): true moves the targets (not their headings) so that the
   smallest gap between two pieces, or a piece and a wall, is as large as the frame allows
   (ungrasp_ompl.geometry.spread); ``Layout.spread`` then holds the shifts and the gaps.
+* ``placed_clearance`` (optional, m, default 0): how far every plan keeps its digits, housing and
+  piece from a piece already down, beyond touching (its solid grown so: Solid.grown); the walls
+  are not grown.
 
 Pieces must lie inside the frame and not overlap (touching is fine); each is
 treated by its convex hull in collision checks, a piece put down already by its outline's prism
@@ -107,6 +110,9 @@ class Layout:
     shared: dict[str, Any]
     source: str | None = None
     spread: Spread | None = None  # the shifts the file's spread: true moved the targets by (None: as given)
+    #: How far every plan keeps the digits, the housing and its piece from a piece already down, m
+    #: (Solid.grown): a piece down lies where its ungrasp put it, not at its target.
+    placed_clearance: float = 0.0
     #: scene(i, contacts) with the walls as its only solids, by (i, contacts as floats or None)
     _parsed: dict[tuple, Scene] = field(default_factory=dict, repr=False)
     _walls: tuple[Solid, ...] = field(default=(), repr=False)  # the frame's walls, once asked for
@@ -125,7 +131,7 @@ class Layout:
     def from_dict(cls, data: Any, source: str | None = None, default_name: str = "layout") -> "Layout":
         r = SceneReader(source)
         top = r.mapping(data, "layout")
-        r.known(top, "", {"name", "description", "frame", "pieces", "spread", *SHARED_SECTIONS})
+        r.known(top, "", {"name", "description", "frame", "pieces", "spread", "placed_clearance", *SHARED_SECTIONS})
         fr = r.mapping(r.require(top, "frame"), "frame")
         r.known(fr, "frame", {"center", "yaw_deg", "inner_size", "wall_height", "wall_thickness"})
         if "inner_size" not in fr:
@@ -162,7 +168,8 @@ class Layout:
         planning = shared.setdefault("planning", {})
         if isinstance(planning, dict):
             planning.setdefault("resolution", dict(DEFAULT_RESOLUTION))
-        layout = cls(r.name(top, "name", default_name), frame, pieces, shared, source)
+        layout = cls(r.name(top, "name", default_name), frame, pieces, shared, source,
+                     placed_clearance=r.length(top, "placed_clearance", "placed_clearance", zero=True, default=0.0))
         layout._check_placement()
         if r.flag(top, "spread", "spread"):
             layout = layout._spread_out()
@@ -200,8 +207,9 @@ class Layout:
         return self.frame.to_world(local) if world else local
 
     def solid(self, i: int) -> Solid:
-        """Piece i lying at its target, as a solid (world frame)."""
-        return prism(self.pieces[i].name, self.footprint(i), 0.0, self.pieces[i].object3d.thickness)
+        """Piece i lying at its target, as a solid (world frame), grown by placed_clearance."""
+        return prism(self.pieces[i].name, self.footprint(i), 0.0,
+                     self.pieces[i].object3d.thickness).grown(self.placed_clearance)
 
     def world_pose(self, i: int) -> tuple[tuple[float, float], float]:
         """World position (x, y) of piece i's outline origin and its world yaw (rad)."""
