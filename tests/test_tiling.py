@@ -116,6 +116,7 @@ def test_tile_places_all_seven_pieces_and_writes_its_files(tiled):
     spread = result["spread"]  # the file asks for it: the gaps and each piece's shift, as the layout has them
     assert spread["gap_m"] > spread["gap_before_m"] + 1e-3 and sorted(spread["shifts_m"]) == sorted(result["order"])
     assert f"targets spread: the narrowest gap {spread['gap_before_m'] * 1000:.1f} mm" in proc.stdout
+    assert result["placed_clearance_m"] == doc["placed_clearance"] > 0
     for k, name in enumerate(result["order"], start=1):
         assert f"{k}. {name}: G (" in proc.stdout  # the per-piece summary
         assert (out / f"cspace_{k}_{name}.png").stat().st_size > 10_000

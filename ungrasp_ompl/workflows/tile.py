@@ -66,9 +66,10 @@ class TiledLayout:
         out = Path(out)
         doc = out / "tiling.json"
         spread = self.layout.spread
-        written = self.tiling.to_dict() if spread is None else {**self.tiling.to_dict(), "spread": {
-            "gap_before_m": spread.gap_before, "gap_m": spread.gap,
-            "shifts_m": {p.name: s.tolist() for p, s in zip(self.layout.pieces, spread.shifts)}}}
+        written = {**self.tiling.to_dict(), "placed_clearance_m": self.layout.placed_clearance}
+        if spread is not None:
+            written["spread"] = {"gap_before_m": spread.gap_before, "gap_m": spread.gap,
+                                 "shifts_m": {p.name: s.tolist() for p, s in zip(self.layout.pieces, spread.shifts)}}
         write_text_atomic(doc, json.dumps(written, indent=1) + "\n")
         drawing, self.drawing = self.drawing, None  # taken: a second write draws them again
         if drawing is None or drawing.tiling is not self.tiling:
@@ -217,11 +218,13 @@ def _discard(pool: Forked | None, spare: Path) -> None:
 def layout_summary(layout: Layout, tiling: Tiling, execution: Execution | None,
                    short: tuple[tuple[str, float, float], ...]) -> list[str]:
     """The lines `tile` and `simulate LAYOUT` begin with: the layout's spread when its file asks for
-    one, the tiling's summary, the trajectory's when there is one, and the pieces aimed short of
-    their landing."""
+    one, the clearance its plans keep from the pieces down when it has one, the tiling's summary,
+    the trajectory's when there is one, and the pieces aimed short of their landing."""
     spread = [] if layout.spread is None else [
         f"targets spread: the narrowest gap {layout.spread.gap_before * 1000:.1f} mm -> {layout.spread.gap * 1000:.1f} mm "
         f"(pieces moved up to {abs(layout.spread.shifts).max() * 1000:.1f} mm)"]
+    if layout.placed_clearance > 0:
+        spread.append(f"plans keep {layout.placed_clearance * 1000:.1f} mm from the pieces down (placed_clearance)")
     return spread + [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
 
 
