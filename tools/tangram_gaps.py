@@ -23,10 +23,12 @@ place and turn in the grasp alone, `calibration` the arm's calibration (the palm
 turn, one draw per attempt as one per set-up, and the table's height found by the touch-off) alone.
 
     python tools/tangram_gaps.py [--errors paper] [--attempts 10] [--seed 1] [--jobs 2] [--results]
+                                 [--study NAME]
 
 --results writes the study into docs/results/tangram_gaps.json (the markdown beside it rendered
 from it): "gaps" under `paper`, "gaps, NAME errors" under another preset, whose rows' labels begin
-with its name.
+with its name; --study names it "gaps, NAME" instead, its rows' labels beginning with NAME (a run
+under a later set-up kept beside the earlier one).
 """
 
 from __future__ import annotations
@@ -124,9 +126,9 @@ def _shift(before, after, j: int) -> float:
     return float(np.linalg.norm(np.asarray(after.placed_poses[j])[:3, 3] - np.asarray(was)[:3, 3])) * 1000
 
 
-def study(errors: str, attempts: int, seed: int, jobs: int) -> list[dict]:
+def study(errors: str, attempts: int, seed: int, jobs: int, prefix: str | None) -> list[dict]:
     """The study's rows: the layout tiled and run as the campaign's lattice row is, under the error
-    preset named, then measured; row labels begin with the preset's name unless it is `paper`."""
+    preset named, then measured; row labels begin with prefix when given."""
     layout = Layout.from_file(resolve("tangram", "layout"))
     tiling, aimed = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=seed)))
     if aimed is None:
@@ -134,7 +136,7 @@ def study(errors: str, attempts: int, seed: int, jobs: int) -> list[dict]:
     results = simulate_tiling(layout, aimed.setups, PRESETS[errors], attempts, RunOptions(seed=seed, jobs=jobs))
     alone = {name: run_trial(setup, TrialParams()) for name, setup in aimed.setups}  # no error, no piece down
     rows = measured(layout, tiling, aimed, results, alone)
-    return rows if errors == "paper" else [{**r, "label": f"{errors}: {r['label']}"} for r in rows]
+    return rows if prefix is None else [{**r, "label": f"{prefix}: {r['label']}"} for r in rows]
 
 
 def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[dict]:
@@ -193,16 +195,19 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--results", action="store_true", help="write docs/results/tangram_gaps.json")
+    ap.add_argument("--study", help="the study's name after 'gaps, ' and its rows' prefix (default: the preset's)")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    rows = study(args.errors, args.attempts, args.seed, args.jobs)
+    prefix = args.study or (None if args.errors == "paper" else args.errors)
+    rows = study(args.errors, args.attempts, args.seed, args.jobs, prefix)
     for r in rows:
         print(r)
     if args.results:
         from campaign_results import merge_study
 
         command = "python tools/tangram_gaps.py " + shlex.join(sys.argv[1:])
-        name = "gaps" if args.errors == "paper" else f"gaps, {args.errors} errors"
+        name = (f"gaps, {args.study}" if args.study else
+                "gaps" if args.errors == "paper" else f"gaps, {args.errors} errors")
         merge_study(RESULTS, name, command, time.perf_counter() - t0, rows, FORMATS,
                     "How much of the tangram's gaps its landings use")
     return 0
