@@ -54,8 +54,9 @@ class Solid:
     def grown(self, margin: float) -> "Solid":
         """The solid grown by margin (m) on every side, under an upright prism's foot excepted (it
         stands on the table): the Minkowski sum with a regular octagon whose inscribed circle has
-        radius margin and, up and down, with margin: it holds every point within margin of the solid,
-        and reaches at most 8 % further across (1.47 times margin at its edges, where both add). margin <= 0 returns the solid itself."""
+        radius margin and, up and down, with margin. It holds every point within margin of the
+        solid and reaches at most 8 % further across (1.47 times margin at its edges, where both
+        add). margin <= 0 returns the solid itself."""
         if margin <= 0.0:
             return self
         turn = np.arange(8) * (math.pi / 4) + math.pi / 8

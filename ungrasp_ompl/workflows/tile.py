@@ -220,12 +220,12 @@ def layout_summary(layout: Layout, tiling: Tiling, execution: Execution | None,
     """The lines `tile` and `simulate LAYOUT` begin with: the layout's spread when its file asks for
     one, the clearance its plans keep from the pieces down when it has one, the tiling's summary,
     the trajectory's when there is one, and the pieces aimed short of their landing."""
-    spread = [] if layout.spread is None else [
+    lines = [] if layout.spread is None else [
         f"targets spread: the narrowest gap {layout.spread.gap_before * 1000:.1f} mm -> {layout.spread.gap * 1000:.1f} mm "
         f"(pieces moved up to {abs(layout.spread.shifts).max() * 1000:.1f} mm)"]
     if layout.placed_clearance > 0:
-        spread.append(f"plans keep {layout.placed_clearance * 1000:.1f} mm from the pieces down (placed_clearance)")
-    return spread + [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
+        lines.append(f"plans keep {layout.placed_clearance * 1000:.1f} mm from the pieces down (placed_clearance)")
+    return lines + [tiling.summary()] + ([] if execution is None else [execution.summary()]) + describe_short(short)
 
 
 def first_touch_off(tiling: Tiling, execution: Execution) -> TouchOff | None:
