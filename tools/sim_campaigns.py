@@ -79,9 +79,10 @@ beside the paper's into the figure.
 20 trials a row unless --trials says otherwise, and sets each row beside MuJoCo's row of the same
 label in docs/results/campaigns.json (not rerun): both counts with their Wilson intervals and a
 two-sided Fisher exact test of the two engines' strict successes, each over its own trials. The
-rows are merged into docs/results/campaigns_drake.md and .json (the rows of other row groups already
-there are kept, so that `--only base`, then `--only controls`, ... fill the file group by group) and
-both engines are drawn into docs/figures/campaigns_drake.png. The tangram rows run each piece's
+rows are merged into the table (default docs/results/campaigns_drake.md) and its .json (the rows of
+other row groups already there are kept, so that `--only base`, then `--only controls`, ... fill the
+file group by group) and both engines are drawn into the figure (docs/figures/TABLE.png, TABLE the
+table's name, unless --figure names another). The tangram rows run each piece's
 trial in Drake, the pieces already down in it (sim.tiling.simulate_tiling's engine): the lattice's
 rows alone, with the rounded and the flat tip, since an attempt costs minutes there.
 
@@ -459,7 +460,7 @@ def main() -> None:
     ap.add_argument("--worlds", default=None,
                     help="only these worlds of the `worlds` rows, by label, comma-separated (e.g. 'pyramidal cones')")
     ap.add_argument("--figure", type=Path, default=None,
-                    help="default docs/figures/campaigns.png (campaigns_drake.png with --engine drake)")
+                    help="default docs/figures/TABLE.png, TABLE the --table's name (campaigns.png without one)")
     ap.add_argument("--contacts", default=None, help="with --engine drake: OBJECT:TRIAL,... of the base rows, "
                                                      "their contact forces logged in both engines")
     ap.add_argument("--contacts-study", default=None, metavar="NAME",
@@ -530,10 +531,10 @@ def main() -> None:
         drake_world.HULLS = args.drake_hull
     if args.trials is None:
         args.trials = 20 if drake else 40
-    if args.figure is None:
-        args.figure = ROOT / "docs" / "figures" / ("campaigns_drake.png" if drake else "campaigns.png")
     if drake and args.table is None:
         args.table = ROOT / "docs" / "results" / "campaigns_drake.md"
+    if args.figure is None:  # named as the table is, so that a campaign's figure never takes another's name
+        args.figure = ROOT / "docs" / "figures" / (f"{args.table.stem}.png" if args.table else "campaigns.png")
     if drake and args.contacts:
         contact_forces(args.contacts, args.seed, args.thumb, args.tip, args.contacts_study,
                        World.parse(args.contacts_world), args.drake_step, args.drake_table,
