@@ -570,12 +570,13 @@ def test_bad_tile_options_exit_2(tmp_path, args, word):
 
 # -- aiming each piece by its landing -------------------------------------------------------
 
-#: The shipped tangram as cut, its pieces not spread (2 mm between neighbours), each piece's plan the
-#: shortest with its landing's spread unbounded, and aimed by its own simulated release
-#: (robot.landing simulated, the aim that carries a turn): tight enough that some aims do not fit
-#: and a piece held off in its grasp starts inside its neighbour.
+#: The shipped tangram as cut, its pieces not spread (2 mm between neighbours) and its plans kept no
+#: further from the pieces down than touching, each piece's plan the shortest with its landing's
+#: spread unbounded, and aimed by its own simulated release (robot.landing simulated, the aim that
+#: carries a turn): tight enough that some aims do not fit and a piece held off in its grasp starts
+#: inside its neighbour.
 _SHIPPED = yaml.safe_load(TANGRAM.read_text())
-AS_CUT = {**_SHIPPED, "spread": False, "robot": {**_SHIPPED["robot"], "landing": "simulated"},
+AS_CUT = {**_SHIPPED, "spread": False, "placed_clearance": 0.0, "robot": {**_SHIPPED["robot"], "landing": "simulated"},
           "planning": {k: v for k, v in _SHIPPED["planning"].items() if k not in ("max_landing_spread", "objective")}}
 
 
