@@ -182,16 +182,20 @@ def test_each_object_scene_keeps_the_mean_of_the_landing_offsets_its_tool_measur
 def test_the_puzzle_piece_s_landing_offset_reproduces_from_its_seed():
     """tools/landing_offset.py measures the puzzle piece's plan of seed 11 (the simulated mean
     landing over 8 antithetic pairs of drawn releases, less the model's mean) as its results file
-    has it, and the residual lies toward G, as the grasp's turn moves it (docs/model.md 11.17)."""
+    has it, and the residual lies toward G, as the grasp's turn moves it (docs/model.md 11.17).
+    The model's mean is the file's to the bit; the simulated one to 0.05 mm: on another processor
+    the same seeded releases round differently, and their contacts carry it to hundredths of a
+    millimetre (0.008 mm between two machines of the same versions)."""
     import sys
 
     sys.path.insert(0, str(SCENES.parent / "tools"))
     from landing_offset import measured
 
     row = next(r for r in _landing_offset_rows() if r["scene"] == "puzzle_piece" and r["plan_seed"] == 11)
-    residual = measured("puzzle_piece", 11, 8, 2)["residual_mm"]
-    assert residual == pytest.approx(row["residual_mm"], abs=1e-6)
-    assert residual < 0
+    now = measured("puzzle_piece", 11, 8, 2)
+    assert now["model_mm"] == row["model_mm"]
+    assert now["residual_mm"] == pytest.approx(row["residual_mm"], abs=0.05)
+    assert now["residual_mm"] < 0
 
 
 def test_a_goal_narrowed_to_the_least_moving_state_keeps_the_region_s_planning_box():
