@@ -198,7 +198,12 @@ def main() -> int:
     ap.add_argument("--study", help="the study's name after 'gaps, ' and its rows' prefix (default: the preset's)")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    prefix = args.study or (None if args.errors == "paper" else args.errors)
+    if args.study:
+        name, prefix = f"gaps, {args.study}", args.study
+    elif args.errors == "paper":
+        name, prefix = "gaps", None
+    else:
+        name, prefix = f"gaps, {args.errors} errors", args.errors
     rows = study(args.errors, args.attempts, args.seed, args.jobs, prefix)
     for r in rows:
         print(r)
@@ -206,8 +211,6 @@ def main() -> int:
         from campaign_results import merge_study
 
         command = "python tools/tangram_gaps.py " + shlex.join(sys.argv[1:])
-        name = (f"gaps, {args.study}" if args.study else
-                "gaps" if args.errors == "paper" else f"gaps, {args.errors} errors")
         merge_study(RESULTS, name, command, time.perf_counter() - t0, rows, FORMATS,
                     "How much of the tangram's gaps its landings use")
     return 0
