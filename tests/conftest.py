@@ -233,3 +233,33 @@ def mujoco_drop(spec, pose, duration: float):
     out = np.eye(4)
     out[:3, :3], out[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
     return out
+
+
+def flat_tip(scene):
+    """The scene with a flat finger tip (an edge across the width), as tools/sim_campaigns.py's edge rows."""
+    from dataclasses import replace
+
+    return replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
+
+
+def sim_spec(name: str, flat: bool = False):
+    """The simulated world (a SimModelSpec) of a shipped scene, its finger tip flat where asked, as
+    sim.setup.trial_setup builds it (no plan needed)."""
+    import numpy as np
+
+    from ungrasp_ompl import Scene
+    from ungrasp_ompl.robot.model import load_ur5e
+    from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec
+    from ungrasp_ompl.sim.setup import gripper_geometry, object_outline
+    from ungrasp_ompl.sim.spec import PairFriction, SimModelSpec, SimObject, curved_solid
+
+    scene = Scene.from_file(SCENES / f"{name}.yaml")
+    if flat:
+        scene = flat_tip(scene)
+    robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base), pincer=gripper_links(scene))
+    l = scene.object_length
+    solid = curved_solid(scene.digits.section, l, scene.digits.width * l, scene.object3d is not None)
+    return SimModelSpec(obj=SimObject(object_outline(scene), scene.object_thickness, scene.sim.density, solid),
+                        gripper=gripper_geometry(scene, robot), friction=PairFriction.from_contacts(scene.mu_contacts),
+                        timestep=scene.sim.timestep, grip_force=scene.sim.grip_force,
+                        servo_stiffness=2 * scene.sim.grip_force / scene.sim.squeeze)

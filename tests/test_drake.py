@@ -17,42 +17,18 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from conftest import ROOT, SCENES, mujoco_drop  # noqa: E402
+from conftest import ROOT, SCENES, flat_tip as _flat, mujoco_drop, sim_spec as _spec  # noqa: E402
 from ungrasp_ompl import Scene  # noqa: E402
-from ungrasp_ompl.robot.model import load_ur5e  # noqa: E402
-from ungrasp_ompl.robot.pipeline import gripper_links, gripper_spec  # noqa: E402
 from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim import drake_world  # noqa: E402
 from ungrasp_ompl.sim.drake_trial import FlatDrop, run_drake_trial, settle_object  # noqa: E402
 from ungrasp_ompl.sim.model import build_mjcf, model_ids  # noqa: E402
 from ungrasp_ompl.sim.outcome import Outcome  # noqa: E402
-from ungrasp_ompl.sim.setup import gripper_geometry, object_outline  # noqa: E402
-from ungrasp_ompl.sim.spec import PairFriction, SimModelSpec, SimObject, curved_solid  # noqa: E402
 from ungrasp_ompl.sim.trial import LEFT_PLANE_DEG  # noqa: E402
 from ungrasp_ompl.sim.world import World  # noqa: E402
 from ungrasp_ompl.sim.world_description import describe  # noqa: E402
 
 OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
-
-
-def _spec(name: str, flat_tip: bool = False) -> SimModelSpec:
-    """The simulated world of a shipped scene (its finger tip flat where asked), as
-    sim.setup.trial_setup builds it (no plan needed)."""
-    scene = Scene.from_file(SCENES / f"{name}.yaml")
-    if flat_tip:
-        scene = _flat(scene)
-    robot = load_ur5e(gripper_spec(scene), np.array(scene.robot.base), pincer=gripper_links(scene))
-    l = scene.object_length
-    solid = curved_solid(scene.digits.section, l, scene.digits.width * l, scene.object3d is not None)
-    return SimModelSpec(obj=SimObject(object_outline(scene), scene.object_thickness, scene.sim.density, solid),
-                        gripper=gripper_geometry(scene, robot), friction=PairFriction.from_contacts(scene.mu_contacts),
-                        timestep=scene.sim.timestep, grip_force=scene.sim.grip_force,
-                        servo_stiffness=2 * scene.sim.grip_force / scene.sim.squeeze)
-
-
-def _flat(scene: Scene) -> Scene:
-    """The scene with a flat finger tip (an edge across the width), as tools/sim_campaigns.py's edge rows."""
-    return replace(scene, digits=replace(scene.digits, flat_finger_tip=True, finger_tip_radius=0.0))
 
 
 def _same(a, b) -> bool:
@@ -248,7 +224,7 @@ def test_a_flat_finger_pushes_the_pick_along_the_picks_face_normal():
     the pinch in the settling (docs/model.md 11.19)."""
     import pydrake.all as drake
 
-    spec = _spec("guitar_pick", flat_tip=True)
+    spec = _spec("guitar_pick", flat=True)
     dw = drake_world.build(describe(spec), drake.PiecewisePolynomial.FirstOrderHold([0.0, 1.0], np.zeros((6, 2))),
                            drake.PiecewisePolynomial.ZeroOrderHold([0.0, 1.0], np.zeros((1, 2))), np.eye(3))
     plant, ctx, sg = dw.plant, dw.plant_context, dw.scene_graph
@@ -352,8 +328,10 @@ def test_a_flat_finger_tip_holds_the_pick_through_the_settling():
     pose = dw.plant.EvalBodyPoseInWorld(dw.plant_context, dw.bodies["object"]).GetAsMatrix4()
     moved = float(np.linalg.norm(pose[:3, 3] - start[:3, 3]))
     assert moved < float(np.linalg.norm(lowering)) + 1e-3, f"moved {moved * 1000:.3f} mm"
-    tick = _DrakeWatch(dw).look(setup.b_point)
+    watch = _DrakeWatch(dw)
+    tick = watch.look(setup.b_point)
     assert tick.a and tick.b
+    assert watch.near("thumb") and watch.near("finger")  # pressed: SceneGraph's distance is negative
 
 
 def test_engine_drake_without_the_extra_exits_1_naming_it(tmp_path):

@@ -29,7 +29,8 @@ from numpy.typing import NDArray
 
 from ..scene.perturbation import TrialParams
 from .outcome import Outcome, TrialResult
-from .trial import DIGIT_KINDS, Judge, StillWindow, Touch, TrialSetup, _pose, _start, _Tick, moving, read_contacts
+from .trial import (DIGIT_KINDS, TOUCH_DISTANCE, Judge, StillWindow, Touch, TrialSetup, _pose, _start, _Tick, moving,
+                    read_contacts)
 from .world_description import describe
 
 
@@ -352,10 +353,21 @@ class _DrakeWatch:
             pose = self.plant.EvalBodyPoseInWorld(self.ctx, self.dw.bodies["object"]).GetAsMatrix4()
             low = float(np.min(self.vertices @ pose[:3, :3].T[:, 2] + pose[2, 3]))
             return max(0.0, self.table_height - low)
-        query = self.dw.scene_graph.get_query_output_port().Eval(self.dw.scene_graph.GetMyContextFromRoot(
-            self.dw.simulator.get_context()))
         gid = next(g for g, k in self.kind.items() if k == touch.kind)
-        return max(0.0, -query.ComputeSignedDistancePairClosestPoints(self.object_id, gid).distance)
+        return max(0.0, -self._query().ComputeSignedDistancePairClosestPoints(self.object_id, gid).distance)
+
+    def _query(self):
+        """SceneGraph's geometry query now."""
+        return self.dw.scene_graph.get_query_output_port().Eval(self.dw.scene_graph.GetMyContextFromRoot(
+            self.dw.simulator.get_context()))
+
+    def near(self, digit: str) -> bool:
+        """Whether a geometry of the digit ('thumb', or 'finger' with its tip) lies within
+        TOUCH_DISTANCE of the object's (SceneGraph's signed distance, the engine's own)."""
+        kinds = ("thumb",) if digit == "thumb" else ("finger", "finger_tip")
+        query = self._query()
+        return any(query.ComputeSignedDistancePairClosestPoints(self.object_id, g).distance < TOUCH_DISTANCE
+                   for g, k in self.kind.items() if k in kinds)
 
     def _frame(self, name: str) -> tuple[NDArray, NDArray]:
         """A body's orientation (3, 3) and origin (3,) now (world)."""
@@ -365,7 +377,7 @@ class _DrakeWatch:
     def look(self, b_point: NDArray) -> _Tick:
         """What the object's contacts are now, and whether a digit touches the table (read_contacts)."""
         touches, table = self._contacts()
-        return read_contacts(touches, table, self._frame, b_point, self._depth)
+        return read_contacts(touches, table, self._frame, b_point, self._depth, self.near)
 
 
 @dataclass(frozen=True)

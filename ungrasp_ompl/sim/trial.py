@@ -25,6 +25,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -54,6 +55,11 @@ GRIP_SLACK = 0.001
 #: held by nothing but gravity where that contact was, moves GRIP_SLACK, sqrt(2 GRIP_SLACK / g),
 #: 14.3 ms, seven control ticks of 2 ms (docs/model.md 11.4).
 MAX_CONTACT_GAP = (2.0 * GRIP_SLACK / GRAVITY) ** 0.5
+#: A digit this near the object (m) touches it though its engine reports no contact: 1 um, below the
+#: roughness of the faces that meet (a printed PLA digit's, plywood's, celluloid's, chalk's) and of
+#: the order of the soft contact's give under the grip's load; a thumb resting on the object at no
+#: load a few nanometres off is no parted contact (docs/model.md 11.4, record 0133).
+TOUCH_DISTANCE = 1e-6
 #: Turned out of the manipulation plane by more than this (deg) while held: it left the plane.
 LEFT_PLANE_DEG = 10.0
 #: Slower than this (m/s, and STILL_SPIN rad/s) for STILL_WINDOW s, a free body on the table lies still.
@@ -332,12 +338,15 @@ class Touch(NamedTuple):
 
 
 def read_contacts(touches: list[Touch], table_pushes: list[float], frame: Callable[[str], tuple[NDArray, NDArray]],
-                  b_point: NDArray, depth_of: Callable[[Touch], float] | None = None) -> _Tick:
+                  b_point: NDArray, depth_of: Callable[[Touch], float] | None = None,
+                  near: Callable[[str], bool] | None = None) -> _Tick:
     """The object's contacts at one control tick (a _Tick) from what an engine reports: touches,
     the object's contacts; table_pushes, the normal force (N) of each contact of a digit with the
     table; frame(name), the orientation (3, 3) and origin (3,) of the body 'object' or 'finger'
     now (world); b_point, B in the object's body frame (m); depth_of(touch), a contact's depth (m)
-    where the engine left it None. A is the finger's pressing contact point nearest its tip (the
+    where the engine left it None; near(digit), whether the 'thumb' or the 'finger' (its tip
+    included) lies within TOUCH_DISTANCE of the object, asked only of a digit no touch reports:
+    such a digit touches the object, at no force. A is the finger's pressing contact point nearest its tip (the
     farthest along the finger's axis); B is recorded as the thumb's pressing contact points and
     the object's end (where a face lies along the object, psi near 0, an engine spreads the
     contact over the corners of the overlap, and the plan's B is the end: _Travel reduces them).
@@ -348,7 +357,7 @@ def read_contacts(touches: list[Touch], table_pushes: list[float], frame: Callab
         tick.digit_on_table = True
         tick.table_push = max([0.0, *table_pushes])
     if not touches:
-        return tick
+        return _near(tick, near)
     tick.touched = True
     pressing_a, pressing_b = [], []
     for touch in touches:
@@ -384,6 +393,16 @@ def read_contacts(touches: list[Touch], table_pushes: list[float], frame: Callab
         tick.b_points = np.vstack(pressing_b)
         rot, origin = frame("object")
         tick.b_end = rot @ b_point + origin
+    return _near(tick, near)
+
+
+def _near(tick: _Tick, near: Callable[[str], bool] | None) -> _Tick:
+    """tick with the thumb or the finger counted touching where no touch reported it but near does."""
+    if near is not None:
+        if not tick.b and near("thumb"):
+            tick.b = tick.touched = True
+        if not tick.a and near("finger"):
+            tick.a = tick.touched = True
     return tick
 
 
@@ -407,6 +426,8 @@ class _Watch:
             kind[g] = "solid"
         kind[ids.table_geom] = "table"
         self.kind = kind
+        self.model = model
+        self.digits = {"thumb": sorted(ids.thumb_geoms), "finger": sorted(ids.finger_geoms)}  #: near's geoms
         # a contact's normal force: its first constraint row under elliptic cones; under pyramidal
         # ones the sum of its 2 (condim - 1) edge forces (each edge is the normal plus mu times a
         # tangent, so their normal parts add up)
@@ -440,7 +461,7 @@ class _Watch:
     def look(self, data, object_body: int, finger_body: int, b_point: NDArray) -> _Tick:
         """What the object's contacts are now, and whether a digit touches the table (read_contacts)."""
         if data.ncon == 0:
-            return _Tick()
+            return _near(_Tick(), partial(self.near, data))
         con, kind, obj, table = data.contact, self.kind, self.object, self.table
         dist, adr, force, pos = con.dist.tolist(), con.efc_address.tolist(), data.efc_force, con.pos
         touches, pushes = [], []
@@ -454,7 +475,15 @@ class _Watch:
         def frame(name: str) -> tuple[NDArray, NDArray]:
             return data.xmat[bodies[name]].reshape(3, 3), data.xpos[bodies[name]]
 
-        return read_contacts(touches, pushes, frame, b_point)
+        return read_contacts(touches, pushes, frame, b_point, near=partial(self.near, data))
+
+    def near(self, data, digit: str) -> bool:
+        """Whether a geom of the digit ('thumb' or 'finger') lies within TOUCH_DISTANCE of the object
+        (mj_geomDistance, the engine's own distance)."""
+        import mujoco
+
+        return any(mujoco.mj_geomDistance(self.model, data, g, self.object, TOUCH_DISTANCE, None) < TOUCH_DISTANCE
+                   for g in self.digits[digit])
 
 
 @dataclass
