@@ -66,7 +66,6 @@ def piece_gap(setup) -> dict:
     touch_down(model, data, ids, palm[0], offset, setup.sim.settle_time)
     centre = np.append(np.asarray(setup.spec.obj.outline, dtype=float).mean(axis=0), [0.0, 1.0])
     end = drive.phase_start("termination")
-    fromto = np.zeros(6)
     ticks = []  # (time s, the thumb's contact or None, distance m, the centroid (3,) m)
     for k in range(1, len(drive.times)):
         t = float(drive.times[k])
@@ -76,7 +75,7 @@ def piece_gap(setup) -> dict:
         _move_palm(model, data, ids, (palm[k - 1][:3, 3], quats[k - 1]), (palm[k][:3, 3], quats[k]), substeps)
         pose = np.eye(4)
         pose[:3, :3], pose[:3, 3] = data.xmat[ids.object_body].reshape(3, 3), data.xpos[ids.object_body]
-        distance = min(mujoco.mj_geomDistance(model, data, g, ids.object_geom, 1e-3, fromto) for g in ids.thumb_geoms)
+        distance = min(mujoco.mj_geomDistance(model, data, g, ids.object_geom, 1e-3, None) for g in ids.thumb_geoms)
         ticks.append((t, _thumb_contact(model, data, ids.thumb_geoms, ids.object_geom), distance, (pose @ centre)[:3]))
     runs, run = [], []
     for k, tick in enumerate(ticks):

@@ -9,19 +9,17 @@ how far it came to rest from its target (the outline centroid's offset, in the p
 manipulation plane: along GB, + toward B, and across it, + to GB's left seen from above; the means
 and standard deviations, mm, and the root mean square of the two standard deviations); where it
 lands along GB with no error drawn, alone on the table, and that trial's verdict (mm: what the aim
-leaves; the trial runs to its end whatever its verdict, so that a failed one still lands), with the
-longest time its thumb's contact was absent before the termination (ms; the verdict's bound is 14.3
-ms, docs/model.md 11.4) and how far the piece moved meanwhile (mm); the clearance the layout gives
-it at the targets (mm) and the narrowest clearance its landings left (mm; negative where the
-footprints overlap: the piece rests on a wall or a neighbour's edge), each clearance measured as the
-layout's spread measures its gaps (geometry.spread.separation: along the separating edge normal).
-Per attempt that failed: the piece, its cause, the clearance it left, how far its trial pushed a
-piece already down (mm) and which, and the longest its thumb's contact was absent (ms); an attempt
-whose every piece was placed but which ends with one not flat inside the frame names that piece, its
-clearance at the end from the walls and every other piece where they then lie, how far the later
-pieces' trials moved it (mm) and whose trial moved it furthest. The footprints are the outlines seen
-from above (a tilted piece's drawn flat), so a clearance is that of the shapes on the table. It
-asserts nothing.
+leaves; the trial runs to its end whatever its verdict, so that a failed one still lands); the
+clearance the layout gives it at the targets (mm) and the narrowest clearance its landings left (mm;
+negative where the footprints overlap: the piece rests on a wall or a neighbour's edge), each
+clearance measured as the layout's spread measures its gaps (geometry.spread.separation: along the
+separating edge normal). Per attempt that failed: the piece, its cause, the clearance it left, how
+far its trial pushed a piece already down (mm) and which, and the longest its thumb's contact was
+absent (ms); an attempt whose every piece was placed but which ends with one not flat inside the
+frame names that piece, its clearance at the end from the walls and every other piece where they
+then lie, how far the later pieces' trials moved it (mm) and whose trial moved it furthest. The
+footprints are the outlines seen from above (a tilted piece's drawn flat), so a clearance is that of
+the shapes on the table. It asserts nothing.
 
 The presets split the `paper` errors (scene.perturbation.PRESETS): `grasp` draws the object's
 place and turn in the grasp alone, `calibration` the arm's calibration (the palm's position and
@@ -65,8 +63,7 @@ RESULTS = ROOT / "docs" / "results" / "tangram_gaps.json"
 FORMATS = {"attempts": "{}", "trials": "{}", "placed": "{}", "along_mean_mm": "{:.2f}", "along_sd_mm": "{:.2f}",
            "across_mean_mm": "{:.2f}", "across_sd_mm": "{:.2f}", "offset_sd_mm": "{:.2f}",
            "no_error_along_mm": "{:.2f}", "designed_mm": "{:.2f}", "narrowest_mm": "{:.2f}", "clearance_mm": "{:.2f}",
-           "narrowest_success_mm": "{:.2f}", "no_error_thumb_gap_ms": "{:.0f}",
-           "no_error_gap_moved_mm": "{:.3f}", "thumb_gap_ms": "{:.0f}", "pushed_mm": "{:.2f}", "moved_mm": "{:.2f}"}
+           "narrowest_success_mm": "{:.2f}", "thumb_gap_ms": "{:.0f}", "pushed_mm": "{:.2f}", "moved_mm": "{:.2f}"}
 
 
 #: A piece down that moved less than this (mm) in another piece's trial is not named as pushed.
@@ -140,42 +137,16 @@ def study(errors: str, attempts: int, seed: int, jobs: int, prefix: str | None) 
     if aimed is None:
         raise SystemExit("the tangram found no tiling")
     results = simulate_tiling(layout, aimed.setups, PRESETS[errors], attempts, RunOptions(seed=seed, jobs=jobs))
-    alone = {name: _alone(setup) for name, setup in aimed.setups}  # no error, no piece down
+    alone = {name: run_trial(setup, TrialParams(), stop_at_failure=False)  # no error, no piece down
+             for name, setup in aimed.setups}
     rows = measured(layout, tiling, aimed, results, alone)
     return rows if prefix is None else [{**r, "label": f"{prefix}: {r['label']}"} for r in rows]
 
 
-def _alone(setup) -> tuple:
-    """The piece's trial with no error drawn, on the table by itself, run to its end (recorded), and
-    its thumb's longest absence before the termination: (the trial, that absence in ms, how far
-    the outline's centroid moved over it in mm), the contact's absence read off the forces the
-    trial logs each control tick."""
-    record, log = [], []
-    trial = run_trial(setup, TrialParams(), record=record, contact_log=log)
-    centre = np.append(np.asarray(setup.spec.obj.outline, dtype=float).mean(axis=0), [0.0, 1.0])
-    at = {t: (pose @ centre)[:3] for t, pose in record}
-    end = setup.drive.phase_start("termination")
-    runs, run = [], []
-    for k, (t, forces) in enumerate(log):
-        if t < end and "thumb" not in forces:
-            run.append(k)
-        elif run:
-            runs.append(run)
-            run = []
-    if run:
-        runs.append(run)
-    if not runs:
-        return trial, 0.0, 0.0
-    longest = max(runs, key=len)
-    before = at[log[longest[0] - 1][0]] if longest[0] > 0 else at[0.0]
-    moved = max(float(np.linalg.norm(at[log[k][0]] - before)) for k in longest)
-    period = log[1][0] - log[0][0]
-    return trial, len(longest) * period * 1000, moved * 1000
-
-
 def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[dict]:
     """Per piece, per failed attempt and over the attempts: the landings' offsets and clearances;
-    alone holds each piece's _alone by name."""
+    alone holds each piece's trial with no error drawn, on the table by itself, run to its end (by
+    name)."""
     walls = [np.asarray(w.vertices, dtype=float)[:, :2] for w in layout.frame.walls()]  # separation takes hulls
     names = [p.name for p in tiling.placements]
     index = {p.name: k for k, p in enumerate(layout.pieces)}
@@ -211,7 +182,7 @@ def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[
         axes = _plane_axes(placement)
         o = np.array(per[name]["offsets"]).reshape(-1, 2) @ axes.T  # (along, across) per placed trial
         sd = o.std(axis=0, ddof=1) if len(o) > 1 else None
-        clean, gap_ms, gap_moved_mm = alone[name]
+        clean = alone[name]
         no_error = axes[0] @ placement_offset(np.array(clean.final_pose), setups[name].target_pose,
                                               outlines[name]) * 1000
         rows.append({"label": name, "trials": per[name]["trials"], "placed": len(o),
@@ -221,7 +192,6 @@ def measured(layout: Layout, tiling, aimed, results: list, alone: dict) -> list[
                      "across_sd_mm": None if sd is None else round(float(sd[1]), 3),
                      "offset_sd_mm": None if sd is None else round(float(np.sqrt(np.mean(sd ** 2))), 3),
                      "no_error_along_mm": round(float(no_error), 3), "no_error_outcome": clean.cause(),
-                     "no_error_thumb_gap_ms": round(gap_ms, 1), "no_error_gap_moved_mm": round(gap_moved_mm, 4),
                      "designed_mm": round(designed, 3), "narrowest_mm": round(min(per[name]["narrowest"]), 3) if len(o) else None})
     rows.append({"label": "attempts", "attempts": len(results), "successes": sum(a.success for a in results),
                  "narrowest_success_mm": round(min(success_narrowest), 3) if success_narrowest else None})
