@@ -19,7 +19,6 @@ pytest.importorskip("pydrake")
 
 from conftest import ROOT, SCENES, flat_tip as _flat, mujoco_drop, sim_spec as _spec  # noqa: E402
 from ungrasp_ompl import Scene  # noqa: E402
-from ungrasp_ompl.scene.perturbation import TrialParams  # noqa: E402
 from ungrasp_ompl.sim import drake_world  # noqa: E402
 from ungrasp_ompl.sim.drake_trial import FlatDrop, run_drake_trial, settle_object  # noqa: E402
 from ungrasp_ompl.sim.model import build_mjcf, model_ids  # noqa: E402

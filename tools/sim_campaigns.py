@@ -145,7 +145,7 @@ from ungrasp_ompl.sim.plan_trials import placement  # noqa: E402
 from ungrasp_ompl.scene.options import Landing, Release, SimOptions  # noqa: E402
 from ungrasp_ompl.sim.landing import CACHE_VARIABLE  # noqa: E402
 from ungrasp_ompl.sim.setup import Variant  # noqa: E402
-from ungrasp_ompl.sim.trial import MAX_CONTACT_GAP  # noqa: E402
+from ungrasp_ompl.sim.trial import MAX_CONTACT_GAP, TOUCH_DISTANCE  # noqa: E402
 from ungrasp_ompl.sim.world import World  # noqa: E402
 
 SCENES = ROOT / "scenes"
@@ -721,7 +721,8 @@ def main() -> None:
         from ungrasp_ompl.sim.drake_trial import DRAKE_TIME_STEP
 
         step = f"Drake (SAP) at timestep {DRAKE_TIME_STEP * 1000:g} ms"
-    rule = "the previous lost-grip rule (11.4)" if args.previous_grip_rule else "the lost-grip bound (11.4)"
+    rule = ("the previous lost-grip rule (11.4)" if args.previous_grip_rule else
+            f"the lost-grip bound (11.4) with a digit within {TOUCH_DISTANCE * 1e6:g} um touching")
     friction = ("a world's friction compounded with the drawn friction error" if COMPOUNDED_FRICTION
                 else "a world's friction fixes its pairs (decision 0100)")
     footer = (f"{time.perf_counter() - started:.0f} s in all; {n} trials per row, seed {s}, {j} jobs, {step}, {rule}, "
