@@ -262,6 +262,20 @@ def test_plan_api_is_reproducible_in_process(scenes):
     assert a == b and a["solved"]
 
 
+def test_plan_takes_its_options_whole(scenes):
+    """plan(scene, PlannerOptions(...)) plans as the same fields given as arguments do (the same
+    path, seeded); options given both ways at once are refused, naming the planner."""
+    from ungrasp_ompl import plan
+
+    scene = scenes["reference_upper_obstacle"]
+    options = PlannerOptions(planner="RRTstar", time=0.3, seed=5, iterations=600)
+    whole, fields = plan(scene, options), plan(scene, planner="RRTstar", time=0.3, seed=5, iterations=600)
+    assert whole.solved and whole.states == fields.states and whole.cost == fields.cost
+    with pytest.raises(InputError) as err:
+        plan(scene, options, seed=6)
+    assert err.value.field == "planner"
+
+
 def test_a_setup_seeds_ompl_itself(scenes):
     """UngraspSetup with a seed seeds OMPL's random numbers itself: built twice with the same
     options, with another seed's run in between, it solves to the same path and iteration."""

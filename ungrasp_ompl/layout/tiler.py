@@ -57,7 +57,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from enum import Enum, StrEnum
 from typing import Callable, Iterator
 
@@ -529,7 +529,7 @@ def _reproducible(piece: PlannerOptions) -> bool:
 def _plan_piece(scene: Scene, atlas: SecurityAtlas, piece: PlannerOptions) -> tuple[Plan, float | None]:
     """The piece's plan with its planner options on its proof's lattice, and the plan's tolerance's
     scale (None unsolved)."""
-    p = planning.plan(scene, atlas=atlas, **asdict(piece))
+    p = planning.plan(scene, piece, atlas=atlas)
     return p, tolerance_scale(scene, p) if p.solved else None
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from time import perf_counter
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from functools import cached_property
 from collections.abc import Callable
 from typing import Any, cast
@@ -525,9 +525,11 @@ def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
     return [leg for k, i in enumerate(trail) for leg in options[k][i]]
 
 
-def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | None = None,
+def plan(scene: Scene, planner: "str | PlannerOptions" = "RRTstar", time: float = 1.0, seed: int | None = None,
          iterations: int | None = None, atlas: SecurityAtlas | None = None, **options) -> Plan:
-    """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions.
+    """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions,
+    which may also be passed whole as planner (its fields then replace the arguments, which must be
+    left at their defaults: InputError otherwise).
 
     With a seed the result is reproducible: the same seed gives the same plan
     (timing fields aside). A planner known to ignore its time limit runs in a
@@ -543,6 +545,10 @@ def plan(scene: Scene, planner: str = "RRTstar", time: float = 1.0, seed: int | 
     passes the same checks (with_widest_path, docs/decisions/0104); and where the planner finds no
     path in its budget but the lattice holds one, the lattice's widest is the plan (0120).
     """
+    if isinstance(planner, PlannerOptions):
+        if (time, seed, iterations, options) != (1.0, None, None, {}):
+            raise InputError("planner", "give the planner's options as a PlannerOptions or as arguments, not both")
+        return plan(scene, atlas=atlas, **asdict(planner))
     if scene.options.release is Release.LEAST_MOVING:
         return _least_moving_plan(scene, lambda s: plan(s, planner, time, seed, iterations, None, **options))
     options["objective"] = scene_objective(options.get("objective"), scene, planner)

@@ -23,7 +23,7 @@ import enum
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 
 from ..errors import InputError, UngraspError
 from ..planning import plan
@@ -255,8 +255,8 @@ def certify(scene: Scene, options: CertifyOptions,
     setups = []  # (candidate index, trial setup) of the candidates to simulate
     for k, source in enumerate(sources):
         t1 = time.perf_counter()
-        result = plan(scene, atlas=atlas, **asdict(replace(planner, planner=source.planner, objective=source.objective,
-                                                           seed=planner.seed if source.seed is None else source.seed)))
+        result = plan(scene, replace(planner, planner=source.planner, objective=source.objective,
+                                     seed=planner.seed if source.seed is None else source.seed), atlas=atlas)
         cand = Candidate(k, source, result, CandidateStatus.NOT_SOLVED, why=result.reason or "")
         if result.solved:
             same = next((c for c in candidates if c.status is CandidateStatus.SIMULATED

@@ -15,7 +15,7 @@ import math
 import os
 from collections.abc import Callable
 from contextlib import closing
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -223,7 +223,7 @@ def cage_report(scene: Scene, options: CageOptions = CageOptions(),
         result = read_plan_for(scene, o.plan, o.force)
         report = CageReport(scene, result, o, problems=plan_problems(scene, result))
     else:
-        result = planning.plan(scene, **asdict(o.planner))
+        result = planning.plan(scene, o.planner)
         report = CageReport(scene, result, o, planned=True)
         if not result.solved:
             return report

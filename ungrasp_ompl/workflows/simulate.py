@@ -13,7 +13,7 @@ import io
 import json
 import os
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import InputError
@@ -303,7 +303,7 @@ def simulate_scene(scene: Scene, options: SimulateOptions,
     if options.plan is not None:
         result = read_plan_for(scene, options.plan, options.force)
     else:
-        result = planning.plan(scene, **asdict(options.planner))
+        result = planning.plan(scene, options.planner)
         if not result.solved:
             return SceneSimulation(scene, result, options)
     if options.start_psi_offset is not None:
