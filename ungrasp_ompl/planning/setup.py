@@ -525,7 +525,7 @@ def _fewest_changes(options: list[list[list[Leg]]]) -> list[Leg]:
     return [leg for k, i in enumerate(trail) for leg in options[k][i]]
 
 
-def plan(scene: Scene, planner: "str | PlannerOptions" = "RRTstar", time: float = 1.0, seed: int | None = None,
+def plan(scene: Scene, planner: str | PlannerOptions = "RRTstar", time: float = 1.0, seed: int | None = None,
          iterations: int | None = None, atlas: SecurityAtlas | None = None, **options) -> Plan:
     """Plan an ungrasp for scene with an OMPL planner by name (or 'lattice'); see PlannerOptions,
     which may also be passed whole as planner (its fields then replace the arguments, which must be
