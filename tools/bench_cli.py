@@ -1,8 +1,10 @@
 """Whole-process wall and CPU time of the commands a user types; prints best and median, asserts nothing.
 
-Each command runs REPEAT times in a fresh process, output to a temporary directory, as a new
-user runs it (the installed console script next to this interpreter, else ``python -m
-ungrasp_ompl``). It prints what it measures:
+Each command runs REPEAT times in a fresh process, output to a temporary directory, as a user runs
+it (the installed console script next to this interpreter, else ``python -m ungrasp_ompl``), after
+one untimed run: Python keeps the bytecode it compiles, as on a user's machine (the commands run
+without PYTHONDONTWRITEBYTECODE, which would make every process compile every module it imports
+again, a few seconds each), and the first run writes it. It prints what it measures:
 
     python tools/bench_cli.py [--repeat 5] [--only plan,import,...] [--results]
 
@@ -43,6 +45,10 @@ def _cli() -> list[str]:
     return [str(script)] if script.exists() else [sys.executable, "-m", "ungrasp_ompl"]
 
 
+#: The commands' environment: this one's, with Python keeping the bytecode it compiles.
+ENVIRONMENT = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 #: name -> (argument list with {out} for the output directory, expected exit codes, aim in s)
 COMMANDS: dict[str, tuple[list[str], tuple[int, ...], float]] = {
     "import": ([sys.executable, "-c", "import ungrasp_ompl.cli"], (0,), 0.3),
@@ -76,7 +82,7 @@ def _shown(argv: list[str]) -> str:
 
 def _python(code: str) -> object:
     proc = subprocess.run([sys.executable, "-c", code + "; import sys, os; sys.stdout.flush(); os._exit(0)"],
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, env=ENVIRONMENT)
     if proc.returncode != 0 or not proc.stdout.strip():
         raise SystemExit(f"bench_cli: {code[:60]}... failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}")
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -89,7 +95,7 @@ def _time_once(argv: list[str], ok: tuple[int, ...]) -> tuple[float, float]:
     try:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
-        proc = subprocess.run([a.replace("{out}", out) for a in argv], capture_output=True, text=True)
+        proc = subprocess.run([a.replace("{out}", out) for a in argv], capture_output=True, text=True, env=ENVIRONMENT)
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
     finally:
@@ -118,6 +124,7 @@ def main() -> None:
     rows = {}
     for name in names:
         argv, ok, aim = COMMANDS[name]
+        _time_once(argv, ok)  # untimed: it writes the bytecode the timed runs read
         walls, cpus = zip(*[_time_once(argv, ok) for _ in range(args.repeat)])
         row = rows[name] = {"label": name, "command": _shown(argv), "runs": len(walls), "best_s": min(walls),
                             "median_s": statistics.median(walls), "cpu_median_s": statistics.median(cpus)}
