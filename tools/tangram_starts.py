@@ -30,7 +30,6 @@ import math
 import shlex
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -89,14 +88,15 @@ def study(seed: int) -> list[dict]:
     rows = []
     for p in tiling.placements:
         theta0 = float(p.scene.start[0])
-        reach = p.scene.object3d.thickness * math.sin(theta0)
+        thickness = p.scene.object3d.thickness  # the edge face reaches thickness sin(theta) behind G
+        reach = thickness * math.sin(theta0)
         lowest, below = lowest_start(p.scene)
         rows.append({"label": p.name, "order": p.order, "room_behind_g_mm": round(p.approach.room_g * 1000, 3),
                      "start_deg": round(math.degrees(theta0), 3), "reach_behind_g_mm": round(reach * 1000, 3),
                      "room_left_mm": round((p.approach.room_g - reach) * 1000, 3),
                      "grasp_reach_mm": round(grasp_reach(p) * 1000, 3), "lowest_start_deg": lowest,
                      "reach_at_lowest_mm": None if lowest is None else
-                     round(p.scene.object3d.thickness * math.sin(math.radians(lowest)) * 1000, 3),
+                     round(thickness * math.sin(math.radians(lowest)) * 1000, 3),
                      "a_degree_below": below})
     return rows
 
