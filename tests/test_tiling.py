@@ -542,16 +542,38 @@ def _degenerate(doc):
     doc["pieces"][6]["outline"] = {"polygon": [[0, 0], [0.01, 0], [0.02, 0]]}
 
 
+def _offset_unaimed(doc):  # a piece's landing offset where the hand is not aimed by the model
+    doc["robot"]["landing"] = "planned"
+    doc["pieces"][2]["landing_offset"] = 0.0005
+
+
+def _offset_in_mm(doc):
+    doc["pieces"][3]["landing_offset"] = 0.5
+
+
 @pytest.mark.parametrize("change, field", [
     (_overlap, "pieces[1].target"), (_outside, "pieces[2].target"), (_twice, "pieces[3].name"),
     (_no_size, "frame.inner_size"), (_unknown, "pieces[4].colour"), (_thin, "pieces[5].thickness"),
-    (_degenerate, "pieces[6].outline.polygon"),
+    (_degenerate, "pieces[6].outline.polygon"), (_offset_unaimed, "pieces[2].landing_offset"),
+    (_offset_in_mm, "pieces[3].landing_offset"),
 ])
 def test_bad_layout_exits_2_naming_the_field(tmp_path, change, field):
     code, err = _bad(tmp_path, change)
     assert code == 2
     assert field in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "out").exists()  # nothing written
+
+
+def test_a_piece_s_landing_offset_is_its_scene_s_and_the_shared_one_the_others():
+    """pieces[i].landing_offset is piece i's robot.landing_offset; the pieces without one take the
+    shared robot section's."""
+    doc = yaml.safe_load(TANGRAM.read_text())
+    doc["robot"]["landing_offset"] = -0.0002
+    for piece in doc["pieces"]:
+        piece.pop("landing_offset", None)
+    doc["pieces"][1]["landing_offset"] = 0.0007
+    layout = Layout.from_dict(doc)
+    assert [layout.scene(i).robot.landing_offset for i in range(3)] == [-0.0002, 0.0007, -0.0002]
 
 
 def test_layout_api_rejects_a_scene_file():

@@ -4,7 +4,9 @@ The classic dissection of a square of side SIDE into two large, one medium and t
 right triangles, a square and a parallelogram; each piece is cut KERF smaller on every
 edge (the saw's width, so neighbours lie 2 KERF apart), and the square sits WALL_GAP
 inside the frame on every side. The file asks for the pieces to be spread (`spread: true`), so that
-the frame's slack is shared out between the pieces and the walls. Run from the repository's top level:
+the frame's slack is shared out between the pieces and the walls. The pieces' landing offsets
+(pieces[i].landing_offset, measured by tools/landing_offset.py, record 0134) are kept from the file
+being written over. Run from the repository's top level:
 
     python tools/make_tangram.py [--side 0.14] [--kerf 0.001] [--wall-gap 0.004] [--out scenes/tangram.yaml]
 """
@@ -12,6 +14,7 @@ the frame's slack is shared out between the pieces and the walls. Run from the r
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 import yaml
@@ -57,6 +60,9 @@ HEADER = """\
 # Every plan keeps its digits, housing and piece 1 mm from the pieces down (placed_clearance): the
 # palm's 0.5 deg turn over the housing's 40 mm half-width, the touch-off's 0.5 mm and the piece's
 # 5 % of thickness, the `paper` errors' bounds (record 0132).
+# Each piece's landing_offset is where its release lands beyond the model of the fall, along GB
+# (m; tools/landing_offset.py over the `paper` errors and friction x0.7-1.3 with both cones,
+# record 0134); the aim moves the hand back by it too.
 """
 
 
@@ -113,6 +119,12 @@ def main() -> None:
     ap.add_argument("--out", default="scenes/tangram.yaml")
     args = ap.parse_args()
     data = layout(args.side, args.kerf, args.wall_gap, args.thickness)
+    kept = {}  # the landing offsets the file being written over measured
+    if Path(args.out).exists():
+        kept = {p["name"]: p["landing_offset"] for p in yaml.safe_load(Path(args.out).read_text()).get("pieces", [])
+                if "landing_offset" in p}
+    data["pieces"] = [{"name": p["name"], **({"landing_offset": kept[p["name"]]} if p["name"] in kept else {}),
+                      **{k: v for k, v in p.items() if k != "name"}} for p in data["pieces"]]
     moved = Layout.from_dict(data).spread
     head = HEADER.format(side_mm=args.side * 1000, thick_mm=args.thickness * 1000, kerf_mm=args.kerf * 1000,
                          gap_mm=2 * args.kerf * 1000, wall_mm=args.wall_gap * 1000,

@@ -9,7 +9,10 @@ A layout file holds:
 * ``pieces``: a list of ``name``, ``thickness`` (m), ``outline`` (as a scene's
   ``object.outline``, in the piece's own coordinates), ``target``
   (``position`` [x, y] of the outline's origin in frame coordinates, m; ``yaw_deg``) and, for a
-  curved piece, ``section`` (as a scene's ``object.section``; its outline a circle).
+  curved piece, ``section`` (as a scene's ``object.section``; its outline a circle); optional
+  ``landing_offset`` (m along GB, + toward B): the piece's ``robot.landing_offset``, where the
+  shared ``robot`` section gives the default (pieces differ in how they land beyond the model of
+  the fall as objects do; docs/model.md 11.17).
 * the sections every piece's scene shares: ``friction`` (or ``friction_angle_deg``),
   ``digits``, ``start``, ``goal``, ``bounds``, ``planning``, ``stability``, ``robot``, ``sim``
   (see ungrasp_ompl.scene). Without a ``goal`` a piece's goal is theta at most 3 deg
@@ -44,7 +47,7 @@ from ..errors import InputError
 from ..geometry.solids import Solid, box, polygons_overlap, prism
 from ..geometry.spread import Spread, spread
 from ..scene import Scene
-from ..scene.loader import SceneReader, read_yaml
+from ..scene.loader import MAX_LANDING_OFFSET, SceneReader, read_yaml
 from ..scene.options import Object3D
 from ..shipped import resolve, shipped_names
 
@@ -98,6 +101,7 @@ class Piece:
     object3d: Object3D  # position and yaw here are in the frame's coordinates
     outline_spec: dict  # the outline as the file gives it, for the piece's scene
     section_spec: Any = None  # the section as the file gives it (None: a slab), for the piece's scene
+    landing_offset: float | None = None  # its robot.landing_offset, m (None: the shared robot section's)
 
 
 @dataclass
@@ -152,7 +156,7 @@ class Layout:
         for i, item in enumerate(items):
             key = f"pieces[{i}]"
             p = r.mapping(item, key)
-            r.known(p, key, {"name", "thickness", "outline", "target", "section"})
+            r.known(p, key, {"name", "thickness", "outline", "target", "section", "landing_offset"})
             name = r.name(p, f"{key}.name", f"piece{i + 1}")
             if name in names:
                 raise InputError(f"{key}.name", f"{name!r} is used twice", source)
@@ -161,7 +165,9 @@ class Layout:
             if "outline" not in p:
                 raise InputError(f"{key}.outline", "is missing", source)
             obj = r.object3d(p["outline"], p.get("target", {}), thickness, prefix=key)
-            pieces.append(Piece(name, obj, copy.deepcopy(p["outline"]), copy.deepcopy(p.get("section"))))
+            offset = r.number(p, f"{key}.landing_offset", "landing_offset", minimum=-MAX_LANDING_OFFSET,
+                              maximum=MAX_LANDING_OFFSET, unit=" m") if "landing_offset" in p else None
+            pieces.append(Piece(name, obj, copy.deepcopy(p["outline"]), copy.deepcopy(p.get("section")), offset))
 
         shared = {k: copy.deepcopy(top[k]) for k in SHARED_SECTIONS if k in top}
         shared.setdefault("goal", dict(DEFAULT_GOAL))
@@ -250,9 +256,14 @@ class Layout:
             data["object"]["section"] = copy.deepcopy(piece.section_spec)
         if contacts is not None:
             data["contacts"] = {"G": list(contacts[0]), "B": list(contacts[1])}
+        robot = data.get("robot", {})
+        if piece.landing_offset is not None and isinstance(robot, dict):  # else the scene names the bad robot
+            data["robot"] = {**robot, "landing_offset": piece.landing_offset}
         try:
             return Scene.from_dict(data, source=self.source)
         except InputError as exc:
+            if exc.field == "robot.landing_offset" and piece.landing_offset is not None:
+                raise InputError(f"pieces[{i}].landing_offset", exc.reason, self.source) from None
             if exc.field.startswith("object") or exc.field in ("friction", "contacts"):
                 raise InputError(f"pieces[{i}]", f"{piece.name!r}: {exc.field}: {exc.reason}", self.source) from None
             raise
