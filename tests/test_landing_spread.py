@@ -178,6 +178,24 @@ def test_each_object_scene_keeps_the_mean_of_the_landing_offsets_its_tool_measur
     assert Scene.from_file(SCENES / f"{name}.yaml").robot.landing_offset == round(sum(residuals) / 3 * 1e-3, 5)
 
 
+def test_each_tangram_piece_keeps_the_mean_of_the_landing_offsets_its_tool_measured():
+    """Each piece of the shipped tangram keeps, as its scene's robot.landing_offset, the mean
+    residual (m, to the 0.01 mm it keeps) of the tilings tools/landing_offset.py measured it in
+    (its study "landing-offset-tangram", record 0134)."""
+    import json
+
+    from ungrasp_ompl.layout.model import Layout
+
+    path = SCENES.parent / "docs" / "results" / "landing_offset.json"
+    rows = [r for r in json.loads(path.read_text())["rows"]
+            if "residual_mm" in r and r["study"] == "landing-offset-tangram"]
+    layout = Layout.from_file(SCENES / "tangram.yaml")
+    for i, piece in enumerate(layout.pieces):
+        residuals = [r["residual_mm"] for r in rows if r["piece"] == piece.name]
+        assert len(residuals) == 3, piece.name
+        assert layout.scene(i).robot.landing_offset == round(sum(residuals) / 3 * 1e-3, 5), piece.name
+
+
 @pytest.mark.slow
 def test_the_puzzle_piece_s_landing_offset_reproduces_from_its_seed():
     """tools/landing_offset.py measures the puzzle piece's plan of seed 11 (the simulated mean

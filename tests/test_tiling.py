@@ -544,6 +544,8 @@ def _degenerate(doc):
 
 def _offset_unaimed(doc):  # a piece's landing offset where the hand is not aimed by the model
     doc["robot"]["landing"] = "planned"
+    for piece in doc["pieces"]:
+        piece.pop("landing_offset", None)
     doc["pieces"][2]["landing_offset"] = 0.0005
 
 
@@ -595,11 +597,12 @@ def test_bad_tile_options_exit_2(tmp_path, args, word):
 #: The shipped tangram as cut, its pieces not spread (2 mm between neighbours) and its plans kept no
 #: further from the pieces down than touching, each piece's plan the shortest with its landing's
 #: spread unbounded, and aimed by its own simulated release (robot.landing simulated, the aim that
-#: carries a turn): tight enough that some aims do not fit and a piece held off in its grasp starts
+#: carries a turn; the pieces' landing offsets, the model's, dropped): tight enough that some aims do not fit and a piece held off in its grasp starts
 #: inside its neighbour.
 _SHIPPED = yaml.safe_load(TANGRAM.read_text())
 AS_CUT = {**_SHIPPED, "spread": False, "placed_clearance": 0.0, "robot": {**_SHIPPED["robot"], "landing": "simulated"},
-          "planning": {k: v for k, v in _SHIPPED["planning"].items() if k not in ("max_landing_spread", "objective")}}
+          "planning": {k: v for k, v in _SHIPPED["planning"].items() if k not in ("max_landing_spread", "objective")},
+          "pieces": [{k: v for k, v in p.items() if k != "landing_offset"} for p in _SHIPPED["pieces"]]}
 
 
 @pytest.fixture(scope="module")

@@ -371,9 +371,11 @@ def tangram(attempts: int, jobs: int, seed: int, tip: str, rank: str = "first", 
 
     doc = yaml.safe_load((SCENES / "tangram.yaml").read_text())
     doc["digits"]["finger_tip"] = tip
-    if simulated_aim:
+    if simulated_aim:  # the simulated release measures the whole landing: no offset beyond the model's
         doc["robot"]["landing"] = "simulated"
         del doc["planning"]["max_landing_spread"]
+        for piece in doc["pieces"]:
+            piece.pop("landing_offset", None)
     if TIMESTEP is not None:
         doc.setdefault("sim", {})["timestep"] = TIMESTEP
     layout = Layout.from_dict(doc, source="tangram.yaml")
