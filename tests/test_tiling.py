@@ -685,21 +685,26 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
 def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
     """The shipped tangram (robot.landing modelled, planning.max_landing_spread 4 mm): every piece's
     plan keeps its predicted landing within the bound over the friction range and both cones, and
-    every piece takes its whole modelled aim (the hand moved back by the middle of the predicted landings, no
-    turn), which fits between the walls and the pieces down, with lattice plans and with RRT*."""
+    every piece takes its modelled aim (the hand moved back by the middle of the predicted landings
+    and by the piece's landing offset, no turn), whole, or where the whole aim would take the piece
+    into a wall or a piece down, the share of it that fits (named in AimedTiling.short), with
+    lattice plans and with RRT*."""
     from ungrasp_ompl.planning.predicted_landing import predict_landing
     from ungrasp_ompl.robot.pipeline import modelled_aim
-    from ungrasp_ompl.sim.tiling import tile_aimed
+    from ungrasp_ompl.sim.tiling import _clear_share, tile_aimed
 
     layout = Layout.from_file(TANGRAM)
     for planner in ("lattice", "RRTstar"):
         tiling, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=1)))
-        assert tiling.solved and result.short == (), planner
+        assert tiling.solved, planner
+        short = {name: taken / wanted for name, taken, wanted in result.short}
         for k, p in enumerate(tiling.placements):
             assert p.scene.options.max_landing_spread == pytest.approx(0.004)
             assert predict_landing(p.scene, p.plan).spread <= 0.004 + 1e-12, (planner, p.name)
             aim, want = result.execution.aims[k], modelled_aim(p.scene, p.plan)
-            assert np.allclose(tuple(aim), tuple(want), atol=1e-12) and aim.turn == 0.0, (planner, p.name)
+            share = short.get(p.name, 1.0)
+            assert 0.0 < share <= 1.0 and (share == 1.0) == (_clear_share(p.scene, p.plan, want) == 1.0), p.name
+            assert np.allclose(tuple(aim), tuple(want.scaled(share)), atol=1e-12) and aim.turn == 0.0, (planner, p.name)
             assert 0.0 < aim.shift < 0.003, (planner, p.name)
 
 @pytest.fixture(scope="module")
