@@ -503,6 +503,43 @@ def test_a_memo_answers_a_later_tiling_as_a_fresh_search_would():
         tile(Layout.from_dict(two), options, memo=memo)
 
 
+def test_order_exists_answers_whether_tile_gets_past_its_search():
+    """layout.tiler.order_exists, tile()'s search alone (what sim.tiling.tile_aimed's child answers
+    for a retry): on the first two pieces as cut it finds an order, and tile() tiles them; with
+    every approach of the first piece avoided it finds none, and tile() fails for want of one of
+    that piece's approaches, the other piece down or not."""
+    from ungrasp_ompl.layout.tiler import order_exists
+
+    layout = Layout.from_dict({**AS_CUT, "pieces": AS_CUT["pieces"][:2]})
+    options = TilingOptions(planner=PlannerOptions(planner="lattice", seed=1))
+    assert order_exists(layout, options) and tile(layout, options).solved
+    every = approaches(layout, 0, [], options.approaches)
+    name = layout.pieces[0].name
+    none = replace(options, avoid=tuple((name, tuple(map(float, a.g)), tuple(map(float, a.b))) for a in every))
+    assert every and not order_exists(layout, none)
+    failed = tile(layout, none)
+    assert not failed.solved and failed.failed_piece == name and not failed.placements
+
+
+def test_a_secure_path_among_more_pieces_is_one_among_fewer():
+    """What lets the search take a proof among fewer pieces from one among more without building
+    its lattice (TilingMemo.secure_among): after the shipped tangram's search, approaches proven
+    with two or more pieces down are proven again, by prove() itself, with one of those pieces
+    taken away."""
+    from ungrasp_ompl.layout.tiler import TilingMemo, approach_scene, order_exists, prove
+
+    layout = Layout.from_file(TANGRAM)
+    options = TilingOptions(planner=PlannerOptions(planner="lattice", seed=1))
+    memo = TilingMemo()
+    assert order_exists(layout, options, memo)
+    wide = [(key, down) for key, sets in memo.secure_among.items() for down in sets if len(down) >= 2]
+    assert len(wide) >= 3
+    for (i, g, b), down in wide[:6]:
+        a = next(a for a in approaches(layout, i, [], 1000) if (a.g.tobytes(), a.b.tobytes()) == (g, b))
+        for j in sorted(down)[:2]:
+            assert prove(approach_scene(layout, i, a, sorted(down - {j})))[0] is None, (i, down, j)
+
+
 # -- bad layouts ----------------------------------------------------------------------------
 
 def _bad(tmp_path, change) -> tuple[int, str]:

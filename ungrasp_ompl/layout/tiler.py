@@ -37,7 +37,9 @@ Results are memoised by (pieces down, piece), so no check is repeated, and what
 a screen learns that holds with other pieces down (the goal states' kinematics
 and force closure, a goal state where the gripper let go, the sets of pieces
 down where none could) is kept per piece and approach (GoalStates): later
-screens give the same answers sooner. Once an order is found, each piece is
+screens give the same answers sooner. Likewise a proof among some pieces down
+holds among any fewer (taking solids away only frees states and moves), and is
+taken without building that lattice until a plan needs it. Once an order is found, each piece is
 planned with the chosen planner on the lattice its proof built; should a
 sampling planner find no path in its time, the lattice path (proved to exist)
 is taken and the summary says so. A TilingMemo keeps the scenes, screens, proofs
@@ -567,6 +569,9 @@ class TilingMemo:
     """The same keys -> screen()'s answer (EndsProblem or None)."""
     proofs: dict = field(default_factory=dict)
     """The same keys -> prove()'s answer and the secure lattice it searched."""
+    secure_among: dict = field(default_factory=dict)
+    """(piece, G bytes, B bytes) -> the sets of pieces down among which a proof found a secure
+    path: one is then known among any subset of them (fewer solids only free states and moves)."""
     goals: dict = field(default_factory=dict)
     """(piece, G bytes, B bytes) -> GoalStates: what screens learnt, over any pieces down."""
     plans: dict = field(default_factory=dict)
@@ -592,6 +597,13 @@ def tile(layout: Layout, options: TilingOptions = TilingOptions(),
     return _Tiler(layout, options.validated(), progress, memo).run()
 
 
+def order_exists(layout: Layout, options: TilingOptions = TilingOptions(), memo: TilingMemo | None = None) -> bool:
+    """Whether tile() with these options finds an order in which every piece can be placed: its
+    first step alone, the search, here in this process and with nothing planned. False means tile()
+    fails (unsolved) with the same options and memo; True that it goes on to plan the pieces."""
+    return _Tiler(layout, options.validated(), None, memo).search([], []) is not None
+
+
 class _Tiler:
     """One tiling of a layout, in two named steps: search an order in which every piece can be
     proven placeable (search), then plan the pieces in that order (plan_pieces). It keeps what both
@@ -605,7 +617,7 @@ class _Tiler:
         self.n = len(layout.pieces)
         self.walls = [wall_contact(layout, i) for i in range(self.n)]
         self.screened: dict[tuple[frozenset, int], tuple[list, list[ApproachRejected]]] = {}
-        self.proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas] | None] = {}
+        self.proven: dict[tuple[frozenset, int], tuple[Approach, Scene, SecurityAtlas | None] | None] = {}
         self.deepest: dict = {"depth": -1, "piece": None, "reasons": [], "placed": []}
         self.dead: set[frozenset[int]] = set()  # sets of pieces down from which no order completes the layout
         #: Plans made ahead by a not reproducible planner, by planned()'s key (the memo keeps the others).
@@ -673,11 +685,27 @@ class _Tiler:
             self.screened[key] = (ok, why)
         return self.screened[key]
 
-    def proved(self, placed: list[int], i: int, a: Approach, scene: Scene) -> tuple[PlanOutcome | None, SecurityAtlas]:
+    def proved(self, placed: list[int], i: int, a: Approach, scene: Scene
+               ) -> tuple[PlanOutcome | None, SecurityAtlas | None]:
+        """prove()'s answer for piece i's approach a with placed down and its secure lattice; the
+        lattice None (built when wanted: atlas) where a proof among more pieces found a secure path
+        (TilingMemo.secure_among), which then exists among these."""
+        at = _at(placed, i, a)
+        if at in self.memo.proofs:
+            return self.memo.proofs[at]
+        if any(at[0] <= among for among in self.memo.secure_among.get(at[1:], ())):
+            return None, None
+        self.atlas(placed, i, a, scene)
+        return self.memo.proofs[at]
+
+    def atlas(self, placed: list[int], i: int, a: Approach, scene: Scene) -> SecurityAtlas:
+        """The secure lattice of piece i's approach a with placed down (prove()'s, kept in the memo)."""
         at = _at(placed, i, a)
         if at not in self.memo.proofs:
             self.memo.proofs[at] = prove(scene)
-        return self.memo.proofs[at]
+            if self.memo.proofs[at][0] is None:
+                self.memo.secure_among.setdefault(at[1:], []).append(at[0])
+        return self.memo.proofs[at][1]
 
     def plan_key(self, placed: list[int], i: int, a: Approach, scene: Scene, planner: str,
                  seed: int | None = None) -> tuple:
@@ -687,16 +715,17 @@ class _Tiler:
         longest = own.range if own.range is not None else (scene.options.range or PIECE_RANGE)
         return _at(placed, i, a), replace(own, planner=planner, seed=seed, range=longest)
 
-    def planned(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas, planner: str,
-                seed: int | None = None) -> tuple[Plan, float | None]:
-        """Piece i's plan by planner on its proof's lattice, and its tolerance's scale (None
-        unsolved); kept in the memo where the planner is reproducible (the lattice, or a seed)."""
+    def planned(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas | None,
+                planner: str, seed: int | None = None) -> tuple[Plan, float | None]:
+        """Piece i's plan by planner on its proof's lattice (atlas; None: built now), and its
+        tolerance's scale (None unsolved); kept in the memo where the planner is reproducible (the
+        lattice, or a seed)."""
         key = self.plan_key(placed, i, a, scene, planner, seed)
         if key in self.memo.plans:
             return self.memo.plans[key]
         if key in self.ahead:
             return self.ahead.pop(key)
-        found = _plan_piece(scene, atlas, key[1])
+        found = _plan_piece(scene, atlas if atlas is not None else self.atlas(placed, i, a, scene), key[1])
         if _reproducible(key[1]):
             self.memo.plans[key] = found
         return found
@@ -706,7 +735,7 @@ class _Tiler:
         seed = self.opts.planner.seed
         return None if seed is None else seed + k
 
-    def plan_ahead(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas) -> None:
+    def plan_ahead(self, placed: list[int], i: int, a: Approach, scene: Scene, atlas: SecurityAtlas | None) -> None:
         """Start planning piece i in a forked child (the pool's; none without one) as plan_pieces
         plans it when it comes next after placed: by the planner, with the seed of its place, and
         where that finds no path, by the lattice; unless that plan is made already."""
@@ -714,6 +743,7 @@ class _Tiler:
             return
         key = self.plan_key(placed, i, a, scene, self.opts.planner.planner, self.order_seed(len(placed)))
         if key not in self.memo.plans and key not in self.ahead:  # the most holdable states first: the longest
+            atlas = atlas if atlas is not None else self.atlas(placed, i, a, scene)
             MARGIN_TABLE.share(atlas.axes, scene.friction)  # the pieces' lattices share their states' margins
             self.pool.submit(key, _plans_of_piece, scene, atlas, key, self.plan_key(placed, i, a, scene, LATTICE),
                              weight=float(np.count_nonzero(atlas.holdable)))
@@ -777,7 +807,7 @@ class _Tiler:
         return None
 
     def first_proven(self, i: int, placed: list[int], options: tuple[list, list[ApproachRejected]]
-                     ) -> tuple[Approach, Scene, SecurityAtlas] | None:
+                     ) -> tuple[Approach, Scene, SecurityAtlas | None] | None:
         """Piece i's first screened approach whose secure lattice reaches the goal with placed down
         (kept by the set down), or None, the reasons recorded."""
         key = (frozenset(placed), i)
@@ -849,8 +879,8 @@ class _Tiler:
             result.placements.append(Placement(k + 1, i, pieces[i].name, a, scene, p, note, tol, ranked))
             self.report("plan", k + 1, i)
 
-    def most_tolerant(self, i: int, placed: list[int], first: tuple[Approach, Scene, SecurityAtlas]
-                      ) -> tuple[Approach, Scene, SecurityAtlas, int]:
+    def most_tolerant(self, i: int, placed: list[int], first: tuple[Approach, Scene, SecurityAtlas | None]
+                      ) -> tuple[Approach, Scene, SecurityAtlas | None, int]:
         """Of piece i's approaches that pass the screen and the proof with placed down, the one
         whose exact lattice plan tolerates most (the first in the search's order among equals),
         and how many were measured."""
