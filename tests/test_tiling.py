@@ -725,15 +725,22 @@ def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
     every piece takes its modelled aim (the hand moved back by the middle of the predicted landings
     and by the piece's landing offset, no turn), whole, or where the whole aim would take the piece
     into a wall or a piece down, the share of it that fits (named in AimedTiling.short), with
-    lattice plans and with RRT*."""
+    lattice plans and with RRT*. The retries of the pieces aimed short, searched ahead in a forked
+    child with two jobs, change nothing: with one job (no child) the lattice's tiling and aims are
+    the same to the bit."""
     from ungrasp_ompl.planning.predicted_landing import predict_landing
     from ungrasp_ompl.robot.pipeline import modelled_aim
     from ungrasp_ompl.sim.tiling import _clear_share, tile_aimed
 
     layout = Layout.from_file(TANGRAM)
     for planner in ("lattice", "RRTstar"):
-        tiling, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=1)))
+        tiling, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=1), jobs=2))
         assert tiling.solved, planner
+        if planner == "lattice":
+            alone, unforked = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner=planner, seed=1), jobs=1))
+            assert result.short and unforked.short == result.short
+            assert [(p.name, p.plan.states) for p in alone.placements] == [(p.name, p.plan.states) for p in tiling.placements]
+            assert [tuple(a) for a in unforked.execution.aims] == [tuple(a) for a in result.execution.aims]
         short = {name: taken / wanted for name, taken, wanted in result.short}
         for k, p in enumerate(tiling.placements):
             assert p.scene.options.max_landing_spread == pytest.approx(0.004)

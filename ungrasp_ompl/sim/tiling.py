@@ -29,7 +29,9 @@ from ..geometry.collision import CollisionChecker
 from ..geometry.solids import Solid
 from ..layout.model import Layout
 from ..parallel import RunOptions
-from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, tile
+from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, order_exists, tile
+from ..parallel.forked import Forked, can_fork
+from ..parallel.runner import default_jobs
 from ..planning.result import Plan
 from ..robot.model import RobotModel
 from ..robot.pipeline import Aim, CollisionError, Execution, aim_along, execute_sequence, modelled_aim
@@ -155,10 +157,8 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     labels = [p.name for p in tiling.placements]
     kept = {} if kept is None else kept
     landings = {} if landings is None else landings
-    keys = [(_key(p), np.asarray(p.plan.states, dtype=float).tobytes()) for p in tiling.placements]
-    for p, key in zip(tiling.placements, keys):  # the model's aims need no execution
-        if key not in landings and p.scene.robot.landing is Landing.MODELLED:
-            landings[key] = _modelled_aim(p.scene, p.plan)
+    keys = [_landing_key(p) for p in tiling.placements]
+    _modelled_aims(tiling, landings)  # the model's aims need no execution
     plain: tuple[Execution, list[tuple[str, TrialSetup]]] | None = None
 
     def unaimed() -> tuple[Execution, list[tuple[str, TrialSetup]]]:
@@ -191,6 +191,20 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     short = tuple((name, aim.shift, want.shift) for name, aim, want, f
                   in zip(labels, aims, asked, share) if f < 1.0)
     return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
+
+
+def _landing_key(p: Placement) -> tuple:
+    """The key of a placement's aim in aim_tiling's landings: its approach and its plan's states."""
+    return _key(p), np.asarray(p.plan.states, dtype=float).tobytes()
+
+
+def _modelled_aims(tiling: Tiling, landings: dict) -> None:
+    """Into landings, the aim of each piece of the tiling whose scene has robot.landing modelled
+    and that has none there yet (_modelled_aim: no execution)."""
+    for p in tiling.placements:
+        key = _landing_key(p)
+        if key not in landings and p.scene.robot.landing is Landing.MODELLED:
+            landings[key] = _modelled_aim(p.scene, p.plan)
 
 
 def _modelled_aim(scene: Scene, plan: Plan) -> Aim:
@@ -230,30 +244,88 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
     the aims, is kept. Each tiling reuses what the ones before it worked out (AimingMemo; memo,
     when given, holds what earlier calls on this layout did). solved, when given, is called with
     each solved tiling before it is aimed (workflows.tile draws its pictures meanwhile). Returns
-    the tiling and its aimed execution (None when no tiling is found)."""
+    the tiling and its aimed execution (None when no tiling is found).
+
+    The pieces the model's aims find short before anything is executed are searched again in a
+    forked child while this process executes the aims (_RetriesAhead); a retry whose search that
+    child finds no order for is not tiled here, since tile() would fail it the same way."""
     memo = AimingMemo() if memo is None else memo
     tiling = tile(layout, options, progress, memo.search)
     if not tiling.solved:
         return tiling, None
     if solved is not None:
         solved(tiling)
-    aimed = aim_tiling(layout, tiling, memo.landings, memo.kept)
-    tried: set[tuple] = set()
-    while True:
-        short = {name for name, _, _ in aimed.short}
-        todo = [p for p in tiling.placements if p.name in short and _key(p) not in tried]
-        if not todo:
-            return tiling, aimed
-        tried.add(_key(todo[0]))
-        retry = replace(options, avoid=options.avoid + (_key(todo[0]),))
-        again = tile(layout, retry, progress, memo.search)
-        if not again.solved:
-            continue
-        if solved is not None:
-            solved(again)
-        aimed_again = aim_tiling(layout, again, memo.landings, memo.kept)
-        if _shortfall(aimed_again) < _shortfall(aimed):
-            options, tiling, aimed = retry, again, aimed_again
+    with closing(_RetriesAhead(layout, tiling, options, memo)) as ahead:
+        aimed = aim_tiling(layout, tiling, memo.landings, memo.kept)
+        tried: set[tuple] = set()
+        while True:
+            short = {name for name, _, _ in aimed.short}
+            todo = [p for p in tiling.placements if p.name in short and _key(p) not in tried]
+            if not todo:
+                return tiling, aimed
+            tried.add(_key(todo[0]))
+            retry = replace(options, avoid=options.avoid + (_key(todo[0]),))
+            if ahead.no_order(retry):
+                continue
+            again = tile(layout, retry, progress, memo.search)
+            if not again.solved:
+                continue
+            if solved is not None:
+                solved(again)
+            aimed_again = aim_tiling(layout, again, memo.landings, memo.kept)
+            if _shortfall(aimed_again) < _shortfall(aimed):
+                options, tiling, aimed = retry, again, aimed_again
+
+
+class _RetriesAhead:
+    """The first retries of tile_aimed, searched in a forked child while this process executes the
+    aims: the pieces of the tiling whose modelled aim (robot.landing modelled) would take them into
+    a wall or a piece down (_clear_share below 1), in order, each with its approach avoided as
+    tile_aimed avoids it when no retry before it is kept. The child answers, for each in turn,
+    whether tile()'s search finds an order (layout.tiler.order_exists on a copy of the memo),
+    stopping at the first that does (that retry is tiled here). With one job, on a platform
+    without fork, or with no such piece, nothing runs ahead."""
+
+    def __init__(self, layout: Layout, tiling: Tiling, options: TilingOptions, memo: AimingMemo):
+        self.avoids: list[tuple] = []
+        self.pool: Forked | None = None
+        jobs = default_jobs() if options.jobs is None else options.jobs
+        if jobs < 2 or not can_fork():
+            return
+        _modelled_aims(tiling, memo.landings)
+        short = [p for p in tiling.placements if p.scene.robot.landing is Landing.MODELLED
+                 and any(memo.landings[_landing_key(p)])
+                 and _clear_share(p.scene, p.plan, memo.landings[_landing_key(p)]) < 1.0]
+        if not short:
+            return
+        self.avoids = [options.avoid + (_key(p),) for p in short]
+        self.pool = Forked(1)
+        self.pool.submit("orders", _orders_exist, layout, [replace(options, avoid=a) for a in self.avoids],
+                         memo.search)
+
+    def no_order(self, retry: TilingOptions) -> bool:
+        """Whether the child found that tile()'s search with retry finds no order (waiting for its
+        answer); False when it did not search retry, found one, or failed."""
+        if self.pool is None or retry.avoid not in self.avoids:
+            return False
+        ok, found = self.pool.result("orders")
+        k = self.avoids.index(retry.avoid)
+        return ok and k < len(found) and not found[k]
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.close()
+
+
+def _orders_exist(layout: Layout, retries: list[TilingOptions], memo: TilingMemo) -> list[bool]:
+    """In _RetriesAhead's child: whether each retry's search finds an order, in turn, up to the
+    first that does."""
+    found: list[bool] = []
+    for retry in retries:
+        found.append(order_exists(layout, retry, memo))
+        if found[-1]:
+            break
+    return found
 
 
 def _shortfall(aimed: AimedTiling) -> float:
