@@ -332,3 +332,28 @@ def test_a_goal_that_the_start_cuts_says_along_which_coordinate():
     whole = plan(flat.with_start_d(0.8), planner="lattice")
     assert whole.solved and whole.states[-1][1] > 0.62
     assert flat.goal.box()[0][1] <= 0.62 < flat.goal.box()[1][1]  # the goal's d range holds the low start
+
+
+@pytest.mark.parametrize("planner", ["RRTstar", "RRTConnect"])
+def test_no_planner_runs_where_the_exact_search_reaches_no_goal(tmp_path, planner):
+    """A peg that the object meets while pivoting through about 17 deg cuts the start off from the
+    goal: plan answers NO_SECURE_PATH without running the planner (no iteration), and the planner
+    run on the same problem anyway finds no path in its time (every path it can find is made of
+    secure lattice moves, which the exact search has all tried)."""
+    import yaml
+    from ompl import base as ob
+
+    from ungrasp_ompl.planning import plan
+    from ungrasp_ompl.planning.result import PlanOutcome, StoppedBy
+
+    data = yaml.safe_load((ROOT / "scenes" / "reference_asymmetric.yaml").read_text())
+    x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
+    data["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
+    (tmp_path / "peg.yaml").write_text(yaml.safe_dump(data))
+    scene = Scene.from_file(tmp_path / "peg.yaml")
+    result = plan(scene, planner=planner, seed=1, time=0.5)
+    assert (result.outcome, result.stopped_by, result.iterations) == (PlanOutcome.NO_SECURE_PATH, StoppedBy.NOT_STARTED, 0)
+    run = UngraspSetup(scene, PlannerOptions(planner=planner, seed=1, time=0.5))
+    assert run.lattice_optimum is None
+    run.planner.solve(ob.timedPlannerTerminationCondition(0.5))
+    assert not run.pdef.hasExactSolution()

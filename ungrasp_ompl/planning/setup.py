@@ -227,8 +227,8 @@ class UngraspSetup:
             self.objective = make_objective(self.si, self.atlas, self.margins)
         else:
             self.objective = (RoadmapCostObjective if roadmap else PrimitiveCostObjective)(self.si, self.atlas)
-        # the lattice optimum stops an optimising planner (the cost objective's yardstick); other
-        # planners search it only to explain a failure
+        # the lattice optimum stops an optimising planner (the cost objective's yardstick); where it
+        # does not exist no planner runs (solve)
         self.stop_at_optimum = self.options.objective == Objective.COST and self.options.planner in OPTIMISING_PLANNERS
         if self.stop_at_optimum and self.lattice_optimum is not None:
             # OMPL's own stop: a path of objective cost below this is the optimum, as every motion
@@ -272,6 +272,9 @@ class UngraspSetup:
         problem = self.ends_problem()
         if problem:
             return plan.with_diagnostics(stopped_by=StoppedBy.NOT_STARTED).fail(problem.outcome, **problem.evidence)
+        if self.lattice_optimum is None:  # the exact search reaches no goal state: every path the planner
+            # could find is one of secure lattice moves, so it would spend its whole budget for nothing
+            return self._no_path(plan.with_diagnostics(stopped_by=StoppedBy.NOT_STARTED))
         budget = opts.iterations
         cap = opts.time
         if opts.seed is not None:
