@@ -126,6 +126,10 @@ class TilingOptions:
     every piece planned here after the search. The plans are the same whichever (the order's, each
     piece's seed its own); only the search's rank "first" plans ahead."""
 
+    def job_count(self) -> int:
+        """How many processes jobs asks for: jobs, or one per core where it is None."""
+        return default_jobs() if self.jobs is None else self.jobs
+
     def validated(self) -> "TilingOptions":
         jobs = self.jobs
         if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
@@ -628,7 +632,7 @@ class _Tiler:
     def run(self) -> Tiling:
         """The tiling: an order found and every piece planned, or where and why it failed."""
         t0 = time.perf_counter()
-        jobs = default_jobs() if self.opts.jobs is None else self.opts.jobs
+        jobs = self.opts.job_count()
         if jobs > 1 and can_fork() and self.opts.rank is Rank.FIRST:
             self.pool = Forked(jobs)
         try:

@@ -31,7 +31,6 @@ from ..layout.model import Layout
 from ..parallel import RunOptions
 from ..layout.tiler import Placement, Tiling, TilingMemo, TilingOptions, TilingProgress, order_exists, tile
 from ..parallel.forked import Forked, can_fork
-from ..parallel.runner import default_jobs
 from ..planning.result import Plan
 from ..robot.model import RobotModel
 from ..robot.pipeline import Aim, CollisionError, Execution, aim_along, execute_sequence, modelled_aim
@@ -289,13 +288,12 @@ class _RetriesAhead:
     def __init__(self, layout: Layout, tiling: Tiling, options: TilingOptions, memo: AimingMemo):
         self.avoids: list[tuple] = []
         self.pool: Forked | None = None
-        jobs = default_jobs() if options.jobs is None else options.jobs
-        if jobs < 2 or not can_fork():
+        if options.job_count() < 2 or not can_fork():
             return
         _modelled_aims(tiling, memo.landings)
-        short = [p for p in tiling.placements if p.scene.robot.landing is Landing.MODELLED
-                 and any(memo.landings[_landing_key(p)])
-                 and _clear_share(p.scene, p.plan, memo.landings[_landing_key(p)]) < 1.0]
+        aims = [(p, memo.landings[_landing_key(p)]) for p in tiling.placements
+                if p.scene.robot.landing is Landing.MODELLED]
+        short = [p for p, aim in aims if any(aim) and _clear_share(p.scene, p.plan, aim) < 1.0]
         if not short:
             return
         self.avoids = [options.avoid + (_key(p),) for p in short]
