@@ -8,7 +8,7 @@ and the gripper opening from the trajectory's last column.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +50,12 @@ class GripperDrive:
     def phase_start(self, name: str) -> float:
         """Start (s) of the first phase of that name; the end of the drive if there is none."""
         return next((a for n, a, _ in self.phases if n == name), float(self.times[-1]))
+
+    def until(self, t: float) -> "GripperDrive":
+        """The drive cut after its first tick at or past t (s), its phases as they are (a phase
+        that starts at t still starts there)."""
+        k = int(np.searchsorted(self.times, t, side="left")) + 1
+        return replace(self, times=self.times[:k], palm=self.palm[:k], opening=self.opening[:k])
 
 
 def drive_from_trajectory(traj: JointTrajectory, robot: RobotModel, prefix: str = "",

@@ -129,6 +129,15 @@ class TrialSetup:
         hinge = self.spec.gripper.hinge
         return self.sim.squeeze if hinge is None else self.sim.squeeze / hinge.radius
 
+    def to_release(self) -> "TrialSetup":
+        """The same trial cut at the release: its drive up to the first tick at which the termination
+        opens the pinch (the last tick whose contacts a trial measures, Judge.tick), no rest after.
+        Up to that tick it is the whole trial, step for step (TrialResult.max_penetration_mm and the
+        contacts' figures are the same); its verdict and final pose are not a placement's. For what
+        the primitives alone show, such as how deep the contacts sink (tools/sinking_bound.py)."""
+        return replace(self, drive=self.drive.until(self.drive.phase_start("termination")),
+                       sim=replace(self.sim, rest_time=0.0))
+
 
 def _rot_z(angle: float) -> NDArray[np.float64]:
     c, s = math.cos(angle), math.sin(angle)
