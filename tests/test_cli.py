@@ -93,7 +93,7 @@ def test_equal_digits_has_no_secure_path():
 
 def test_unreachable_goal_reports_lattice_proof(tmp_path):
     """A peg that the object meets while pivoting through about 17 deg cuts the start off from
-    the goal (primitives only lower theta): the planner fails and the exact search proves it."""
+    the goal (primitives only lower theta): the exact search proves it, and no planner runs."""
     def change(d):
         x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
         d["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
