@@ -81,6 +81,22 @@ def small_landing_file(name: str, directory: Path) -> Path:
     return path
 
 
+def peg_scene_file(directory: Path) -> Path:
+    """The asymmetric reference scene with a 2 mm peg that the object meets while pivoting through
+    about 17 deg, which cuts the start off from the goal (primitives only lower theta): no secure
+    path exists. Written as DIRECTORY/peg.yaml."""
+    import math
+
+    import yaml
+
+    doc = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
+    x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
+    doc["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
+    path = directory / "peg.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 300 s
 #: down to 15 s): xdist hands each worker whole files in collection order (pyproject passes
 #: --no-loadscope-reorder, else it orders them by their number of tests), so a long file that

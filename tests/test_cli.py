@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 import re
 
 import pytest
 import yaml
 
-from conftest import ROOT, SCENES, assert_picture, command_parsers, run_cli, run_process, small_landing_file
+from conftest import ROOT, SCENES, assert_picture, command_parsers, peg_scene_file, run_cli, run_process, small_landing_file
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
 
@@ -92,12 +91,9 @@ def test_equal_digits_has_no_secure_path():
 
 
 def test_unreachable_goal_reports_lattice_proof(tmp_path):
-    """A peg that the object meets while pivoting through about 17 deg cuts the start off from
-    the goal (primitives only lower theta): the exact search proves it, and no planner runs."""
-    def change(d):
-        x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
-        d["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
-    path = write_scene(tmp_path, change)
+    """A peg cuts the start off from the goal (conftest.peg_scene_file): the exact search proves
+    it, and no planner runs."""
+    path = peg_scene_file(tmp_path)
     proc = run_cli("plan", str(path), "--seed", "1", "--time", "0.2")
     assert proc.returncode == 3, proc.stdout + proc.stderr
     assert "no secure path exists" in proc.stdout

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import ROOT, run_cli
+from conftest import ROOT, peg_scene_file, run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.mechanics import Friction, kinematic_checks
@@ -336,21 +336,16 @@ def test_a_goal_that_the_start_cuts_says_along_which_coordinate():
 
 @pytest.mark.parametrize("planner", ["RRTstar", "RRTConnect"])
 def test_no_planner_runs_where_the_exact_search_reaches_no_goal(tmp_path, planner):
-    """A peg that the object meets while pivoting through about 17 deg cuts the start off from the
-    goal: plan answers NO_SECURE_PATH without running the planner (no iteration), and the planner
-    run on the same problem anyway finds no path in its time (every path it can find is made of
-    secure lattice moves, which the exact search has all tried)."""
-    import yaml
+    """Where a peg cuts the start off from the goal (conftest.peg_scene_file), plan answers
+    NO_SECURE_PATH without running the planner (no iteration), and the planner run on the same
+    problem anyway finds no path in its time (every path it can find is made of secure lattice
+    moves, which the exact search has all tried)."""
     from ompl import base as ob
 
     from ungrasp_ompl.planning import plan
     from ungrasp_ompl.planning.result import PlanOutcome, StoppedBy
 
-    data = yaml.safe_load((ROOT / "scenes" / "reference_asymmetric.yaml").read_text())
-    x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
-    data["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
-    (tmp_path / "peg.yaml").write_text(yaml.safe_dump(data))
-    scene = Scene.from_file(tmp_path / "peg.yaml")
+    scene = Scene.from_file(peg_scene_file(tmp_path))
     result = plan(scene, planner=planner, seed=1, time=0.5)
     assert (result.outcome, result.stopped_by, result.iterations) == (PlanOutcome.NO_SECURE_PATH, StoppedBy.NOT_STARTED, 0)
     run = UngraspSetup(scene, PlannerOptions(planner=planner, seed=1, time=0.5))
