@@ -22,7 +22,8 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   the deviation and the friction margin at the deviated start (negative);
 * worlds: the three objects' base plans, their hands aimed as in base, run in worlds neither the
   plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
-  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2); with --tip flat
+  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2), and friction x0.7
+  and x1.3 each under pyramidal cones (record 0135); with --tip flat
   the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
   with --start least-slide the base, worlds, unaimed and controls rows from each object's start
   from which B slides least along the thumb (record 0118, least_slide_start), the labels saying so;
@@ -205,7 +206,10 @@ OBJECTIVE: str | None = None
 #: The worlds of the `worlds` rows: label, world (docs/model.md 11.16).
 WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(friction=1.3)),
           ("pyramidal cones", World(cone="pyramidal")), ("density x0.5", World(density=0.5)),
-          ("density x2", World(density=2.0)), ("stiffness x0.25 (time constant x2)", World(stiffness=0.25)))
+          ("density x2", World(density=2.0)), ("stiffness x0.25 (time constant x2)", World(stiffness=0.25)),
+          # both corners of the friction's range under the other cone model at once (record 0135)
+          ("friction x0.7 under pyramidal cones", World(friction=0.7, cone="pyramidal")),
+          ("friction x1.3 under pyramidal cones", World(friction=1.3, cone="pyramidal")))
 
 
 @dataclass
