@@ -13,7 +13,10 @@ trials' absolute drifts, the largest), how the landings spread across GB (standa
 their mean, and how many trials succeeded by the strict verdict. It asserts nothing.
 
     python tools/sliding_drift.py [--objects guitar_pick,puzzle_piece] [--trials 16] [--jobs 2]
-        [--results [--study NAME]]
+        [--friction F] [--results [--study NAME]]
+
+--friction F runs both cones in a world whose every friction is F times the scene's (sim.world;
+the pairs it sets draw no friction error, record 0100).
 
 --results writes the study into docs/results/sliding_drift.json (the markdown beside it rendered
 from it); a study named otherwise than `drift` prefixes its rows' labels with its name.
@@ -70,15 +73,15 @@ def trial_drift(task: tuple) -> tuple[float, float, float, bool]:
     return drift, result.offset_along_mm, result.offset_across_mm, result.outcome is Outcome.SUCCESS
 
 
-def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor) -> list[dict]:
-    """The object's rows, one per cone."""
+def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor, friction: float = 1.0) -> list[dict]:
+    """The object's rows, one per cone, in a world of every friction times friction."""
     scene = Scene.from_file(name)
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     setup = placement(scene, result)[1]
     params = trial_params(PRESETS["paper"], seed, trials)
     rows = []
     for cone in CONES:
-        here = replace(setup, world=World(cone=cone))
+        here = replace(setup, world=World(friction=friction, cone=cone))
         out = np.array(list(pool.map(trial_drift, [(here, p, k, seed) for k, p in enumerate(params)])))
         drift, along, across, ok = out[:, 0], out[:, 1], out[:, 2], out[:, 3].astype(bool)
         rows.append({"label": f"{name}, {cone.value}", "trials": trials, "successes": int(ok.sum()),
@@ -100,13 +103,15 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1, help="the trials' seed")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--results", action="store_true", help="write docs/results/sliding_drift.json")
+    ap.add_argument("--friction", type=float, default=1.0,
+                    help="every friction times this factor in both cones' worlds (default 1: the scene's)")
     ap.add_argument("--study", default="drift", help="the study's name in the results file (default drift)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     rows: list[dict] = []
     with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("fork")) as pool:
         for name in args.objects.split(","):
-            rows += study(name, args.trials, args.seed, pool)
+            rows += study(name, args.trials, args.seed, pool, args.friction)
     if args.results:
         from campaign_results import merge_study
 
