@@ -23,7 +23,11 @@ pyramidal world's model is the pyramid's two bounds.
 A world that sets the friction fixes it (docs/decisions/0100-a-world-fixes-its-friction.md): its
 drawn trials draw no friction error, and the model at such a draw takes the world's friction alone.
 
-    python tools/landing_check.py [--objects guitar_pick,puzzle_piece] [--draws 4] [--json out.json] [--results]
+    python tools/landing_check.py [--objects guitar_pick,puzzle_piece] [--draws 4] [--worlds LABEL,...]
+        [--json out.json] [--results]
+
+--worlds runs only the worlds it names: those above, or friction x0.7 or x1.3 under the pyramid at
+once ("friction x0.7 under pyramidal", "friction x1.3 under pyramidal", record 0135).
 
 --results writes the study into docs/results/landing_check.json (the markdown beside it rendered
 from it; a study's earlier rows replaced, the other studies' kept): "landing", with --forbid-partial
@@ -74,6 +78,9 @@ OBJECTS = ("guitar_pick", "puzzle_piece", "fabric_chalk")
 STUDY_SCENES = {"guitar_pick": "guitar_pick_reference_start"}
 WORLDS = {"nominal": World(), "friction x0.7": World(friction=0.7), "friction x1.3": World(friction=1.3),
           "pyramidal": World(cone=Cone.PYRAMIDAL)}
+#: Worlds --worlds may name beside WORLDS: the friction's range under the pyramid at once (record 0135).
+COMPOUND_WORLDS = {"friction x0.7 under pyramidal": World(friction=0.7, cone=Cone.PYRAMIDAL),
+                   "friction x1.3 under pyramidal": World(friction=1.3, cone=Cone.PYRAMIDAL)}
 
 
 def in_plane(frame: np.ndarray, offset: np.ndarray) -> tuple[float, float]:
@@ -172,10 +179,11 @@ def unaimed_scene(stem: str | Scene) -> Scene:
 
 
 def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False,
-          spread_bound: bool = True, scene_start: bool = False) -> dict:
+          spread_bound: bool = True, scene_start: bool = False, worlds: dict[str, World] | None = None) -> dict:
     """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
     False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi;
-    scene_start: the shipped scene and its own objective, as the campaign plans it)."""
+    scene_start: the shipped scene and its own objective, as the campaign plans it) in worlds
+    (label -> World; None: WORLDS)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
     shipped = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
     offset = shipped.robot.landing_offset
@@ -197,7 +205,7 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
     base = release_setup(scene, tuple(plan.states[-1]))
     carried = replace(base, start=carried_start(scene, plan, base))
     rows = []
-    for label, world in WORLDS.items():
+    for label, world in (WORLDS if worlds is None else worlds).items():
         here = replace(setup, world=world)
         record: list = []
         log: list = []
@@ -301,17 +309,27 @@ def main(argv: list[str] | None = None) -> int:
                         help="plan without the scene's planning.max_landing_spread (its plan may keep a P_dpsi)")
     parser.add_argument("--scene-starts", action="store_true",
                         help="the shipped scenes and their own objective, as the campaign plans them")
+    parser.add_argument("--worlds", help="only these worlds, by label, comma-separated (default: "
+                        f"{', '.join(WORLDS)}; also {', '.join(COMPOUND_WORLDS)})")
     parser.add_argument("--study", help="the study's name in the results file, which starts its rows' labels")
     parser.add_argument("--json", help="write the results there")
     parser.add_argument("--results", action="store_true", help="also write the study into "
                                                                "docs/results/landing_check.json and .md")
     args = parser.parse_args(argv)
+    known = {**WORLDS, **COMPOUND_WORLDS}
+    worlds = None
+    if args.worlds:
+        labels = [w.strip() for w in args.worlds.split(",")]
+        unknown = [w for w in labels if w not in known]
+        if unknown:
+            parser.error(f"--worlds: unknown {', '.join(unknown)} (known: {', '.join(known)})")
+        worlds = {w: known[w] for w in labels}
     command = shlex.join(["python", "tools/landing_check.py", *(sys.argv[1:] if argv is None else argv)])
     wall = time.perf_counter()
     results = []
     for name in args.objects.split(","):
         res = check(name, args.draws, args.seed, args.time, args.forbid_partial, not args.no_spread_bound,
-                    args.scene_starts)
+                    args.scene_starts, worlds)
         results.append(res)
         if "unsolved" in res:
             print(f"{name}: no plan ({res['unsolved']})", flush=True)
@@ -380,8 +398,8 @@ def study_rows(study: str, results: list[dict]) -> list[dict]:
                      "plan_sb_mm": res["plan_sb_mm"], "carried_mm": p["carried_m"] * 1e3,
                      "landing_offset_mm": res["landing_offset_mm"],
                      "step_change_mm": max(w["step_change_mm"] for w in res["worlds"]),
-                     "model_span_mm": max(model) - min(model),
-                     "sim_span_mm": max(placed) - min(placed) if len(placed) == len(spread) else None})
+                     "model_span_mm": max(model) - min(model) if model else None,
+                     "sim_span_mm": max(placed) - min(placed) if placed and len(placed) == len(spread) else None})
         for w in res["worlds"]:
             rows.append({
                 "label": f"{study}: {name}, {w['world']}", "study": study, "object": name, "world": w["world"],
