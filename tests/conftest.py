@@ -81,20 +81,29 @@ def small_landing_file(name: str, directory: Path) -> Path:
     return path
 
 
+def write_scene(directory: Path, change, name: str = "scene.yaml") -> Path:
+    """A copy of the asymmetric reference scene with change(data) applied to its YAML document,
+    written as DIRECTORY/NAME."""
+    import yaml
+
+    data = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
+    change(data)
+    path = directory / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
 def peg_scene_file(directory: Path) -> Path:
     """The asymmetric reference scene with a 2 mm peg that the object meets while pivoting through
     about 17 deg, which cuts the start off from the goal (primitives only lower theta): no secure
     path exists. Written as DIRECTORY/peg.yaml."""
     import math
 
-    import yaml
+    def peg(data: dict) -> None:
+        x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
+        data["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
 
-    doc = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
-    x, z = 0.018 * math.cos(math.radians(17.5)), 0.018 * math.sin(math.radians(17.5))
-    doc["obstacles"] = [{"name": "peg", "center": [x, z], "size": [0.002, 0.002]}]
-    path = directory / "peg.yaml"
-    path.write_text(yaml.safe_dump(doc))
-    return path
+    return write_scene(directory, peg, "peg.yaml")
 
 
 #: The longest test files first (their total time on two cores, `pytest --durations=0`, about 300 s

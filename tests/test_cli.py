@@ -8,20 +8,11 @@ import json
 import re
 
 import pytest
-import yaml
 
-from conftest import ROOT, SCENES, assert_picture, command_parsers, peg_scene_file, run_cli, run_process, small_landing_file
+from conftest import (ROOT, SCENES, assert_picture, command_parsers, peg_scene_file, run_cli, run_process,
+                      small_landing_file, write_scene)
 
 TIMING = ("time_to_first_solution_s", "planning_time_s", "setup_time_s")
-
-
-def write_scene(tmp_path, change):
-    """A copy of the asymmetric reference scene with change(data) applied, as a file."""
-    data = yaml.safe_load((SCENES / "reference_asymmetric.yaml").read_text())
-    change(data)
-    path = tmp_path / "scene.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
 
 
 def assert_one_line_error(proc, *words):

@@ -262,10 +262,12 @@ def test_the_drift_rows_pair_the_two_cones_on_the_same_trials():
     drift is at most the largest; the spread is a standard deviation; no more successes than trials."""
     doc = results.load("sliding_drift")
     rows = [r for r in doc["rows"] if "trials" in r]
-    objects = {r["label"].rsplit(", ", 1)[0] for r in rows}  # a study's name may hold a comma
-    assert rows and len(rows) == 2 * len(objects)
-    for name in objects:
-        mine = {r["label"].rsplit(", ", 1)[1]: r for r in rows if r["label"].rsplit(", ", 1)[0] == name}
+    by_object: dict[str, dict] = {}
+    for r in rows:  # "[study: ]object, cone"; a study's name may hold a comma
+        name, cone = r["label"].rsplit(", ", 1)
+        by_object.setdefault(name, {})[cone] = r
+    assert rows and len(rows) == 2 * len(by_object)
+    for mine in by_object.values():
         assert set(mine) == {"elliptic", "pyramidal"}
         assert mine["elliptic"]["trials"] == mine["pyramidal"]["trials"] >= 2
         for r in mine.values():
