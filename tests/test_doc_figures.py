@@ -420,6 +420,26 @@ def test_a_merged_run_of_some_worlds_keeps_the_other_worlds_rows(tmp_path, monke
     assert "worlds: pyramidal cones" in runs
 
 
+def test_a_world_row_merged_into_a_table_without_it_stands_in_its_object_s_block(tmp_path, monkeypatch):
+    """--merge of a world the table lacks puts its row among its object's worlds, in WORLDS' order,
+    not after the rows of later groups."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    old = results.load("campaigns")
+    order = [r["key"] for r in old["rows"]]
+    missing = next(r for r in old["rows"] if r["subject"] == "guitar_pick, friction x1.3")
+    assert any(r["campaign"].startswith("unaimed") for r in old["rows"])  # a later group to land after
+    table = tmp_path / "t.md"
+    table.write_text((ROOT / "docs/results/campaigns.md").read_text())
+    (tmp_path / "t.json").write_text(json.dumps({**old, "rows": [r for r in old["rows"] if r is not missing]}))
+    footer = "12 s in all; " + table.read_text().strip().splitlines()[-1].split(" s in all; ", 1)[1]
+    monkeypatch.setattr(campaigns, "WORLD_LABELS", ("friction x1.3",))
+    merged, _, _, _ = campaigns.merge_rows(table, [campaigns.Row.from_record(missing)], footer, {"worlds"})
+    assert [r["key"] for r in merged] == order
+
+
 def test_pairing_again_sets_drake_s_rows_beside_mujoco_s_rows_as_they_are_now(tmp_path, monkeypatch):
     """sim_campaigns --pair: a Drake file whose MuJoCo rows are stale (another count, another p)
     gets MuJoCo's rows as its MuJoCo file has them and the Fisher test of the two counts again,

@@ -774,6 +774,30 @@ ROW_OPTIONS = (("base, open loop", "open"), ("base, handed over", "handed"), ("b
                ("own digits", "designed"), ("curved world", "curved_worlds"), ("curved", "curved"))
 
 
+def _world_place(record: dict) -> tuple[int, int]:
+    """A world row's place in its group: its object's in OBJECTS, then its world's in WORLDS (the
+    longest label its subject's world starts with; unknown ones last); (0, 0) for other rows."""
+    if _group(record) != "world":
+        return 0, 0
+    name, _, world = record["subject"].partition(", ")
+    worlds = [label for label, _ in WORLDS]
+    own = max((label for label in worlds if world.startswith(label)), key=len, default=None)
+    return (OBJECTS.index(name) if name in OBJECTS else len(OBJECTS),
+            worlds.index(own) if own is not None else len(worlds))
+
+
+def _placed(rows: list[dict], new: list[dict]) -> list[dict]:
+    """rows with each of new inserted after the last row of its group whose place (_world_place)
+    is not after its own (before the group where none is), or at the end when its group has none:
+    a merge moves no row already in the table."""
+    rows = list(rows)
+    for row in new:
+        group = [k for k, r in enumerate(rows) if _group(r) == _group(row)]
+        before = [k for k in group if _world_place(rows[k]) <= _world_place(row)]
+        rows.insert(before[-1] + 1 if before else group[0] if group else len(rows), row)
+    return rows
+
+
 def _option(record: dict) -> str | None:
     """The --only name of the row group that makes record's row (None: no group's)."""
     return next((o for start, o in ROW_OPTIONS if record["label"].startswith(start)), None)
@@ -798,8 +822,8 @@ def merge_rows(table: Path, rows: list[Row], footer: str, only: set[str]) -> tup
         regrouped = regrouped - {"curved", "curved_worlds"}
     keys |= {r["key"] for r in old["rows"] if _option(r) in regrouped and _selected(r["label"])}
     fresh = {r["key"]: r for r in new}  # a row run again keeps its place
-    merged = [fresh.pop(r["key"]) if r["key"] in fresh else parse_row(row_line(r)) for r in old["rows"]
-              if r["key"] not in keys or r["key"] in fresh] + list(fresh.values())
+    merged = _placed([fresh.pop(r["key"]) if r["key"] in fresh else parse_row(row_line(r)) for r in old["rows"]
+                      if r["key"] not in keys or r["key"] in fresh], list(fresh.values()))
     merged.sort(key=lambda r: GROUP_ORDER.index(_group(r)) if _group(r) in GROUP_ORDER else len(GROUP_ORDER))
     runs = old.get("runs", {})
     if not runs and old["rows"]:  # a table one run wrote whole: that run, named by its groups
