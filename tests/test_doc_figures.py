@@ -9,6 +9,7 @@ import dataclasses
 import importlib
 import importlib.util
 import json
+import math
 import re
 
 import pytest
@@ -418,6 +419,22 @@ def test_a_merged_run_of_some_worlds_keeps_the_other_worlds_rows(tmp_path, monke
     kept = [r for r in worlds if r not in pyramidal]
     assert all(by_key[r["key"]] == results.parse_row(results.row_line(r)) for r in kept)
     assert "worlds: pyramidal cones" in runs
+
+
+def test_a_turned_target_turns_the_plane_and_nothing_else():
+    """--turn-target (record 0137): the scene's GB turns by the angle about the vertical, its
+    object, digits, friction and planning left as they were."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    for name, turn in (("fabric_chalk", 30.0), ("puzzle_piece", -45.0)):
+        scene, turned = campaigns._scene(name), campaigns._scene(name, turn_deg=turn)
+        a, b = scene.plane.frame[:3, 0], turned.plane.frame[:3, 0]
+        assert math.degrees(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0])) % 360 == pytest.approx(turn % 360)
+        assert b[2] == pytest.approx(a[2], abs=1e-12)
+        assert (turned.object_length, turned.object_thickness, turned.digits, turned.mu, turned.options) == \
+            (scene.object_length, scene.object_thickness, scene.digits, scene.mu, scene.options)
 
 
 def test_a_world_row_merged_into_a_table_without_it_stands_in_its_object_s_block(tmp_path, monkeypatch):

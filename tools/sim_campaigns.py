@@ -190,6 +190,9 @@ MAX_GAP: float = MAX_CONTACT_GAP
 WORLD_LABELS: tuple[str, ...] | None = None
 #: The finger tip of the `worlds` rows (--tip): the base scenes' rounded one, or the edge rows' flat one.
 WORLD_TIP = "rounded"
+#: How far the `worlds` rows' targets are turned about the vertical (--turn-target, deg; record
+#: 0137): the scene's object.target.yaw_deg plus this, the labels ending ", target turned D deg".
+TARGET_TURN_DEG = 0.0
 #: Where the base and worlds rows start (--start): the scenes' own start, or "least-slide" (record 0118).
 START = "scene"
 #: Where the base, worlds, unaimed and controls rows' plans end (--release): where the scenes'
@@ -295,16 +298,23 @@ def _from_start(scene: Scene) -> tuple[Scene, str]:
     return scene.with_start_d(d), f", least-slide start d {d:.2f}"
 
 
-def _scene(name: str, tip: str | None = None, contacts: dict | None = None) -> Scene:
+def _scene(name: str, tip: str | None = None, contacts: dict | None = None, turn_deg: float = 0.0) -> Scene:
     """A shipped scene, its finger tip rounded or flat (or its own), its contacts fixed (or its own),
-    with the campaign's timestep."""
-    if contacts is None:
+    its target turned by turn_deg about the vertical, with the campaign's timestep."""
+    if contacts is None and not turn_deg:
         scene = _stepped(Scene.from_file(SCENES / f"{name}.yaml"))
     else:
         import yaml
 
         doc = yaml.safe_load((SCENES / f"{name}.yaml").read_text())
-        scene = _stepped(Scene.from_dict({**doc, "contacts": contacts}, source=f"{name}.yaml, contacts {contacts}"))
+        source = f"{name}.yaml"
+        if contacts is not None:
+            doc, source = {**doc, "contacts": contacts}, f"{source}, contacts {contacts}"
+        if turn_deg:
+            target = doc["object"]["target"]
+            doc["object"] = {**doc["object"], "target": {**target, "yaw_deg": target.get("yaw_deg", 0.0) + turn_deg}}
+            source = f"{source}, target turned {turn_deg:g} deg"
+        scene = _stepped(Scene.from_dict(doc, source=source))
     if tip is not None:
         dg = scene.digits
         scene = replace(scene, digits=replace(dg, flat_finger_tip=tip == "flat",
@@ -481,6 +491,9 @@ def main() -> None:
     ap.add_argument("--tip", choices=("rounded", "flat"), default="rounded",
                     help="the finger tip of the `worlds` rows (flat: each label ends ', flat tip'), and with "
                          "--contacts of the rows whose trials are run (flat: the edge rows')")
+    ap.add_argument("--turn-target", type=float, default=0.0, metavar="DEG",
+                    help="turn the `worlds` rows' targets by DEG about the vertical (the scene's target yaw plus "
+                         "DEG; each label ends ', target turned DEG deg'; record 0137)")
     ap.add_argument("--start", choices=("scene", "least-slide", "previous"), default="scene",
                     help="where the base and worlds rows (and --contacts' trials) start: the scenes' own start, each "
                          "object's start from which B slides least along the thumb (record 0118; labels end "
@@ -516,7 +529,7 @@ def main() -> None:
                          "its MuJoCo file has them now, with the Fisher test again; no trial runs")
     args = ap.parse_args()
     global TIMESTEP, MAX_GAP, COMPOUNDED_FRICTION, ENGINE, OBJECTIVE, WORLD_LABELS, WORLD_TIP, START, CURVED_SCENES, SELECTED
-    global RELEASE
+    global RELEASE, TARGET_TURN_DEG
     global MUJOCO_SOURCE
     if args.mujoco is not None:
         MUJOCO_SOURCE = args.mujoco.resolve()
@@ -529,7 +542,7 @@ def main() -> None:
         contact_summaries()
         return
     ENGINE = args.engine
-    WORLD_TIP, START, RELEASE = args.tip, args.start, args.release
+    WORLD_TIP, START, RELEASE, TARGET_TURN_DEG = args.tip, args.start, args.release, args.turn_target
     drake = ENGINE == "drake"
     if drake:
         from ungrasp_ompl.sim import drake_world
@@ -627,8 +640,9 @@ def main() -> None:
     if "worlds" in only:  # worlds the plan and its aim never saw (docs/model.md 11.16)
         tip = "" if WORLD_TIP == "rounded" else f", {WORLD_TIP} tip"
         tip += ("" if START == "scene" else f", {START} start") + ("" if RELEASE == "scene" else RELEASE_WORDS)
+        tip += f", target turned {TARGET_TURN_DEG:+g} deg" if TARGET_TURN_DEG else ""
         for name in SELECTED:
-            scene, _ = _started(_scene(name, WORLD_TIP))
+            scene, _ = _started(_scene(name, WORLD_TIP, turn_deg=TARGET_TURN_DEG))
             result = _plan(scene, s)
             for label, world in WORLDS:
                 if WORLD_LABELS is not None and label not in WORLD_LABELS:
