@@ -469,8 +469,8 @@ def main() -> None:
                          "and sim.pyramidal_timestep)")
     ap.add_argument("--no-figure", action="store_true", help="write the table alone, no figure")
     ap.add_argument("--objects", default=None, metavar="NAME,...",
-                    help="with --merge: only these objects' rows of the groups made per object, the others' "
-                         "rows kept from the table")
+                    help="only these objects' rows of the groups made per object, the others' rows kept from "
+                         "the table (with --merge; --only worlds alone needs none)")
     ap.add_argument("--scenes", default=None,
                     help="only these scenes in the curved and curved_worlds rows, comma-separated (e.g. go_stone)")
     ap.add_argument("--worlds", default=None,
@@ -584,9 +584,12 @@ def main() -> None:
         if only - set(PER_OBJECT_GROUPS):
             ap.error(f"--objects: the groups {', '.join(sorted(only - set(PER_OBJECT_GROUPS)))} are not made per "
                      f"object (those that are: {', '.join(PER_OBJECT_GROUPS)})")
-        if not (args.merge and args.table is not None and args.table.with_suffix(".json").is_file()):
+        if only == {"worlds"}:  # no row counts the objects together: the others' rows need not exist
+            pass
+        elif not (args.merge and args.table is not None and args.table.with_suffix(".json").is_file()):
             ap.error("--objects: needs --merge into a --table whose results file holds the other objects' rows")
-        KEPT = {r["label"]: r for r in json.loads(args.table.with_suffix(".json").read_text())["rows"]}
+        else:
+            KEPT = {r["label"]: r for r in json.loads(args.table.with_suffix(".json").read_text())["rows"]}
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
     rows: list[Row] = []
