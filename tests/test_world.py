@@ -21,7 +21,7 @@ from ungrasp_ompl.sim.landing import LANDING_FRICTION_RANGE, landing_draw
 from ungrasp_ompl.sim.model import build_mjcf, model_ids
 from ungrasp_ompl.sim.spec import SOLREF, SimObject
 from ungrasp_ompl.sim.trial import _Watch, trial_spec
-from ungrasp_ompl.sim.world import Cone, World
+from ungrasp_ompl.sim.world import Cone, World, pyramid_reach
 
 from conftest import SCENES
 from ungrasp_ompl.planning import plan
@@ -135,6 +135,49 @@ def test_a_resting_objects_contact_forces_carry_its_weight_under_either_cone(pic
     assert np.allclose(normals, own, rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("heading_deg, cone, slides_at", [
+    (0.0, Cone.PYRAMIDAL, 1.0), (45.0, Cone.PYRAMIDAL, 1 / math.sqrt(2)), (30.0, Cone.PYRAMIDAL, None),
+    (45.0, Cone.ELLIPTIC, 1.0)])
+def test_the_tables_pyramid_lies_along_the_worlds_axes_and_holds_its_reach(pick, heading_deg, cone, slides_at):
+    """A plate resting on the table, turned by heading about the vertical and pushed along its own
+    x axis: the table's contact frames keep their tangents along the world's x and y axes, and the
+    push the plate holds is pyramid_reach of the heading times mu times its weight under pyramidal
+    cones (the whole of it under Coulomb's cone): it stays put at 0.9 of that and slides at 1.1."""
+    plate = SimObject(np.array([[0.0, -0.01], [0.03, -0.01], [0.03, 0.01], [0.0, 0.01]]), 0.002, 1250.0)
+    spec = replace(_setup(pick).spec, obj=plate, cone=str(cone), solids=(), placed=())
+    model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
+    ids = model_ids(model)
+    a = math.radians(heading_deg)  # from the world's x axis
+    reach = pyramid_reach(a) if cone is Cone.PYRAMIDAL else 1.0
+    if slides_at is not None:
+        assert reach == pytest.approx(slides_at)
+    mu = model.geom_friction[ids.table_geom][0]
+    weight = model.body_mass[ids.object_body] * 9.81
+    moved = []
+    for share in (0.9, 1.1):
+        data = mujoco.MjData(model)
+        q = model.jnt_qposadr[model.body_jntadr[ids.object_body]]
+        data.qpos[q:q + 3] = (0.5, 0.5, 0.0)  # far from the gripper, which hangs at the origin
+        data.qpos[q + 3:q + 7] = (math.cos(a / 2), 0.0, 0.0, math.sin(a / 2))
+        palm_q = model.jnt_qposadr[model.body_jntadr[ids.palm_body]]
+        data.qpos[palm_q:palm_q + 3] = (0.0, 0.0, 0.5)
+        data.mocap_pos[ids.palm_mocap] = (0.0, 0.0, 0.5)
+        mujoco.mj_step(model, data, nstep=2000)  # at rest
+        for i in range(data.ncon):
+            if ids.table_geom in data.contact.geom[i]:
+                tangents = data.contact.frame[i].reshape(3, 3)[1:]
+                assert np.allclose(np.abs(tangents), [[0, 1, 0], [1, 0, 0]], atol=1e-9)
+        start = data.xpos[ids.object_body].copy()
+        push = share * reach * mu * weight
+        data.xfrc_applied[ids.object_body, :2] = push * np.array([math.cos(a), math.sin(a)])
+        duration = 0.2  # s
+        mujoco.mj_step(model, data, nstep=round(duration / model.opt.timestep))
+        moved.append(float(np.linalg.norm(data.xpos[ids.object_body][:2] - start[:2])))
+    # sliding, the tenth of the push beyond the reach accelerates the plate: 0.1 reach mu g t^2 / 2
+    assert moved[0] < 2e-5
+    assert moved[1] > 0.5 * (0.1 * reach * mu * 9.81) * duration ** 2 / 2
+
+
 @pytest.mark.parametrize("items, field", [
     (["friction=-1"], "world.friction"), (["friction=nan"], "world.friction"), (["density=0"], "world.density"),
     (["stiffness=2"], "world.stiffness"), (["cone=round"], "world.cone"), (["wind=3"], "world.wind"),
@@ -187,6 +230,10 @@ def test_simulate_runs_a_kept_plan_in_another_world_and_records_it(tmp_path):
     assert summary["world"] == World(friction=0.7, cone=Cone.PYRAMIDAL).to_dict()
     assert json.loads((nominal / "summary.json").read_text())["world"] == World().to_dict()
     assert summary["aim_m"] == json.loads((nominal / "summary.json").read_text())["aim_m"]
+    gb = Scene.from_file("guitar_pick").plane.frame[:3, 0]  # GB on the table; the table's pyramid lies along x and y
+    assert summary["gb_heading_rad"] == pytest.approx(math.atan2(gb[1], gb[0]), abs=1e-6)
+    assert summary["table_pyramid_reach_along_gb"] == pytest.approx(pyramid_reach(summary["gb_heading_rad"]))
+    assert json.loads((nominal / "summary.json").read_text())["table_pyramid_reach_along_gb"] is None
     assert summary["environment"]["packages"]["mujoco"] == mujoco.__version__  # what the trials ran on
     rows = list(csv.DictReader((other / "trials.csv").open()))
     assert len(rows) == 2 and all(float(r["world_friction"]) == 0.7 and r["world_cone"] == "pyramidal" for r in rows)

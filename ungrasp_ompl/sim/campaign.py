@@ -25,7 +25,7 @@ from ..scene.perturbation import Perturbation, TrialParams, trial_params
 from ..robot.pipeline import Aim
 from .setup import Variant
 from .trial import TrialSetup, run_trial
-from .world import World
+from .world import Cone, World, pyramid_reach
 
 
 @dataclass
@@ -42,6 +42,7 @@ class SimulationReport:
     aim: Aim = Aim()  #: how the hand's motion was moved from the plan's frame (robot.landing)
     world: World = World()  #: how the world the trials ran in differs from the scene's
     engine: str = "mujoco"  #: the physics engine the trials ran in (ENGINES)
+    gb_heading: float = 0.0  #: GB's direction on the table at the target, from the world's x axis (rad)
 
     @property
     def successes(self) -> int:
@@ -71,6 +72,14 @@ class SimulationReport:
         wall = sum(t.wall_time_s for t in self.trials)
         return sum(t.sim_time_s for t in self.trials) / wall if wall else math.nan
 
+    def table_pyramid_reach(self) -> float | None:
+        """Under MuJoCo's pyramidal cones, the share of the table's coefficient that G's friction
+        reaches along GB (the pyramid's edges lie along the world's axes: sim.world.pyramid_reach at
+        GB's heading); None in any other world or engine."""
+        if self.world.cone is not Cone.PYRAMIDAL or self.engine != "mujoco":
+            return None
+        return pyramid_reach(self.gb_heading)
+
     def to_dict(self) -> dict:
         errs, placed = self.errors_mm(), self.errors_mm(placed=True)
         yaw = np.array([t.yaw_error_deg for t in self.trials if t.success])
@@ -90,7 +99,8 @@ class SimulationReport:
             "a_off_dome_share_max": _stat(off_dome, np.max),
             "yaw_error_deg": {"mean": _stat(yaw, np.mean), "max": _stat(yaw, np.max)},
             "causes": self.causes(), "perturbation": self.perturbation.__dict__, "variant": self.variant.__dict__,
-            "world": self.world.to_dict(), "engine": self.engine,
+            "world": self.world.to_dict(), "engine": self.engine, "gb_heading_rad": self.gb_heading,
+            "table_pyramid_reach_along_gb": self.table_pyramid_reach(),
             "seed": self.seed, "plan_problems": [str(p) for p in self.plan_problems],
             "trajectory_duration_s": self.trajectory_duration_s, "real_time_factor": self.real_time_factor(),
             "aim_m": [self.aim.x, self.aim.y], "aim_turn_rad": self.aim.turn,
@@ -170,7 +180,7 @@ def simulate(setup: TrialSetup, perturbation: Perturbation, trials: int, run: Ru
                          engine=engine)[0]
     return SimulationReport(scene, perturbation, variant, run.seed, results,
                             trajectory_duration_s=float(setup.drive.times[-1]), aim=setup.aim, world=world,
-                            engine=engine)
+                            engine=engine, gb_heading=math.atan2(setup.target_pose[1, 0], setup.target_pose[0, 0]))
 
 
 def run_trials(setups: list[TrialSetup], perturbation: Perturbation, trials: int, run: RunOptions, *,

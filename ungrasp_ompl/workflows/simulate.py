@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -175,6 +176,11 @@ class SceneSimulation:
                          f"; in those it lay {errs['mean']:.2f} mm from its target on average ({errs['max']:.2f} mm at "
                          f"most) and turned {yaw['mean']:.2f} deg on average ({yaw['max']:.2f} deg at most)"
                          if report.successes else ""))
+        reach = report.table_pyramid_reach()
+        if reach is not None:
+            lines.append(f"under pyramidal cones G's friction along GB reaches {reach:.2f} of the table's coefficient: "
+                         f"MuJoCo lays the table's pyramid along the world's axes, and GB heads "
+                         f"{math.degrees(report.gb_heading) % 360:.0f} deg from the x axis (docs/model.md 11.16)")
         if scene.robot.landing is Landing.MODELLED:
             lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to the middle of where the "
                          "model of the object's fall puts it over friction 0.7 to 1.3 times the scene's and either "
