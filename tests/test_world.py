@@ -20,7 +20,7 @@ from ungrasp_ompl.scene.perturbation import TrialParams
 from ungrasp_ompl.sim.landing import LANDING_FRICTION_RANGE, landing_draw
 from ungrasp_ompl.sim.model import build_mjcf, model_ids
 from ungrasp_ompl.sim.spec import SOLREF, SimObject
-from ungrasp_ompl.sim.trial import _Watch, trial_spec
+from ungrasp_ompl.sim.trial import _start, _Watch, trial_spec
 from ungrasp_ompl.sim.world import Cone, World, pyramid_reach
 
 from conftest import SCENES
@@ -176,6 +176,32 @@ def test_the_tables_pyramid_lies_along_the_worlds_axes_and_holds_its_reach(pick,
     # sliding, the tenth of the push beyond the reach accelerates the plate: 0.1 reach mu g t^2 / 2
     assert moved[0] < 2e-5
     assert moved[1] > 0.5 * (0.1 * reach * mu * 9.81) * duration ** 2 / 2
+
+
+def test_every_pyramid_lies_along_the_plane_only_where_gb_lies_along_a_world_axis(pick):
+    """MuJoCo builds the contacts' frames from directions fixed in the world: in the pick's trial as
+    shipped (GB along the world's -y axis) the table's, the thumb's and the finger's frames each
+    have a tangent within 2 deg of the manipulation plane's normal; with the target turned 45 deg
+    about the vertical, none is nearer than 40 deg to it."""
+    import yaml
+
+    doc = yaml.safe_load((SCENES / "guitar_pick.yaml").read_text())
+    doc["object"]["target"]["yaw_deg"] = doc["object"]["target"].get("yaw_deg", 0.0) + 45.0
+    turned = Scene.from_dict(doc)
+    result = plan(turned, planner="lattice")
+    ex = execute(turned, result)
+    for scene, setup, (low, high) in ((pick[0], _setup(pick), (0.0, 2.0)),
+                                      (turned, trial_setup(turned, result, ex.trajectory, ex.robot), (40.0, 45.0))):
+        _, model, data, ids, _, _ = _start(setup, TrialParams(), [])
+        mujoco.mj_step(model, data, nstep=200)
+        normal = scene.plane.frame[:3, 1]
+        kinds = set()
+        for i in range(data.ncon):
+            tangents = data.contact.frame[i].reshape(3, 3)[1:]
+            off = min(math.degrees(math.acos(min(1.0, abs(float(t @ normal))))) for t in tangents)
+            assert low <= off <= high
+            kinds |= {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in data.contact.geom[i]}
+        assert {"table", "thumb", "finger_tip"} <= kinds
 
 
 @pytest.mark.parametrize("items, field", [
