@@ -13,10 +13,13 @@ trials' absolute drifts, the largest), how the landings spread across GB (standa
 their mean, and how many trials succeeded by the strict verdict. It asserts nothing.
 
     python tools/sliding_drift.py [--objects guitar_pick,puzzle_piece] [--trials 16] [--jobs 2]
-        [--friction F] [--results [--study NAME]]
+        [--friction F] [--turn-target DEG] [--results [--study NAME]]
 
 --friction F runs both cones in a world whose every friction is F times the scene's (sim.world;
 the pairs it sets draw no friction error, record 0100).
+
+--turn-target DEG turns each object's target by DEG about the vertical, as sim_campaigns.py's option
+does (MuJoCo's pyramids lie along directions fixed in the world: docs/model.md 11.16).
 
 --results writes the study into docs/results/sliding_drift.json (the markdown beside it rendered
 from it); a study named otherwise than `drift` prefixes its rows' labels with its name.
@@ -73,9 +76,13 @@ def trial_drift(task: tuple) -> tuple[float, float, float, bool]:
     return drift, result.offset_along_mm, result.offset_across_mm, result.outcome is Outcome.SUCCESS
 
 
-def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor, friction: float = 1.0) -> list[dict]:
-    """The object's rows, one per cone, in a world of every friction times friction."""
-    scene = Scene.from_file(name)
+def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor, friction: float = 1.0,
+          turn_deg: float = 0.0) -> list[dict]:
+    """The object's rows, one per cone, in a world of every friction times friction, its target
+    turned by turn_deg about the vertical (sim_campaigns --turn-target)."""
+    from sim_campaigns import _scene
+
+    scene = _scene(name, turn_deg=turn_deg) if turn_deg else Scene.from_file(name)
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     setup = placement(scene, result)[1]
     params = trial_params(PRESETS["paper"], seed, trials)
@@ -105,13 +112,15 @@ def main() -> int:
     ap.add_argument("--results", action="store_true", help="write docs/results/sliding_drift.json")
     ap.add_argument("--friction", type=float, default=1.0,
                     help="every friction times this factor in both cones' worlds (default 1: the scene's)")
+    ap.add_argument("--turn-target", type=float, default=0.0, metavar="DEG",
+                    help="turn each object's target by DEG about the vertical (record 0138)")
     ap.add_argument("--study", default="drift", help="the study's name in the results file (default drift)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     rows: list[dict] = []
     with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("fork")) as pool:
         for name in args.objects.split(","):
-            rows += study(name, args.trials, args.seed, pool, args.friction)
+            rows += study(name, args.trials, args.seed, pool, args.friction, args.turn_target)
     if args.results:
         from campaign_results import merge_study
 
