@@ -42,7 +42,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from ungrasp_ompl import Scene  # noqa: E402
 from ungrasp_ompl.planning import plan  # noqa: E402
 from ungrasp_ompl.scene.perturbation import PRESETS, trial_params  # noqa: E402
 from ungrasp_ompl.sim.outcome import Outcome  # noqa: E402
@@ -82,7 +81,7 @@ def study(name: str, trials: int, seed: int, pool: ProcessPoolExecutor, friction
     turned by turn_deg about the vertical (sim_campaigns --turn-target)."""
     from sim_campaigns import _scene
 
-    scene = _scene(name, turn_deg=turn_deg) if turn_deg else Scene.from_file(name)
+    scene = _scene(name, turn_deg=turn_deg)
     result = plan(scene, planner="RRTstar", time=1.0, seed=1)
     setup = placement(scene, result)[1]
     params = trial_params(PRESETS["paper"], seed, trials)
