@@ -179,13 +179,21 @@ def unaimed_scene(stem: str | Scene) -> Scene:
 
 
 def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial: bool = False,
-          spread_bound: bool = True, scene_start: bool = False, worlds: dict[str, World] | None = None) -> dict:
+          spread_bound: bool = True, scene_start: bool = False, worlds: dict[str, World] | None = None,
+          turn_deg: float = 0.0) -> dict:
     """The comparison for one object scene (forbid_partial: planned without P_dpsi; spread_bound:
     False plans without the scene's planning.max_landing_spread, so that a plan keeps its P_dpsi;
-    scene_start: the shipped scene and its own objective, as the campaign plans it) in worlds
+    scene_start: the shipped scene and its own objective, as the campaign plans it; turn_deg: its
+    target turned that far about the vertical, as sim_campaigns --turn-target) in worlds
     (label -> World; None: WORLDS)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
-    shipped = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
+    if turn_deg:
+        sys.path.insert(0, str(ROOT / "tools"))
+        from sim_campaigns import _scene
+
+        shipped = _scene(stem, turn_deg=turn_deg)
+    else:
+        shipped = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
     offset = shipped.robot.landing_offset
     scene = unaimed_scene(shipped)
     if forbid_partial:
@@ -311,6 +319,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the shipped scenes and their own objective, as the campaign plans them")
     parser.add_argument("--worlds", help="only these worlds, by label, comma-separated (default: "
                         f"{', '.join(WORLDS)}; also {', '.join(COMPOUND_WORLDS)})")
+    parser.add_argument("--turn-target", type=float, default=0.0, metavar="DEG",
+                        help="turn each scene's target by DEG about the vertical (record 0138)")
     parser.add_argument("--study", help="the study's name in the results file, which starts its rows' labels")
     parser.add_argument("--json", help="write the results there")
     parser.add_argument("--results", action="store_true", help="also write the study into "
@@ -329,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
     results = []
     for name in args.objects.split(","):
         res = check(name, args.draws, args.seed, args.time, args.forbid_partial, not args.no_spread_bound,
-                    args.scene_starts, worlds)
+                    args.scene_starts, worlds, args.turn_target)
         results.append(res)
         if "unsolved" in res:
             print(f"{name}: no plan ({res['unsolved']})", flush=True)
