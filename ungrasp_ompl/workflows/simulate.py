@@ -179,8 +179,9 @@ class SceneSimulation:
         reach = report.table_pyramid_reach()
         if reach is not None:
             lines.append(f"under pyramidal cones G's friction along GB reaches {reach:.2f} of the table's coefficient: "
-                         f"MuJoCo lays the table's pyramid along the world's axes, and GB heads "
-                         f"{math.degrees(report.gb_heading) % 360:.0f} deg from the x axis (docs/model.md 11.16)")
+                         f"MuJoCo lays its friction pyramids along directions fixed in the world, the table's along "
+                         f"the x and y axes, and GB heads {math.degrees(report.gb_heading) % 360:.0f} deg from the x "
+                         "axis; the digits' pyramids turn with GB too (docs/model.md 11.16)")
         if scene.robot.landing is Landing.MODELLED:
             lines.append(f"the hand was aimed {report.aim.describe()} from the plan's landing, to the middle of where the "
                          "model of the object's fall puts it over friction 0.7 to 1.3 times the scene's and either "
