@@ -17,11 +17,12 @@ from conftest import run_cli
 from ungrasp_ompl import Scene
 from ungrasp_ompl.errors import InputError
 from ungrasp_ompl.scene.perturbation import TrialParams
+from ungrasp_ompl.mechanics.release import pyramid_reach
 from ungrasp_ompl.sim.landing import LANDING_FRICTION_RANGE, landing_draw
 from ungrasp_ompl.sim.model import build_mjcf, model_ids
 from ungrasp_ompl.sim.spec import SOLREF, SimObject
 from ungrasp_ompl.sim.trial import _start, _Watch, trial_spec
-from ungrasp_ompl.sim.world import Cone, World, pyramid_reach
+from ungrasp_ompl.sim.world import Cone, World
 
 from conftest import SCENES
 from ungrasp_ompl.planning import plan
@@ -148,7 +149,7 @@ def test_the_tables_pyramid_lies_along_the_worlds_axes_and_holds_its_reach(pick,
     model = mujoco.MjModel.from_xml_string(build_mjcf(spec))
     ids = model_ids(model)
     a = math.radians(heading_deg)  # from the world's x axis
-    reach = pyramid_reach(a) if cone is Cone.PYRAMIDAL else 1.0
+    reach = pyramid_reach(math.cos(a), math.sin(a)) if cone is Cone.PYRAMIDAL else 1.0
     if slides_at is not None:
         assert reach == pytest.approx(slides_at)
     mu = model.geom_friction[ids.table_geom][0]
@@ -258,7 +259,8 @@ def test_simulate_runs_a_kept_plan_in_another_world_and_records_it(tmp_path):
     assert summary["aim_m"] == json.loads((nominal / "summary.json").read_text())["aim_m"]
     gb = Scene.from_file("guitar_pick").plane.frame[:3, 0]  # GB on the table; the table's pyramid lies along x and y
     assert summary["gb_heading_rad"] == pytest.approx(math.atan2(gb[1], gb[0]), abs=1e-6)
-    assert summary["table_pyramid_reach_along_gb"] == pytest.approx(pyramid_reach(summary["gb_heading_rad"]))
+    assert summary["table_pyramid_reach_along_gb"] == pytest.approx(
+        pyramid_reach(math.cos(summary["gb_heading_rad"]), math.sin(summary["gb_heading_rad"])))
     assert json.loads((nominal / "summary.json").read_text())["table_pyramid_reach_along_gb"] is None
     assert summary["environment"]["packages"]["mujoco"] == mujoco.__version__  # what the trials ran on
     rows = list(csv.DictReader((other / "trials.csv").open()))

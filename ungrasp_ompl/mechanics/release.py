@@ -669,6 +669,13 @@ def _contact_axes(normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDA
     return t1, np.cross(n, t1)
 
 
+def pyramid_reach(along_first: float, along_second: float) -> float:
+    """The share of its coefficient a four-edged friction pyramid holds along a unit direction whose
+    components along the pyramid's two edges are along_first and along_second: 1 / (|a| + |b|), 1
+    along an edge, 1 / sqrt 2 half way between (the diamond's reach that way)."""
+    return 1.0 / (abs(along_first) + abs(along_second))
+
+
 @dataclass(frozen=True)
 class PyramidReach:
     """How much of its coefficient a contact's four-sided friction pyramid gives a slip in the
@@ -694,7 +701,7 @@ class PyramidReach:
             t1, t2 = _contact_axes(normal)
             d = slip / np.linalg.norm(slip)
             c, s = abs(float(d @ t1)), abs(float(d @ t2))
-            return 1.0 / (c + s), max(c, s)
+            return pyramid_reach(c, s), max(c, s)
 
         return cls(reach(np.array([0.0, 0.0, 1.0]), frame[:3, 0]),
                    reach(to_world @ np.array([ez, -ex]), to_world @ np.array([-ex, -ez])))

@@ -22,10 +22,11 @@ from ..parallel.runner import InlineRunner, LocalRunner, Runner, open_runner
 from ..provenance import environment
 from .outcome import TrialResult
 from ..scene.perturbation import Perturbation, TrialParams, trial_params
+from ..mechanics.release import pyramid_reach
 from ..robot.pipeline import Aim
 from .setup import Variant
 from .trial import TrialSetup, run_trial
-from .world import Cone, World, pyramid_reach
+from .world import Cone, World
 
 
 @dataclass
@@ -74,11 +75,11 @@ class SimulationReport:
 
     def table_pyramid_reach(self) -> float | None:
         """Under MuJoCo's pyramidal cones, the share of the table's coefficient that G's friction
-        reaches along GB (the pyramid's edges lie along the world's axes: sim.world.pyramid_reach at
-        GB's heading); None in any other world or engine."""
+        reaches along GB (the pyramid's edges lie along the world's axes: mechanics.release.pyramid_reach
+        at GB's heading); None in any other world or engine."""
         if self.world.cone is not Cone.PYRAMIDAL or self.engine != "mujoco":
             return None
-        return pyramid_reach(self.gb_heading)
+        return pyramid_reach(math.cos(self.gb_heading), math.sin(self.gb_heading))
 
     def to_dict(self) -> dict:
         errs, placed = self.errors_mm(), self.errors_mm(placed=True)

@@ -25,15 +25,10 @@ class Cone(StrEnum):
     #: Coulomb's circular cone (the simulator's own, docs/model.md 11.2).
     ELLIPTIC = "elliptic"
     #: The cone approximated by a pyramid of four edges, as many engines build it: a contact's
-    #: friction reaches mu along the pyramid's edges and less between them (pyramid_reach). On the
-    #: table MuJoCo lays the edges along the world's x and y axes, whatever the object's heading.
+    #: friction reaches mu along the pyramid's edges and less between them
+    #: (mechanics.release.pyramid_reach). On the table MuJoCo lays the edges along the world's x and
+    #: y axes, whatever the object's heading.
     PYRAMIDAL = "pyramidal"
-
-
-def pyramid_reach(angle: float) -> float:
-    """The share of its coefficient a four-edged friction pyramid holds along a direction at angle
-    (rad) from one of its edges: 1 / (|cos| + |sin|), 1 along an edge, 1 / sqrt 2 half way between."""
-    return 1.0 / (abs(math.cos(angle)) + abs(math.sin(angle)))
 
 
 @dataclass(frozen=True)
