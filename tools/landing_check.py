@@ -55,6 +55,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tools"))
 
 from ungrasp_ompl.mechanics.release import (  # noqa: E402
     STEP,
@@ -187,13 +188,9 @@ def check(name: str, draws: int, seed: int, planning_time: float, forbid_partial
     target turned that far about the vertical, as sim_campaigns --turn-target) in worlds
     (label -> World; None: WORLDS)."""
     stem = name if scene_start else STUDY_SCENES.get(name, name)
-    if turn_deg:
-        sys.path.insert(0, str(ROOT / "tools"))
-        from sim_campaigns import _scene
+    from sim_campaigns import _scene
 
-        shipped = _scene(stem, turn_deg=turn_deg)
-    else:
-        shipped = Scene.from_file(str(ROOT / "scenes" / f"{stem}.yaml"))
+    shipped = _scene(stem, turn_deg=turn_deg)
     offset = shipped.robot.landing_offset
     scene = unaimed_scene(shipped)
     if forbid_partial:
@@ -437,7 +434,6 @@ def study_rows(study: str, results: list[dict]) -> list[dict]:
 def write_results(study: str, command: str, seconds: float, rows: list[dict]) -> Path:
     """Put one study's rows into docs/results/landing_check.json (the other study's rows kept) and
     render the markdown beside it; both written atomically."""
-    sys.path.insert(0, str(ROOT / "tools"))
     from campaign_results import merge_study
 
     return merge_study(ROOT / "docs" / "results" / "landing_check.json", study, command, seconds, rows, FORMATS,

@@ -584,11 +584,9 @@ def main() -> None:
         if only - set(PER_OBJECT_GROUPS):
             ap.error(f"--objects: the groups {', '.join(sorted(only - set(PER_OBJECT_GROUPS)))} are not made per "
                      f"object (those that are: {', '.join(PER_OBJECT_GROUPS)})")
-        if only == {"worlds"}:  # no row counts the objects together: the others' rows need not exist
-            pass
-        elif not (args.merge and args.table is not None and args.table.with_suffix(".json").is_file()):
-            ap.error("--objects: needs --merge into a --table whose results file holds the other objects' rows")
-        else:
+        if only != {"worlds"}:  # the worlds rows count no objects together: no other rows are needed
+            if not (args.merge and args.table is not None and args.table.with_suffix(".json").is_file()):
+                ap.error("--objects: needs --merge into a --table whose results file holds the other objects' rows")
             KEPT = {r["label"]: r for r in json.loads(args.table.with_suffix(".json").read_text())["rows"]}
     n, j, s = args.trials, args.jobs, args.seed
     started = time.perf_counter()
