@@ -676,7 +676,7 @@ def test_each_piece_aimed_by_its_landing_lands_on_its_target(aimed):
 
     layout, tiling, result, memo = aimed
     names = [p.name for p in tiling.placements]
-    short = {name: (taken, asked) for name, taken, asked in result.short}
+    short = {a.name: (a.taken, a.asked) for a in result.short}
     assert short and set(short) < set(names)
     plain = execute_sequence([(p.scene, p.plan) for p in tiling.placements], labels=names, kept=memo.kept)
     planned = dict(tiling_setups(layout, tiling, plain.trajectory, plain.robot))
@@ -741,13 +741,16 @@ def test_the_shipped_tangram_aims_each_piece_by_its_modelled_landing():
             assert result.short and unforked.short == result.short
             assert [(p.name, p.plan.states) for p in alone.placements] == [(p.name, p.plan.states) for p in tiling.placements]
             assert [tuple(a) for a in unforked.execution.aims] == [tuple(a) for a in result.execution.aims]
-        short = {name: taken / wanted for name, taken, wanted in result.short}
+        short = {a.name: a.taken / a.asked for a in result.short}
+        for a in result.short:  # what stops it: a wall or a piece down before it, met by the piece or the hand
+            solids = {s.name for s in next(p for p in tiling.placements if p.name == a.name).scene.solids}
+            assert any(f"meets {name} at theta" in a.stopped_by for name in solids), (planner, a)
         for k, p in enumerate(tiling.placements):
             assert p.scene.options.max_landing_spread == pytest.approx(0.004)
             assert predict_landing(p.scene, p.plan).spread <= 0.004 + 1e-12, (planner, p.name)
             aim, want = result.execution.aims[k], modelled_aim(p.scene, p.plan)
             share = short.get(p.name, 1.0)
-            assert 0.0 < share <= 1.0 and (share == 1.0) == (_clear_share(p.scene, p.plan, want) == 1.0), p.name
+            assert 0.0 < share <= 1.0 and (share == 1.0) == (_clear_share(p.scene, p.plan, want)[0] == 1.0), p.name
             assert np.allclose(tuple(aim), tuple(want.scaled(share)), atol=1e-12) and aim.turn == 0.0, (planner, p.name)
             assert 0.0 < aim.shift < 0.003, (planner, p.name)
 
@@ -946,11 +949,11 @@ def test_a_piece_whose_aim_does_not_fit_is_tiled_again_by_another_approach(aimed
     from ungrasp_ompl.sim.tiling import tile_aimed
 
     layout, tiling, first, memo = aimed
-    assert "large_triangle_1" in {name for name, _, _ in first.short}
+    assert "large_triangle_1" in {a.name for a in first.short}
     again, result = tile_aimed(layout, TilingOptions(planner=PlannerOptions(planner="lattice", seed=1)),
                                memo=memo)  # layout: AS_CUT
-    assert again.solved and "large_triangle_1" not in {name for name, _, _ in result.short}
-    untaken = [sum(asked - taken for _, taken, asked in r.short) for r in (first, result)]
+    assert again.solved and "large_triangle_1" not in {a.name for a in result.short}
+    untaken = [sum(a.asked - a.taken for a in r.short) for r in (first, result)]
     assert untaken[1] < untaken[0]
     before = {p.name: p.approach for p in tiling.placements}
     after = {p.name: p.approach for p in again.placements}

@@ -20,6 +20,7 @@ import math
 from collections.abc import Callable, Sequence
 from contextlib import closing
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,6 +88,22 @@ def tiling_setups(layout: Layout, tiling: Tiling, trajectory: JointTrajectory, r
                                  aim=aim)) for p, aim in zip(tiling.placements, aims)]
 
 
+class ShortAim(NamedTuple):
+    """A piece aimed short of its landing, because its whole aim would take the piece or the robot
+    into a wall or a piece (aim_tiling)."""
+
+    name: str
+    """The piece."""
+    taken: float
+    """The shift its aim takes (m; the turn in the same share)."""
+    asked: float
+    """The shift its landing asked for (m)."""
+    stopped_by: str
+    """What a larger share would meet: the piece's or a digit's body and the solid, with the state's
+    theta (deg) where the piece, carried along its plan, first meets it, or the robot's colliding
+    links and solids and the trajectory's phase."""
+
+
 @dataclass(frozen=True)
 class AimedTiling:
     """A solved tiling on the arm, each piece aimed by where its release lands it (robot.landing
@@ -96,39 +113,40 @@ class AimedTiling:
     """The one trajectory putting every piece down, each piece's motion moved by its aim."""
     setups: list[tuple[str, TrialSetup]]
     """Per piece in order: its name and trial setup (tiling_setups) on that trajectory."""
-    short: tuple[tuple[str, float, float], ...] = ()
-    """Pieces aimed short of their landing, because the whole aim would take the piece or the robot
-    into a wall or a piece: (name, the shift taken, the shift the landing asked for; m). The turn is
-    taken in the same share."""
+    short: tuple[ShortAim, ...] = ()
+    """Pieces aimed short of their landing, in order."""
 
 
-def describe_short(short: tuple[tuple[str, float, float], ...]) -> list[str]:
+def describe_short(short: tuple[ShortAim, ...]) -> list[str]:
     """The summary's line on the pieces aimed short of their landing (none: no line)."""
     return [("aimed short of the landing (the whole aim would take the piece or the robot into a wall or a piece): "
-             + ", ".join(f"{name} {taken * 1000:.2f} of {asked * 1000:.2f} mm" for name, taken, asked in short))
+             + ", ".join(f"{a.name} {a.taken * 1000:.2f} of {a.asked * 1000:.2f} mm ({a.stopped_by})" for a in short))
             ] if short else []
 
 
-def _object_hits(scene: Scene, states: NDArray[np.float64], aim: Aim) -> bool:
-    """Whether the object (or a digit), at states (N, 3) with the hand moved by aim, runs into the
-    scene's walls or pieces down: checked among the solids moved the other way."""
+def _aimed_checker(scene: Scene, aim: Aim) -> CollisionChecker:
+    """The scene's collision checker with the hand moved by aim: its walls and pieces down moved
+    the other way."""
     back = np.linalg.inv(aim.transform(scene.plane_frame()[:3, 3]))
     solids = tuple(Solid(s.name, np.asarray(s.vertices) @ back[:3, :3].T + back[:3, 3]) for s in scene.solids)
-    return bool(CollisionChecker(replace(scene, solids=solids).collision_model()).in_collision(states).any())
+    return CollisionChecker(replace(scene, solids=solids).collision_model())
 
 
-def _clear_share(scene: Scene, plan: Plan, aim: Aim, halvings: int = 8) -> float:
-    """The largest share of aim (to 2^-halvings, bisected; Aim.scaled) that keeps the piece, along
-    its plan's legs (every 0.5 deg), clear of the walls and pieces down (_object_hits); 1 when the
-    whole aim does."""
+def _clear_share(scene: Scene, plan: Plan, aim: Aim, halvings: int = 8) -> tuple[float, str]:
+    """The largest share of aim (to 2^-halvings, bisected; Aim.scaled) that keeps the piece and the
+    digits, along its plan's legs (every 0.5 deg), clear of the walls and pieces down; 1 when the
+    whole aim does. With it, what the next share up meets (ShortAim.stopped_by; "" for 1)."""
     states, _ = densify(plan, angle_step=math.radians(0.5))
-    if not _object_hits(scene, states, aim):
-        return 1.0
+    if not _aimed_checker(scene, aim).in_collision(states).any():
+        return 1.0, ""
     lo, hi = 0.0, 1.0
     for _ in range(halvings):
         mid = (lo + hi) / 2
-        lo, hi = (lo, mid) if _object_hits(scene, states, aim.scaled(mid)) else (mid, hi)
-    return lo
+        lo, hi = (lo, mid) if _aimed_checker(scene, aim.scaled(mid)).in_collision(states).any() else (mid, hi)
+    checker = _aimed_checker(scene, aim.scaled(hi))
+    first = int(np.argmax(checker.in_collision(states)))
+    met = ", ".join("the {} meets {}".format(*pair.split("/", 1)) for pair in checker.contacts(states[first]))
+    return lo, f"{met or 'a collision'} at theta {math.degrees(states[first][0]):.1f} deg"
 
 
 #: An aim the robot's collision check cuts is halved at most this many times before it is dropped.
@@ -174,7 +192,8 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
     asked = [landings[key] for key in keys]
     if not any(any(a) for a in asked):
         return AimedTiling(*unaimed())
-    share = [_clear_share(p.scene, p.plan, a) if any(a) else 1.0 for p, a in zip(tiling.placements, asked)]
+    share, stopped = map(list, zip(*[_clear_share(p.scene, p.plan, a) if any(a) else (1.0, "")
+                                      for p, a in zip(tiling.placements, asked)]))
     halved = [0] * len(jobs)
     while True:
         aims = [a.scaled(f) for a, f in zip(asked, share)]
@@ -187,8 +206,9 @@ def aim_tiling(layout: Layout, tiling: Tiling, landings: dict | None = None, kep
                 raise
             halved[k] += 1
             share[k] = share[k] / 2 if halved[k] <= AIM_HALVINGS else 0.0
-    short = tuple((name, aim.shift, want.shift) for name, aim, want, f
-                  in zip(labels, aims, asked, share) if f < 1.0)
+            stopped[k] = f"the robot: {', '.join(exc.pairs)} in the {exc.phase}"
+    short = tuple(ShortAim(name, aim.shift, want.shift, why) for name, aim, want, f, why
+                  in zip(labels, aims, asked, share, stopped) if f < 1.0)
     return AimedTiling(execution, tiling_setups(layout, tiling, execution.trajectory, execution.robot, aims), short)
 
 
@@ -258,7 +278,7 @@ def tile_aimed(layout: Layout, options: TilingOptions = TilingOptions(),
         aimed = aim_tiling(layout, tiling, memo.landings, memo.kept)
         tried: set[tuple] = set()
         while True:
-            short = {name for name, _, _ in aimed.short}
+            short = {a.name for a in aimed.short}
             todo = [p for p in tiling.placements if p.name in short and _key(p) not in tried]
             if not todo:
                 return tiling, aimed
@@ -293,7 +313,7 @@ class _RetriesAhead:
         _modelled_aims(tiling, memo.landings)
         aims = [(p, memo.landings[_landing_key(p)]) for p in tiling.placements
                 if p.scene.robot.landing is Landing.MODELLED]
-        short = [p for p, aim in aims if any(aim) and _clear_share(p.scene, p.plan, aim) < 1.0]
+        short = [p for p, aim in aims if any(aim) and _clear_share(p.scene, p.plan, aim)[0] < 1.0]
         if not short:
             return
         self.avoids = [options.avoid + (_key(p),) for p in short]
@@ -328,7 +348,7 @@ def _orders_exist(layout: Layout, retries: list[TilingOptions], memo: TilingMemo
 
 def _shortfall(aimed: AimedTiling) -> float:
     """How much of the aims the landings asked for the robot does not take (m, summed)."""
-    return sum(asked - taken for _, taken, asked in aimed.short)
+    return sum(a.asked - a.taken for a in aimed.short)
 
 
 def _key(p: Placement) -> tuple[str, tuple[float, float], tuple[float, float]]:

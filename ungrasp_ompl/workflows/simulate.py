@@ -38,7 +38,7 @@ from ..sim.campaign import ENGINES, SimulationReport, engine_name, simulate
 from ..sim.poses import record_trial, trial_start_time, write_trial_poses
 from ..sim.plan_trials import placement
 from ..sim.setup import Variant, object_outline
-from ..sim.tiling import TilingAttempt, simulate_tiling, tile_aimed
+from ..sim.tiling import ShortAim, TilingAttempt, simulate_tiling, tile_aimed
 from ..sim.trial import TrialSetup, trial_mjcf
 from ..sim.world import World
 from ..layout.tiler import Tiling, TilingOptions
@@ -337,7 +337,7 @@ class LayoutSimulation:
     """The one trajectory putting every piece down (None: no tiling)."""
     attempts: list[TilingAttempt] = field(default_factory=list)
     """The attempts, in order."""
-    short: tuple[tuple[str, float, float], ...] = ()
+    short: tuple[ShortAim, ...] = ()
     """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
 
     @property

@@ -32,7 +32,7 @@ from ..plots.layout import draw_layout
 from ..robot.export import export_all
 from ..robot.pipeline import Execution
 from ..robot.touch_off import TouchOff, touch_off
-from ..sim.tiling import describe_short, tile_aimed
+from ..sim.tiling import ShortAim, describe_short, tile_aimed
 from ..view.record import write_view_record
 
 
@@ -47,7 +47,7 @@ class TiledLayout:
     execution: Execution | None = None
     """The one trajectory of every piece in order, each aimed by its landing where its scene says
     so (robot.landing; None: the tiling is not solved)."""
-    short: tuple[tuple[str, float, float], ...] = ()
+    short: tuple[ShortAim, ...] = ()
     """Pieces aimed short of their landing (sim.tiling.AimedTiling.short)."""
     drawing: "PictureDrawing | None" = field(default=None, repr=False, compare=False)
     """The tiling's pictures being drawn in a forked process (tile_layout starts it when the tiling
@@ -216,7 +216,7 @@ def _discard(pool: Forked | None, spare: Path) -> None:
 
 
 def layout_summary(layout: Layout, tiling: Tiling, execution: Execution | None,
-                   short: tuple[tuple[str, float, float], ...]) -> list[str]:
+                   short: tuple[ShortAim, ...]) -> list[str]:
     """The lines `tile` and `simulate LAYOUT` begin with: the layout's spread when its file asks for
     one, the clearance its plans keep from the pieces down when it has one, the tiling's summary,
     the trajectory's when there is one, and the pieces aimed short of their landing."""
