@@ -128,6 +128,31 @@ def test_every_marked_figure_is_its_results_file_s(page):
     assert results.differences(text) == []
 
 
+#: The other pages that quote results files: the model and the decision records with a mark.
+QUOTING = ("docs/model.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs" / "decisions").glob("0*.md")
+                                      if "<!-- fig " in p.read_text() or "<!-- table " in p.read_text()))
+
+
+@pytest.mark.parametrize("page", QUOTING)
+def test_every_other_page_s_marked_figure_is_its_results_file_s(page):
+    """A decision record quotes its runs as the pages do: a file merged into after the record
+    still gives it the figures and the commands it quoted (each merged run by its place, rerun-K)."""
+    assert results.differences((ROOT / page).read_text()) == []
+
+
+def test_a_merged_run_is_quoted_by_its_place():
+    """rerun-K is the K-th run merged into a file after its first, in the order they ran; reruns
+    lists them all, and a K past the last is refused."""
+    doc = results.load("campaigns_heading_record_0137")
+    later = [r for r in doc["runs"].values() if r["command"] != doc["command"]]
+    assert len(later) >= 2
+    quoted = [results.figure(f"campaigns_heading_record_0137:rerun-{k}") for k in range(1, len(later) + 1)]
+    assert [q.split("`")[1] for q in quoted] == [r["command"] for r in later]
+    assert results.figure("campaigns_heading_record_0137:reruns") == "; ".join(quoted)
+    with pytest.raises(KeyError):
+        results.figure(f"campaigns_heading_record_0137:rerun-{len(later) + 1}")
+
+
 def test_a_figure_that_differs_from_its_file_is_found():
     """The check finds a changed figure, in a table and in a sentence, and a row the file lacks."""
     text = (ROOT / "docs" / "results.md").read_text()
@@ -419,6 +444,24 @@ def test_a_merged_run_of_some_worlds_keeps_the_other_worlds_rows(tmp_path, monke
     kept = [r for r in worlds if r not in pyramidal]
     assert all(by_key[r["key"]] == results.parse_row(results.row_line(r)) for r in kept)
     assert "worlds: pyramidal cones" in runs
+
+
+def test_runs_of_the_same_worlds_with_another_tip_or_heading_keep_their_own_entries(monkeypatch):
+    """A merged file's `runs` keeps every run's command: runs of the same worlds and objects that
+    differ in the finger tip or the targets' turn make other rows, and each gets a name of its own
+    (so that a later run does not take an earlier one's place in the file)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    campaigns = importlib.import_module("sim_campaigns")
+    monkeypatch.setattr(campaigns, "WORLD_LABELS", ("pyramidal cones",))
+    monkeypatch.setattr(campaigns, "SELECTED", ("guitar_pick",))
+    names = set()
+    for tip, turn in (("rounded", 0.0), ("rounded", 45.0), ("flat", 45.0), ("flat", 0.0)):
+        monkeypatch.setattr(campaigns, "WORLD_TIP", tip)
+        monkeypatch.setattr(campaigns, "TARGET_TURN_DEG", turn)
+        names.add(campaigns._run_name({"worlds"}))
+    assert len(names) == 4 and "worlds: pyramidal cones, guitar_pick" in names
 
 
 def test_a_turned_target_turns_the_plane_and_nothing_else():

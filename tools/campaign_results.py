@@ -17,7 +17,8 @@ tests/test_doc_figures.py) compares:
 * `<!-- fig SOURCE:ROW:FIELD -->...<!-- /fig -->` one figure: SOURCE a file of docs/results/
   without its extension, ROW a row's key (its label in lower case, every run of other characters
   than letters, digits, `_`, `.` and `+` made one `-`), FIELD one of FIELDS; a summary.json of
-  `simulate` (one row) and the whole file's own fields (`produced`, `command`) take no ROW;
+  `simulate` (one row) and the whole file's own fields (`produced`, `command`, `reruns`: the runs
+  merged into it after the first, `rerun-K`: the K-th of them) take no ROW;
 * `<!-- table SOURCE:NAME -->` ... `<!-- /table -->` a table built from the file (TABLES;
   `grip_rule` compares two: `SOURCE+SOURCE:grip_rule`; `steps` any number, each run at one step;
   `objects`, `single`, `worlds` and `readme_worlds` of several files show their rows joined, the
@@ -235,8 +236,16 @@ FIELDS = {
 #: What a figure shows of a whole file.
 FILE_FIELDS = {"produced": lambda d: d["produced"], "command": lambda d: f"`{d['command']}`",
                "seconds": lambda d: f"{d['seconds']} s", "trials_per_row": lambda d: str(d["trials_per_row"]),
-               "reruns": lambda d: "; ".join(f"`{r['command']}` ({r['seconds']} s, {len(r['rows'])} rows)"
-                                             for r in d.get("runs", {}).values() if r["command"] != d["command"])}
+               "reruns": lambda d: "; ".join(_rerun(r) for r in _reruns(d))}
+
+
+def _reruns(doc: dict) -> list[dict]:
+    """The runs merged into a campaign file after its first, in the order they ran."""
+    return [r for r in doc.get("runs", {}).values() if r["command"] != doc["command"]]
+
+
+def _rerun(run: dict) -> str:
+    return f"`{run['command']}` ({run['seconds']} s, {len(run['rows'])} rows)"
 
 
 def show(value, form: str = "{}") -> str:
@@ -271,6 +280,12 @@ def figure(spec: str, cache: dict | None = None) -> str:
     doc = cache[source]
     if len(parts) == 2 and parts[1] in FILE_FIELDS:
         return FILE_FIELDS[parts[1]](doc)
+    if len(parts) == 2 and re.fullmatch(r"rerun-[1-9]\d*", parts[1]):  # one merged run, from 1
+        runs = _reruns(doc)
+        k = int(parts[1].split("-")[1])
+        if k > len(runs):
+            raise KeyError(f"figure {spec!r}: {source} holds {len(runs)} runs after its first")
+        return _rerun(runs[k - 1])
     if len(parts) == 2 and "rows" not in doc:
         return FIELDS[parts[1]](summary_row(doc))
     if len(parts) != 3:

@@ -866,9 +866,15 @@ def _selected(label: str) -> bool:
 
 def _run_name(only: set[str]) -> str:
     """A run's name in a merged file's `runs`: its groups, and the worlds, scenes and objects it ran
-    where --worlds, --scenes and --objects chose them."""
+    where --worlds, --scenes and --objects chose them, the `worlds` rows' tip where --tip chose the
+    flat one and their targets' turn where --turn-target gave one (runs that differ in either make
+    rows of their own, so each keeps its own entry)."""
     name = ",".join(sorted(only))
     chosen = [*(WORLD_LABELS or ()), *(CURVED_SCENES or ()), *(SELECTED if SELECTED != OBJECTS else ())]
+    if "worlds" in only and WORLD_TIP != "rounded":
+        chosen.append(f"{WORLD_TIP} tip")
+    if "worlds" in only and TARGET_TURN_DEG:
+        chosen.append(f"target turned {TARGET_TURN_DEG:+g} deg")
     return f"{name}: {', '.join(chosen)}" if chosen else name
 
 
