@@ -212,6 +212,9 @@ WORLDS = (("friction x0.7", World(friction=0.7)), ("friction x1.3", World(fricti
           ("density x2", World(density=2.0)), ("stiffness x0.25 (time constant x2)", World(stiffness=0.25)),
           # the gripper's force, known to tens of per cent as the density is (record 0139)
           ("jaw force x0.5", World(jaw_force=0.5)), ("jaw force x2", World(jaw_force=2.0)),
+          # the table's pairs and the digits' at opposite ends of the friction's range (record 0140)
+          ("friction x0.7 at the table and x1.3 at the digits", World(friction_table=0.7, friction_digits=1.3)),
+          ("friction x1.3 at the table and x0.7 at the digits", World(friction_table=1.3, friction_digits=0.7)),
           # both corners of the friction's range under the other cone model at once (record 0135)
           ("friction x0.7 under pyramidal cones", World(friction=0.7, cone="pyramidal")),
           ("friction x1.3 under pyramidal cones", World(friction=1.3, cone="pyramidal")))
