@@ -245,6 +245,7 @@ def _reruns(doc: dict) -> list[dict]:
 
 
 def _rerun(run: dict) -> str:
+    """A run as pages quote it: its command, its wall time and how many rows it made."""
     return f"`{run['command']}` ({run['seconds']} s, {len(run['rows'])} rows)"
 
 

@@ -22,8 +22,10 @@ Campaigns (40 trials a row by default, the `paper` errors, RRT* plans with the s
   the deviation and the friction margin at the deviated start (negative);
 * worlds: the three objects' base plans, their hands aimed as in base, run in worlds neither the
   plan nor the aim saw (sim.world, docs/model.md 11.16): every friction x0.7 and x1.3, pyramidal
-  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2), and friction x0.7
-  and x1.3 each under pyramidal cones (record 0135); with --tip flat
+  cones, densities x0.5 and x2, contacts a quarter as stiff (time constant x2), the gripper's
+  force limit x0.5 and x2 (record 0139), the table's pairs and the digits' at opposite ends of the
+  friction's range, both ways (record 0140), and friction x0.7 and x1.3 each under pyramidal cones
+  (record 0135); with --tip flat
   the edge rows' plans (flat finger tip) in the same worlds, each label ending ', flat tip';
   with --start least-slide the base, worlds, unaimed and controls rows from each object's start
   from which B slides least along the thumb (record 0118, least_slide_start), the labels saying so;
